@@ -1,0 +1,37 @@
+"""siku: discrete-element sea-ice model on a rotating sphere (core engine).
+
+``import siku_core`` loads the engine only: no plugins, no h5py, netCDF4 or xarray.
+"""
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from .errors import (  # noqa: E402
+    DataError,
+    GeometryError,
+    NonFiniteError,
+    PluginError,
+    SceneError,
+    SikuError,
+    StabilityError,
+)
+from .params import Param  # noqa: E402
+from .plugins import hookimpl, hookspec  # noqa: E402
+
+__all__ = [
+    "__version__", "hookimpl", "hookspec", "Param", "Simulation", "load_scene",
+    "SikuError", "SceneError", "PluginError", "GeometryError", "StabilityError",
+    "NonFiniteError", "DataError",
+]
+
+
+def __getattr__(name: str):
+    if name == "Simulation":
+        from .simulation import Simulation
+
+        return Simulation
+    if name == "load_scene":
+        from .scene import load_scene
+
+        return load_scene
+    raise AttributeError(name)

@@ -1,0 +1,93 @@
+"""Command line: ``siku run``, ``siku plugins``.
+
+Bad input exits with status 2 and a one-line message (no traceback).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from importlib import resources
+from pathlib import Path
+
+from . import __version__
+from .errors import SikuError
+
+DEFAULT_SCENE = "default_scene.toml"
+
+
+def default_scene_path() -> Path:
+    """The scene shipped with the package, run by ``siku run`` with no argument."""
+    return Path(str(resources.files("siku_core") / "data" / DEFAULT_SCENE))
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from .scene import load_scene
+    from .simulation import Simulation
+
+    path = Path(args.scene) if args.scene else default_scene_path()
+    scene = load_scene(path)
+    progress = False if args.no_progress else None
+    sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart)
+    t0 = time.perf_counter()
+    print(f"siku {__version__}: {scene.cfg.title or path.name}: {sim.state.n} elements, "
+          f"{sim.n_steps - sim.step_index} steps of {sim.dt:g} s", file=sys.stderr)
+    sim.run()
+    wall = time.perf_counter() - t0
+    print(f"done in {wall:.1f} s; output: {sim.output_path}", file=sys.stderr)
+    return 0
+
+
+def _cmd_plugins(args: argparse.Namespace) -> int:
+    from .plugins import get_registry
+
+    reg = get_registry()
+    for kind, table in reg.entries.items():
+        if not table:
+            continue
+        print(f"{kind.replace('_', ' ')}s:")
+        for name in sorted(table):
+            e = table[name]
+            print(f"  {name}  ({e.package} {e.version}) - {e.cls.summary()}")
+            for pname, p in e.cls.params.items():
+                print(f"      {pname} = {p.default!r}  [{p.unit or '-'}]  {p.doc}; "
+                      f"allowed: {p.allowed()}")
+    for pkg, err in reg.broken.items():
+        print(f"failed to load: {pkg}: {err}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="siku", description="Discrete-element sea-ice model.")
+    ap.add_argument("--version", action="version", version=f"siku {__version__}")
+    sub = ap.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scene (no argument: the shipped default scene)")
+    r.add_argument("scene", nargs="?", help="scene file (TOML)")
+    r.add_argument("--out", help="output file (overrides [output] file)")
+    r.add_argument("--restart", help="continue from the last snapshot of this output file")
+    r.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    r.set_defaults(func=_cmd_run)
+    p = sub.add_parser("plugins", help="list registered components with their parameters")
+    p.set_defaults(func=_cmd_plugins)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            return args.func(args)
+    except SikuError as exc:
+        msg = " | ".join(str(exc).splitlines())
+        print(f"siku: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("siku: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,34 @@
+"""Errors raised for bad input and failed runs.
+
+Every error a user can cause is a :class:`SikuError`; the command line prints its message on one
+line and exits with status 2. Messages name the file, key or element concerned.
+"""
+from __future__ import annotations
+
+
+class SikuError(Exception):
+    """Base class of all user-facing errors (CLI exit status 2, no traceback)."""
+
+
+class SceneError(SikuError):
+    """A scene file is malformed: unknown key, wrong type, out-of-range value, missing file."""
+
+
+class PluginError(SikuError):
+    """A component name is unknown, registered twice, or a plugin does not meet its interface."""
+
+
+class GeometryError(SikuError):
+    """A polygon is degenerate, non-convex or otherwise unusable as an ice element."""
+
+
+class StabilityError(SikuError):
+    """The time step is above the safe share of the estimated critical time step."""
+
+
+class NonFiniteError(SikuError):
+    """A non-finite value appeared in the state; names the step, element and quantity."""
+
+
+class DataError(SikuError):
+    """A data file (forcing, mesh, restart) is missing, corrupt or does not cover the run."""

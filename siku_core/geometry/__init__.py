@@ -1,0 +1,1 @@
+"""Shared numba geometry: quaternions, geographic conversions, polygons."""

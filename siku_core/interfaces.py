@@ -1,0 +1,153 @@
+"""Interfaces (abstract base classes) for every kind of pluggable component.
+
+A component class declares a ``name`` (what a scene writes), a ``params`` mapping of
+:class:`~siku_core.params.Param` (defaults, units, ranges) and implements the methods of its
+kind. The engine instantiates it with validated parameters: ``Comp(**params)`` is not used;
+``Comp(params_dict)`` is, and the values are available as ``self.p``.
+
+Kinds and their entry points:
+
+==================  ================================================================
+``integrator``      :class:`Integrator` — moves elements (only integrators move things)
+``forcing``         :class:`ForcingSource` — adds force/torque per element
+``field``           :class:`Field` — a velocity field (wind, current) sampled by forcing
+``broad_phase``     :class:`BroadPhase` — candidate element pairs
+``contact_law``     :class:`ContactLaw` — pair forces and joint history
+``writer``          :class:`Writer` — output files and restart
+==================  ================================================================
+"""
+from __future__ import annotations
+
+import inspect
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping
+
+import numpy as np
+
+from .params import Param
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .simulation import Simulation
+    from .state import ElementState
+
+#: signature of the engine's force evaluation, passed to integrators:
+#: ``forces(t, q, V, w, F, T)`` fills ``F (N,2)`` [N] and ``T (N,)`` [N m] for the given state.
+ForceFunction = Callable[[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], None]
+
+
+class Component(ABC):
+    """Base of all components."""
+
+    kind: ClassVar[str] = ""
+    name: ClassVar[str] = ""
+    params: ClassVar[Mapping[str, Param]] = {}
+    #: per-kind reference methods checked at registration: {method: [parameter names]}
+    required: ClassVar[Mapping[str, tuple[str, ...]]] = {}
+
+    def __init__(self, params: Mapping[str, Any] | None = None):
+        full = {k: p.default for k, p in self.params.items()}
+        full.update(params or {})
+        self.p: dict[str, Any] = full
+
+    @classmethod
+    def summary(cls) -> str:
+        """First line of the class docstring."""
+        doc = inspect.getdoc(cls) or ""
+        return doc.splitlines()[0] if doc else ""
+
+    def setup(self, sim: "Simulation") -> None:  # noqa: B027 - optional hook
+        """Called once when the simulation is built (allocate arrays, cache references)."""
+
+    def describe(self) -> dict[str, Any]:
+        """Name and parameter values, recorded in output files."""
+        return {"name": self.name, "params": dict(self.p)}
+
+
+class Integrator(Component):
+    """Advances ``q, V, w`` of free and steady elements by one step.
+
+    ``order`` is the nominal global order of accuracy, ``force_evaluations`` how many times one
+    step calls ``forces``.
+    """
+
+    kind = "integrator"
+    order: ClassVar[int] = 0
+    force_evaluations: ClassVar[int] = 1
+    required = {"step": ("state", "t", "dt", "forces")}
+
+    @abstractmethod
+    def step(self, state: "ElementState", t: float, dt: float, forces: ForceFunction) -> None:
+        """Advance ``state`` in place from time ``t`` [s] by ``dt`` [s]."""
+
+
+class Field(Component):
+    """A horizontal velocity field (wind or ocean current) on the sphere."""
+
+    kind = "field"
+    required = {"sample": ("t", "lat", "lon")}
+
+    @abstractmethod
+    def sample(self, t: float, lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Eastward and northward velocity [m/s] at ``lat, lon`` [rad], ``t`` [s from start]."""
+
+    def close(self) -> None:  # noqa: B027 - optional hook
+        """Release files or caches."""
+
+
+class ForcingSource(Component):
+    """Adds a driving force [N] and torque [N m] to every element."""
+
+    kind = "forcing"
+    required = {"add": ("t", "q", "V", "w", "F", "T")}
+    #: whether the scene table may carry a ``field`` sub-table
+    uses_field: ClassVar[bool] = False
+
+    @abstractmethod
+    def add(
+        self, t: float, q: np.ndarray, V: np.ndarray, w: np.ndarray, F: np.ndarray, T: np.ndarray
+    ) -> None:
+        """Add force ``F (N,2)`` in the local frames and torque ``T (N,)`` for state ``q, V, w``."""
+
+
+class BroadPhase(Component):
+    """Finds candidate element pairs whose bounding circles (plus a skin) overlap."""
+
+    kind = "broad_phase"
+    required = {"pairs": ("centers", "radii", "skip")}
+
+    @abstractmethod
+    def pairs(self, centers: np.ndarray, radii: np.ndarray, skip: np.ndarray) -> np.ndarray:
+        """Candidate pairs ``(K, 2)`` int64, ``i < j``, lexicographically sorted."""
+
+
+class ContactLaw(Component):
+    """Pair interaction: forces and torques between two elements, with per-contact history."""
+
+    kind = "contact_law"
+
+
+class Writer(Component):
+    """Writes element states and diagnostics on a schedule; may read restarts."""
+
+    kind = "writer"
+    required = {"open": ("sim",), "write_state": ("sim",), "close": ("sim",)}
+
+    @abstractmethod
+    def open(self, sim: "Simulation") -> None:
+        """Create or reopen the output."""
+
+    @abstractmethod
+    def write_state(self, sim: "Simulation") -> None:
+        """Write one snapshot of the state (enough to restart)."""
+
+    def write_diagnostics(self, sim: "Simulation", diag: Mapping[str, Any]) -> None:  # noqa: B027
+        """Append one row of diagnostics."""
+
+    @abstractmethod
+    def close(self, sim: "Simulation") -> None:
+        """Flush and close."""
+
+
+KINDS: dict[str, type[Component]] = {
+    c.kind: c for c in (Integrator, Field, ForcingSource, BroadPhase, ContactLaw, Writer)
+}

@@ -1,0 +1,288 @@
+"""Scene files (TOML): strict loading and validation.
+
+A scene is one TOML file describing a run: ``[time]``, ``[planet]``, ``[materials.NAME]``,
+``[elements]`` (``[[elements.polygon]]`` and ``[[elements.pack]]``), ``[integrator]``,
+``[[forcing]]``, ``[output]`` and ``[run]``. Every table is strict: an unknown key, a value of the
+wrong type or out of range is a :class:`~siku_core.errors.SceneError` naming the file, the key and
+the allowed values. The reference is ``docs/reference/scene.md``.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import tomllib
+import typing
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+
+from .errors import SceneError
+from .params import format_validation_error
+from .units import parse_duration
+
+Duration = Annotated[float, BeforeValidator(parse_duration), Field(gt=0)]
+FlagName = Literal["free", "static", "steady"]
+Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class TimeCfg(_Strict):
+    """``[time]``: start (optional TOML datetime, UTC), duration or end, and the step dt."""
+
+    start: _dt.datetime | None = None
+    duration: Duration | None = None
+    end: _dt.datetime | None = None
+    dt: Duration
+
+    @model_validator(mode="after")
+    def _one_of(self) -> "TimeCfg":
+        if (self.duration is None) == (self.end is None):
+            raise ValueError("give exactly one of 'duration' or 'end'")
+        if self.end is not None:
+            if self.start is None:
+                raise ValueError("'end' needs 'start'")
+            if self.end <= self.start:
+                raise ValueError("'end' must be after 'start'")
+        return self
+
+    @property
+    def total(self) -> float:
+        """Run length [s]."""
+        if self.duration is not None:
+            return self.duration
+        return (self.end - self.start).total_seconds()  # type: ignore[operator]
+
+
+class PlanetCfg(_Strict):
+    """``[planet]``: a rotating sphere."""
+
+    radius: float = Field(6_371_000.0, gt=0, description="planet radius [m]")
+    rotation_rate: float = Field(7.2921e-5, ge=0, description="angular velocity [rad/s]")
+
+
+class MaterialCfg(_Strict):
+    """``[materials.NAME]``: ice properties."""
+
+    density: float = Field(910.0, gt=0, description="ice density [kg/m³]")
+    youngs_modulus: float = Field(1.0e9, gt=0, description="Young's modulus E [Pa]")
+    poisson_ratio: float = Field(0.3, ge=0, lt=0.5, description="Poisson's ratio [1]")
+
+
+class _ElementCommon(_Strict):
+    flag: FlagName = "free"
+    velocity: Pair = Field(default_factory=lambda: [0.0, 0.0], description="east, north [m/s]")
+    spin: float = Field(0.0, description="spin about the local vertical [rad/s], CCW positive")
+    thickness: float | None = Field(None, gt=0, description="ice thickness [m]")
+    material: str | None = None
+
+
+class PolygonCfg(_ElementCommon):
+    """``[[elements.polygon]]``: one element from ``[lon, lat]`` vertices in degrees."""
+
+    vertices: list[Pair] = Field(min_length=3)
+
+
+class PackCfg(_ElementCommon):
+    """``[[elements.pack]]``: an ``nx × ny`` rectangular pack over a lon/lat box."""
+
+    lon: Pair
+    lat: Pair
+    nx: int = Field(ge=1)
+    ny: int = Field(ge=1)
+    gap: float = Field(0.0, ge=0, lt=0.9, description="open share of each cell's width [1]")
+    jitter: float = Field(0.0, ge=0, lt=0.45, description="vertex jitter, share of cell [1]")
+    seed: int | None = None
+    left: FlagName | None = None
+    right: FlagName | None = None
+    left_velocity: Pair = Field(default_factory=lambda: [0.0, 0.0])
+    right_velocity: Pair = Field(default_factory=lambda: [0.0, 0.0])
+
+
+class ElementsCfg(_Strict):
+    """``[elements]``: defaults and the element sources."""
+
+    thickness: float = Field(1.0, gt=0, description="default thickness [m]")
+    material: str = "ice"
+    polygon: list[PolygonCfg] = Field(default_factory=list)
+    pack: list[PackCfg] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _some(self) -> "ElementsCfg":
+        if not self.polygon and not self.pack:
+            raise ValueError("no elements: add [[elements.polygon]] or [[elements.pack]] tables")
+        return self
+
+
+class ComponentCfg(_Strict):
+    """A component chosen by name, with its parameters."""
+
+    name: str
+    params: dict[str, Any] = Field(default_factory=dict)
+
+
+class FieldCfg(_Strict):
+    """A velocity field chosen by ``type``, with its parameters."""
+
+    type: str
+    params: dict[str, Any] = Field(default_factory=dict)
+
+
+class ForcingCfg(_Strict):
+    """``[[forcing]]``: a forcing source, its parameters and (for drags) its field."""
+
+    source: str
+    params: dict[str, Any] = Field(default_factory=dict)
+    field: FieldCfg | None = None
+
+
+class OutputCfg(_Strict):
+    """``[output]``: where and how often to write."""
+
+    file: str = "siku_out.h5"
+    writer: str = "hdf5"
+    every: Duration | None = Field(None, description="state snapshot interval [s]")
+    diagnostics_every: Duration | None = Field(None, description="diagnostics interval [s]")
+    params: dict[str, Any] = Field(default_factory=dict)
+
+
+class RunCfg(_Strict):
+    """``[run]``: reproducibility and safety switches."""
+
+    seed: int = 0
+    progress: bool | None = None
+    nan_check_every: int = Field(1, ge=1)
+    dt_safety: float = Field(0.5, gt=0, le=1)
+    allow_unstable_dt: bool = False
+
+
+class SceneCfg(_Strict):
+    """The whole scene file."""
+
+    title: str = ""
+    time: TimeCfg
+    planet: PlanetCfg = Field(default_factory=PlanetCfg)
+    materials: dict[str, MaterialCfg] = Field(default_factory=lambda: {"ice": MaterialCfg()})
+    elements: ElementsCfg
+    integrator: ComponentCfg = Field(default_factory=lambda: ComponentCfg(name="siku2"))
+    forcing: list[ForcingCfg] = Field(default_factory=list)
+    output: OutputCfg = Field(default_factory=OutputCfg)
+    run: RunCfg = Field(default_factory=RunCfg)
+
+    @model_validator(mode="after")
+    def _materials(self) -> "SceneCfg":
+        names = [self.elements.material] + [
+            e.material for e in (*self.elements.polygon, *self.elements.pack) if e.material
+        ]
+        for n in names:
+            if n not in self.materials:
+                raise ValueError(
+                    f"unknown material '{n}'; defined: {', '.join(sorted(self.materials))}"
+                )
+        return self
+
+
+def _unwrap(ann: Any) -> Any:
+    """Innermost pydantic model class of an annotation (list[X], X | None, dict[str, X])."""
+    origin = typing.get_origin(ann)
+    if origin is Annotated:
+        return _unwrap(typing.get_args(ann)[0])
+    if origin is None:
+        return ann
+    for a in typing.get_args(ann):
+        inner = _unwrap(a)
+        if isinstance(inner, type) and issubclass(inner, BaseModel):
+            return inner
+    return None
+
+
+def _allowed_keys(model: type[BaseModel], loc: tuple) -> list[str]:
+    cur: Any = model
+    for part in loc[:-1]:
+        if isinstance(part, str) and isinstance(cur, type) and issubclass(cur, BaseModel):
+            f = cur.model_fields.get(part)
+            if f is None:
+                break
+            cur = _unwrap(f.annotation)
+    if isinstance(cur, type) and issubclass(cur, BaseModel):
+        return sorted(cur.model_fields)
+    return []
+
+
+def _toml_path(loc: tuple) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (("." if out else "") + str(part))
+    return out
+
+
+def _explain(err: ValidationError, where: str) -> str:
+    lines = []
+    for e in err.errors():
+        loc = tuple(e["loc"])
+        path = _toml_path(loc)
+        if e["type"] == "extra_forbidden":
+            keys = ", ".join(_allowed_keys(SceneCfg, loc)) or "(none)"
+            lines.append(f"{where}: unknown key '{path}'; allowed keys here: {keys}")
+        elif e["type"] == "missing":
+            lines.append(f"{where}: missing required key '{path}'")
+        elif e["type"] == "value_error" and not path:
+            lines.append(f"{where}: {e['msg'].removeprefix('Value error, ')}")
+        else:
+            msg = e["msg"].removeprefix("Value error, ")
+            if "input" in e and e["type"] != "value_error":
+                lines.append(f"{where}: key '{path}' = {e['input']!r}: {msg[0].lower() + msg[1:]}")
+            else:
+                lines.append(f"{where}: [{path}] {msg}")
+    return "\n".join(lines)
+
+
+class Scene:
+    """A validated scene: its configuration, its source text and where it came from."""
+
+    def __init__(self, cfg: SceneCfg, text: str, path: Path | None = None):
+        self.cfg = cfg
+        self.text = text
+        self.path = path
+
+    @property
+    def label(self) -> str:
+        return str(self.path) if self.path else "<scene>"
+
+    @property
+    def base_dir(self) -> Path:
+        """Directory that relative data paths in the scene are resolved against."""
+        return self.path.parent if self.path else Path.cwd()
+
+    def where(self, table: str) -> str:
+        return f"{self.label} [{table}]"
+
+
+def scene_from_text(text: str, label: str = "<scene>", path: Path | None = None) -> Scene:
+    """Parse and validate scene TOML text; errors name ``label``."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{label}: TOML syntax error: {exc}") from None
+    try:
+        cfg = SceneCfg.model_validate(data)
+    except ValidationError as exc:
+        raise SceneError(_explain(exc, label)) from None
+    return Scene(cfg, text, path)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file."""
+    p = Path(path)
+    if not p.is_file():
+        raise SceneError(f"{p}: scene file not found")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{p}: cannot read scene file: {exc}") from None
+    return scene_from_text(text, str(p), p.resolve())
+
+
+__all__ = ["Scene", "SceneCfg", "load_scene", "scene_from_text", "format_validation_error"]

@@ -1,0 +1,334 @@
+"""The run loop: builds components from a scene and advances the time step.
+
+One step (``ARCHITECTURE.md``)::
+
+    forcing sources  -> add F, T per element
+    (contacts: broad phase, narrow phase, contact laws -> add F, T per pair)
+    integrator       -> moves free elements; static never, steady on rails
+    NaN guard, diagnostics and writers on their schedules
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .diagnostics import element_diagnostics
+from .elements import build_elements
+from .errors import NonFiniteError, SceneError, StabilityError
+from .interfaces import Component, Field, ForcingSource, Integrator, Writer
+from .params import validate_params
+from .plugins import Registry, get_plugin_manager, get_registry
+from .scene import Scene, load_scene
+from .schedule import StepInterval
+from .state import DYNAMIC
+
+#: quantities checked by the NaN guard, in the order their failure is reported
+_GUARDED = ("F", "T", "V", "w", "q")
+
+
+class Simulation:
+    """A run of one scene.
+
+    Parameters
+    ----------
+    scene : a :class:`~siku_core.scene.Scene` or a path to a scene file.
+    out : output file, overriding ``[output] file``; ``False`` writes nothing.
+    progress : show a progress bar (``None``: as the scene says, else only on long runs).
+    restart : continue from the last snapshot in this output file.
+    registry : component registry (default: the process-wide one).
+    """
+
+    def __init__(
+        self,
+        scene: Scene | str | Path,
+        *,
+        out: str | Path | bool | None = None,
+        progress: bool | None = None,
+        restart: str | Path | None = None,
+        registry: Registry | None = None,
+    ):
+        if not isinstance(scene, Scene):
+            scene = load_scene(scene)
+        self.scene = scene
+        cfg = scene.cfg
+        self.registry = registry or get_registry()
+        self.pm = get_plugin_manager() if registry is None else None
+        if self.pm is not None:
+            self.pm.hook.siku_configured(scene=scene)
+        self.radius = cfg.planet.radius
+        self.rotation_rate = cfg.planet.rotation_rate
+        self.dt = float(cfg.time.dt)
+        self.n_steps = max(1, math.ceil(cfg.time.total / self.dt - 1e-9))
+        self.start: _dt.datetime | None = cfg.time.start
+        self.seed = cfg.run.seed
+        self.rng = np.random.default_rng(self.seed)
+        self.state = build_elements(scene)
+        self.step_index = 0
+        self.progress = cfg.run.progress if progress is None else progress
+
+        self.integrator: Integrator = self._component(
+            "integrator", cfg.integrator.name, cfg.integrator.params, "integrator"
+        )  # type: ignore[assignment]
+        self.forcing: list[ForcingSource] = []
+        for k, f in enumerate(cfg.forcing):
+            src: ForcingSource = self._component(
+                "forcing", f.source, f.params, f"forcing[{k}]"
+            )  # type: ignore[assignment]
+            if f.field is not None:
+                if not src.uses_field:
+                    raise SceneError(
+                        f"{scene.where(f'forcing[{k}]')}: forcing source '{f.source}' takes no "
+                        "'field' table"
+                    )
+                src.field = self._component(
+                    "field", f.field.type, f.field.params, f"forcing[{k}].field"
+                )  # type: ignore[assignment]
+            elif src.uses_field and getattr(src, "field_required", True):
+                raise SceneError(
+                    f"{scene.where(f'forcing[{k}]')}: forcing source '{f.source}' needs a "
+                    "'field' table, e.g. field = {type = \"uniform\", params = {u = 10.0}}"
+                )
+            self.forcing.append(src)
+
+        self.writers: list[Writer] = []
+        self.output_path: Path | None = None
+        if out is not False:
+            path = Path(out) if out not in (None, True) else Path(cfg.output.file)
+            self.output_path = path
+            w: Writer = self._component(
+                "writer", cfg.output.writer, cfg.output.params, "output"
+            )  # type: ignore[assignment]
+            w.path = path  # type: ignore[attr-defined]
+            self.writers.append(w)
+        self.state_schedule = StepInterval.from_seconds(cfg.output.every, self.dt, self.n_steps, 20)
+        self.diag_schedule = StepInterval.from_seconds(
+            cfg.output.diagnostics_every, self.dt, self.n_steps, 200
+        )
+        for comp in self.components():
+            comp.setup(self)
+        self.check_time_step()
+        self.restarted_from: int | None = None
+        self.restart_path: Path | None = None
+        if restart is not None:
+            self._restart(Path(restart))
+        self._good = {k: getattr(self.state, k).copy() for k in DYNAMIC}
+        self._good_step = self.step_index
+        self._opened = False
+        self.timings: dict[str, float] = {"forcing": 0.0, "integrator": 0.0, "output": 0.0}
+        if self.pm is not None:
+            self.pm.hook.siku_ready(simulation=self)
+
+    # ------------------------------------------------------------------ construction
+    def _component(self, kind: str, name: str, params: dict, table: str) -> Component:
+        where = self.scene.where(table)
+        cls = self.registry.get(kind, name, where=f"{where}: ")
+        full = validate_params(name, cls.params, params, where)
+        return cls(full)
+
+    def components(self) -> list[Component]:
+        """Every component of the run, in step order."""
+        out: list[Component] = []
+        for f in self.forcing:
+            out.append(f)
+            if getattr(f, "field", None) is not None:
+                out.append(f.field)
+        out.append(self.integrator)
+        out.extend(self.writers)
+        return out
+
+    def check_time_step(self) -> None:
+        """Refuse (or warn on) a dt above ``dt_safety`` times the smallest component limit.
+
+        Components may define ``stability_limit(sim) -> (dt_max [s], reason) | None``.
+        """
+        run = self.scene.cfg.run
+        limits = []
+        for comp in self.components():
+            fn = getattr(comp, "stability_limit", None)
+            if fn is not None:
+                lim = fn(self)
+                if lim is not None:
+                    limits.append((lim[0], comp.name, lim[1]))
+        if not limits:
+            self.critical_dt = math.inf
+            return
+        dt_c, who, why = min(limits, key=lambda x: x[0])
+        self.critical_dt = dt_c
+        safe = run.dt_safety * dt_c
+        if self.dt > safe:
+            msg = (
+                f"{self.scene.where('time')}: dt = {self.dt:g} s is above the safe step "
+                f"{safe:.4g} s ({run.dt_safety:g} × critical {dt_c:.4g} s set by '{who}': {why})"
+            )
+            if run.allow_unstable_dt:
+                warnings.warn(msg + "; continuing because [run] allow_unstable_dt = true",
+                              stacklevel=2)
+            else:
+                raise StabilityError(msg + "; lower dt or set [run] allow_unstable_dt = true")
+
+    # ------------------------------------------------------------------ physics
+    @property
+    def time(self) -> float:
+        """Model time since the start [s]."""
+        return self.step_index * self.dt
+
+    def datetime_at(self, t: float) -> _dt.datetime | None:
+        return None if self.start is None else self.start + _dt.timedelta(seconds=t)
+
+    def compute_forces(self, t: float, q, V, w, F, T) -> None:
+        """Fill ``F`` [N] and ``T`` [N m] for the state ``q, V, w`` at time ``t`` [s]."""
+        F[:] = 0.0
+        T[:] = 0.0
+        for src in self.forcing:
+            src.add(t, q, V, w, F, T)
+
+    def step(self) -> None:
+        """Advance one time step and run the NaN guard on its schedule."""
+        t0 = time.perf_counter()
+        self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
+        self.step_index += 1
+        self.timings["integrator"] += time.perf_counter() - t0
+        if self.step_index % self.scene.cfg.run.nan_check_every == 0 or (
+            self.step_index == self.n_steps
+        ):
+            self._nan_guard()
+
+    def _nan_guard(self) -> None:
+        st = self.state
+        for name in _GUARDED:
+            arr = getattr(st, name)
+            if not np.isfinite(arr).all():
+                bad = np.argwhere(~np.isfinite(arr.reshape(st.n, -1)))[0]
+                elem = int(bad[0])
+                step = self.step_index
+                for k in DYNAMIC:
+                    getattr(st, k)[:] = self._good[k]
+                self.step_index = self._good_step
+                saved = ""
+                if self._opened and self.writers:
+                    for wr in self.writers:
+                        wr.write_state(self)
+                    saved = f"; last good state (step {self._good_step}) saved to {self.output_path}"
+                raise NonFiniteError(
+                    f"non-finite {name} of element {elem} at step {step} "
+                    f"(t = {step * self.dt:g} s){saved}"
+                )
+        for k in DYNAMIC:
+            self._good[k][:] = getattr(st, k)
+        self._good_step = self.step_index
+
+    def diagnostics(self) -> dict[str, Any]:
+        st = self.state
+        d = {"step": self.step_index, "time": self.time}
+        d.update(element_diagnostics(st.q, st.V, st.w, st.m, st.I, self.radius))
+        return d
+
+    # ------------------------------------------------------------------ running
+    def _restart(self, path: Path) -> None:
+        writer_cls = type(self.writers[0]) if self.writers else self.registry.get(
+            "writer", self.scene.cfg.output.writer
+        )
+        data = writer_cls.read_restart(path, self)  # type: ignore[attr-defined]
+        self.restarted_from = data["step"]
+
+    def open_outputs(self) -> None:
+        if self._opened:
+            return
+        for w in self.writers:
+            w.open(self)
+        self._opened = True
+        if self.restarted_from is None:
+            self._write(force=True)
+
+    def _write(self, force: bool = False) -> None:
+        t0 = time.perf_counter()
+        k, last = self.step_index, self.n_steps
+        if self.writers:
+            if force or self.diag_schedule.due(k, last):
+                d = self.diagnostics()
+                for w in self.writers:
+                    w.write_diagnostics(self, d)
+            if force or self.state_schedule.due(k, last):
+                for w in self.writers:
+                    w.write_state(self)
+        self.timings["output"] += time.perf_counter() - t0
+
+    def run(self, steps: int | None = None) -> "Simulation":
+        """Run ``steps`` steps (default: to the end of the scene's time span)."""
+        remaining = self.n_steps - self.step_index if steps is None else steps
+        self.open_outputs()
+        bar = None
+        show = self.progress
+        if show is None or show:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(
+                total=remaining, unit="step", desc=self.scene.cfg.title or "siku",
+                disable=show is False, delay=0.0 if show else 2.0, mininterval=0.5, leave=False,
+            )
+        try:
+            for _ in range(remaining):
+                self.step()
+                self._write()
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+            self.close()
+        return self
+
+    def close(self) -> None:
+        if self._opened:
+            for w in self.writers:
+                w.close(self)
+            self._opened = False
+        for f in self.forcing:
+            fld = getattr(f, "field", None)
+            if isinstance(fld, Field):
+                fld.close()
+        if self.pm is not None:
+            self.pm.hook.siku_finished(simulation=self)
+
+    def _keyed_components(self) -> dict[str, Component]:
+        return {f"{c.kind}{k}_{c.name}": c for k, c in enumerate(self.components())}
+
+    def history_arrays(self) -> dict[str, dict[str, np.ndarray]]:
+        """Per-component history (joint damage, contact lists...) needed to restart exactly.
+
+        Components that keep history define ``history() -> {name: array}`` and
+        ``set_history({name: array})``.
+        """
+        out = {}
+        for key, c in self._keyed_components().items():
+            fn = getattr(c, "history", None)
+            if fn is not None:
+                out[key] = fn()
+        return out
+
+    def set_history_arrays(self, hist: dict[str, dict[str, np.ndarray]]) -> None:
+        comps = self._keyed_components()
+        for key, arrays in hist.items():
+            if key not in comps or not hasattr(comps[key], "set_history"):
+                raise SceneError(
+                    f"{self.scene.label}: restart holds history for '{key}', which this scene "
+                    "does not have; restart with the scene that wrote the file"
+                )
+            comps[key].set_history(arrays)
+
+    def plugin_versions(self) -> dict[str, str]:
+        """Packages that provided the components of this run, with versions."""
+        out = {}
+        for comp in self.components():
+            e = self.registry.entry(comp.kind, comp.name)
+            if e is not None:
+                out[e.package] = e.version
+            else:
+                out[type(comp).__module__.split(".")[0]] = "unknown"
+        return out

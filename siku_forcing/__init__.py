@@ -1,0 +1,1 @@
+"""Driving forces: velocity fields (uniform, analytic, gridded) and the stresses they exert."""

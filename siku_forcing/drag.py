@@ -1,0 +1,158 @@
+"""Wind stress, water stress and Coriolis (report eqs. 18–21).
+
+With ``U`` the ice velocity, ``k`` the local vertical and ``S`` the element area:
+
+* air:   ``tau_a = rho_a C_a |U_a| (U_a cos th_a + k × U_a sin th_a)``            (eq. 19)
+* water: ``tau_w = rho_w C_w |U_w - U| ((U_w - U) cos th_w + k × (U_w - U) sin th_w)`` (eq. 20)
+* Coriolis: ``-m f k × U``, ``f = 2 Omega_E sin(lat)`` on the sphere.
+
+``F = S (tau_a + tau_w) - m f k × U`` (eq. 18). Defaults are eq. 21 and PHYSICS.md §3.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from siku_core import Param, hookimpl
+from siku_core.geometry.quat import east_north_local, latlon_of
+from siku_core.interfaces import ForcingSource
+from siku_core.state import STATIC
+
+
+@njit(cache=True)
+def _stress(q, V, u, v, area, rho, C, theta, subtract_ice, F):
+    """Add ``S rho C |D| (D cos th + k × D sin th)``, ``D = U_field - subtract_ice U``."""
+    ct, st = math.cos(theta), math.sin(theta)
+    for i in range(q.shape[0]):
+        ex, ey, nx, ny = east_north_local(q[i])
+        dx = u[i] * ex + v[i] * nx - subtract_ice * V[i, 0]
+        dy = u[i] * ey + v[i] * ny - subtract_ice * V[i, 1]
+        s = area[i] * rho * C * math.sqrt(dx * dx + dy * dy)
+        F[i, 0] += s * (dx * ct - dy * st)
+        F[i, 1] += s * (dy * ct + dx * st)
+
+
+@njit(cache=True)
+def _spin_drag(w, flags, coef, T):
+    for i in range(w.shape[0]):
+        if flags[i] != STATIC:
+            T[i] -= coef[i] * w[i] * abs(w[i])
+
+
+class _Drag(ForcingSource):
+    uses_field = True
+    field_required = True
+    rho_default = 0.0
+    C_default = 0.0
+
+    def setup(self, sim):
+        self.st = sim.state
+
+    def _sample(self, t, q):
+        lat, lon = latlon_of(q)
+        return self.field.sample(t, lat, lon)
+
+
+class AirDrag(_Drag):
+    """Wind stress on each element (eq. 19) from a wind field; ``relative`` uses ``U_a - U``."""
+
+    name = "air_drag"
+    params = {
+        "C": Param(0.0016, "1", "air–ice drag coefficient C_a (eq. 21)", min=0),
+        "rho": Param(1.3, "kg/m^3", "air density rho_a", min=0),
+        "turning_angle": Param(0.0, "deg", "turning angle th_a (CCW positive)", min=-90, max=90),
+        "relative": Param(False, "", "use wind relative to the ice, U_a - U", type=bool),
+    }
+
+    def add(self, t, q, V, w, F, T):
+        u, v = self._sample(t, q)
+        _stress(q, V, u, v, self.st.area, float(self.p["rho"]), float(self.p["C"]),
+                math.radians(self.p["turning_angle"]), 1.0 if self.p["relative"] else 0.0, F)
+
+
+class WaterDrag(_Drag):
+    """Water stress on each element (eq. 20) from a current field (still water if none).
+
+    With ``spin_drag`` the quadratic drag of the rotational velocity is integrated over an
+    equal-area disc: ``T = -rho_w C_w w|w| 2 pi r^5 / 5``, ``r = sqrt(S/pi)`` (an approximation
+    that is exact for discs and within a few per cent for compact polygons).
+    """
+
+    name = "water_drag"
+    field_required = False
+    params = {
+        "C": Param(0.0045, "1", "water–ice drag coefficient C_w (eq. 21)", min=0),
+        "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0),
+        "turning_angle": Param(0.0, "deg", "turning angle th_w (CCW positive)", min=-90, max=90),
+        "spin_drag": Param(True, "", "damp spin by quadratic water drag", type=bool),
+        "max_relative_speed": Param(
+            1.0, "m/s", "largest expected ice–water speed, for the stable-time-step estimate",
+            min=1e-6),
+    }
+    field = None
+
+    def setup(self, sim):
+        super().setup(sim)
+        r = np.sqrt(self.st.area / math.pi)
+        self.spin_coef = self.p["rho"] * self.p["C"] * 2.0 * math.pi * r**5 / 5.0
+
+    def add(self, t, q, V, w, F, T):
+        if self.field is None:
+            n = q.shape[0]
+            u = v = np.zeros(n)
+        else:
+            u, v = self._sample(t, q)
+        _stress(q, V, u, v, self.st.area, float(self.p["rho"]), float(self.p["C"]),
+                math.radians(self.p["turning_angle"]), 1.0, F)
+        if self.p["spin_drag"]:
+            _spin_drag(w, self.st.flags, self.spin_coef, T)
+
+    def stability_limit(self, sim):
+        """Explicit drag is stable for ``dt < m / (S rho_w C_w |dU|) = rho_i h/(rho_w C_w |dU|)``."""
+        st = sim.state
+        free = st.flags != STATIC
+        if not free.any() or self.p["C"] == 0 or self.p["rho"] == 0:
+            return None
+        per_area = st.m[free] / st.area[free]
+        i = int(np.argmin(per_area))
+        dt = per_area[i] / (self.p["rho"] * self.p["C"] * self.p["max_relative_speed"])
+        elem = int(np.flatnonzero(free)[i])
+        return dt, (f"water drag on element {elem} (mass per area {per_area[i]:.4g} kg/m², "
+                    f"|dU| = {self.p['max_relative_speed']:g} m/s)")
+
+
+@njit(cache=True)
+def _coriolis(q, V, m, omega, F):
+    for i in range(q.shape[0]):
+        z = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])  # sin(lat) of the centre
+        f = 2.0 * omega * z
+        # -m f k × U = m f (Vy, -Vx)
+        F[i, 0] += m[i] * f * V[i, 1]
+        F[i, 1] -= m[i] * f * V[i, 0]
+
+
+class Coriolis(ForcingSource):
+    """Coriolis force ``-m f k × U`` with ``f = 2 Omega sin(lat)`` at each element's centre.
+
+    ``Omega`` is ``[planet] rotation_rate`` unless ``rotation_rate`` is given here.
+    """
+
+    name = "coriolis"
+    params = {
+        "rotation_rate": Param(-1.0, "rad/s", "planet rotation rate; -1: use [planet]", min=-1),
+    }
+
+    def setup(self, sim):
+        self.st = sim.state
+        r = self.p["rotation_rate"]
+        self.omega = float(sim.rotation_rate if r < 0 else r)
+
+    def add(self, t, q, V, w, F, T):
+        _coriolis(q, V, self.st.m, self.omega, F)
+
+
+@hookimpl
+def siku_register_forcing_sources():
+    return [AirDrag, WaterDrag, Coriolis]

@@ -1,0 +1,1 @@
+"""Input/output: HDF5 output and restart, meshes, coastlines, plots (imported lazily)."""

@@ -1,0 +1,1 @@
+"""Built-in physics plugins: integrators, broad phases, contact laws."""
