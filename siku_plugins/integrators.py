@@ -30,37 +30,47 @@ def _siku2(q, V, w, F, T, m, I, flags, R, dt):  # noqa: E741
         f = flags[i]
         if f == STATIC:
             continue
-        vx0, vy0, w0 = V[i, 0], V[i, 1], w[i]
         if f == FREE:
-            w1 = w0 + dt * T[i] / I[i]
-            wm = 0.5 * (w0 + w1)
-            half = -0.5 * (1.0 - I[i] / (m[i] * R * R)) * wm * dt
-            c, s = math.cos(half), math.sin(half)
-            ax = c * vx0 - s * vy0 + dt * F[i, 0] / m[i]
-            ay = s * vx0 + c * vy0 + dt * F[i, 1] / m[i]
-            vx1 = c * ax - s * ay
-            vy1 = s * ax + c * ay
-            V[i, 0] = vx1
-            V[i, 1] = vy1
-            w[i] = w1
-            vxm, vym = 0.5 * (vx0 + vx1), 0.5 * (vy0 + vy1)
-        else:  # steady: prescribed local velocity and spin
-            vxm, vym, wm = vx0, vy0, w0
-        cayley_step(q[i], -vym / R, vxm / R, wm, dt, tmp)
-        q[i, 0] = tmp[0]
-        q[i, 1] = tmp[1]
-        q[i, 2] = tmp[2]
-        q[i, 3] = tmp[3]
+            # kick: body-frame angular momentum L_b = (-m R Vy, m R Vx, I w) gains dt * torque
+            V[i, 0] += dt * F[i, 0] / m[i]
+            V[i, 1] += dt * F[i, 1] / m[i]
+            w[i] += dt * T[i] / I[i]
+            k = I[i] / (m[i] * R * R)
+            # drift 1: rotation about L_b (eq. 6 with Omega_L = L_b / (m R^2))
+            cayley_step(q[i], -V[i, 1] / R, V[i, 0] / R, k * w[i], dt, tmp)
+            # drift 2: spin about the local vertical by gamma; L_b precesses by -gamma
+            gamma = (1.0 - k) * w[i] * dt
+            c, s = math.cos(0.5 * gamma), math.sin(0.5 * gamma)
+            q[i, 0] = tmp[0] * c - tmp[3] * s
+            q[i, 1] = tmp[1] * c + tmp[2] * s
+            q[i, 2] = tmp[2] * c - tmp[1] * s
+            q[i, 3] = tmp[3] * c + tmp[0] * s
+            cg, sg = math.cos(gamma), math.sin(gamma)
+            vx, vy = V[i, 0], V[i, 1]
+            V[i, 0] = cg * vx + sg * vy
+            V[i, 1] = -sg * vx + cg * vy
+        else:  # steady: prescribed local velocity and spin, forces ignored
+            cayley_step(q[i], -V[i, 1] / R, V[i, 0] / R, w[i], dt, tmp)
+            q[i, 0] = tmp[0]
+            q[i, 1] = tmp[1]
+            q[i, 2] = tmp[2]
+            q[i, 3] = tmp[3]
 
 
 class Siku2(Integrator):
-    """Report scheme, 2nd order: semi-implicit V, w update, then the norm-preserving eq. (6).
+    """Report scheme: semi-implicit V, w update from the forces, then the eq. (6) rotation.
 
-    One force evaluation per step. ``w`` is advanced by ``T/I``; ``V`` by a Strang splitting of
-    the gyroscopic rotation (angle ``-g w dt``, exact) around the force kick ``dt F/m``; then
-    ``q(n+1) = q(n) ∘ p`` with ``p`` of eq. (6) (with ``dt²``) evaluated at the step's midpoint
-    angular velocity ``Omega = (-Vy/R, Vx/R, w)`` from the averages of the old and new ``V, w``
-    (midpoint rule: second order even when ``Omega`` turns in the body frame).
+    One force evaluation per step. Kick: ``V += dt F/m``, ``w += dt T/I`` (the body-frame
+    angular momentum ``L_b = (-m R Vy, m R Vx, I w)`` gains ``dt`` times the torque about the
+    planet centre). Drift, split exactly for the symmetric inertia ``diag(mR², mR², I)``:
+    ``q ∘ p(Omega_L) ∘ rz(gamma)`` with ``p`` the norm-preserving step of eq. (6) (with ``dt²``)
+    about ``Omega_L = L_b/(m R²) = (-Vy/R, Vx/R, w I/(m R²))`` and ``rz`` a turn by
+    ``gamma = (1 - I/(m R²)) w dt`` about the local vertical, while ``V`` turns by ``-gamma``
+    (the frame-rotation term). Both drift rotations leave the global angular momentum
+    unchanged, so pairwise-balanced contact torques conserve the angular momentum about the
+    planet centre to round-off. Free motion (great circles, spin) is second order: only the
+    angle of eq. (6) is approximate (``4 atan(|Omega| dt / 4)``); with forces the velocity
+    update is first order (symplectic Euler).
     """
 
     name = "siku2"
