@@ -121,9 +121,35 @@ class BroadPhase(Component):
 
 
 class ContactLaw(Component):
-    """Pair interaction: forces and torques between two elements, with per-contact history."""
+    """Pair interaction: forces and torques between two elements, with per-joint history.
+
+    A law supplies ``@njit`` evaluators of one contact (layouts in :mod:`siku_core.contacts`):
+
+    * ``collision_evaluator(g, pars, out)``: overlapping pairs (every law has one: a broken or
+      absent joint continues as a collision contact);
+    * ``joint_evaluator(g, pars, hist, out)``: intact frozen joints (laws with
+      ``uses_joints = True``), updating the joint's ``hist`` row (``history_names`` columns).
+
+    ``collision_parameters(sim)`` / ``joint_parameters(sim)`` return the float64 ``pars`` vectors
+    passed to them (parameters are arguments, never compiled-in globals).
+    """
 
     kind = "contact_law"
+    uses_joints: ClassVar[bool] = False
+    history_names: ClassVar[tuple[str, ...]] = ()
+    required = {"collision_parameters": ("sim",)}
+
+    @abstractmethod
+    def collision_parameters(self, sim: "Simulation") -> np.ndarray:
+        """Parameter vector of the collision evaluator."""
+
+    def joint_parameters(self, sim: "Simulation") -> np.ndarray:
+        """Parameter vector of the joint evaluator."""
+        return np.zeros(0)
+
+    def stiffness_factor(self) -> float:
+        """Joint stiffness per unit length relative to ``K`` of eq. 9 (for the dt estimate)."""
+        return 1.0
 
 
 class Writer(Component):

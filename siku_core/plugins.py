@@ -33,6 +33,8 @@ hookimpl = pluggy.HookimplMarker("siku")
 #: built-in plugin modules, imported lazily (never by ``import siku_core``)
 DEFAULT_PLUGINS: tuple[str, ...] = (
     "siku_plugins.integrators",
+    "siku_plugins.broad_phases",
+    "siku_plugins.contact_laws",
     "siku_forcing.fields",
     "siku_forcing.drag",
     "siku_io.hdf5",
@@ -261,7 +263,12 @@ def register_module(module: Any) -> Registry:
     """
     if module not in _EXTRA:
         _EXTRA.append(module)
-    return get_registry(refresh=True)
+    try:
+        return get_registry(refresh=True)
+    except Exception:
+        _EXTRA.remove(module)  # a module that fails to register must not break later runs
+        get_registry(refresh=True)
+        raise
 
 
 def unregister_module(module: Any) -> Registry:

@@ -9,6 +9,7 @@ the allowed values. The reference is ``docs/reference/scene.md``.
 from __future__ import annotations
 
 import datetime as _dt
+import re
 import tomllib
 import typing
 from pathlib import Path
@@ -138,6 +139,28 @@ class ForcingCfg(_Strict):
     field: FieldCfg | None = None
 
 
+class ContactCfg(_Strict):
+    """``[contact]``: the contact law (rheology), its joints and the broad phase."""
+
+    law: str
+    params: dict[str, Any] = Field(default_factory=dict)
+    joints: Literal["auto", "pairs", "none"] = "auto"
+    pairs: list[Annotated[list[int], Field(min_length=2, max_length=2)]] = Field(
+        default_factory=list
+    )
+    tolerance: float | None = Field(None, gt=0, lt=1, description="joint vertex mismatch [1]")
+    broad_phase: str = "sweep_and_prune"
+    skin: float | None = Field(None, ge=0, description="candidate-list skin distance [m]")
+
+    @model_validator(mode="after")
+    def _pairs(self) -> "ContactCfg":
+        if self.joints == "pairs" and not self.pairs:
+            raise ValueError("joints = 'pairs' needs a 'pairs' list of [i, j] element indices")
+        if self.joints != "pairs" and self.pairs:
+            raise ValueError("'pairs' is only read with joints = 'pairs'")
+        return self
+
+
 class OutputCfg(_Strict):
     """``[output]``: where and how often to write."""
 
@@ -168,6 +191,7 @@ class SceneCfg(_Strict):
     elements: ElementsCfg
     integrator: ComponentCfg = Field(default_factory=lambda: ComponentCfg(name="siku2"))
     forcing: list[ForcingCfg] = Field(default_factory=list)
+    contact: ContactCfg | None = None
     output: OutputCfg = Field(default_factory=OutputCfg)
     run: RunCfg = Field(default_factory=RunCfg)
 
@@ -218,6 +242,64 @@ def _toml_path(loc: tuple) -> str:
     return out
 
 
+def _field_at(model: type[BaseModel], loc: tuple) -> Any:
+    """The pydantic ``FieldInfo`` at a validation-error location, or ``None``."""
+    cur: Any = model
+    info = None
+    dict_key = False
+    for part in loc:
+        if isinstance(part, int):
+            continue
+        if dict_key:  # a user-chosen key of a dict table, e.g. the NAME of [materials.NAME]
+            dict_key = False
+            continue
+        if not (isinstance(cur, type) and issubclass(cur, BaseModel)):
+            return None
+        info = cur.model_fields.get(part)
+        if info is None:
+            return None
+        args = (info.annotation, *typing.get_args(info.annotation))
+        dict_key = any(typing.get_origin(a) is dict for a in args)
+        cur = _unwrap(info.annotation)
+    return info
+
+
+def _allowed_range(model: type[BaseModel], loc: tuple) -> str:
+    """``"0 <= key < 0.5 [1]"`` from a field's bounds and the unit in its description."""
+    info = _field_at(model, loc)
+    if info is None:
+        return ""
+    found: list[Any] = list(info.metadata)
+
+    def walk(ann: Any) -> None:
+        if typing.get_origin(ann) is Annotated:
+            for m in typing.get_args(ann)[1:]:
+                found.extend(getattr(m, "metadata", [m]))
+            walk(typing.get_args(ann)[0])
+        else:
+            for a in typing.get_args(ann):
+                walk(a)
+
+    walk(info.annotation)
+    lo = hi = ""
+    for c in found:
+        for attr, side, op in (("gt", "lo", "<"), ("ge", "lo", "<="), ("lt", "hi", "<"),
+                               ("le", "hi", "<=")):
+            v = getattr(c, attr, None)
+            if v is not None and type(c).__name__.lower() == attr:
+                if side == "lo":
+                    lo = f"{v:g} {op} "
+                else:
+                    hi = f" {op} {v:g}"
+    if not (lo or hi):
+        return ""
+    m = re.search(r"\[([^\]]+)\]\s*$", info.description or "")
+    unit = m.group(1) if m else ""
+    if any(getattr(c, "func", None) is parse_duration for c in found):
+        unit = "s"
+    return f"; allowed range: {lo}{loc[-1]}{hi}" + (f" [{unit}]" if unit else "")
+
+
 def _explain(err: ValidationError, where: str) -> str:
     lines = []
     for e in err.errors():
@@ -233,7 +315,13 @@ def _explain(err: ValidationError, where: str) -> str:
         else:
             msg = e["msg"].removeprefix("Value error, ")
             if "input" in e and e["type"] != "value_error":
-                lines.append(f"{where}: key '{path}' = {e['input']!r}: {msg[0].lower() + msg[1:]}")
+                hint = ""
+                if e["type"] in ("greater_than", "greater_than_equal", "less_than",
+                                 "less_than_equal"):
+                    hint = _allowed_range(SceneCfg, loc)
+                lines.append(
+                    f"{where}: key '{path}' = {e['input']!r}: {msg[0].lower() + msg[1:]}{hint}"
+                )
             else:
                 lines.append(f"{where}: [{path}] {msg}")
     return "\n".join(lines)

@@ -96,6 +96,13 @@ class Simulation:
                 )
             self.forcing.append(src)
 
+        self.contacts = None
+        if cfg.contact is not None:
+            from .contact_model import ContactModel
+
+            self.contacts = ContactModel(self)
+        self._commit = True
+
         self.writers: list[Writer] = []
         self.output_path: Path | None = None
         if out is not False:
@@ -112,6 +119,8 @@ class Simulation:
         )
         for comp in self.components():
             comp.setup(self)
+        if self.contacts is not None:
+            self.contacts.setup()
         self.check_time_step()
         self.restarted_from: int | None = None
         self.restart_path: Path | None = None
@@ -138,6 +147,8 @@ class Simulation:
             out.append(f)
             if getattr(f, "field", None) is not None:
                 out.append(f.field)
+        if self.contacts is not None:
+            out.extend([self.contacts.broad, self.contacts.law])
         out.append(self.integrator)
         out.extend(self.writers)
         return out
@@ -149,7 +160,7 @@ class Simulation:
         """
         run = self.scene.cfg.run
         limits = []
-        for comp in self.components():
+        for comp in [*self.components(), *([self.contacts] if self.contacts else [])]:
             fn = getattr(comp, "stability_limit", None)
             if fn is not None:
                 lim = fn(self)
@@ -187,10 +198,16 @@ class Simulation:
         T[:] = 0.0
         for src in self.forcing:
             src.add(t, q, V, w, F, T)
+        if self.contacts is not None:
+            t0 = time.perf_counter()
+            self.contacts.add(t, q, V, w, F, T, self._commit)
+            self.timings["contacts"] = self.timings.get("contacts", 0.0) + time.perf_counter() - t0
+        self._commit = False
 
     def step(self) -> None:
         """Advance one time step and run the NaN guard on its schedule."""
         t0 = time.perf_counter()
+        self._commit = True
         self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
         self.step_index += 1
         self.timings["integrator"] += time.perf_counter() - t0
@@ -227,6 +244,8 @@ class Simulation:
         st = self.state
         d = {"step": self.step_index, "time": self.time}
         d.update(element_diagnostics(st.q, st.V, st.w, st.m, st.I, self.radius))
+        if self.contacts is not None:
+            d.update(self.contacts.diagnostics())
         return d
 
     # ------------------------------------------------------------------ running
@@ -297,7 +316,10 @@ class Simulation:
             self.pm.hook.siku_finished(simulation=self)
 
     def _keyed_components(self) -> dict[str, Component]:
-        return {f"{c.kind}{k}_{c.name}": c for k, c in enumerate(self.components())}
+        out = {f"{c.kind}{k}_{c.name}": c for k, c in enumerate(self.components())}
+        if self.contacts is not None:
+            out["contacts"] = self.contacts  # type: ignore[assignment]
+        return out
 
     def history_arrays(self) -> dict[str, dict[str, np.ndarray]]:
         """Per-component history (joint damage, contact lists...) needed to restart exactly.

@@ -1,0 +1,221 @@
+"""The engine's contact phase: broad phase, narrow phase, joints and the chosen law."""
+from __future__ import annotations
+
+import math
+import warnings
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .contacts import collision_loop, find_shared_edges, joint_loop
+from .errors import SceneError
+from .geometry.quat import centers
+from .interfaces import BroadPhase, ContactLaw
+from .state import FREE
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .simulation import Simulation
+
+
+class ContactModel:
+    """Contacts of one run: joints (SoA), candidate pairs (reused within a skin), the law."""
+
+    kind = "contacts"
+
+    def __init__(self, sim: "Simulation"):
+        cfg = sim.scene.cfg.contact
+        assert cfg is not None
+        self.cfg = cfg
+        self.sim = sim
+        self.law: ContactLaw = sim._component("contact_law", cfg.law, cfg.params, "contact")
+        self.broad: BroadPhase = sim._component("broad_phase", cfg.broad_phase, {}, "contact")
+        self.name = self.law.name
+        st = sim.state
+        R = sim.radius
+        mats = list(sim.scene.cfg.materials.values())
+        self.E = np.array([mats[k].youngs_modulus for k in st.material], dtype=float)
+        self.nu = np.array([mats[k].poisson_ratio for k in st.material], dtype=float)
+        self.minv = np.where(st.flags == FREE, 1.0 / st.m, 0.0)
+        self.skip = st.flags != FREE  # static and steady elements never interact with each other
+        skin = cfg.skin if cfg.skin is not None else 0.1 * float(np.mean(st.radius))
+        self.skin = skin / R
+        self.radii = st.radius / R + 0.5 * self.skin
+        self.pairs = np.zeros((0, 2), dtype=np.int64)
+        self._ref_centers: np.ndarray | None = None
+        self.rebuilds = 0
+        self.n_overlap = 0
+        self.n_broken_total = 0
+        self.rejected: list[tuple[int, int]] = []
+        self._build_joints()
+
+    # ------------------------------------------------------------------ joints
+    def _build_joints(self) -> None:
+        st, R, cfg = self.sim.state, self.sim.radius, self.cfg
+        nh = len(self.law.history_names)
+        if not self.law.uses_joints or cfg.joints == "none":
+            if cfg.joints == "pairs":
+                raise SceneError(
+                    f"{self.sim.scene.where('contact')}: law '{self.law.name}' has no joints; "
+                    "remove 'pairs' or choose a joint law (distributed_spring, mohr_coulomb)"
+                )
+            self._set_joints(np.zeros((0, 2), np.int64), np.zeros((0, 2, 2)), np.zeros((0, 2, 2)),
+                             nh)
+            return
+        if cfg.joints == "pairs":
+            cand = np.array([sorted(p) for p in cfg.pairs], dtype=np.int64)
+            bad = cand[(cand[:, 0] < 0) | (cand[:, 1] >= st.n) | (cand[:, 0] == cand[:, 1])]
+            if len(bad):
+                raise SceneError(
+                    f"{self.sim.scene.where('contact')}: pair {bad[0].tolist()} does not name two "
+                    f"distinct elements among 0..{st.n - 1}"
+                )
+            tol = cfg.tolerance if cfg.tolerance is not None else 0.01
+        else:
+            c = centers(st.q)
+            cand = self.broad.pairs(c, st.radius / R * 1.1, np.zeros(st.n, dtype=bool))
+            tol = cfg.tolerance if cfg.tolerance is not None else 0.10
+        found, ends_i, ends_j = find_shared_edges(st.q, st.vert_offsets, st.verts, cand, tol, R)
+        # static elements never need joints among themselves
+        both_fixed = self.skip[cand[:, 0]] & self.skip[cand[:, 1]] if len(cand) else found
+        keep = found & ~both_fixed
+        if cfg.joints == "pairs" and not found.all():
+            self.rejected = [tuple(map(int, p)) for p in cand[~found]]
+            warnings.warn(
+                f"{self.sim.scene.where('contact')}: {len(self.rejected)} listed pair(s) share no "
+                f"edge within tolerance {tol:g} and were not jointed: "
+                + ", ".join(str(list(p)) for p in self.rejected[:10])
+                + (" ..." if len(self.rejected) > 10 else ""),
+                stacklevel=2,
+            )
+        self._set_joints(cand[keep], ends_i[keep], ends_j[keep], nh)
+
+    def _set_joints(self, pairs, ends_i, ends_j, nh) -> None:
+        st, R = self.sim.state, self.sim.radius
+        self.ji = np.ascontiguousarray(pairs[:, 0])
+        self.jj = np.ascontiguousarray(pairs[:, 1])
+        self.ends_i = np.ascontiguousarray(ends_i)
+        self.ends_j = np.ascontiguousarray(ends_j)
+        self.width = np.hypot(*(ends_i[:, 1] - ends_i[:, 0]).T) if len(pairs) else np.zeros(0)
+        c = centers(st.q)
+        if len(pairs):
+            ang = np.arctan2(np.linalg.norm(np.cross(c[self.ji], c[self.jj]), axis=1),
+                             np.sum(c[self.ji] * c[self.jj], axis=1))
+            self.L0 = R * ang
+        else:
+            self.L0 = np.zeros(0)
+        self.intact = np.ones(len(pairs), dtype=np.bool_)
+        self.hist = np.zeros((len(pairs), max(nh, 1)))
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.ji)
+
+    @property
+    def n_intact(self) -> int:
+        return int(self.intact.sum())
+
+    # ------------------------------------------------------------------ step
+    def _candidates(self, q) -> np.ndarray:
+        c = centers(q)
+        if self._ref_centers is not None:
+            moved = np.max(np.sum((c - self._ref_centers) ** 2, axis=1))
+            # rebuild when some element moved more than half the skin (chord ~ angle here)
+            if moved <= (0.5 * self.skin) ** 2:
+                return self.pairs
+        self.pairs = self.broad.pairs(c, self.radii, self.skip)
+        self._ref_centers = c
+        self.rebuilds += 1
+        return self.pairs
+
+    def add(self, t, q, V, w, F, T, commit: bool) -> None:
+        """Add contact forces for state ``q, V, w``; joint history changes only if ``commit``."""
+        st, sim = self.sim.state, self.sim
+        law = self.law
+        if self.n_joints and law.uses_joints:
+            broke = joint_loop(
+                law.joint_evaluator, self._jpars, q, V, w, self.minv, st.thickness, self.E,
+                self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
+                self.intact, self.hist, sim.radius, sim.dt, commit, F, T,
+            )
+            if commit:
+                self.n_broken_total += broke
+        pairs = self._candidates(q)
+        if len(pairs):
+            n = collision_loop(
+                law.collision_evaluator, self._cpars, q, V, w, self.minv, st.thickness, self.E,
+                st.area, st.vert_offsets, st.verts, pairs, sim.radius, F, T,
+            )
+            if commit:
+                self.n_overlap = n
+
+    def setup(self) -> None:
+        self._cpars = np.ascontiguousarray(self.law.collision_parameters(self.sim), dtype=float)
+        self._jpars = np.ascontiguousarray(self.law.joint_parameters(self.sim), dtype=float)
+
+    # ------------------------------------------------------------------ stability, history
+    def stiffness_bound(self) -> tuple[float, int]:
+        """Largest ``omega`` [rad/s] by a Gershgorin bound over each element's contacts.
+
+        Per element: joints contribute ``K w`` (translation) and ``K w (r² + w²/12)`` (rotation),
+        edges without a joint a collision budget of ``h E`` each. ``omega² <= 2 k_sum / m`` and
+        ``2 k_rot / I``. Returns ``(omega_max, element)``.
+        """
+        st, R = self.sim.state, self.sim.radius
+        n = st.n
+        ktr = np.zeros(n)
+        krot = np.zeros(n)
+        njoint = np.zeros(n)
+        if self.n_joints and self.law.uses_joints:
+            mid_i = 0.5 * (self.ends_i[:, 0] + self.ends_i[:, 1])
+            mid_j = 0.5 * (self.ends_j[:, 0] + self.ends_j[:, 1])
+            ri = np.hypot(*mid_i.T)
+            rj = np.hypot(*mid_j.T)
+            hi, hj = st.thickness[self.ji], st.thickness[self.jj]
+            Ei, Ej = self.E[self.ji], self.E[self.jj]
+            K = hi * Ei * hj * Ej / (hi * Ei * rj + hj * Ej * ri)
+            k = K * self.width * self.law.stiffness_factor()
+            np.add.at(ktr, self.ji, k)
+            np.add.at(ktr, self.jj, k)
+            np.add.at(krot, self.ji, k * (ri**2 + self.width**2 / 12))
+            np.add.at(krot, self.jj, k * (rj**2 + self.width**2 / 12))
+            np.add.at(njoint, self.ji, 1)
+            np.add.at(njoint, self.jj, 1)
+        nedge = np.diff(st.vert_offsets)
+        free_edges = np.maximum(nedge - njoint, 0)
+        kc = free_edges * st.thickness * self.E
+        ktr += kc
+        krot += kc * st.radius**2
+        free = st.flags == FREE
+        if not free.any():
+            return 0.0, -1
+        om2 = np.where(free, np.maximum(2 * ktr / st.m, 2 * krot / st.I), 0.0)
+        i = int(np.argmax(om2))
+        return math.sqrt(om2[i]), i
+
+    def stability_limit(self, sim) -> tuple[float, str] | None:
+        om, i = self.stiffness_bound()
+        if om <= 0:
+            return None
+        return 2.0 / om, f"stiffest contact of element {i} under law '{self.law.name}'"
+
+    def history(self) -> dict[str, np.ndarray]:
+        return {"intact": self.intact.astype(np.int8), "hist": self.hist.copy(),
+                "n_broken_total": np.array(self.n_broken_total)}
+
+    def set_history(self, d: dict[str, np.ndarray]) -> None:
+        if d["intact"].shape != self.intact.shape:
+            raise SceneError(
+                f"{self.sim.scene.label}: restart holds {d['intact'].shape[0]} joints but the scene "
+                f"builds {self.intact.shape[0]}"
+            )
+        self.intact[:] = d["intact"].astype(bool)
+        self.hist[...] = d["hist"]
+        self.n_broken_total = int(d["n_broken_total"])
+
+    def describe(self) -> dict:
+        return {"name": self.law.name, "params": dict(self.law.p), "joints": self.n_joints,
+                "broad_phase": self.broad.name}
+
+    def diagnostics(self) -> dict[str, float]:
+        return {"joints_intact": self.n_intact, "joints_broken": self.n_joints - self.n_intact,
+                "contacts_overlapping": self.n_overlap}

@@ -1,0 +1,1 @@
+"""Broad-phase plugins: contact candidate pairs from bounding circles on the sphere."""

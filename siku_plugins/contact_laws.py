@@ -1,0 +1,252 @@
+"""Built-in contact laws (rheologies): collision, distributed_spring, mohr_coulomb.
+
+PHYSICS.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's loops in
+:mod:`siku_core.contacts` call it (layouts of ``g`` and sign conventions are documented there:
+forces and couples returned act on element ``j``, in ``i``'s frame). Every law collides
+overlapping elements with the collision evaluator; joint laws add their joint evaluator for
+intact frozen joints, and a broken joint continues as a collision contact.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from siku_core import Param, hookimpl
+from siku_core.contacts import (
+    G_AREA, G_AREA_I, G_AREA_J, G_K, G_MEFF, G_NX, G_NY, G_VX, G_VY, G_WIDTH,
+    J_AX, J_AY, J_BX, J_BY, J_EI, J_EJ, J_HI, J_HJ, J_K, J_L0, J_MEFF, J_NU, J_S1X, J_S1Y,
+    J_S2X, J_S2Y, J_VAX, J_VAY, J_VBX, J_VBY, J_W,
+)
+from siku_core.interfaces import ContactLaw
+
+# collision parameter vector
+C_SQRT, C_ZETA, C_ETA, C_MU = range(4)
+
+
+@njit(cache=True)
+def collision_evaluator(g, pars, out):
+    """Eqs. 9–11: elastic ``K A n`` (or ``K sqrt(A) sqrt(A_min)``), damping, Coulomb friction.
+
+    Damping: a share ``zeta`` of critical for the normal stiffness per penetration depth
+    (``K width`` for the linear law), plus the eq. 11 viscosity ``-A eta v_rel``. No cut-off of
+    attractive damping forces, so a linear face contact has restitution
+    ``exp(-zeta pi / sqrt(1 - zeta²))``. Friction: tangential viscous force capped at
+    ``mu |F_n|``.
+    """
+    A = g[G_AREA]
+    nx, ny = g[G_NX], g[G_NY]
+    K = g[G_K]
+    L = g[G_WIDTH]
+    vx, vy = g[G_VX], g[G_VY]
+    if pars[C_SQRT] != 0.0:
+        ac = math.sqrt(min(g[G_AREA_I], g[G_AREA_J]))
+        fel = K * math.sqrt(A) * ac
+        k = 0.5 * K * ac * L / max(math.sqrt(A), 1e-300)
+    else:
+        fel = K * A
+        k = K * L
+    c = 2.0 * pars[C_ZETA] * math.sqrt(k * g[G_MEFF])
+    vn = vx * nx + vy * ny
+    fn = fel - c * vn
+    fx = fn * nx - pars[C_ETA] * A * vx
+    fy = fn * ny - pars[C_ETA] * A * vy
+    if pars[C_MU] > 0.0:
+        tx, ty = vx - vn * nx, vy - vn * ny
+        vt = math.hypot(tx, ty)
+        if vt > 0.0:
+            ft = min(pars[C_MU] * abs(fn), c * vt)
+            fx -= ft * tx / vt
+            fy -= ft * ty / vt
+    out[0] = fx
+    out[1] = fy
+    out[2] = 0.0
+
+
+class Collision(ContactLaw):
+    """Independent elements: elastic repulsion by overlap area (eqs. 9–11), no joints."""
+
+    name = "collision"
+    params = {
+        "sqrt_area": Param(False, "", "Matuttis-style force ~ sqrt(overlap area)", type=bool),
+        "damping_ratio": Param(0.1, "1", "share of critical damping of the normal contact",
+                               min=0, max=0.99),
+        "viscosity": Param(0.0, "Pa s/m", "eq. 11 viscosity eta of overlapping areas", min=0),
+        "friction": Param(0.0, "1", "Coulomb friction coefficient mu", min=0),
+    }
+    collision_evaluator = collision_evaluator
+
+    def collision_parameters(self, sim):
+        p = self.p
+        return np.array([float(p["sqrt_area"]), p["damping_ratio"], p["viscosity"],
+                         p["friction"]])
+
+
+# distributed spring parameter vector
+S_EPS, S_ZETA, S_ONSET = range(3)
+
+
+@njit(cache=True)
+def spring_evaluator(g, pars, hist, out):
+    """Eqs. 12–13 (corrected): force ``K w (s1 + s2)/2``, couple ``K w (w × (s2 - s1))/12``.
+
+    ``hist[0]`` is the largest strain ``max(|s1|, |s2|)/L0`` reached. The joint breaks when it
+    exceeds ``tensile_strain``; between ``damage_onset × tensile_strain`` and the threshold the
+    stiffness falls linearly to zero (damage depends on the strain history only, never on dt).
+    Damping: a share ``zeta`` of critical for ``K w`` on the reduced mass, applied to the
+    relative velocity distribution along the joint like the displacement.
+    """
+    s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
+    strain = max(math.hypot(s1x, s1y), math.hypot(s2x, s2y)) / g[J_L0]
+    if strain > hist[0]:
+        hist[0] = strain
+    eps_t = pars[S_EPS]
+    if hist[0] > eps_t:
+        out[3] = 1.0
+        return
+    onset = pars[S_ONSET] * eps_t
+    dmg = 0.0
+    if hist[0] > onset and eps_t > onset:
+        dmg = (hist[0] - onset) / (eps_t - onset)
+    K = g[J_K] * (1.0 - dmg)
+    w = g[J_W]
+    wx, wy = g[J_BX] - g[J_AX], g[J_BY] - g[J_AY]
+    c = 2.0 * pars[S_ZETA] * math.sqrt(g[J_K] * w * g[J_MEFF])
+    vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
+    # force on i pulls i's copy towards j's copy; j gets the opposite
+    fx = K * w * 0.5 * (s1x + s2x) + c * 0.5 * (vax + vbx)
+    fy = K * w * 0.5 * (s1y + s2y) + c * 0.5 * (vay + vby)
+    ci = (K * w * (wx * (s2y - s1y) - wy * (s2x - s1x))
+          + c * (wx * (vby - vay) - wy * (vbx - vax))) / 12.0
+    out[0] = -fx
+    out[1] = -fy
+    out[2] = -ci
+
+
+class DistributedSpring(Collision):
+    """Coalesced elements: a distributed spring along each frozen joint, brittle failure."""
+
+    name = "distributed_spring"
+    uses_joints = True
+    history_names = ("max_strain",)
+    params = {
+        **Collision.params,
+        "tensile_strain": Param(2e-4, "1", "joint breaks above this strain max|s|/L0", min=0),
+        "damage_onset": Param(1.0, "1", "share of tensile_strain where softening starts "
+                              "(1: brittle)", min=0, max=1),
+        "joint_damping_ratio": Param(0.1, "1", "share of critical damping of a joint", min=0,
+                                     max=0.99),
+    }
+    joint_evaluator = spring_evaluator
+
+    def joint_parameters(self, sim):
+        p = self.p
+        return np.array([p["tensile_strain"], p["joint_damping_ratio"], p["damage_onset"]])
+
+
+# Mohr–Coulomb parameter vector
+M_SIGC, M_TRATIO, M_TANPHI, M_NSEG, M_SHARE, M_ZETA = range(6)
+
+
+@njit(cache=True)
+def mohr_coulomb_evaluator(g, pars, hist, out):
+    """Eqs. 14–16 with Table 1: segment-wise stresses and Mohr–Coulomb failure with tension cut-off.
+
+    The joint (ends ``a``, ``b`` in ``i``'s frame, unit tangent ``t = (b - a)/w``, outward
+    normal of ``i`` ``n = (t_y, -t_x)``) is split into ``n_segments``; at each segment centre
+    the displacement ``d = s1 + zeta (s2 - s1)`` gives ``sigma_n = E d·n / L0`` (tension
+    positive) and ``sigma_s = G d·t / L0``, ``G = E/(2(1 + nu))``, with ``E`` and ``h`` the pair's
+    means. A segment fails for good when ``sigma_n > sigma_t``, ``sigma_n < -sigma_c`` or
+    ``|sigma_s| > tan(phi)(sigma_t - sigma_n)``; ``hist[k] = 1`` marks it. Intact segments pull
+    ``i`` with ``h (sigma_n n + sigma_s t) w / n_segments`` at their centres. The joint breaks
+    when the failed share reaches ``break_share``.
+    """
+    nseg = int(pars[M_NSEG])
+    h = 0.5 * (g[J_HI] + g[J_HJ])
+    E = 0.5 * (g[J_EI] + g[J_EJ])
+    G = E / (2.0 * (1.0 + g[J_NU]))
+    sigc = pars[M_SIGC]
+    if sigc <= 0.0:
+        sigc = 1285e3 * min(g[J_HI], g[J_HJ]) ** (2.0 / 3.0)
+    sigt = pars[M_TRATIO] * sigc
+    tanphi = pars[M_TANPHI]
+    ax, ay, bx, by = g[J_AX], g[J_AY], g[J_BX], g[J_BY]
+    w = g[J_W]
+    tx, ty = (bx - ax) / w, (by - ay) / w
+    nx, ny = ty, -tx
+    mx, my = 0.5 * (ax + bx), 0.5 * (ay + by)
+    s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
+    L0 = g[J_L0]
+    seg = w / nseg
+    fx = 0.0
+    fy = 0.0
+    ci = 0.0
+    nfailed = 0
+    for k in range(nseg):
+        z = (k + 0.5) / nseg
+        dx = s1x + z * (s2x - s1x)
+        dy = s1y + z * (s2y - s1y)
+        sn = E * (dx * nx + dy * ny) / L0
+        ss = G * (dx * tx + dy * ty) / L0
+        if hist[k] == 0.0:
+            if sn > sigt or sn < -sigc or abs(ss) > tanphi * (sigt - sn):
+                hist[k] = 1.0
+        if hist[k] != 0.0:
+            nfailed += 1
+            continue
+        sfx = h * seg * (sn * nx + ss * tx)
+        sfy = h * seg * (sn * ny + ss * ty)
+        px = ax + z * (bx - ax) - mx
+        py = ay + z * (by - ay) - my
+        fx += sfx
+        fy += sfy
+        ci += px * sfy - py * sfx
+    if nfailed >= pars[M_SHARE] * nseg - 1e-9:
+        out[3] = 1.0
+        return
+    # damping: share of critical for the normal stiffness h E w / L0 on the reduced mass
+    c = 2.0 * pars[M_ZETA] * math.sqrt(h * E * w / L0 * g[J_MEFF]) * (nseg - nfailed) / nseg
+    vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
+    fx += c * 0.5 * (vax + vbx)
+    fy += c * 0.5 * (vay + vby)
+    wx, wy = bx - ax, by - ay
+    ci += c * (wx * (vby - vay) - wy * (vbx - vax)) / 12.0
+    out[0] = -fx
+    out[1] = -fy
+    out[2] = -ci
+
+
+class MohrCoulomb(Collision):
+    """Modified Hopkins–Frankenstein / Wilchinsky–Feltham–Hopkins joints (eqs. 14–16, Table 1)."""
+
+    name = "mohr_coulomb"
+    uses_joints = True
+    params = {
+        **Collision.params,
+        "sigma_c": Param(0.0, "Pa", "compressive strength; 0: 1285 h_min^(2/3) kPa (Table 1)",
+                         min=0),
+        "tensile_ratio": Param(0.1, "1", "sigma_t / sigma_c (Table 1)", min=0, max=1),
+        "friction_angle": Param(15.0, "deg", "Mohr–Coulomb friction angle phi", min=0, max=53),
+        "n_segments": Param(10, "1", "segments per joint", type=int, min=1, max=64),
+        "break_share": Param(1.0, "1", "failed share of segments that breaks the joint",
+                             min=0.01, max=1),
+        "joint_damping_ratio": Param(0.1, "1", "share of critical damping of a joint", min=0,
+                                     max=0.99),
+    }
+    joint_evaluator = mohr_coulomb_evaluator
+
+    def __init__(self, params=None):
+        super().__init__(params)
+        self.history_names = tuple(f"failed_{k}" for k in range(int(self.p["n_segments"])))
+
+    def joint_parameters(self, sim):
+        p = self.p
+        return np.array([p["sigma_c"], p["tensile_ratio"],
+                         math.tan(math.radians(p["friction_angle"])), p["n_segments"],
+                         p["break_share"], p["joint_damping_ratio"]])
+
+
+@hookimpl
+def siku_register_contact_laws():
+    return [Collision, DistributedSpring, MohrCoulomb]
