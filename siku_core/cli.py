@@ -15,6 +15,10 @@ from . import __version__
 from .errors import SikuError
 
 DEFAULT_SCENE = "default_scene.toml"
+_KIND_TITLES = {
+    "integrator": "integrators", "forcing": "forcing sources", "field": "velocity fields",
+    "broad_phase": "broad phases", "contact_law": "contact laws", "writer": "writers",
+}
 
 
 def default_scene_path() -> Path:
@@ -46,7 +50,7 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
     for kind, table in reg.entries.items():
         if not table:
             continue
-        print(f"{kind.replace('_', ' ')}s:")
+        print(f"{_KIND_TITLES.get(kind, kind)}:")
         for name in sorted(table):
             e = table[name]
             print(f"  {name}  ({e.package} {e.version}) - {e.cls.summary()}")

@@ -231,6 +231,8 @@ def sweep_and_prune_pairs(centers, radii, skin, skip, axis=0):
             if var > best:
                 best = var
                 ax = d
+    if ax > 2:
+        raise ValueError("sweep_and_prune_pairs: axis must be 0, 1, 2 or -1")
     lo = np.empty(n)
     hi = np.empty(n)
     for i in range(n):
