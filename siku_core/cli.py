@@ -62,8 +62,21 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
     return 0
 
 
+class _UsageError(Exception):
+    """Bad command-line arguments (reported on one line like every other input error)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # type: ignore[override]
+        raise _UsageError(f"{message} (see '{self.prog} --help')")
+
+
+def _warn_one_line(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"siku: warning: {' | '.join(str(message).splitlines())}", file=sys.stderr)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="siku", description="Discrete-element sea-ice model.")
+    ap = _Parser(prog="siku", description="Discrete-element sea-ice model.")
     ap.add_argument("--version", action="version", version=f"siku {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene (no argument: the shipped default scene)")
@@ -79,10 +92,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     ap = build_parser()
-    args = ap.parse_args(argv)
+    try:
+        args = ap.parse_args(argv)
+    except _UsageError as exc:
+        print(f"siku: error: {exc}", file=sys.stderr)
+        return 2
+    except SystemExit as exc:  # --help, --version
+        return int(exc.code or 0)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
+            warnings.showwarning = _warn_one_line
             return args.func(args)
     except SikuError as exc:
         msg = " | ".join(str(exc).splitlines())

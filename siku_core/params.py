@@ -48,7 +48,7 @@ class Param:
             return f"{tname} >= {self.min:g} {self.unit}"
         if self.max is not None:
             return f"{tname} <= {self.max:g} {self.unit}"
-        return f"{tname} ({self.unit})"
+        return f"{tname} ({self.unit})" if self.unit else tname
 
 
 _STRICT = ConfigDict(extra="forbid", strict=True)

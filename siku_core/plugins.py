@@ -18,6 +18,7 @@ import importlib
 import importlib.metadata as md
 import inspect
 import os
+import sys
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
@@ -181,19 +182,24 @@ def _check_component(kind: str, cls: Any, package: str) -> None:
             )
 
 
-def _dist_of(module_name: str) -> tuple[str, str]:
+#: the import packages of the siku distribution (a third-party "siku_tides" is not one of them)
+_OWN_PACKAGES = frozenset({"siku_core", "siku_plugins", "siku_forcing", "siku_io"})
+
+
+def _dist_of(module_name: str, top_map: dict[str, list[str]] | None = None) -> tuple[str, str]:
     top = module_name.split(".")[0]
     try:
-        dists = md.packages_distributions().get(top, [])
+        dists = (md.packages_distributions() if top_map is None else top_map).get(top, [])
         if dists:
             return dists[0], md.version(dists[0])
     except Exception:  # pragma: no cover - metadata quirks
         pass
-    if top.startswith("siku"):
+    if top in _OWN_PACKAGES:  # siku itself, e.g. run from a source tree without metadata
         from . import __version__
 
         return "siku", __version__
-    return top, "unknown"
+    # not installed (registered with register_module): the package's own __version__, if any
+    return top, str(getattr(sys.modules.get(top), "__version__", "unknown"))
 
 
 def make_plugin_manager(autoload: bool | None = None, extra: tuple[Any, ...] = ()) -> tuple[
@@ -228,11 +234,15 @@ def make_plugin_manager(autoload: bool | None = None, extra: tuple[Any, ...] = (
         pm.check_pending()
     except pluggy.PluginValidationError as exc:
         raise PluginError(f"plugin hook without a specification: {exc}") from None
+    try:  # scanning every installed distribution is slow: once per build
+        top_map = md.packages_distributions()
+    except Exception:  # pragma: no cover - metadata quirks
+        top_map = {}
     for kind, hook in _REGISTER_HOOKS.items():
         impls = getattr(pm.hook, hook).get_hookimpls()
         for impl in impls:
             plugin_mod = getattr(impl.plugin, "__name__", impl.plugin_name)
-            package, version = _dist_of(plugin_mod)
+            package, version = _dist_of(plugin_mod, top_map)
             reg.plugins[package] = version
             for cls in impl.function() or []:
                 reg.add(kind, cls, package, version)
@@ -261,13 +271,15 @@ def register_module(module: Any) -> Registry:
 
     Equivalent to installing a package whose ``siku`` entry point names ``module``.
     """
-    if module not in _EXTRA:
+    added = module not in _EXTRA
+    if added:
         _EXTRA.append(module)
     try:
         return get_registry(refresh=True)
     except Exception:
-        _EXTRA.remove(module)  # a module that fails to register must not break later runs
-        get_registry(refresh=True)
+        if added:  # a module that fails to register must not break later runs
+            _EXTRA.remove(module)
+            get_registry(refresh=True)
         raise
 
 

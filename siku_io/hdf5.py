@@ -66,7 +66,9 @@ class HDF5Writer(Writer):
         import h5py
 
         path = Path(self.path)
-        append = sim.restarted_from is not None and path.exists() and getattr(
+        # a second run() of the same simulation reopens the file this writer created
+        reopen = path.exists() and getattr(self, "_created", None) == path.resolve()
+        append = reopen or sim.restarted_from is not None and path.exists() and getattr(
             sim, "restart_path", None
         ) is not None and Path(sim.restart_path).resolve() == path.resolve()
         try:
@@ -78,8 +80,9 @@ class HDF5Writer(Writer):
         self.comp = None if self.p["compression"] == "none" else self.p["compression"]
         f = self.f
         if append:
-            self._truncate(sim.restarted_from)
+            self._truncate(sim.step_index if reopen else sim.restarted_from)
             return
+        self._created = path.resolve()
         f.attrs["siku_version"] = __version__
         f.attrs["title"] = sim.scene.cfg.title
         f.attrs["scene_file"] = str(sim.scene.path or "")

@@ -1,0 +1,20 @@
+"""Helpers for testing siku and its plugins.
+
+* :mod:`siku_core.testing.scenes`: build small scenes from Python (:func:`scene_text`,
+  :func:`make_scene`, :func:`square`).
+* :mod:`siku_core.testing.fixtures`: a pytest plugin (loaded through the ``pytest11`` entry point
+  of the ``siku`` distribution) with the fixtures ``siku_scene_factory``,
+  ``siku_simulation_factory`` and ``siku_register``.
+* :mod:`siku_core.testing.conformance`: the forcing-source conformance suite, as plain
+  ``check_*`` functions and as the test class ``TestForcingSourceConformance``.
+* :mod:`siku_core.testing.dists`: :func:`write_dist_info` fakes an installed plugin package, to
+  test the entry-point path without ``pip install``.
+
+Importing this package loads neither h5py, netCDF4, xarray nor any plugin.
+"""
+from __future__ import annotations
+
+from .dists import write_dist_info
+from .scenes import make_scene, scene_text, square, toml_value
+
+__all__ = ["make_scene", "scene_text", "square", "toml_value", "write_dist_info"]

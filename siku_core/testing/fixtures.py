@@ -1,0 +1,123 @@
+"""pytest plugin for siku users and plugin authors.
+
+Loaded automatically through the ``pytest11`` entry point of the ``siku`` distribution, so
+every test suite in an environment where siku is installed has these fixtures:
+
+``siku_scene_factory``
+    ``factory(elements=..., forcing=..., ..., file=False) -> Scene``: the arguments of
+    :func:`siku_core.testing.scene_text`; with ``file=True`` (or a file name) the scene is written
+    under ``tmp_path`` and loaded from there, so error messages name a real file.
+``siku_simulation_factory``
+    ``factory(scene=None, **scene_kwargs) -> Simulation`` with ``out=False, progress=False``;
+    ``scene`` may be a Scene, a path, TOML text, or ``None`` to build one from ``scene_kwargs``.
+``siku_register``
+    ``register(module)``: registers a plugin module (as an installed package would) for the
+    duration of the test; the registry is rebuilt without it afterwards.
+``siku_fake_install``
+    ``install(name, version, entry_points, modules=..., paths=...) -> Registry``: makes a plugin
+    package look installed (a ``.dist-info`` folder on ``sys.path``, see
+    :func:`siku_core.testing.write_dist_info`) and rebuilds the registry, so the real
+    entry-point path is exercised without ``pip``; everything is undone after the test.
+"""
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from .dists import write_dist_info
+from .scenes import scene_text
+
+
+@pytest.fixture
+def siku_scene_factory(tmp_path: Path) -> Callable[..., Any]:
+    """Build small scenes (square elements, given forcing) from Python."""
+    from ..scene import load_scene, scene_from_text
+
+    def factory(*args: Any, file: bool | str = False, **kwargs: Any):
+        text = scene_text(*args, **kwargs)
+        if file:
+            path = tmp_path / (file if isinstance(file, str) else "scene.toml")
+            path.write_text(text, encoding="utf-8")
+            return load_scene(path)
+        return scene_from_text(text, "<test scene>")
+
+    return factory
+
+
+@pytest.fixture
+def siku_simulation_factory(siku_scene_factory: Callable[..., Any]) -> Callable[..., Any]:
+    """Build a :class:`~siku_core.simulation.Simulation` that writes nothing and shows no bar."""
+    from ..scene import Scene, load_scene, scene_from_text
+    from ..simulation import Simulation
+
+    def factory(scene: Any = None, **kwargs: Any):
+        sim_kw = {k: kwargs.pop(k) for k in ("restart", "registry") if k in kwargs}
+        if scene is None:
+            scene = siku_scene_factory(**kwargs)
+        elif isinstance(scene, str) and "\n" in scene:
+            scene = scene_from_text(scene, "<test scene>")
+        elif not isinstance(scene, Scene):
+            scene = load_scene(scene)
+        return Simulation(scene, out=False, progress=False, **sim_kw)
+
+    return factory
+
+
+@pytest.fixture
+def siku_register() -> Iterator[Callable[[Any], Any]]:
+    """Register plugin modules for one test; the registry is rebuilt without them afterwards."""
+    from ..plugins import register_module, unregister_module
+
+    added: list[Any] = []
+
+    def register(module: Any):
+        added.append(module)
+        return register_module(module)
+
+    yield register
+    for mod in reversed(added):
+        unregister_module(mod)
+
+
+@pytest.fixture
+def siku_fake_install(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Callable]:
+    """Install plugin packages for one test, without pip, through real entry points."""
+    from ..plugins import get_registry
+
+    tops: list[str] = []
+    count = [0]
+
+    def install(
+        name: str,
+        version: str,
+        entry_points: Mapping[str, str],
+        *,
+        modules: Mapping[str, str] | None = None,
+        paths: Iterable[str | Path] = (),
+        top_level: Iterable[str] | None = None,
+    ):
+        """``modules``: ``{module name: source}`` written next to the ``.dist-info``;
+        ``paths``: folders holding the package (also put on ``sys.path``)."""
+        count[0] += 1
+        site = tmp_path / f"site{count[0]}"  # a fresh folder: metadata caches key on folders
+        site.mkdir()
+        for mod, source in (modules or {}).items():
+            (site / f"{mod}.py").write_text(source, encoding="utf-8")
+        top = list(top_level) if top_level is not None else sorted(
+            {v.split(":")[0].split(".")[0] for v in entry_points.values()})
+        tops.extend(top)
+        write_dist_info(site, name, version, entry_points, top)
+        for p in (*paths, site):
+            monkeypatch.syspath_prepend(str(p))
+        return get_registry(refresh=True)
+
+    yield install
+    monkeypatch.undo()
+    for mod in list(sys.modules):
+        if mod.split(".")[0] in tops:
+            del sys.modules[mod]
+    get_registry(refresh=True)

@@ -1,0 +1,306 @@
+"""The docs agree with the code: the scene reference covers every key of the scene models (with
+the model's type, default, unit and allowed range), and every TOML example parses.
+
+``python tests/test_docs.py`` prints the reference tables generated from the models, to paste
+into ``docs/reference/scene.md`` when a key is added (then write the description column).
+"""
+from __future__ import annotations
+
+import re
+import tomllib
+import types
+import typing
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import pytest
+from pydantic import BaseModel
+from pydantic_core import PydanticUndefined
+
+from siku_core.scene import SceneCfg, scene_from_text
+from siku_core.testing import toml_value
+from siku_core.units import parse_duration
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+SCENE_MD = DOCS / "reference" / "scene.md"
+HEADER = "| key | type | default | unit | allowed | meaning |"
+
+
+# ---------------------------------------------------------------------------- generator
+def _is_model(a: Any) -> bool:
+    return isinstance(a, type) and issubclass(a, BaseModel)
+
+
+def _strip_annotated(ann: Any) -> tuple[Any, list]:
+    meta: list = []
+    while typing.get_origin(ann) is Annotated:
+        base, *m = typing.get_args(ann)
+        for x in m:
+            meta.extend(getattr(x, "metadata", [x]))
+            meta.append(x)
+        ann = base
+    return ann, meta
+
+
+def _non_none(ann: Any) -> list:
+    if typing.get_origin(ann) in (typing.Union, types.UnionType):
+        return [a for a in typing.get_args(ann) if a is not type(None)]
+    return [ann]
+
+
+def _is_duration(meta: list) -> bool:
+    return any(getattr(m, "func", None) is parse_duration for m in meta)
+
+
+def type_text(ann: Any, meta: list | None = None) -> str:
+    """The TOML type of an annotation (with the field's own metadata), in words."""
+    parts = []
+    for a in _non_none(ann):
+        a, m = _strip_annotated(a)
+        m = m + list(meta or [])
+        origin, args = typing.get_origin(a), typing.get_args(a)
+        lens = {type(x).__name__: getattr(x, "min_length", None) or getattr(x, "max_length", None)
+                for x in m if type(x).__name__ in ("MinLen", "MaxLen")}
+        if _is_duration(m):
+            parts.append("duration")
+        elif origin is Literal:
+            parts.append("string")
+        elif origin is list:
+            inner = _strip_annotated(args[0])[0]
+            if lens.get("MinLen") is not None and lens.get("MinLen") == lens.get("MaxLen"):
+                parts.append("[" + ", ".join([type_text(args[0])] * lens["MinLen"]) + "]")
+            elif _is_model(inner):
+                parts.append("array of tables")
+            else:
+                parts.append(f"list of {type_text(args[0])}")
+        elif origin is dict:
+            parts.append("tables" if _is_model(args[1]) else "table")
+        elif _is_model(a):
+            parts.append("table")
+        else:
+            parts.append({float: "float", int: "integer", str: "string", bool: "boolean"}.get(
+                a, getattr(a, "__name__", str(a))))
+    return " or ".join(parts)
+
+
+def field_type(info: Any) -> str:
+    return type_text(info.annotation, list(info.metadata))
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, BaseModel):
+        return {k: _plain(v) for k, v in value.model_dump(exclude_defaults=True).items()}
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
+
+
+def default_text(info: Any) -> str:
+    if info.default_factory is not None:
+        value = info.default_factory()
+    elif info.default is PydanticUndefined:
+        return "required"
+    else:
+        value = info.default
+    if value is None:
+        return "unset"
+    text = toml_value(_plain(value))
+    return text.replace("{  }", "{}")
+
+
+def _num(v: float) -> str:
+    return f"{v:g}"
+
+
+def allowed_text(info: Any) -> str:
+    found = list(info.metadata)
+    choices: list[str] = []
+    for a in _non_none(info.annotation):
+        a, meta = _strip_annotated(a)
+        found += meta
+        if typing.get_origin(a) is Literal:
+            choices += [f'"{c}"' for c in typing.get_args(a)]
+    if choices:
+        return "one of " + ", ".join(choices)
+    lo = hi = ""
+    min_items = None
+    for c in found:
+        name = type(c).__name__
+        if name == "Gt":
+            lo = f"{_num(c.gt)} <"
+        elif name == "Ge":
+            lo = f"{_num(c.ge)} ≤"
+        elif name == "Lt":
+            hi = f"< {_num(c.lt)}"
+        elif name == "Le":
+            hi = f"≤ {_num(c.le)}"
+        elif name == "MinLen" and not field_type(info).startswith("["):
+            min_items = c.min_length
+    if lo and hi:
+        return f"{lo} x {hi}"
+    if lo:  # "0 <" reads "> 0"
+        num, op = lo.rsplit(" ", 1)
+        return f"{'>' if op == '<' else '≥'} {num}"
+    if hi:
+        return hi
+    if min_items is not None:
+        return f"at least {min_items} items"
+    return "—"
+
+
+def unit_of(info: Any) -> str | None:
+    """The unit the model declares (``[unit]`` in the description; ``s`` for durations)."""
+    m = re.search(r"\[([^\]]+)\]", info.description or "")
+    if m:
+        return m.group(1)
+    if _is_duration(list(info.metadata)):
+        return "s"
+    for a in _non_none(info.annotation):
+        if _is_duration(_strip_annotated(a)[1]):
+            return "s"
+    return None
+
+
+def meaning_of(info: Any) -> str:
+    return re.sub(r"\s*\[[^\]]+\]", "", info.description or "").strip()
+
+
+def tables(model: type[BaseModel] = SceneCfg, path: str = "") -> list[tuple[str, type]]:
+    """``(TOML table name, model)`` for every model reachable from the scene."""
+    out = [(path or "top level", model)]
+    for key, info in model.model_fields.items():
+        for a in _non_none(info.annotation):
+            a, _ = _strip_annotated(a)
+            origin, args = typing.get_origin(a), typing.get_args(a)
+            dotted = f"{path.strip('[]')}.{key}" if path and path != "top level" else key
+            if _is_model(a):
+                out += tables(a, f"[{dotted}]")
+            elif origin is list and _is_model(_strip_annotated(args[0])[0]):
+                out += tables(_strip_annotated(args[0])[0], f"[[{dotted}]]")
+            elif origin is dict and _is_model(args[1]):
+                out += tables(args[1], f"[{dotted}.NAME]")
+    return out
+
+
+def rows(model: type[BaseModel]) -> dict[str, list[str]]:
+    """Generated cells ``[key, type, default, unit, allowed, meaning]`` per key."""
+    out = {}
+    for key, info in model.model_fields.items():
+        out[key] = [f"`{key}`", field_type(info), f"`{default_text(info)}`",
+                    unit_of(info) or "", allowed_text(info), meaning_of(info)]
+    return out
+
+
+def render() -> str:
+    parts = []
+    for name, model in tables():
+        parts.append(f"## `{name}`\n\n{HEADER}\n|---|---|---|---|---|---|")
+        for cells in rows(model).values():
+            parts[-1] += "\n| " + " | ".join(cells) + " |"
+    return "\n\n".join(parts)
+
+
+# ---------------------------------------------------------------------------- reference
+def sections(text: str) -> dict[str, str]:
+    """Markdown ``## `name` `` sections by name."""
+    out = {}
+    for m in re.finditer(r"^## `([^`]+)`\s*$(.*?)(?=^## |\Z)", text, re.MULTILINE | re.DOTALL):
+        out[m.group(1)] = m.group(2)
+    return out
+
+
+def doc_rows(section: str) -> dict[str, list[str]]:
+    out = {}
+    for line in section.splitlines():
+        m = re.match(r"^\|\s*`([A-Za-z_]\w*)`\s*\|", line)
+        if m:
+            out[m.group(1)] = [c.strip() for c in line.strip().strip("|").split("|")]
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference() -> dict[str, str]:
+    return sections(SCENE_MD.read_text(encoding="utf-8"))
+
+
+@pytest.mark.parametrize("table, model", tables(), ids=[t for t, _ in tables()])
+def test_scene_reference_documents_every_key_as_the_model_defines_it(reference, table, model):
+    assert table in reference, (
+        f"docs/reference/scene.md has no section '## `{table}`' for {model.__name__}; "
+        "run `python tests/test_docs.py` for the generated tables")
+    documented = doc_rows(reference[table])
+    for key, want in rows(model).items():
+        assert key in documented, f"scene.md [{table}]: key '{key}' is not documented"
+        got = documented[key]
+        assert len(got) == 6, f"scene.md [{table}] `{key}`: expected 6 cells, got {got}"
+        names = ("key", "type", "default", "unit", "allowed")
+        for i, name in enumerate(names):
+            if name == "unit" and not want[3]:
+                assert got[3], f"scene.md [{table}] `{key}`: give a unit (or '1', or '—')"
+                continue
+            assert got[i] == want[i], (
+                f"scene.md [{table}] `{key}`: {name} is {got[i]!r}, the model says {want[i]!r}")
+        assert got[5], f"scene.md [{table}] `{key}`: describe what it means"
+    extra = set(documented) - set(rows(model))
+    assert not extra, f"scene.md [{table}] documents keys the model does not have: {extra}"
+
+
+# ---------------------------------------------------------------------------- TOML examples
+BASE_TIME = '\n[time]\nduration = "1h"\ndt = 60\n'
+BASE_ELEMENTS = "\n[[elements.polygon]]\nvertices = [[0, 80], [1, 80], [1, 81], [0, 81]]\n"
+
+
+def toml_blocks() -> list[tuple[str, str]]:
+    out = []
+    for md in sorted(DOCS.rglob("*.md")):
+        text = md.read_text(encoding="utf-8")
+        for m in re.finditer(r"^```toml\s*\n(.*?)^```", text, re.MULTILINE | re.DOTALL):
+            line = text[: m.start()].count("\n") + 1
+            out.append((f"{md.relative_to(ROOT)}:{line}", m.group(1)))
+    return out
+
+
+def as_scene(block: str) -> str:
+    """A complete scene: a fragment gets a [time] table (and one element if it has none)."""
+    if re.search(r"^\[time\]", block, re.MULTILINE):
+        return block
+    text = block + BASE_TIME
+    if not re.search(r"^\[\[?elements", block, re.MULTILINE):
+        text += BASE_ELEMENTS
+    return text
+
+
+def test_docs_have_toml_examples():
+    where = {w.split(":")[0] for w, _ in toml_blocks()}
+    assert "docs/reference/scene.md" in where and "docs/howto/plugins.md" in where
+
+
+def test_plugin_guide_shows_the_example_scene_as_shipped():
+    scene = ROOT / "examples" / "siku_example_plugin" / "scenes" / "tilt_drift.toml"
+    guide = (DOCS / "howto" / "plugins.md").read_text(encoding="utf-8")
+    assert f"```toml\n{scene.read_text(encoding='utf-8')}```" in guide
+
+
+def test_plugin_guide_code_matches_the_example_package():
+    """The code excerpts of the guide are verbatim from the example package."""
+    pkg = ROOT / "examples" / "siku_example_plugin"
+    guide = (DOCS / "howto" / "plugins.md").read_text(encoding="utf-8")
+    sources = "\n".join(p.read_text(encoding="utf-8") for p in sorted(pkg.rglob("*.py")))
+    for m in re.finditer(r"^```python\s*\n(.*?)^```", guide, re.MULTILINE | re.DOTALL):
+        for chunk in re.split(r"^\s*\.\.\.\s*$", m.group(1), flags=re.MULTILINE):
+            chunk = chunk.strip("\n")
+            if chunk and "make_scene(" not in chunk:
+                assert chunk in sources, f"plugins.md excerpt not found in the example:\n{chunk}"
+
+
+@pytest.mark.parametrize("where, block", toml_blocks(), ids=[w for w, _ in toml_blocks()])
+def test_toml_examples_in_the_docs_parse(where, block):
+    if re.search(r"^\[(project|tool|build-system)\b", block, re.MULTILINE):  # pyproject.toml
+        tomllib.loads(block)
+        return
+    scene_from_text(as_scene(block), where)
+
+
+if __name__ == "__main__":  # print the generated reference tables
+    print(render())

@@ -1,0 +1,114 @@
+"""Restart: N steps + save + restart + N steps equals 2N steps in one run, bit for bit."""
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from siku_core.cli import main
+from siku_core.simulation import Simulation
+from siku_core.testing import scene_text
+
+N = 6
+DT = 60.0
+ELEMENTS = [
+    {"center": (-150.0, 75.0), "velocity": (0.10, 0.05), "spin": 1e-5},
+    {"center": (-147.5, 74.2), "velocity": (-0.05, 0.12)},
+    {"center": (-152.0, 76.0), "spin": -2e-5},
+]
+FORCING = [
+    {"source": "air_drag", "field": {"type": "cyclone", "params": {
+        "lat": 74.5, "lon": -149.0, "vmax": 18.0, "rmax": 150e3, "move_east": 6.0}}},
+    {"source": "water_drag"},
+    {"source": "coriolis"},
+]
+
+
+def write_scene(path, integrator: str, steps: int, out: str = "run.h5") -> str:
+    path.write_text(scene_text(ELEMENTS, forcing=FORCING, integrator=integrator, dt=DT,
+                               duration=steps * DT, output={"file": out, "every": N * DT}),
+                    encoding="utf-8")
+    return str(path)
+
+
+def final_state(path) -> dict[str, np.ndarray]:
+    with h5py.File(path, "r") as f:
+        r = f["restart"]
+        return {k: r[k][...] for k in ("q", "V", "w")} | {"step": int(r.attrs["step"])}
+
+
+def assert_bitwise_equal(a: dict, b: dict) -> None:
+    assert a["step"] == b["step"]
+    for k in ("q", "V", "w"):
+        assert np.array_equal(a[k], b[k]), f"{k} differs: max |diff| {np.abs(a[k] - b[k]).max()}"
+
+
+@pytest.mark.parametrize("integrator", ["siku2", "rk4"])
+def test_restart_continues_bit_for_bit_and_appends_to_the_same_file(tmp_path, integrator):
+    scene = write_scene(tmp_path / "scene.toml", integrator, 2 * N)
+    whole = Simulation(scene, out=tmp_path / "whole.h5", progress=False).run()
+    assert whole.step_index == 2 * N
+
+    part = tmp_path / "part.h5"
+    first = Simulation(scene, out=part, progress=False).run(steps=N)
+    assert first.step_index == N
+    with h5py.File(part, "r") as f:
+        steps_before = f["states/step"][:]
+        q_before = f["states/q"][:]
+        diag_before = f["diagnostics/step"][:]
+    assert steps_before.tolist() == [0, N]
+
+    second = Simulation(scene, out=part, restart=part, progress=False)
+    assert second.restarted_from == N and second.step_index == N
+    second.run()
+    for k in ("q", "V", "w"):
+        assert np.array_equal(getattr(second.state, k), getattr(whole.state, k)), k
+    assert_bitwise_equal(final_state(part), final_state(tmp_path / "whole.h5"))
+
+    with h5py.File(part, "r") as f:  # appended: the first run's snapshots are still there
+        assert f["states/step"][:].tolist() == [0, N, 2 * N]
+        assert np.array_equal(f["states/q"][:2], q_before)
+        diag = f["diagnostics/step"][:]
+        assert np.array_equal(diag[: len(diag_before)], diag_before)
+        assert (np.diff(diag) > 0).all() and diag[-1] == 2 * N
+        with h5py.File(tmp_path / "whole.h5", "r") as g:
+            assert np.array_equal(f["states/q"][:], g["states/q"][:])
+
+
+@pytest.mark.parametrize("integrator", ["siku2", "rk4"])
+def test_cli_restart_continues_bit_for_bit(tmp_path, monkeypatch, integrator):
+    """`siku run A` (N steps), then `siku run B --restart` (B runs to 2N) == `siku run B`."""
+    monkeypatch.chdir(tmp_path)
+    short = write_scene(tmp_path / "short.toml", integrator, N)
+    full = write_scene(tmp_path / "full.toml", integrator, 2 * N)
+    assert main(["run", full, "--out", "whole.h5", "--no-progress"]) == 0
+    assert main(["run", short, "--no-progress"]) == 0  # writes run.h5 ([output] file)
+    assert final_state("run.h5")["step"] == N
+    assert main(["run", full, "--restart", "run.h5", "--no-progress"]) == 0
+    assert_bitwise_equal(final_state("run.h5"), final_state("whole.h5"))
+    with h5py.File("run.h5", "r") as f:
+        assert f["states/step"][:].tolist() == [0, N, 2 * N]
+
+
+def test_restart_into_another_file_leaves_the_first_untouched(tmp_path):
+    scene = write_scene(tmp_path / "scene.toml", "siku2", 2 * N)
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    Simulation(scene, out=a, progress=False).run(steps=N)
+    before = a.read_bytes()
+    sim = Simulation(scene, out=b, restart=a, progress=False).run()
+    assert a.read_bytes() == before
+    with h5py.File(b, "r") as f:
+        assert f["states/step"][:].tolist() == [2 * N]
+        assert np.array_equal(f["restart/q"][...], sim.state.q)
+
+
+def test_running_one_simulation_twice_keeps_every_snapshot(tmp_path):
+    """run(N); run(N) on one Simulation appends (the second run used to truncate the file)."""
+    scene = write_scene(tmp_path / "scene.toml", "siku2", 2 * N)
+    sim = Simulation(scene, out=tmp_path / "twice.h5", progress=False)
+    sim.run(steps=N)
+    sim.run(steps=N)
+    whole = Simulation(scene, out=False, progress=False).run()
+    assert np.array_equal(sim.state.q, whole.state.q)
+    with h5py.File(tmp_path / "twice.h5", "r") as f:
+        assert f["states/step"][:].tolist() == [0, N, 2 * N]
