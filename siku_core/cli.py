@@ -75,6 +75,15 @@ def _warn_one_line(message, category, filename, lineno, file=None, line=None) ->
     print(f"siku: warning: {' | '.join(str(message).splitlines())}", file=sys.stderr)
 
 
+def _cmd_plot(args: argparse.Namespace) -> int:
+    from siku_io.plot import plot_all
+
+    files = plot_all(args.output, args.out_dir, args.field, animation=not args.no_animation)
+    for f in files:
+        print(f)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="siku", description="Discrete-element sea-ice model.")
     ap.add_argument("--version", action="version", version=f"siku {__version__}")
@@ -85,6 +94,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--restart", help="continue from the last snapshot of this output file")
     r.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     r.set_defaults(func=_cmd_run)
+    pl = sub.add_parser("plot", help="draw maps and an animation from an output file")
+    pl.add_argument("output", help="HDF5 output file of a run")
+    pl.add_argument("--field", help="per-element field to colour by (damage, speed)")
+    pl.add_argument("--out-dir", help="directory for the pictures (default: beside the file)")
+    pl.add_argument("--no-animation", action="store_true", help="maps only")
+    pl.set_defaults(func=_cmd_plot)
     p = sub.add_parser("plugins", help="list registered components with their parameters")
     p.set_defaults(func=_cmd_plugins)
     return ap

@@ -216,6 +216,16 @@ class ContactModel:
         return {"name": self.law.name, "params": dict(self.law.p), "joints": self.n_joints,
                 "broad_phase": self.broad.name}
 
+    def element_fields(self) -> dict[str, np.ndarray]:
+        """``damage``: share of each element's joints that have broken [1] (0 without joints)."""
+        n = self.sim.state.n
+        if not self.n_joints:
+            return {"damage": np.zeros(n)}
+        total = np.bincount(self.ji, minlength=n) + np.bincount(self.jj, minlength=n)
+        broken = ~self.intact
+        nb = np.bincount(self.ji[broken], minlength=n) + np.bincount(self.jj[broken], minlength=n)
+        return {"damage": np.where(total > 0, nb / np.maximum(total, 1), 0.0)}
+
     def diagnostics(self) -> dict[str, float]:
         return {"joints_intact": self.n_intact, "joints_broken": self.n_joints - self.n_intact,
                 "contacts_overlapping": self.n_overlap}

@@ -248,6 +248,15 @@ class Simulation:
             d.update(self.contacts.diagnostics())
         return d
 
+    def element_fields(self) -> dict[str, np.ndarray]:
+        """Per-element quantities for maps: ``speed`` [m/s], and with joints ``damage`` (share
+        of the element's joints that have broken, [1])."""
+        st = self.state
+        out = {"speed": np.hypot(st.V[:, 0], st.V[:, 1])}
+        if self.contacts is not None:
+            out.update(self.contacts.element_fields())
+        return out
+
     # ------------------------------------------------------------------ running
     def _restart(self, path: Path) -> None:
         writer_cls = type(self.writers[0]) if self.writers else self.registry.get(

@@ -10,7 +10,8 @@ File layout::
     /geometry          vert_offsets, verts [m], m [kg], I [kg m²], area [m²], thickness [m],
                        radius [m], flags, material
     /states            step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N) [rad/s],
-                       lat, lon (T,N) [deg]: the snapshots
+                       lat, lon (T,N) [deg], fields/NAME (T,N) per-element quantities for
+                       maps (speed [m/s], damage [1]): the snapshots
     /diagnostics       step, time [s] and one series per diagnostic
     /restart           the latest snapshot in full (q, V, w, step, and every component's
                        history arrays under /restart/components/NAME): what a restart reads
@@ -111,8 +112,9 @@ class HDF5Writer(Writer):
             if "step" not in g:
                 continue
             keep = int(np.searchsorted(g["step"][:], step, side="right"))
-            for k in g:
-                g[k].resize(keep, axis=0)
+            for k, ds in g.items():
+                for d in ds.values() if hasattr(ds, "values") else (ds,):
+                    d.resize(keep, axis=0)
 
     def write_state(self, sim) -> None:
         st = sim.state
@@ -124,6 +126,9 @@ class HDF5Writer(Writer):
                           ("V", st.V), ("w", st.w), ("lat", np.degrees(lat)),
                           ("lon", np.degrees(lon))):
             _append(g, name, val, self.comp if np.ndim(val) else None)
+        fields = g.require_group("fields")
+        for name, val in sim.element_fields().items():
+            _append(fields, name, val, self.comp)
         r = self.f.require_group("restart")
         for k in ("q", "V", "w"):
             _replace(r, k, getattr(st, k))

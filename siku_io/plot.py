@@ -1,0 +1,212 @@
+"""Maps and animations of siku output files (matplotlib + cartopy projections).
+
+Elements are drawn as their polygons, coloured by a per-element field written by the HDF5
+writer (``/states/fields/NAME``: ``speed`` [m/s], ``damage`` [1] = share of an element's
+joints that have broken); static elements (coast, landfast ice) are grey. Polar regions use a
+polar stereographic projection. The coastline is drawn from the ``global-land-mask`` data when
+that package is installed (nothing is downloaded).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from siku_core import DataError
+
+UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)"}
+STATIC = 1
+
+
+def _rotation_matrices(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    m = np.empty((len(q), 3, 3))
+    m[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    m[:, 0, 1] = 2 * (x * y - w * z)
+    m[:, 0, 2] = 2 * (x * z + w * y)
+    m[:, 1, 0] = 2 * (x * y + w * z)
+    m[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    m[:, 1, 2] = 2 * (y * z - w * x)
+    m[:, 2, 0] = 2 * (x * z - w * y)
+    m[:, 2, 1] = 2 * (y * z + w * x)
+    m[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return m
+
+
+def polygons_lonlat(q: np.ndarray, offsets: np.ndarray, verts: np.ndarray, radius: float):
+    """Vertices of every element as ``[lon, lat]`` degrees (list of ``(k, 2)`` arrays)."""
+    owner = np.repeat(np.arange(len(q)), np.diff(offsets))
+    loc = np.column_stack([verts[:, 0] / radius, verts[:, 1] / radius, np.ones(len(verts))])
+    g = np.einsum("nij,nj->ni", _rotation_matrices(q)[owner], loc)
+    g /= np.linalg.norm(g, axis=1)[:, None]
+    lat = np.degrees(np.arcsin(np.clip(g[:, 2], -1, 1)))
+    lon = np.degrees(np.arctan2(g[:, 1], g[:, 0]))
+    ll = np.column_stack([lon, lat])
+    return [ll[offsets[i]:offsets[i + 1]] for i in range(len(q))]
+
+
+class Output:
+    """Read-only view of an output file for plotting."""
+
+    def __init__(self, path: str | Path):
+        import h5py
+
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise DataError(f"{self.path}: output file not found")
+        try:
+            f = h5py.File(self.path, "r")
+        except OSError as exc:
+            raise DataError(f"{self.path}: not a readable HDF5 file: {exc}") from None
+        with f:
+            if "states" not in f or "q" not in f["states"]:
+                raise DataError(f"{self.path}: no element states (is it a siku output file?)")
+            self.title = str(f.attrs.get("title", ""))
+            self.radius = float(f.attrs["radius"])
+            self.start = str(f.attrs.get("start", ""))
+            geo = f["geometry"]
+            self.offsets = geo["vert_offsets"][...]
+            self.verts = geo["verts"][...]
+            self.flags = geo["flags"][...]
+            self.time = f["states/time"][...]
+            self.q = f["states/q"][...]
+            self.fields = {k: v[...] for k, v in f["states"].get("fields", {}).items()}
+
+    def field(self, name: str) -> np.ndarray:
+        if name not in self.fields:
+            raise DataError(
+                f"{self.path}: no field '{name}'; available: {', '.join(sorted(self.fields))}"
+            )
+        return self.fields[name]
+
+
+def _projection(lat_mean: float, lon_mean: float):
+    import cartopy.crs as ccrs
+
+    if lat_mean > 45:
+        return ccrs.NorthPolarStereo(central_longitude=lon_mean)
+    if lat_mean < -45:
+        return ccrs.SouthPolarStereo(central_longitude=lon_mean)
+    return ccrs.PlateCarree(central_longitude=lon_mean)
+
+
+def _coast(ax, proj, extent_ll) -> None:
+    try:
+        from global_land_mask import globe
+    except ImportError:  # optional: maps without coastline
+        return
+    import cartopy.crs as ccrs
+
+    lon0, lon1, lat0, lat1 = extent_ll
+    lons = np.linspace(lon0, lon1, 400)
+    lats = np.linspace(max(lat0, -89.9), min(lat1, 89.9), 300)
+    LON, LAT = np.meshgrid(lons, lats)
+    land = globe.is_land(LAT, ((LON + 180) % 360) - 180).astype(float)
+    ax.contourf(LON, LAT, land, levels=[0.5, 1.5], colors=["#d9d0c1"],
+                transform=ccrs.PlateCarree(), zorder=0)
+    ax.contour(LON, LAT, land, levels=[0.5], colors="k", linewidths=0.6,
+               transform=ccrs.PlateCarree(), zorder=3)
+
+
+class MapPainter:
+    """Draws one snapshot of an output file; reused for animation frames."""
+
+    def __init__(self, out: Output, field: str = "damage", vmax: float | None = None):
+        import cartopy.crs as ccrs
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from matplotlib.collections import PolyCollection
+
+        self.out = out
+        self.field_name = field
+        self.values = out.field(field)
+        allv = np.concatenate([
+            np.concatenate(polygons_lonlat(out.q[k], out.offsets, out.verts, out.radius))
+            for k in sorted({0, len(out.time) // 2, len(out.time) - 1})
+        ])
+        lon_ref = float(allv[0, 0])
+        lonw = (allv[:, 0] - lon_ref + 180) % 360 - 180 + lon_ref
+        lat_mean = float(allv[:, 1].mean())
+        self.proj = _projection(lat_mean, float(lonw.mean()))
+        self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
+        self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
+        pad_lon = 0.15 * (lonw.max() - lonw.min()) + 0.5
+        pad_lat = 0.15 * (allv[:, 1].max() - allv[:, 1].min()) + 0.2
+        self.extent = (lonw.min() - pad_lon, lonw.max() + pad_lon,
+                       max(allv[:, 1].min() - pad_lat, -90), min(allv[:, 1].max() + pad_lat, 90))
+        self.ax.set_extent(self.extent, crs=ccrs.PlateCarree())
+        _coast(self.ax, self.proj, self.extent)
+        self.ax.gridlines(draw_labels=False, linewidth=0.3, color="0.5", alpha=0.5)
+        vmax = vmax if vmax is not None else (1.0 if field == "damage" else
+                                              float(np.nanmax(self.values)) or 1.0)
+        cmap = matplotlib.colormaps["viridis" if field != "damage" else "magma_r"].with_extremes(
+            bad="0.55")
+        self.coll = PolyCollection([], cmap=cmap,
+                                   edgecolors="0.25", linewidths=0.2, zorder=2)
+        self.coll.set_clim(0.0, vmax)
+        self.ax.add_collection(self.coll)
+        cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.8)
+        cb.set_label(f"{field} [{UNITS.get(field, '')}]")
+        self.static = out.flags == STATIC
+
+    def draw(self, index: int) -> None:
+        import cartopy.crs as ccrs
+
+        out = self.out
+        polys = polygons_lonlat(out.q[index], out.offsets, out.verts, out.radius)
+        allv = np.concatenate(polys)
+        xy = self.proj.transform_points(ccrs.PlateCarree(), allv[:, 0], allv[:, 1])[:, :2]
+        segs = [xy[out.offsets[i]:out.offsets[i + 1]] for i in range(len(polys))]
+        self.coll.set_verts(segs)
+        vals = np.ma.masked_array(self.values[index], mask=self.static)
+        self.coll.set_array(vals)
+        hours = out.time[index] / 3600.0
+        when = f"t = {hours:.1f} h" + (f" after {out.start}" if out.start else "")
+        self.ax.set_title(f"{out.title or out.path.name}\n{when}", fontsize=10)
+
+
+def draw_map(path: str | Path, out_png: str | Path, index: int = -1,
+             field: str = "damage") -> Path:
+    """Write a PNG map of snapshot ``index`` coloured by ``field``."""
+    out = Output(path)
+    painter = MapPainter(out, field)
+    painter.draw(index if index >= 0 else len(out.time) + index)
+    out_png = Path(out_png)
+    painter.fig.savefig(out_png, bbox_inches="tight")
+    import matplotlib.pyplot as plt
+
+    plt.close(painter.fig)
+    return out_png
+
+
+def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: int = 6) -> Path:
+    """Write a GIF animation of every snapshot coloured by ``field``."""
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    out = Output(path)
+    painter = MapPainter(out, field)
+    anim = FuncAnimation(painter.fig, painter.draw, frames=len(out.time), blit=False)
+    out_gif = Path(out_gif)
+    anim.save(out_gif, writer=PillowWriter(fps=fps))
+    plt.close(painter.fig)
+    return out_gif
+
+
+def plot_all(path: str | Path, out_dir: str | Path | None = None, field: str | None = None,
+             animation: bool = True) -> list[Path]:
+    """Maps of the first and last snapshots and an animation; returns the files written."""
+    path = Path(path)
+    out_dir = Path(out_dir) if out_dir else path.parent
+    out_dir.mkdir(parents=True, exist_ok=True)
+    out = Output(path)
+    if field is None:
+        field = "damage" if "damage" in out.fields else "speed"
+    stem = path.stem
+    files = [draw_map(path, out_dir / f"{stem}_{field}_first.png", 0, field),
+             draw_map(path, out_dir / f"{stem}_{field}_last.png", -1, field)]
+    if animation:
+        files.append(animate(path, out_dir / f"{stem}_{field}.gif", field))
+    return files
