@@ -1,6 +1,6 @@
 """Quaternion and geographic helpers (numba, ``cache=True``).
 
-Conventions (see ``docs/explanation/frames.md``):
+Conventions (see ``docs/explanation/kinematics.md``):
 
 * quaternions are scalar-first ``q = (w, x, y, z)``, unit norm;
 * ``q`` rotates an element's *local* frame onto the *global* Earth-fixed frame (eq. 2):
