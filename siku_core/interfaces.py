@@ -66,12 +66,14 @@ class Component(ABC):
 class Integrator(Component):
     """Advances ``q, V, w`` of free and steady elements by one step.
 
-    ``order`` is the nominal global order of accuracy, ``force_evaluations`` how many times one
-    step calls ``forces``.
+    ``order`` is the nominal global order of accuracy of free motion (no forces),
+    ``order_with_forces`` the order when velocity-dependent forces act, ``force_evaluations`` how
+    many times one step calls ``forces``.
     """
 
     kind = "integrator"
     order: ClassVar[int] = 0
+    order_with_forces: ClassVar[int] = 0
     force_evaluations: ClassVar[int] = 1
     required = {"step": ("state", "t", "dt", "forces")}
 

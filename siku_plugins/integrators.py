@@ -75,6 +75,7 @@ class Siku2(Integrator):
 
     name = "siku2"
     order = 2
+    order_with_forces = 1
     force_evaluations = 1
 
     def step(self, state, t, dt, forces):
@@ -137,6 +138,7 @@ class RK4(Integrator):
 
     name = "rk4"
     order = 4
+    order_with_forces = 4
     force_evaluations = 4
 
     def setup(self, sim):
