@@ -13,8 +13,10 @@ the planet centre cancels exactly.
 
 Collision geometry ``g`` (float64[:], indices ``G_*``): overlap area [m²], overlap centroid
 [m], unit normal from ``i`` towards ``j``, contact width [m] (``|P1P2|`` when the boundaries
-cross twice, else ``sqrt(area)``), effective stiffness ``K`` of eq. 9 [Pa], reduced mass [kg],
-velocity of ``j`` relative to ``i`` at the centroid [m/s], both areas [m²].
+cross twice, else the common span of both polygons across the normal: the face length for a
+face-on contact between collinear edges, the inner polygon's span when one lies inside the
+other), effective stiffness ``K`` of eq. 9 [Pa], reduced mass [kg], velocity of ``j`` relative
+to ``i`` at the centroid [m/s], both areas [m²].
 
 Joint geometry ``g`` (indices ``J_*``): the end displacements ``s1, s2`` [m] (``j``'s copy minus
 ``i``'s copy of each joint end), the joint ends ``a, b`` in ``i``'s frame [m], rest length
@@ -31,6 +33,7 @@ import numpy as np
 from numba import njit
 
 from .geometry.clip import make_overlap_scratch, overlap_scratch, project_partner
+from .kernel_cache import specialise
 from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 
 # collision geometry layout
@@ -116,6 +119,10 @@ def eq9_stiffness(hi, Ei, hj, Ej, ri, rj):
 def joint_loop(evaluate, pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
                intact, hist, R, dt, commit, F, T):
     """Evaluate every intact joint; returns the number that broke (only when ``commit``)."""
+    fn = specialise(_joint_loop, evaluate)
+    if fn is not None:
+        return fn(pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width, intact,
+                  hist, R, dt, commit, F, T)
     return _joint_loop(evaluate, pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
                        intact, hist, R, dt, commit, F, T)
 
@@ -175,12 +182,38 @@ def _joint_loop(evaluate, pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j,
     return broken
 
 
+@njit(cache=True, inline="always")
+def _span_across(pi, pj, nx, ny):
+    """Width of an overlap without two boundary crossings: the common span of both polygons
+    across the normal ``n`` (along ``t = (-ny, nx)``) [m].
+
+    The overlap lies inside both polygons, so its extent along ``t`` lies within both
+    polygons' extents: exact for a face-on contact between collinear edges (the overlap strip
+    spans the whole shared face) and for one polygon inside the other (its own extent).
+    """
+    tx, ty = -ny, nx
+    lo_i = hi_i = pi[0, 0] * tx + pi[0, 1] * ty
+    for v in range(1, pi.shape[0]):
+        p = pi[v, 0] * tx + pi[v, 1] * ty
+        lo_i = min(lo_i, p)
+        hi_i = max(hi_i, p)
+    lo_j = hi_j = pj[0, 0] * tx + pj[0, 1] * ty
+    for v in range(1, pj.shape[0]):
+        p = pj[v, 0] * tx + pj[v, 1] * ty
+        lo_j = min(lo_j, p)
+        hi_j = max(hi_j, p)
+    return min(hi_i, hi_j) - max(lo_i, lo_j)
+
+
 def collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T):
     """Clip every candidate pair and apply the collision evaluator where they overlap.
 
     Returns the number of overlapping pairs.
     """
     nmax = int(np.max(np.diff(offsets))) if len(offsets) > 1 else 3
+    fn = specialise(_collision_loop, evaluate)
+    if fn is not None:
+        return fn(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T, nmax)
     return _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R,
                            F, T, nmax)
 
@@ -210,7 +243,9 @@ def _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, p
         if ncross == 2:
             width = math.hypot(p2x - p1x, p2y - p1y)
         else:
-            width = math.sqrt(a)
+            width = _span_across(pi, pj, nx, ny)
+            if not width > 0.0:
+                width = math.sqrt(a)
         g[G_AREA] = a
         g[G_CX] = cx
         g[G_CY] = cy
