@@ -37,6 +37,7 @@ DEFAULT_PLUGINS: tuple[str, ...] = (
     "siku_plugins.broad_phases",
     "siku_plugins.contact_laws",
     "siku_forcing.fields",
+    "siku_forcing.gridded",
     "siku_forcing.drag",
     "siku_io.hdf5",
 )

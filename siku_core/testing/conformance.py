@@ -87,9 +87,14 @@ class ForcingCase:
 
 
 def _missing(cls: type, given: Mapping[str, Any], prefix: str = "") -> tuple[str, ...]:
-    return tuple(
+    out = tuple(
         f"{prefix}{k}" for k, p in cls.params.items() if p.default is None and k not in given
     )
+    # a component may need one of several parameter groups (a gridded field: its data files)
+    groups = getattr(cls, "required_one_of", ())
+    if groups and not any(all(k in given for k in g) for g in groups):
+        out += (prefix + " or ".join(" and ".join(g) for g in groups),)
+    return out
 
 
 def forcing_cases(
