@@ -42,8 +42,10 @@ def collision_evaluator(g, pars, out):
     vx, vy = g[G_VX], g[G_VY]
     if pars[C_SQRT] != 0.0:
         ac = math.sqrt(min(g[G_AREA_I], g[G_AREA_J]))
-        fel = K * math.sqrt(A) * ac
-        k = 0.5 * K * ac * L / max(math.sqrt(A), 1e-300)
+        sa = math.sqrt(A)
+        fel = K * sa * ac
+        # tangent stiffness dF/d(depth) = K ac L / (2 sqrt(A)); none without overlap (A = 0)
+        k = 0.5 * K * ac * L / sa if sa > 0.0 else 0.0
     else:
         fel = K * A
         k = K * L
@@ -173,7 +175,10 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     tanphi = pars[M_TANPHI]
     ax, ay, bx, by = g[J_AX], g[J_AY], g[J_BX], g[J_BY]
     w = g[J_W]
-    tx, ty = (bx - ax) / w, (by - ay) / w
+    if w > 0.0:
+        tx, ty = (bx - ax) / w, (by - ay) / w
+    else:  # zero-width joint (coincident ends): no segment carries traction; any direction
+        tx, ty = 1.0, 0.0
     nx, ny = ty, -tx
     mx, my = 0.5 * (ax + bx), 0.5 * (ay + by)
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
