@@ -7,6 +7,10 @@
   ``siku_simulation_factory`` and ``siku_register``.
 * :mod:`siku_core.testing.conformance`: the forcing-source conformance suite, as plain
   ``check_*`` functions and as the test class ``TestForcingSourceConformance``.
+* :mod:`siku_core.testing.contact_conformance`: the contact-law conformance suite
+  (:func:`~siku_core.testing.contact_conformance.check_contact_law`: Newton's third law for both
+  evaluators, zero force when apart, compiled evaluator equal to its pure-Python form, finite
+  output in degenerate geometry), for built-in and third-party laws alike.
 * :mod:`siku_core.testing.dists`: :func:`write_dist_info` fakes an installed plugin package, to
   test the entry-point path without ``pip install``.
 
