@@ -12,7 +12,9 @@ from .geometry.quat import east_north_local
 
 
 def build_elements(scene: Scene) -> ElementState:
-    """Elements of a scene, in the order: polygons, then packs (column by column)."""
+    """Elements of a scene, in the order: polygons, then packs (column by column), then the
+    cells of ``[elements.mesh]`` (``siku_io.mesh``, imported only here; coast and landfast
+    cells are static)."""
     cfg = scene.cfg
     el = cfg.elements
     R = cfg.planet.radius
@@ -35,6 +37,19 @@ def build_elements(scene: Scene) -> ElementState:
                 (cell.lonlat, flag, vel, pk.spin, pk.thickness or el.thickness,
                  pk.material or el.material,
                  f"{scene.label} [elements.pack[{k}]] cell (i={cell.i}, j={cell.j})")
+            )
+    if el.mesh is not None:
+        from siku_io.mesh import ICE, KIND_NAMES, mesh_for_scene
+
+        mc = el.mesh
+        mesh, _ = mesh_for_scene(scene)
+        for k in range(mesh.n):
+            ice = mesh.kind[k] == ICE
+            items.append(
+                (mesh.cell(k), mc.flag if ice else "static", mc.velocity if ice else [0.0, 0.0],
+                 mc.spin if ice else 0.0, mc.thickness or el.thickness, mc.material or el.material,
+                 (f"{scene.label} [elements.mesh] cell {k} ({KIND_NAMES[mesh.kind[k]]}, seed "
+                  f"{mesh.seeds[k, 0]:.4f}, {mesh.seeds[k, 1]:.4f})"))
             )
     n = len(items)
     q = np.empty((n, 4))

@@ -1,8 +1,8 @@
 """Scene files (TOML): strict loading and validation.
 
 A scene is one TOML file describing a run: ``[time]``, ``[planet]``, ``[materials.NAME]``,
-``[elements]`` (``[[elements.polygon]]`` and ``[[elements.pack]]``), ``[integrator]``,
-``[[forcing]]``, ``[output]`` and ``[run]``. Every table is strict: an unknown key, a value of the
+``[elements]`` (``[[elements.polygon]]``, ``[[elements.pack]]``, ``[elements.mesh]``),
+``[integrator]``, ``[[forcing]]``, ``[output]`` and ``[run]``. Every table is strict: an unknown key, a value of the
 wrong type or out of range is a :class:`~siku_core.errors.SceneError` naming the file, the key and
 the allowed values. The reference is ``docs/reference/scene.md``.
 """
@@ -102,6 +102,33 @@ class PackCfg(_ElementCommon):
     right_velocity: Pair = Field(default_factory=lambda: [0.0, 0.0])
 
 
+class MeshCfg(_ElementCommon):
+    """``[elements.mesh]``: Voronoi cells of blue-noise seeds over a lon/lat box, land removed,
+    coast and landfast cells static (built by ``siku_io.mesh``, cached in ``mesh_file``)."""
+
+    lon: Pair
+    lat: Pair
+    spacing: float = Field(gt=0, description="minimum seed spacing away from the coast [m]")
+    coast_spacing: float | None = Field(
+        None, gt=0, description="minimum seed spacing at the coast [m]")
+    coast_distance: float = Field(
+        100_000.0, gt=0, description="distance from the coast where spacing is reached [m]")
+    seed: int | None = None
+    land: Literal["global-land-mask", "none"] = "global-land-mask"
+    land_removal: Literal["covered", "seed"] = "covered"
+    landfast: list[Pair] | str | None = None
+    mesh_file: str | None = None
+    cache: bool = True
+
+    @model_validator(mode="after")
+    def _box(self) -> "MeshCfg":
+        if not -90.0 <= self.lat[0] < self.lat[1] <= 90.0:
+            raise ValueError("lat = [south, north] needs -90 <= south < north <= 90")
+        if isinstance(self.landfast, list) and len(self.landfast) < 3:
+            raise ValueError("landfast: a polygon needs at least 3 [lon, lat] points")
+        return self
+
+
 class ElementsCfg(_Strict):
     """``[elements]``: defaults and the element sources."""
 
@@ -109,11 +136,14 @@ class ElementsCfg(_Strict):
     material: str = "ice"
     polygon: list[PolygonCfg] = Field(default_factory=list)
     pack: list[PackCfg] = Field(default_factory=list)
+    mesh: MeshCfg | None = None
 
     @model_validator(mode="after")
     def _some(self) -> "ElementsCfg":
-        if not self.polygon and not self.pack:
-            raise ValueError("no elements: add [[elements.polygon]] or [[elements.pack]] tables")
+        if not self.polygon and not self.pack and self.mesh is None:
+            raise ValueError(
+                "no elements: add [[elements.polygon]], [[elements.pack]] or [elements.mesh] tables"
+            )
         return self
 
 
@@ -177,6 +207,9 @@ class RunCfg(_Strict):
     seed: int = 0
     progress: bool | None = None
     nan_check_every: int = Field(1, ge=1)
+    max_speed: float = Field(
+        100.0, gt=0, description="speed [m/s] above which a run counts as diverging"
+    )
     dt_safety: float = Field(0.5, gt=0, le=1)
     allow_unstable_dt: bool = False
 
@@ -198,7 +231,9 @@ class SceneCfg(_Strict):
     @model_validator(mode="after")
     def _materials(self) -> "SceneCfg":
         names = [self.elements.material] + [
-            e.material for e in (*self.elements.polygon, *self.elements.pack) if e.material
+            e.material for e in (*self.elements.polygon, *self.elements.pack,
+                                 *([self.elements.mesh] if self.elements.mesh else []))
+            if e.material
         ]
         for n in names:
             if n not in self.materials:

@@ -217,28 +217,40 @@ class Simulation:
             self._nan_guard()
 
     def _nan_guard(self) -> None:
+        """Stop on a non-finite value or a speed above ``[run] max_speed`` (a diverging run).
+
+        The state goes back to the last good one, which the writers save before the error.
+        """
         st = self.state
         for name in _GUARDED:
             arr = getattr(st, name)
             if not np.isfinite(arr).all():
                 bad = np.argwhere(~np.isfinite(arr.reshape(st.n, -1)))[0]
-                elem = int(bad[0])
-                step = self.step_index
-                for k in DYNAMIC:
-                    getattr(st, k)[:] = self._good[k]
-                self.step_index = self._good_step
-                saved = ""
-                if self._opened and self.writers:
-                    for wr in self.writers:
-                        wr.write_state(self)
-                    saved = f"; last good state (step {self._good_step}) saved to {self.output_path}"
-                raise NonFiniteError(
-                    f"non-finite {name} of element {elem} at step {step} "
-                    f"(t = {step * self.dt:g} s){saved}"
-                )
+                self._fail(f"non-finite {name} of element {int(bad[0])}")
+        speed2 = st.V[:, 0] ** 2 + st.V[:, 1] ** 2
+        vmax = self.scene.cfg.run.max_speed
+        if st.n and speed2.max() > vmax * vmax:
+            i = int(np.argmax(speed2))
+            self._fail(
+                f"speed of element {i} is {np.sqrt(speed2[i]):.3g} m/s, above [run] max_speed = "
+                f"{vmax:g} m/s: the run is diverging (is dt above the stable step?)"
+            )
         for k in DYNAMIC:
             self._good[k][:] = getattr(st, k)
         self._good_step = self.step_index
+
+    def _fail(self, what: str) -> None:
+        st = self.state
+        step = self.step_index
+        for k in DYNAMIC:
+            getattr(st, k)[:] = self._good[k]
+        self.step_index = self._good_step
+        saved = ""
+        if self._opened and self.writers:
+            for wr in self.writers:
+                wr.write_state(self)
+            saved = f"; last good state (step {self._good_step}) saved to {self.output_path}"
+        raise NonFiniteError(f"{what} at step {step} (t = {step * self.dt:g} s){saved}")
 
     def diagnostics(self) -> dict[str, Any]:
         st = self.state

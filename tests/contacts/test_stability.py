@@ -65,25 +65,20 @@ def test_allow_unstable_dt_warns_instead(estimate):
     assert sim.dt == 0.6 * dt_c
 
 
-def test_clearly_unstable_dt_blows_up_the_energy(estimate):
-    """5 × dt_c: the energy grows by orders of magnitude within a few steps (a stable run
-    keeps it below 4/3 of its start), until even joints that hold up to 100 % strain tear and
-    the floes fly apart. The state stays finite, so the NaN guard does not fire: the blow-up
-    shows in the energy, not as NonFiniteError. (Measured: 2.5e9 × the start within 20 steps;
-    with the default tensile strain 2e-4 the joints tear sooner, at ~100 ×; with joints that
-    never break the energy reaches ~1e28 × in 2000 steps, still finite.)"""
+def test_clearly_unstable_dt_is_stopped_by_the_divergence_guard(estimate):
+    """5 × dt_c: the energy grows by orders of magnitude within a few steps (a stable run keeps
+    it below 4/3 of its start) and the state stays finite for a long time (measured: 2.5e9 ×
+    the start within 20 steps, ~1e28 × after 2000 steps with unbreakable joints), so only the
+    speed check of the guard ([run] max_speed, 100 m/s by default: sea ice drifts at most a few
+    m/s) catches it. The error names the element and step, and the state is the last good one."""
     dt_c, _ = estimate
     with pytest.warns(UserWarning):
         sim = Simulation(scene(5 * dt_c, steps=50, allow=True), out=False, progress=False)
-    ke0 = sim.diagnostics()["kinetic_energy"]
-    try:
+    with pytest.raises(NonFiniteError, match=r"speed of element \d+ is .* above \[run\] "
+                       r"max_speed = 100 m/s: the run is diverging .* at step \d+"):
         sim.run()
-    except NonFiniteError as exc:  # pragma: no cover - would contradict the docstring
-        pytest.fail(f"expected an energy blow-up with a finite state, got {exc}")
-    ke = sim.diagnostics()["kinetic_energy"]
-    assert ke > 1e6 * ke0
-    assert sim.contacts.n_intact == 0
-    assert all(np.isfinite(getattr(sim.state, k)).all() for k in ("q", "V", "w", "F", "T"))
+    assert all(np.isfinite(getattr(sim.state, k)).all() for k in ("q", "V", "w"))
+    assert np.hypot(sim.state.V[:, 0], sim.state.V[:, 1]).max() <= 100.0
 
 
 def test_energy_bounded_below_the_estimate(estimate):
