@@ -12,7 +12,7 @@ from importlib import resources
 from pathlib import Path
 
 from . import __version__
-from .errors import SikuError
+from .errors import SceneError, SikuError
 
 DEFAULT_SCENE = "default_scene.toml"
 _KIND_TITLES = {
@@ -31,7 +31,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .simulation import Simulation
 
     path = Path(args.scene) if args.scene else default_scene_path()
-    scene = load_scene(path)
+    overrides = {}
+    for item in args.set or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise SceneError(f"--set {item!r}: write KEY=VALUE, e.g. --set time.duration=6h")
+        overrides[key.strip()] = value.strip()
+    scene = load_scene(path, overrides)
     progress = False if args.no_progress else None
     sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart)
     t0 = time.perf_counter()
@@ -40,6 +46,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     sim.run()
     wall = time.perf_counter() - t0
     print(f"done in {wall:.1f} s; output: {sim.output_path}", file=sys.stderr)
+    if scene.cfg.output.plots and sim.output_path is not None and not args.no_plots:
+        from siku_io.plot import plot_all
+
+        for f in plot_all(sim.output_path, field=scene.cfg.output.plot_field):
+            print(f"picture: {f}", file=sys.stderr)
     return 0
 
 
@@ -93,6 +104,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="output file (overrides [output] file)")
     r.add_argument("--restart", help="continue from the last snapshot of this output file")
     r.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    r.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scene key, e.g. --set time.duration=6h (repeatable)")
+    r.add_argument("--no-plots", action="store_true", help="skip the pictures [output] asks for")
     r.set_defaults(func=_cmd_run)
     pl = sub.add_parser("plot", help="draw maps and an animation from an output file")
     pl.add_argument("output", help="HDF5 output file of a run")

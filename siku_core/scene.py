@@ -198,6 +198,8 @@ class OutputCfg(_Strict):
     writer: str = "hdf5"
     every: Duration | None = Field(None, description="state snapshot interval [s]")
     diagnostics_every: Duration | None = Field(None, description="diagnostics interval [s]")
+    plots: bool = Field(False, description="after the run, draw maps and an animation")
+    plot_field: str | None = Field(None, description="per-element field to colour maps by")
     params: dict[str, Any] = Field(default_factory=dict)
 
 
@@ -383,12 +385,49 @@ class Scene:
         return f"{self.label} [{table}]"
 
 
-def scene_from_text(text: str, label: str = "<scene>", path: Path | None = None) -> Scene:
-    """Parse and validate scene TOML text; errors name ``label``."""
+def _override_value(text: str) -> Any:
+    """A ``--set`` value: read as TOML (``6.0``, ``"6h"``, ``true``, ``[1, 2]``) or else a string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(data: dict, overrides: dict[str, str], label: str) -> None:
+    """Set dotted keys (``time.duration``) in parsed scene data, in place."""
+    for key, raw in overrides.items():
+        parts = key.split(".")
+        cur: Any = data
+        for part in parts[:-1]:
+            if isinstance(cur, list) and part.isdigit() and int(part) < len(cur):
+                cur = cur[int(part)]
+                continue
+            if not isinstance(cur, dict):
+                raise SceneError(f"{label}: cannot set '{key}': '{part}' is not a table")
+            cur = cur.setdefault(part, {})
+        if not isinstance(cur, dict):
+            raise SceneError(f"{label}: cannot set '{key}': not a table key")
+        cur[parts[-1]] = _override_value(raw)
+
+
+def scene_from_text(
+    text: str, label: str = "<scene>", path: Path | None = None,
+    overrides: dict[str, str] | None = None,
+) -> Scene:
+    """Parse and validate scene TOML text; errors name ``label``.
+
+    ``overrides`` (``{"time.duration": "6h"}``) replace keys before validation; they are
+    appended to the recorded scene text as comments, so an output file says how it was run.
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{label}: TOML syntax error: {exc}") from None
+    if overrides:
+        apply_overrides(data, overrides, label)
+        text = text.rstrip("\n") + "\n\n# command-line overrides (siku run --set):\n" + "".join(
+            f"# {k} = {v}\n" for k, v in overrides.items()
+        )
     try:
         cfg = SceneCfg.model_validate(data)
     except ValidationError as exc:
@@ -396,8 +435,8 @@ def scene_from_text(text: str, label: str = "<scene>", path: Path | None = None)
     return Scene(cfg, text, path)
 
 
-def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file."""
+def load_scene(path: str | Path, overrides: dict[str, str] | None = None) -> Scene:
+    """Read and validate a scene file (``overrides``: see :func:`scene_from_text`)."""
     p = Path(path)
     if not p.is_file():
         raise SceneError(f"{p}: scene file not found")
@@ -405,7 +444,7 @@ def load_scene(path: str | Path) -> Scene:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(f"{p}: cannot read scene file: {exc}") from None
-    return scene_from_text(text, str(p), p.resolve())
+    return scene_from_text(text, str(p), p.resolve(), overrides)
 
 
 __all__ = ["Scene", "SceneCfg", "load_scene", "scene_from_text", "format_validation_error"]

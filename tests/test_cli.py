@@ -76,19 +76,35 @@ def test_version_and_help_return_0(capsys):
 
 def test_run_without_a_scene_runs_the_shipped_default_scene(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert main(["run", "--no-progress"]) == 0
+    assert main(["run", "--no-progress", "--no-plots", "--set", "time.duration=30min"]) == 0
     err = capsys.readouterr().err
-    assert "Beaufort free-drift fleet" in err and "siku_default.h5" in err
+    assert "Beaufort-Chukchi lead formation" in err and "siku_default.h5" in err
     out = tmp_path / "siku_default.h5"
     with h5py.File(out, "r") as f:
         scene = f["scene"][()].decode()
-        assert scene == default_scene_path().read_text(encoding="utf-8")
+        assert scene.startswith(default_scene_path().read_text(encoding="utf-8").rstrip("\n"))
+        assert scene.endswith("# time.duration = 30min\n")
         assert f["plugins"].attrs["siku"] == __version__
         n = f.attrs["n_elements"]
-        assert n == 40
         assert f["states/q"].shape[1:] == (n, 4)
-        assert f["states/step"][0] == 0 and f["states/step"][-1] == 1440
-        assert f["restart"].attrs["step"] == 1440
+        steps = -(-1800 // 7)  # ceil(30 min / 7 s)
+        assert f["states/step"][0] == 0 and f["states/step"][-1] == steps
+        assert f["restart"].attrs["step"] == steps
+    assert not list(tmp_path.glob("*.png"))  # --no-plots
+
+
+def test_set_needs_key_equals_value(capsys):
+    assert main(["run", "--set", "time.duration"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["siku: error: --set 'time.duration': write KEY=VALUE, e.g. "
+                   "--set time.duration=6h"]
+
+
+def test_set_values_are_validated_like_the_file(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "--set", "time.dt=-1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "time.dt" in err[0] and "default_scene.toml" in err[0]
 
 
 def test_out_overrides_the_scene_output_file(tmp_path, monkeypatch, capsys):
