@@ -1,4 +1,4 @@
-"""Command line: ``siku run``, ``siku plugins``.
+"""Command line: ``siku run``, ``siku plot``, ``siku plugins``, ``siku bench``.
 
 Bad input exits with status 2 and a one-line message (no traceback).
 """
@@ -37,6 +37,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if not sep or not key.strip():
             raise SceneError(f"--set {item!r}: write KEY=VALUE, e.g. --set time.duration=6h")
         overrides[key.strip()] = value.strip()
+    if args.threads is not None:
+        _set_threads(args.threads)
     scene = load_scene(path, overrides)
     progress = False if args.no_progress else None
     sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart)
@@ -46,12 +48,66 @@ def _cmd_run(args: argparse.Namespace) -> int:
     sim.run()
     wall = time.perf_counter() - t0
     print(f"done in {wall:.1f} s; output: {sim.output_path}", file=sys.stderr)
+    if args.profile:
+        print(profile_table(sim, wall), file=sys.stderr)
     if scene.cfg.output.plots and sim.output_path is not None and not args.no_plots:
         from siku_io.plot import plot_all
 
         for f in plot_all(sim.output_path, field=scene.cfg.output.plot_field):
             print(f"picture: {f}", file=sys.stderr)
     return 0
+
+
+def _set_threads(n: int) -> None:
+    import numba
+
+    most = numba.config.NUMBA_NUM_THREADS
+    if not 1 <= n <= most:
+        raise SikuError(f"--threads {n}: choose 1 to {most} (NUMBA_NUM_THREADS)")
+    numba.set_num_threads(n)
+
+
+def profile_table(sim, wall: float) -> str:
+    """The time of each phase of the step (``Simulation.timings``) as a table: seconds, share
+    of the run's wall time ``wall`` [s], and per step and per element-step."""
+    import numba
+
+    steps = max(sim.timed_steps, 1)
+    n = max(sim.state.n, 1)
+    rows = [(k, v) for k, v in sim.profile()]
+    other = wall - sum(v for _, v in rows)
+    rows.append(("other", max(other, 0.0)))
+    lines = [f"profile: {sim.timed_steps} steps of {sim.state.n} elements in {wall:.3g} s on "
+             f"{numba.get_num_threads()} thread(s): {n * steps / wall:.3g} element-steps/s",
+             f"  {'phase':<12} {'seconds':>9} {'share':>7} {'per step':>11} "
+             f"{'per element-step':>17}"]
+    for k, v in rows:
+        share = 100.0 * v / wall if wall > 0 else 0.0
+        lines.append(f"  {k:<12} {v:9.3f} {share:6.1f}% {v / steps * 1e6:9.1f} us "
+                     f"{v / steps / n * 1e9:14.1f} ns")
+    lines.append("  (other: the Python loop, progress bar, opening files and start-up of the "
+                 "first step's compiled code)")
+    return "\n".join(lines)
+
+
+def _repo_bench() -> Path:
+    return Path(__file__).resolve().parents[1] / "bench"
+
+
+def _cmd_bench(argv: list[str]) -> int:
+    """``siku bench ...``: the runner in the repository's ``bench/`` (``python -m bench``);
+    benchmarks are not installed, so this needs a source checkout (an editable install)."""
+    where = _repo_bench()
+    if not (where / "__main__.py").is_file():
+        raise SikuError(f"siku bench needs a source checkout: {where} not found (siku is not "
+                        "installed from a clone); clone the repository and run "
+                        "'python -m bench' there")
+    root = str(where.parent)
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    from bench.__main__ import main as bench_main
+
+    return bench_main(argv)
 
 
 def _cmd_plugins(args: argparse.Namespace) -> int:
@@ -107,6 +163,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a scene key, e.g. --set time.duration=6h (repeatable)")
     r.add_argument("--no-plots", action="store_true", help="skip the pictures [output] asks for")
+    r.add_argument("--profile", action="store_true",
+                   help="print the time spent in each phase of the step")
+    r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     r.set_defaults(func=_cmd_run)
     pl = sub.add_parser("plot", help="draw maps and an animation from an output file")
     pl.add_argument("output", help="HDF5 output file of a run")
@@ -116,11 +175,19 @@ def build_parser() -> argparse.ArgumentParser:
     pl.set_defaults(func=_cmd_plot)
     p = sub.add_parser("plugins", help="list registered components with their parameters")
     p.set_defaults(func=_cmd_plugins)
+    sub.add_parser("bench", help="benchmark tables (source checkout; 'siku bench --help')")
     return ap
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["bench"]:  # everything after 'bench' belongs to the benchmark runner
+        try:
+            return _cmd_bench(argv[1:])
+        except SikuError as exc:
+            print(f"siku: error: {exc}", file=sys.stderr)
+            return 2
     try:
         args = ap.parse_args(argv)
     except _UsageError as exc:

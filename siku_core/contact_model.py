@@ -2,15 +2,20 @@
 from __future__ import annotations
 
 import math
+import time
 import warnings
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .contacts import collision_loop, find_shared_edges, joint_loop
+from .contacts import (
+    C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces, joint_constants,
+    joint_forces, max_moved2, rotation_matrices,
+)
 from .errors import SceneError
 from .geometry.quat import centers
 from .interfaces import BroadPhase, ContactLaw
+from .parallel import chunks
 from .state import FREE
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -18,9 +23,19 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 class ContactModel:
-    """Contacts of one run: joints (SoA), candidate pairs (reused within a skin), the law."""
+    """Contacts of one run: joints (SoA), candidate pairs (reused within a skin), the law.
+
+    Arrays are allocated here only, so a scene without a ``[contact]`` table has none. Per
+    force evaluation (:meth:`add`): rotation matrices of all elements, the joint loop, the
+    candidate list (rebuilt by the broad phase only when an element moved more than half the
+    skin), the collision loop, and the per-element sum of the contacts' contributions; each
+    phase's time goes to ``Simulation.timings``.
+    """
 
     kind = "contacts"
+    #: skip the clip of pairs that :func:`~siku_core.geometry.clip.separated` proves apart
+    #: (exact: the clip would return no overlap); off only to test that claim
+    pretest = True
 
     def __init__(self, sim: "Simulation"):
         cfg = sim.scene.cfg.contact
@@ -41,7 +56,12 @@ class ContactModel:
         self.skin = skin / R
         self.radii = st.radius / R + 0.5 * self.skin
         self.pairs = np.zeros((0, 2), dtype=np.int64)
+        self._set_pair_index()
         self._ref_centers: np.ndarray | None = None
+        self.rm = np.empty((st.n, 3, 3))
+        self.nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
+        self.bigv = (np.maximum.reduceat(np.abs(st.verts).max(axis=1), st.vert_offsets[:-1])
+                     if st.n else np.zeros(0))
         self.rebuilds = 0
         self.n_overlap = 0
         self.n_broken_total = 0
@@ -105,6 +125,11 @@ class ContactModel:
             self.L0 = np.zeros(0)
         self.intact = np.ones(len(pairs), dtype=np.bool_)
         self.hist = np.zeros((len(pairs), max(nh, 1)))
+        self.jK, self.jmeff = joint_constants(st.thickness, self.E, self.minv, self.ji, self.jj,
+                                              self.ends_i, self.ends_j)
+        self.jout = np.zeros((len(pairs), C_SIZE))
+        self.jon = np.zeros(len(pairs), dtype=np.int8)
+        self.joff, self.jidx, self.jside = element_index(self.ji, self.jj, st.n)
 
     @property
     def n_joints(self) -> int:
@@ -115,14 +140,23 @@ class ContactModel:
         return int(self.intact.sum())
 
     # ------------------------------------------------------------------ step
+    def _set_pair_index(self) -> None:
+        n = self.sim.state.n
+        p = self.pairs
+        self.pout = np.zeros((len(p), C_SIZE))
+        self.pon = np.zeros(len(p), dtype=np.int8)
+        self.poff, self.pidx, self.pside = element_index(
+            np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
+
     def _candidates(self, q) -> np.ndarray:
-        c = centers(q)
         if self._ref_centers is not None:
-            moved = np.max(np.sum((c - self._ref_centers) ** 2, axis=1))
             # rebuild when some element moved more than half the skin (chord ~ angle here)
-            if moved <= (0.5 * self.skin) ** 2:
+            if max_moved2(q, self._ref_centers) <= (0.5 * self.skin) ** 2:
                 return self.pairs
-        self.pairs = self.broad.pairs(c, self.radii, self.skip)
+        c = centers(q)
+        self.pairs = np.ascontiguousarray(self.broad.pairs(c, self.radii, self.skip),
+                                          dtype=np.int64)
+        self._set_pair_index()
         self._ref_centers = c
         self.rebuilds += 1
         return self.pairs
@@ -131,22 +165,44 @@ class ContactModel:
         """Add contact forces for state ``q, V, w``; joint history changes only if ``commit``."""
         st, sim = self.sim.state, self.sim
         law = self.law
-        if self.n_joints and law.uses_joints:
-            broke = joint_loop(
-                law.joint_evaluator, self._jpars, q, V, w, self.minv, st.thickness, self.E,
+        tm = sim.timings
+        t0 = time.perf_counter()
+        rotation_matrices(q, self.rm, chunks(st.n))
+        t1 = time.perf_counter()
+        joints = self.n_joints and law.uses_joints
+        if joints:
+            broke = joint_forces(
+                law.joint_evaluator, self._jpars, self.rm, V, w, st.thickness, self.E,
                 self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
-                self.intact, self.hist, sim.radius, sim.dt, commit, F, T,
+                self.jK, self.jmeff, self.intact, self.hist, sim.radius, sim.dt, commit,
+                self.jout, self.jon, chunks(self.n_joints),
             )
             if commit:
                 self.n_broken_total += broke
+        t2 = time.perf_counter()
         pairs = self._candidates(q)
+        t3 = time.perf_counter()
         if len(pairs):
-            n = collision_loop(
-                law.collision_evaluator, self._cpars, q, V, w, self.minv, st.thickness, self.E,
-                st.area, st.vert_offsets, st.verts, pairs, sim.radius, F, T,
+            n = collision_forces(
+                law.collision_evaluator, self._cpars, self.rm, V, w, self.minv, st.thickness,
+                self.E, st.area, st.vert_offsets, st.verts, self.bigv, pairs, sim.radius, self.nmax,
+                self.pretest, self.pout, self.pon, chunks(len(pairs)),
             )
             if commit:
                 self.n_overlap = n
+        else:
+            n = 0
+            if commit:
+                self.n_overlap = 0
+        t4 = time.perf_counter()
+        if joints or n:
+            gather_forces(F, T, self.joff, self.jidx, self.jside, self.jout, self.jon,
+                          self.poff, self.pidx, self.pside, self.pout, self.pon, chunks(st.n))
+        t5 = time.perf_counter()
+        tm["joints"] += t2 - t1
+        tm["broad_phase"] += t3 - t2
+        tm["collisions"] += t4 - t3
+        tm["contact_sum"] += (t1 - t0) + (t5 - t4)
 
     def setup(self) -> None:
         self._cpars = np.ascontiguousarray(self.law.collision_parameters(self.sim), dtype=float)
@@ -227,5 +283,15 @@ class ContactModel:
         return {"damage": np.where(total > 0, nb / np.maximum(total, 1), 0.0)}
 
     def diagnostics(self) -> dict[str, float]:
-        return {"joints_intact": self.n_intact, "joints_broken": self.n_joints - self.n_intact,
-                "contacts_overlapping": self.n_overlap}
+        """Joint counts, overlapping pairs, and with joints the lead area and fraction and the
+        joint stress extremes (see :func:`siku_core.joint_metrics.joint_diagnostics`)."""
+        out = {"joints_intact": self.n_intact, "joints_broken": self.n_joints - self.n_intact,
+               "contacts_overlapping": self.n_overlap}
+        if self.n_joints:
+            from .joint_metrics import joint_diagnostics
+
+            st = self.sim.state
+            out.update(joint_diagnostics(st.q, self.ji, self.jj, self.ends_i, self.ends_j,
+                                         self.L0, self.width, self.intact, self.E, st.area,
+                                         st.flags, self.sim.radius))
+        return out

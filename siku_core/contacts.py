@@ -30,10 +30,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from .geometry.clip import make_overlap_scratch, overlap_scratch, project_partner
+from .geometry.clip import (
+    make_overlap_scratch, overlap_inline, overlap_scratch, project_partner, separated,
+)
 from .kernel_cache import specialise
+from .parallel import chunk_bounds
 from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 
 # collision geometry layout
@@ -310,3 +313,416 @@ def find_shared_edges(q, offsets, verts, pairs, tol, R):
                 ends_j[k, t, 0] = x
                 ends_j[k, t, 1] = y
     return found, ends_i, ends_j
+
+
+# ====================================================================== the engine's fast path
+#
+# One force evaluation of the contact phase (``ContactModel.add``) runs, all compiled:
+#
+# 1. ``rotation_matrices``: ``R(q)`` of every element, once (the loops below never rotate by a
+#    quaternion and never allocate per contact);
+# 2. ``_joint_forces``: every intact joint (parallel over joints);
+# 3. ``_collision_forces``: every candidate pair: a cheap exact separation test, else the clip
+#    and, when the polygons overlap, the law (parallel over pairs);
+# 4. ``gather_forces``: each element adds its own contacts' contributions, joints then pairs,
+#    each in ascending contact index (parallel over elements).
+#
+# Steps 2–3 write one row of six numbers per contact (the generalised force and torque on ``i``
+# and on ``j``, ``C_*``) and a flag saying whether the contact carries force; no two tasks write
+# the same place, so there are no races, and step 4 sums every element's contributions in the
+# same order whatever the number of threads: results are bit-identical for any thread count,
+# and equal (to round-off in the rotations) to the serial reference loops above, which add
+# contacts to ``F, T`` in exactly that order.
+#
+# Relative frames: with ``Ri = R(q_i)`` the matrix ``M = Ri^T Rj`` maps directions of ``j``'s
+# local frame to ``i``'s, so a point ``(x, y)`` of ``j``'s tangent plane is ``R g_xy / g_z``
+# with ``g = M (x/R, y/R, 1)`` in ``i``'s plane (the gnomonic normalisation cancels), and
+# ``M^T`` goes back. ``M`` is computed exactly as ``project_partner`` does, so the narrow phase
+# sees the same partner vertices as before, bit for bit.
+
+#: per-contact contribution layout: generalised force and torque on ``i``, then on ``j``
+C_FIX, C_FIY, C_TI, C_FJX, C_FJY, C_TJ = range(6)
+C_SIZE = 6
+
+
+@njit(cache=True, parallel=True)
+def rotation_matrices(q, rm, nch):
+    """``rm[i] = R(q_i)`` (as :func:`~siku_core.geometry.quat.qmatrix`, bit for bit)."""
+    n = q.shape[0]
+
+    def chunk(c):
+        lo, hi = chunk_bounds(c, nch, n)
+        for i in range(lo, hi):
+            w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+            rm[i, 0, 0] = 1 - 2 * (y * y + z * z)
+            rm[i, 0, 1] = 2 * (x * y - w * z)
+            rm[i, 0, 2] = 2 * (x * z + w * y)
+            rm[i, 1, 0] = 2 * (x * y + w * z)
+            rm[i, 1, 1] = 1 - 2 * (x * x + z * z)
+            rm[i, 1, 2] = 2 * (y * z - w * x)
+            rm[i, 2, 0] = 2 * (x * z - w * y)
+            rm[i, 2, 1] = 2 * (y * z + w * x)
+            rm[i, 2, 2] = 1 - 2 * (x * x + y * y)
+    if nch == 1:  # no threads started
+        chunk(0)
+    else:
+        for c in prange(nch):
+            chunk(c)
+
+
+@njit(cache=True, inline="always")
+def relative_matrix(rm, i, j):
+    """``M = R_i^T R_j`` as nine scalars (row-major), summed as ``project_partner`` does."""
+    m00 = rm[i, 0, 0] * rm[j, 0, 0] + rm[i, 1, 0] * rm[j, 1, 0] + rm[i, 2, 0] * rm[j, 2, 0]
+    m01 = rm[i, 0, 0] * rm[j, 0, 1] + rm[i, 1, 0] * rm[j, 1, 1] + rm[i, 2, 0] * rm[j, 2, 1]
+    m02 = rm[i, 0, 0] * rm[j, 0, 2] + rm[i, 1, 0] * rm[j, 1, 2] + rm[i, 2, 0] * rm[j, 2, 2]
+    m10 = rm[i, 0, 1] * rm[j, 0, 0] + rm[i, 1, 1] * rm[j, 1, 0] + rm[i, 2, 1] * rm[j, 2, 0]
+    m11 = rm[i, 0, 1] * rm[j, 0, 1] + rm[i, 1, 1] * rm[j, 1, 1] + rm[i, 2, 1] * rm[j, 2, 1]
+    m12 = rm[i, 0, 1] * rm[j, 0, 2] + rm[i, 1, 1] * rm[j, 1, 2] + rm[i, 2, 1] * rm[j, 2, 2]
+    m20 = rm[i, 0, 2] * rm[j, 0, 0] + rm[i, 1, 2] * rm[j, 1, 0] + rm[i, 2, 2] * rm[j, 2, 0]
+    m21 = rm[i, 0, 2] * rm[j, 0, 1] + rm[i, 1, 2] * rm[j, 1, 1] + rm[i, 2, 2] * rm[j, 2, 1]
+    m22 = rm[i, 0, 2] * rm[j, 0, 2] + rm[i, 1, 2] * rm[j, 1, 2] + rm[i, 2, 2] * rm[j, 2, 2]
+    return m00, m01, m02, m10, m11, m12, m20, m21, m22
+
+
+@njit(cache=True, inline="always")
+def j_to_i(M, x, y, R, inv_r):
+    """Point ``(x, y)`` [m] of ``j``'s tangent plane in ``i``'s (``project_partner``'s
+    arithmetic)."""
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = M
+    u = x * inv_r
+    v = y * inv_r
+    gx = m00 * u + m01 * v + m02
+    gy = m10 * u + m11 * v + m12
+    gz = m20 * u + m21 * v + m22
+    return R * gx / gz, R * gy / gz
+
+
+@njit(cache=True, inline="always")
+def i_to_j(M, x, y, R, inv_r):
+    """Point ``(x, y)`` [m] of ``i``'s tangent plane in ``j``'s."""
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = M
+    u = x * inv_r
+    v = y * inv_r
+    gx = m00 * u + m10 * v + m20
+    gy = m01 * u + m11 * v + m21
+    gz = m02 * u + m12 * v + m22
+    return R * gx / gz, R * gy / gz
+
+
+@njit(cache=True, inline="always")
+def relative_velocity_m(M, V, w, i, j, px, py, xj, yj):
+    """Velocity of ``j``'s material point at ``i``-frame ``(px, py)`` (``(xj, yj)`` in ``j``'s
+    frame) minus ``i``'s, in ``i``'s frame (radial part dropped)."""
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = M
+    vix = V[i, 0] - w[i] * py
+    viy = V[i, 1] + w[i] * px
+    vjx_l = V[j, 0] - w[j] * yj
+    vjy_l = V[j, 1] + w[j] * xj
+    return (m00 * vjx_l + m01 * vjy_l) - vix, (m10 * vjx_l + m11 * vjy_l) - viy
+
+
+@njit(cache=True, inline="always")
+def pair_contribution(M, fx, fy, px, py, couple, inv_r, R, out, k):
+    """Row ``out[k]`` (``C_*``): force ``(fx, fy)`` (``i``'s frame) and ``couple`` on ``j`` at
+    ``i``-frame point ``(px, py)``, and the opposite on ``i``, as generalised forces.
+
+    As :func:`apply_pair`: with ``X`` the contact point (unit vector) and ``f`` the force, the
+    torque about the planet centre on ``j`` is ``tau = R X × f + couple X``; in ``i``'s frame
+    ``X = (px/R, py/R, 1)/|.|`` and ``f = (fx, fy, 0)``, and ``M^T`` takes ``tau`` to ``j``'s
+    frame. ``Fx = tau_y / R``, ``Fy = -tau_x / R``, ``T = tau_z`` (``i`` gets the negatives).
+    """
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = M
+    u = px * inv_r
+    v = py * inv_r
+    nrm = 1.0 / math.sqrt(u * u + v * v + 1.0)
+    x0 = u * nrm
+    x1 = v * nrm
+    x2 = nrm
+    cr = couple * inv_r
+    # s = tau / R in i's frame
+    s0 = -x2 * fy + cr * x0
+    s1 = x2 * fx + cr * x1
+    s2 = x0 * fy - x1 * fx + cr * x2
+    out[k, C_FIX] = -s1
+    out[k, C_FIY] = s0
+    out[k, C_TI] = -R * s2
+    t0 = m00 * s0 + m10 * s1 + m20 * s2
+    t1 = m01 * s0 + m11 * s1 + m21 * s2
+    t2 = m02 * s0 + m12 * s1 + m22 * s2
+    out[k, C_FJX] = t1
+    out[k, C_FJY] = -t0
+    out[k, C_TJ] = R * t2
+
+
+@njit(cache=True)
+def joint_constants(h, E, minv, ji, jj, ends_i, ends_j):
+    """Per joint: eq. 9 stiffness ``K`` [Pa] (lever arms: the joint midpoint in both frames)
+    and reduced mass [kg], which never change during a run."""
+    nj = ji.shape[0]
+    K = np.empty(nj)
+    meff = np.empty(nj)
+    for k in range(nj):
+        i = ji[k]
+        j = jj[k]
+        mx = 0.5 * (ends_i[k, 0, 0] + ends_i[k, 1, 0])
+        my = 0.5 * (ends_i[k, 0, 1] + ends_i[k, 1, 1])
+        ri = math.hypot(mx, my)
+        rj = math.hypot(0.5 * (ends_j[k, 0, 0] + ends_j[k, 1, 0]),
+                        0.5 * (ends_j[k, 0, 1] + ends_j[k, 1, 1]))
+        K[k] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
+        meff[k] = 1.0 / (minv[i] + minv[j])
+    return K, meff
+
+
+def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
+                 jmeff, intact, hist, R, dt, commit, out, on, nch):
+    """Evaluate every intact joint into ``out[k]`` (``C_*``) and ``on[k]``; returns the number
+    that broke (only when ``commit``)."""
+    fn = specialise(_joint_forces, evaluate)
+    if fn is not None:
+        return fn(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff,
+                  intact, hist, R, dt, commit, out, on, nch)
+    return _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
+                         jK, jmeff, intact, hist, R, dt, commit, out, on, nch)
+
+
+@njit(parallel=True)
+def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
+                  jmeff, intact, hist, R, dt, commit, out, on, nch):
+    nj = ji.shape[0]
+    nh = hist.shape[1]
+    inv_r = 1.0 / R
+    counts = np.zeros(nch, dtype=np.int64)
+
+    def chunk(c):
+        lo, hi = chunk_bounds(c, nch, nj)
+        g = np.empty(J_SIZE)
+        res = np.empty(4)
+        scratch = np.empty(nh)
+        nb = 0
+        for k in range(lo, hi):
+            on[k] = 0
+            if not intact[k]:
+                continue
+            i = ji[k]
+            j = jj[k]
+            M = relative_matrix(rm, i, j)
+            ax, ay = ends_i[k, 0, 0], ends_i[k, 0, 1]
+            bx, by = ends_i[k, 1, 0], ends_i[k, 1, 1]
+            Ax, Ay = j_to_i(M, ends_j[k, 0, 0], ends_j[k, 0, 1], R, inv_r)
+            Bx, By = j_to_i(M, ends_j[k, 1, 0], ends_j[k, 1, 1], R, inv_r)
+            g[J_S1X] = Ax - ax
+            g[J_S1Y] = Ay - ay
+            g[J_S2X] = Bx - bx
+            g[J_S2Y] = By - by
+            g[J_AX] = ax
+            g[J_AY] = ay
+            g[J_BX] = bx
+            g[J_BY] = by
+            g[J_L0] = L0[k]
+            g[J_W] = width[k]
+            g[J_K] = jK[k]
+            g[J_MEFF] = jmeff[k]
+            # the material points at the ends: i's copy at a (b), j's copy at A (B)
+            xa, ya = i_to_j(M, ax, ay, R, inv_r)
+            xb, yb = i_to_j(M, bx, by, R, inv_r)
+            g[J_VAX], g[J_VAY] = relative_velocity_m(M, V, w, i, j, ax, ay, xa, ya)
+            g[J_VBX], g[J_VBY] = relative_velocity_m(M, V, w, i, j, bx, by, xb, yb)
+            g[J_HI] = h[i]
+            g[J_HJ] = h[j]
+            g[J_EI] = E[i]
+            g[J_EJ] = E[j]
+            g[J_NU] = nu[i]
+            g[J_DT] = dt
+            res[0] = 0.0
+            res[1] = 0.0
+            res[2] = 0.0
+            res[3] = 0.0
+            if commit:
+                evaluate(g, pars, hist[k], res)
+            else:
+                for a in range(nh):
+                    scratch[a] = hist[k, a]
+                evaluate(g, pars, scratch, res)
+            if res[3] != 0.0:
+                if commit:
+                    intact[k] = False
+                    nb += 1
+                continue
+            pair_contribution(M, res[0], res[1], 0.5 * (ax + bx), 0.5 * (ay + by), res[2],
+                              inv_r, R, out, k)
+            on[k] = 1
+        counts[c] = nb
+    if nch == 1:  # no threads started
+        chunk(0)
+    else:
+        for c in prange(nch):
+            chunk(c)
+    return counts.sum()
+
+
+def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
+                     nmax, pretest, out, on, nch):
+    """Clip every candidate pair (unless :func:`~siku_core.geometry.clip.separated` proves them
+    apart, with ``pretest``) and evaluate the overlapping ones into ``out[k]``, ``on[k]``;
+    returns the number of overlapping pairs. ``bigv``: each element's largest absolute local
+    vertex coordinate [m] (the scale of the separation margin)."""
+    fn = specialise(_collision_forces, evaluate)
+    if fn is not None:
+        return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R, nmax,
+                  pretest, out, on, nch)
+    return _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv,
+                             pairs, R, nmax, pretest, out, on, nch)
+
+
+@njit(parallel=True)
+def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
+                      nmax, pretest, out, on, nch):
+    npairs = pairs.shape[0]
+    inv_r = 1.0 / R
+    counts = np.zeros(nch, dtype=np.int64)
+
+    def chunk(c):
+        lo, hi = chunk_bounds(c, nch, npairs)
+        xy, tag = make_overlap_scratch(nmax, nmax)
+        proj = np.empty((nmax, 2))
+        g = np.empty(G_SIZE)
+        res = np.empty(4)
+        no = 0
+        for k in range(lo, hi):
+            # the separation test pays for pairs that did not overlap last time only
+            try_pretest = pretest and on[k] == 0
+            on[k] = 0
+            i = pairs[k, 0]
+            j = pairs[k, 1]
+            M = relative_matrix(rm, i, j)
+            oj = offsets[j]
+            nj = offsets[j + 1] - oj
+            big = bigv[i]
+            for v in range(nj):
+                px, py = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
+                proj[v, 0] = px
+                proj[v, 1] = py
+                big = max(big, abs(px), abs(py))
+            pj = proj[:nj]
+            pi = verts[offsets[i]:offsets[i + 1]]
+            if try_pretest and separated(pi, pj, big, True):
+                continue
+            a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag,
+                                                                         True)
+            if a <= 0.0:
+                continue
+            no += 1
+            ri = math.hypot(cx, cy)
+            xj, yj = i_to_j(M, cx, cy, R, inv_r)
+            rj = math.hypot(xj, yj)
+            if ncross == 2:
+                width = math.hypot(p2x - p1x, p2y - p1y)
+            else:
+                width = _span_across(pi, pj, nx, ny)
+                if not width > 0.0:
+                    width = math.sqrt(a)
+            g[G_AREA] = a
+            g[G_CX] = cx
+            g[G_CY] = cy
+            g[G_NX] = nx
+            g[G_NY] = ny
+            g[G_WIDTH] = width
+            g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
+            g[G_MEFF] = 1.0 / (minv[i] + minv[j])
+            g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
+            g[G_AREA_I] = area[i]
+            g[G_AREA_J] = area[j]
+            res[0] = 0.0
+            res[1] = 0.0
+            res[2] = 0.0
+            res[3] = 0.0
+            evaluate(g, pars, res)
+            pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
+            on[k] = 1
+        counts[c] = no
+    if nch == 1:  # no threads started
+        chunk(0)
+    else:
+        for c in prange(nch):
+            chunk(c)
+    return counts.sum()
+
+
+@njit(cache=True)
+def element_index(a, b, n):
+    """CSR index from elements to contacts ``k`` with ends ``a[k]``, ``b[k]``: element ``e``'s
+    contacts are ``idx[off[e]:off[e+1]]`` in ascending ``k``, ``side`` 0 where ``e`` is the
+    contact's ``i`` (``a``), 1 where it is ``j`` (``b``)."""
+    m = a.shape[0]
+    off = np.zeros(n + 1, dtype=np.int64)
+    for k in range(m):
+        off[a[k] + 1] += 1
+        off[b[k] + 1] += 1
+    for e in range(n):
+        off[e + 1] += off[e]
+    fill = off[:n].copy()
+    idx = np.empty(2 * m, dtype=np.int64)
+    side = np.empty(2 * m, dtype=np.int8)
+    for k in range(m):
+        e = a[k]
+        idx[fill[e]] = k
+        side[fill[e]] = 0
+        fill[e] += 1
+        e = b[k]
+        idx[fill[e]] = k
+        side[fill[e]] = 1
+        fill[e] += 1
+    return off, idx, side
+
+
+@njit(cache=True, parallel=True)
+def gather_forces(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, pon, nch):
+    """Add to ``F[e], T[e]`` the contributions of element ``e``'s joints, then of its pairs,
+    each in ascending contact index (fixed order: independent of the thread count)."""
+    n = F.shape[0]
+
+    def chunk(c):
+        lo, hi = chunk_bounds(c, nch, n)
+        for e in range(lo, hi):
+            fx = F[e, 0]
+            fy = F[e, 1]
+            t = T[e]
+            for a in range(joff[e], joff[e + 1]):
+                k = jidx[a]
+                if jon[k]:
+                    s = 3 * jside[a]
+                    fx += jout[k, s]
+                    fy += jout[k, s + 1]
+                    t += jout[k, s + 2]
+            for a in range(poff[e], poff[e + 1]):
+                k = pidx[a]
+                if pon[k]:
+                    s = 3 * pside[a]
+                    fx += pout[k, s]
+                    fy += pout[k, s + 1]
+                    t += pout[k, s + 2]
+            F[e, 0] = fx
+            F[e, 1] = fy
+            T[e] = t
+    if nch == 1:  # no threads started
+        chunk(0)
+    else:
+        for c in prange(nch):
+            chunk(c)
+
+
+@njit(cache=True)
+def max_moved2(q, ref):
+    """Largest squared chord between element centres ``R(q) e_z`` and ``ref (N, 3)``."""
+    best = 0.0
+    for i in range(q.shape[0]):
+        w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        dx = 2 * (x * z + w * y) - ref[i, 0]
+        dy = 2 * (y * z - w * x) - ref[i, 1]
+        dz = 1 - 2 * (x * x + y * y) - ref[i, 2]
+        d = dx * dx + dy * dy + dz * dz
+        if d > best:
+            best = d
+    return best

@@ -1,6 +1,8 @@
 """Global diagnostics: energy and momentum about the planet centre."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -50,3 +52,26 @@ def element_diagnostics(q, V, w, m, I, radius) -> dict[str, float]:  # noqa: E74
         "mean_speed": vsum / n if n else 0.0,
         "max_speed": vmax,
     }
+
+
+@njit(cache=True)
+def all_finite(a):
+    """Whether every value of the 1-D array ``a`` is finite (no temporary arrays)."""
+    for k in range(a.shape[0]):
+        if not math.isfinite(a[k]):
+            return False
+    return True
+
+
+@njit(cache=True)
+def fastest(V):
+    """``(i, |V_i|²)`` of the element with the largest ``Vx² + Vy²`` (first on ties); ``(-1, 0)``
+    without elements."""
+    best = -1
+    s2 = 0.0
+    for i in range(V.shape[0]):
+        v = V[i, 0] ** 2 + V[i, 1] ** 2
+        if best < 0 or v > s2:
+            best = i
+            s2 = v
+    return best, s2

@@ -92,6 +92,11 @@ class Field(Component):
     def sample(self, t: float, lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Eastward and northward velocity [m/s] at ``lat, lon`` [rad], ``t`` [s from start]."""
 
+    def uniform(self, t: float) -> tuple[float, float] | None:
+        """``(u, v)`` [m/s] if the field is the same everywhere at ``t`` (forcing then skips
+        the per-element positions and sampling), else ``None`` (the default)."""
+        return None
+
     def close(self) -> None:  # noqa: B027 - optional hook
         """Release files or caches."""
 

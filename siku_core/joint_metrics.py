@@ -35,3 +35,29 @@ def joint_strain_opening(q, ji, jj, ends_i, ends_j, L0, R):
         else:
             opening[k] = 0.0
     return strain, opening
+
+
+def joint_diagnostics(q, ji, jj, ends_i, ends_j, L0, width, intact, E, area, flags, R):
+    """Lead and stress diagnostics of the frozen joints.
+
+    * ``lead_area`` [m²]: open water in leads, the sum over broken joints of the normal opening
+      (when positive) times the joint length; ``lead_fraction`` [1]: its share of the area of
+      the free ice plus the leads;
+    * ``joint_stress_max`` / ``joint_stress_min`` [Pa]: the largest tensile and compressive
+      normal stress ``E opening / L0`` over intact joints (tension positive);
+    * ``joint_strain_max`` [1]: the largest ``max(|s1|, |s2|) / L0`` over intact joints.
+    """
+    strain, opening = joint_strain_opening(q, ji, jj, ends_i, ends_j, L0, R)
+    broken = ~intact
+    lead_area = float(np.sum(np.clip(opening[broken], 0.0, None) * width[broken]))
+    ice = float(area[flags == 0].sum())
+    out = {"lead_area": lead_area, "lead_fraction": lead_area / (ice + lead_area) if ice else 0.0}
+    if intact.any():
+        e = 0.5 * (E[ji] + E[jj])
+        sigma = e[intact] * opening[intact] / L0[intact]
+        out["joint_stress_max"] = float(max(sigma.max(), 0.0))
+        out["joint_stress_min"] = float(min(sigma.min(), 0.0))
+        out["joint_strain_max"] = float(strain[intact].max())
+    else:
+        out.update(joint_stress_max=0.0, joint_stress_min=0.0, joint_strain_max=0.0)
+    return out

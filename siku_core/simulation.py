@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .diagnostics import element_diagnostics
+from .diagnostics import all_finite, element_diagnostics, fastest
 from .elements import build_elements
 from .errors import NonFiniteError, SceneError, StabilityError
 from .interfaces import Component, Field, ForcingSource, Integrator, Writer
@@ -30,6 +30,13 @@ from .state import DYNAMIC
 
 #: quantities checked by the NaN guard, in the order their failure is reported
 _GUARDED = ("F", "T", "V", "w", "q")
+
+#: phases of a step timed in ``Simulation.timings`` [s], in step order: forcing sources; the
+#: contact joints; the broad phase (candidate-list checks and rebuilds); narrow phase and
+#: collision law; the per-element sums of contact forces (with the rotation matrices they use);
+#: the integrator (its own work, without the force evaluations); the NaN guard; writers
+PHASES = ("forcing", "joints", "broad_phase", "collisions", "contact_sum", "integrator",
+          "guard", "output")
 
 
 class Simulation:
@@ -129,7 +136,9 @@ class Simulation:
         self._good = {k: getattr(self.state, k).copy() for k in DYNAMIC}
         self._good_step = self.step_index
         self._opened = False
-        self.timings: dict[str, float] = {"forcing": 0.0, "integrator": 0.0, "output": 0.0}
+        self._force_time = 0.0
+        self.timings: dict[str, float] = dict.fromkeys(PHASES, 0.0)
+        self.timed_steps = 0
         if self.pm is not None:
             self.pm.hook.siku_ready(simulation=self)
 
@@ -194,27 +203,48 @@ class Simulation:
 
     def compute_forces(self, t: float, q, V, w, F, T) -> None:
         """Fill ``F`` [N] and ``T`` [N m] for the state ``q, V, w`` at time ``t`` [s]."""
-        F[:] = 0.0
-        T[:] = 0.0
+        t0 = time.perf_counter()
+        F.fill(0.0)
+        T.fill(0.0)
         for src in self.forcing:
             src.add(t, q, V, w, F, T)
+        t1 = time.perf_counter()
+        self.timings["forcing"] += t1 - t0
         if self.contacts is not None:
-            t0 = time.perf_counter()
             self.contacts.add(t, q, V, w, F, T, self._commit)
-            self.timings["contacts"] = self.timings.get("contacts", 0.0) + time.perf_counter() - t0
         self._commit = False
+        self._force_time += time.perf_counter() - t0
 
     def step(self) -> None:
-        """Advance one time step and run the NaN guard on its schedule."""
+        """Advance one time step and run the NaN guard on its schedule.
+
+        Every phase's wall time accumulates in :attr:`timings` (seconds, keys :data:`PHASES`;
+        ``integrator`` excludes the force evaluations it calls); ``siku run --profile`` prints
+        them. Measuring costs a few ``perf_counter`` calls per step.
+        """
         t0 = time.perf_counter()
         self._commit = True
+        self._force_time = 0.0
         self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
         self.step_index += 1
-        self.timings["integrator"] += time.perf_counter() - t0
+        t1 = time.perf_counter()
+        self.timings["integrator"] += t1 - t0 - self._force_time
         if self.step_index % self.scene.cfg.run.nan_check_every == 0 or (
             self.step_index == self.n_steps
         ):
             self._nan_guard()
+        self.timings["guard"] += time.perf_counter() - t1
+        self.timed_steps += 1
+
+    def profile(self) -> list[tuple[str, float]]:
+        """``(phase, seconds)`` for every phase of :data:`PHASES` with time spent, in step
+        order (see :meth:`step`)."""
+        return [(k, self.timings[k]) for k in PHASES if self.timings.get(k, 0.0) > 0.0]
+
+    def reset_timings(self) -> None:
+        for k in self.timings:
+            self.timings[k] = 0.0
+        self.timed_steps = 0
 
     def _nan_guard(self) -> None:
         """Stop on a non-finite value or a speed above ``[run] max_speed`` (a diverging run).
@@ -224,19 +254,18 @@ class Simulation:
         st = self.state
         for name in _GUARDED:
             arr = getattr(st, name)
-            if not np.isfinite(arr).all():
+            if not all_finite(arr.reshape(-1)):
                 bad = np.argwhere(~np.isfinite(arr.reshape(st.n, -1)))[0]
                 self._fail(f"non-finite {name} of element {int(bad[0])}")
-        speed2 = st.V[:, 0] ** 2 + st.V[:, 1] ** 2
         vmax = self.scene.cfg.run.max_speed
-        if st.n and speed2.max() > vmax * vmax:
-            i = int(np.argmax(speed2))
+        i, speed2 = fastest(st.V)
+        if st.n and speed2 > vmax * vmax:
             self._fail(
-                f"speed of element {i} is {np.sqrt(speed2[i]):.3g} m/s, above [run] max_speed = "
+                f"speed of element {i} is {np.sqrt(speed2):.3g} m/s, above [run] max_speed = "
                 f"{vmax:g} m/s: the run is diverging (is dt above the stable step?)"
             )
         for k in DYNAMIC:
-            self._good[k][:] = getattr(st, k)
+            np.copyto(self._good[k], getattr(st, k))
         self._good_step = self.step_index
 
     def _fail(self, what: str) -> None:

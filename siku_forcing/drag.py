@@ -15,23 +15,58 @@ import math
 import numpy as np
 from numba import njit
 
+from numba import prange
+
 from siku_core import Param, hookimpl
-from siku_core.geometry.quat import east_north_local, latlon_of
+from siku_core.geometry.quat import east_north_row, latlon_of
 from siku_core.interfaces import ForcingSource
+from siku_core.parallel import chunk_bounds, chunks
 from siku_core.state import STATIC
 
 
-@njit(cache=True)
-def _stress(q, V, u, v, area, rho, C, theta, subtract_ice, F):
-    """Add ``S rho C |D| (D cos th + k × D sin th)``, ``D = U_field - subtract_ice U``."""
+@njit(cache=True, inline="always")
+def _stress_one(q, V, i, ui, vi, area, rho, C, ct, st, subtract_ice, F):
+    ex, ey, nx, ny = east_north_row(q, i)
+    dx = ui * ex + vi * nx - subtract_ice * V[i, 0]
+    dy = ui * ey + vi * ny - subtract_ice * V[i, 1]
+    s = area[i] * rho * C * math.sqrt(dx * dx + dy * dy)
+    F[i, 0] += s * (dx * ct - dy * st)
+    F[i, 1] += s * (dy * ct + dx * st)
+
+
+@njit(cache=True, parallel=True)
+def _stress(q, V, u, v, area, rho, C, theta, subtract_ice, F, nch=1):
+    """Add ``S rho C |D| (D cos th + k × D sin th)``, ``D = U_field - subtract_ice U``, with the
+    field velocity ``u, v`` [m/s] (east, north) per element."""
     ct, st = math.cos(theta), math.sin(theta)
-    for i in range(q.shape[0]):
-        ex, ey, nx, ny = east_north_local(q[i])
-        dx = u[i] * ex + v[i] * nx - subtract_ice * V[i, 0]
-        dy = u[i] * ey + v[i] * ny - subtract_ice * V[i, 1]
-        s = area[i] * rho * C * math.sqrt(dx * dx + dy * dy)
-        F[i, 0] += s * (dx * ct - dy * st)
-        F[i, 1] += s * (dy * ct + dx * st)
+    n = q.shape[0]
+
+    def chunk(c):
+        lo, hi = chunk_bounds(c, nch, n)
+        for i in range(lo, hi):
+            _stress_one(q, V, i, u[i], v[i], area, rho, C, ct, st, subtract_ice, F)
+    if nch == 1:  # no threads started
+        chunk(0)
+    else:
+        for c in prange(nch):
+            chunk(c)
+
+
+@njit(cache=True, parallel=True)
+def _stress_uniform(q, V, u, v, area, rho, C, theta, subtract_ice, F, nch=1):
+    """:func:`_stress` for a field velocity ``(u, v)`` [m/s] that is the same everywhere."""
+    ct, st = math.cos(theta), math.sin(theta)
+    n = q.shape[0]
+
+    def chunk(c):
+        lo, hi = chunk_bounds(c, nch, n)
+        for i in range(lo, hi):
+            _stress_one(q, V, i, u, v, area, rho, C, ct, st, subtract_ice, F)
+    if nch == 1:  # no threads started
+        chunk(0)
+    else:
+        for c in prange(nch):
+            chunk(c)
 
 
 @njit(cache=True)
@@ -54,6 +89,26 @@ class _Drag(ForcingSource):
         lat, lon = latlon_of(q)
         return self.field.sample(t, lat, lon)
 
+    def _add_stress(self, t, q, V, F, subtract_ice):
+        """Stress from ``self.field`` (``None``: still air or water); a field that says it is
+        uniform (``Field.uniform``) is not sampled per element."""
+        rho, C = float(self.p["rho"]), float(self.p["C"])
+        theta = math.radians(self.p["turning_angle"])
+        nch = chunks(q.shape[0])
+        if self.field is None:
+            uv = (0.0, 0.0)
+        else:
+            uniform = getattr(self.field, "uniform", None)
+            uv = uniform(t) if uniform is not None else None
+        if uv is not None:
+            _stress_uniform(q, V, float(uv[0]), float(uv[1]), self.st.area, rho, C, theta,
+                            subtract_ice, F, nch)
+        else:
+            u, v = self._sample(t, q)
+            _stress(q, V, np.ascontiguousarray(u, dtype=np.float64),
+                    np.ascontiguousarray(v, dtype=np.float64), self.st.area, rho, C, theta,
+                    subtract_ice, F, nch)
+
 
 class AirDrag(_Drag):
     """Wind stress on each element (eq. 19) from a wind field; ``relative`` uses ``U_a - U``."""
@@ -67,9 +122,7 @@ class AirDrag(_Drag):
     }
 
     def add(self, t, q, V, w, F, T):
-        u, v = self._sample(t, q)
-        _stress(q, V, u, v, self.st.area, float(self.p["rho"]), float(self.p["C"]),
-                math.radians(self.p["turning_angle"]), 1.0 if self.p["relative"] else 0.0, F)
+        self._add_stress(t, q, V, F, 1.0 if self.p["relative"] else 0.0)
 
 
 class WaterDrag(_Drag):
@@ -99,13 +152,7 @@ class WaterDrag(_Drag):
         self.spin_coef = self.p["rho"] * self.p["C"] * 2.0 * math.pi * r**5 / 5.0
 
     def add(self, t, q, V, w, F, T):
-        if self.field is None:
-            n = q.shape[0]
-            u = v = np.zeros(n)
-        else:
-            u, v = self._sample(t, q)
-        _stress(q, V, u, v, self.st.area, float(self.p["rho"]), float(self.p["C"]),
-                math.radians(self.p["turning_angle"]), 1.0, F)
+        self._add_stress(t, q, V, F, 1.0)
         if self.p["spin_drag"]:
             _spin_drag(w, self.st.flags, self.spin_coef, T)
 

@@ -26,6 +26,9 @@ class Uniform(Field):
         n = np.shape(lat)[0]
         return np.full(n, float(self.p["u"])), np.full(n, float(self.p["v"]))
 
+    def uniform(self, t):
+        return float(self.p["u"]), float(self.p["v"])
+
 
 @njit(cache=True)
 def _vortex(lat, lon, clat, clon, vmax, rmax, sense, alpha, radius):

@@ -15,46 +15,61 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from siku_core import hookimpl
 from siku_core.geometry.quat import cayley_step
 from siku_core.interfaces import Integrator
+from siku_core.parallel import chunk_bounds, chunks
 from siku_core.state import FREE, STATIC
 
 
-@njit(cache=True)
-def _siku2(q, V, w, F, T, m, I, flags, R, dt):  # noqa: E741
-    tmp = np.empty(4)
-    for i in range(q.shape[0]):
-        f = flags[i]
-        if f == STATIC:
-            continue
-        if f == FREE:
-            # kick: body-frame angular momentum L_b = (-m R Vy, m R Vx, I w) gains dt * torque
-            V[i, 0] += dt * F[i, 0] / m[i]
-            V[i, 1] += dt * F[i, 1] / m[i]
-            w[i] += dt * T[i] / I[i]
-            k = I[i] / (m[i] * R * R)
-            # drift 1: rotation about L_b (eq. 6 with Omega_L = L_b / (m R^2))
-            cayley_step(q[i], -V[i, 1] / R, V[i, 0] / R, k * w[i], dt, tmp)
-            # drift 2: spin about the local vertical by gamma; L_b precesses by -gamma
-            gamma = (1.0 - k) * w[i] * dt
-            c, s = math.cos(0.5 * gamma), math.sin(0.5 * gamma)
-            q[i, 0] = tmp[0] * c - tmp[3] * s
-            q[i, 1] = tmp[1] * c + tmp[2] * s
-            q[i, 2] = tmp[2] * c - tmp[1] * s
-            q[i, 3] = tmp[3] * c + tmp[0] * s
-            cg, sg = math.cos(gamma), math.sin(gamma)
-            vx, vy = V[i, 0], V[i, 1]
-            V[i, 0] = cg * vx + sg * vy
-            V[i, 1] = -sg * vx + cg * vy
-        else:  # steady: prescribed local velocity and spin, forces ignored
-            cayley_step(q[i], -V[i, 1] / R, V[i, 0] / R, w[i], dt, tmp)
-            q[i, 0] = tmp[0]
-            q[i, 1] = tmp[1]
-            q[i, 2] = tmp[2]
-            q[i, 3] = tmp[3]
+@njit(cache=True, parallel=True)
+def _siku2(q, V, w, F, T, m, I, flags, R, dt, nch=1):  # noqa: E741
+    n = q.shape[0]
+
+    def chunk(c):
+        lo, hi = chunk_bounds(c, nch, n)
+        tmp = np.empty(4)
+        for i in range(lo, hi):
+            _siku2_one(q, V, w, F, T, m, I, flags, R, dt, i, tmp)
+    if nch == 1:  # no threads started
+        chunk(0)
+    else:
+        for c in prange(nch):
+            chunk(c)
+
+
+@njit(cache=True, inline="always")
+def _siku2_one(q, V, w, F, T, m, I, flags, R, dt, i, tmp):  # noqa: E741
+    f = flags[i]
+    if f == STATIC:
+        return
+    if f == FREE:
+        # kick: body-frame angular momentum L_b = (-m R Vy, m R Vx, I w) gains dt * torque
+        V[i, 0] += dt * F[i, 0] / m[i]
+        V[i, 1] += dt * F[i, 1] / m[i]
+        w[i] += dt * T[i] / I[i]
+        k = I[i] / (m[i] * R * R)
+        # drift 1: rotation about L_b (eq. 6 with Omega_L = L_b / (m R^2))
+        cayley_step(q[i], -V[i, 1] / R, V[i, 0] / R, k * w[i], dt, tmp)
+        # drift 2: spin about the local vertical by gamma; L_b precesses by -gamma
+        gamma = (1.0 - k) * w[i] * dt
+        c, s = math.cos(0.5 * gamma), math.sin(0.5 * gamma)
+        q[i, 0] = tmp[0] * c - tmp[3] * s
+        q[i, 1] = tmp[1] * c + tmp[2] * s
+        q[i, 2] = tmp[2] * c - tmp[1] * s
+        q[i, 3] = tmp[3] * c + tmp[0] * s
+        cg, sg = math.cos(gamma), math.sin(gamma)
+        vx, vy = V[i, 0], V[i, 1]
+        V[i, 0] = cg * vx + sg * vy
+        V[i, 1] = -sg * vx + cg * vy
+    else:  # steady: prescribed local velocity and spin, forces ignored
+        cayley_step(q[i], -V[i, 1] / R, V[i, 0] / R, w[i], dt, tmp)
+        q[i, 0] = tmp[0]
+        q[i, 1] = tmp[1]
+        q[i, 2] = tmp[2]
+        q[i, 3] = tmp[3]
 
 
 class Siku2(Integrator):
@@ -81,7 +96,7 @@ class Siku2(Integrator):
     def step(self, state, t, dt, forces):
         forces(t, state.q, state.V, state.w, state.F, state.T)
         _siku2(state.q, state.V, state.w, state.F, state.T, state.m, state.I, state.flags,
-               self.radius, dt)
+               self.radius, dt, chunks(state.n))
 
     def setup(self, sim):
         self.radius = float(sim.radius)

@@ -84,3 +84,23 @@ def test_broken_joints_concentrate_at_the_coast_and_landfast_edge(run6h):
     assert np.median(dist[broken]) < 0.5 * np.median(dist[pack])
     near = 100e3
     assert (dist[broken] < near).mean() > 2 * (dist[pack | broken] < near).mean()
+
+
+def test_lead_and_stress_diagnostics(run6h):
+    """The diagnostics time series carries the lead area and fraction and joint stress
+    extremes; the lead area equals the sum over open broken joints of opening × length."""
+    sim = run6h
+    d = sim.diagnostics()
+    c, st = sim.contacts, sim.state
+    _, opening = joint_strain_opening(st.q, c.ji, c.jj, c.ends_i, c.ends_j, c.L0, sim.radius)
+    broken = ~c.intact
+    expected = np.sum(np.clip(opening[broken], 0, None) * c.width[broken])
+    assert d["lead_area"] == pytest.approx(expected, rel=1e-12)
+    free_area = st.area[st.flags == FREE].sum()
+    assert d["lead_fraction"] == pytest.approx(expected / (free_area + expected), rel=1e-12)
+    assert 0 < d["lead_fraction"] < 0.1
+    assert d["joints_broken"] == broken.sum() > 0
+    # intact joints: stresses within the elastic range set by the tensile strain (E 0.5 GPa
+    # × 3e-4 = 150 kPa)
+    assert 0 < d["joint_stress_max"] <= 0.5e9 * 3e-4
+    assert d["joint_stress_min"] <= 0

@@ -168,6 +168,29 @@ def east_north_local(q):
     return el[0], el[1], -el[1], el[0]
 
 
+@njit(cache=True, inline="always")
+def east_north_row(q, i):
+    """:func:`east_north_local` of ``q[i]`` without allocating (same arithmetic, bit for bit):
+    for loops over many elements."""
+    w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+    c0 = 2 * (x * z + w * y)
+    c1 = 2 * (y * z - w * x)
+    rho = math.sqrt(c0 * c0 + c1 * c1)
+    if rho < 1e-14:
+        return 1.0, 0.0, 0.0, 1.0
+    v0 = -c1 / rho
+    v1 = c0 / rho
+    v2 = 0.0
+    # qrotate((w, -x, -y, -z), v), as qrotate_inv does
+    cx, cy, cz = -x, -y, -z
+    tx = 2.0 * (cy * v2 - cz * v1)
+    ty = 2.0 * (cz * v0 - cx * v2)
+    tz = 2.0 * (cx * v1 - cy * v0)
+    e0 = v0 + w * tx + (cy * tz - cz * ty)
+    e1 = v1 + w * ty + (cz * tx - cx * tz)
+    return e0, e1, -e1, e0
+
+
 @njit(cache=True)
 def to_tangent(q, p, radius):
     """Gnomonic projection of global unit vector ``p`` into the tangent plane of ``q`` (m)."""

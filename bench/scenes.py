@@ -1,0 +1,134 @@
+"""Benchmark scenes, written as the TOML a user would write (``siku_core.scene``).
+
+* ``bonded``: the Siku-like pack of the performance issue: ``nx × ny`` squares of 0.2° (about
+  22 km) centred on the equator, 1 m thick, every shared edge jointed (``joints = "auto"``),
+  the west column static, the east column steady at 3 m/s east, a uniform 10 m/s wind through
+  ``air_drag``. Joint strengths are high enough that no joint breaks during a benchmark, so the
+  joint count stays fixed (about two joints per element).
+* ``collision``: a broken pack for the ``collision`` law: the same grid, but every element is
+  its own polygon, scaled up by 2 % about its centre and its corners jittered by up to 0.4 % of
+  the cell, so that every candidate pair (edge and diagonal neighbours) overlaps and is clipped
+  and evaluated every step. A short ``dt`` keeps the overlaps (and so the work) the same over a
+  benchmark.
+* ``free_drift``: the bonded pack without a ``[contact]`` table: forcing and integrator only.
+
+Sizes are given as element counts; :func:`grid` picks the columns and rows.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from siku_core.scene import Scene, scene_from_text
+from siku_core.testing.scenes import toml_value
+
+#: element side in degrees (the issue's "0.2° squares at the equator")
+CELL_DEG = 0.2
+#: time step of the bonded and free-drift scenes [s] (the 0.2° pack's critical step is ~6 s)
+DT_BONDED = 2.0
+#: time step of the collision scene [s]: overlaps of ~440 m change by < 1 m per 100 steps
+DT_COLLISION = 0.05
+
+#: joint parameters that keep every joint intact over a benchmark (3 m/s pull: strain < 1e-2)
+LAW_PARAMS = {
+    "collision": {},
+    "distributed_spring": {"tensile_strain": 0.05},
+    "mohr_coulomb": {"sigma_c": 1e12},
+}
+LAWS = tuple(LAW_PARAMS)
+
+
+def grid(n: int) -> tuple[int, int]:
+    """Columns and rows of a pack of about ``n`` elements: square for squares, else the
+    divisor pair nearest a square (3 000 -> 60 × 50)."""
+    r = int(round(math.sqrt(n)))
+    if r * r == n:
+        return r, r
+    best = None
+    for ny in range(1, r + 1):
+        if n % ny == 0:
+            best = (n // ny, ny)
+    if best is not None and best[0] <= 4 * best[1]:
+        return best
+    return r, max(1, round(n / r))
+
+
+def _head(title: str, dt: float, steps: int) -> list[str]:
+    return [
+        f"title = {toml_value(title)}",
+        f"[time]\nduration = {toml_value(dt * steps)}\ndt = {toml_value(dt)}",
+        "[materials.ice]\nyoungs_modulus = 1.0e9\ndensity = 910.0\npoisson_ratio = 0.3",
+        "[elements]\nthickness = 1.0",
+    ]
+
+
+def _pack_box(nx: int, ny: int) -> tuple[list[float], list[float]]:
+    return [0.0, nx * CELL_DEG], [-0.5 * ny * CELL_DEG, 0.5 * ny * CELL_DEG]
+
+
+WIND = ('[[forcing]]\nsource = "air_drag"\n'
+        'field = { type = "uniform", params = { u = 10.0, v = 0.0 } }')
+
+
+def bonded_text(n: int, law: str = "distributed_spring", steps: int = 100,
+                contact: bool = True, wind: bool = True) -> str:
+    """The Siku-like bonded pack of about ``n`` elements (``contact=False``: free drift)."""
+    nx, ny = grid(n)
+    lon, lat = _pack_box(nx, ny)
+    title = f"bench {'bonded ' + law if contact else 'free drift'} {nx}x{ny}"
+    parts = _head(title, DT_BONDED, steps)
+    parts.append(
+        "[[elements.pack]]\n"
+        f"lon = {toml_value(lon)}\nlat = {toml_value(lat)}\nnx = {nx}\nny = {ny}\n"
+        'left = "static"\nright = "steady"\nright_velocity = [3.0, 0.0]'
+    )
+    if contact:
+        parts.append(
+            f'[contact]\nlaw = {toml_value(law)}\njoints = "auto"\n'
+            f"params = {toml_value(LAW_PARAMS[law])}"
+        )
+    if wind:
+        parts.append(WIND)
+    parts.append("[run]\nprogress = false")
+    return "\n\n".join(parts) + "\n"
+
+
+def collision_text(n: int, steps: int = 100, overlap: float = 0.02, jitter: float = 0.004,
+                   seed: int = 1) -> str:
+    """The collision-dominated broken pack of about ``n`` elements."""
+    nx, ny = grid(n)
+    lon, lat = _pack_box(nx, ny)
+    rng = np.random.default_rng(seed)
+    xs = np.linspace(lon[0], lon[1], nx + 1)
+    ys = np.linspace(lat[0], lat[1], ny + 1)
+    s = 1.0 + overlap
+    parts = _head(f"bench collision {nx}x{ny}", DT_COLLISION, steps)
+    polys = []
+    for i in range(nx):
+        for j in range(ny):
+            cx, cy = 0.5 * (xs[i] + xs[i + 1]), 0.5 * (ys[j] + ys[j + 1])
+            v = np.array([[xs[i], ys[j]], [xs[i + 1], ys[j]], [xs[i + 1], ys[j + 1]],
+                          [xs[i], ys[j + 1]]])
+            v = np.array([cx, cy]) + s * (v - np.array([cx, cy]))
+            v += rng.uniform(-jitter, jitter, v.shape) * CELL_DEG
+            polys.append("[[elements.polygon]]\nvertices = "
+                         + toml_value([[round(a, 9), round(b, 9)] for a, b in v]))
+    parts.append("\n\n".join(polys))
+    parts.append('[contact]\nlaw = "collision"\njoints = "none"')
+    parts.append("[run]\nprogress = false")
+    return "\n\n".join(parts) + "\n"
+
+
+def scene(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -> Scene:
+    """A validated benchmark scene: ``kind`` is ``bonded``, ``collision`` or ``free_drift``."""
+    if kind == "bonded":
+        text = bonded_text(n, law, steps)
+    elif kind == "free_drift":
+        text = bonded_text(n, steps=steps, contact=False)
+    elif kind == "collision":
+        text = collision_text(n, steps)
+    else:
+        raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, collision, "
+                         "free_drift")
+    return scene_from_text(text, f"<bench {kind} {n}>")
