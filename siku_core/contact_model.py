@@ -216,7 +216,7 @@ class ContactModel:
         edges without a joint a collision budget of ``h E`` each. ``omega² <= 2 k_sum / m`` and
         ``2 k_rot / I``. Returns ``(omega_max, element)``.
         """
-        st, R = self.sim.state, self.sim.radius
+        st = self.sim.state
         n = st.n
         ktr = np.zeros(n)
         krot = np.zeros(n)
