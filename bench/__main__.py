@@ -64,7 +64,8 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int]) -> dic
             first = time.perf_counter() - ta
         for _ in range(2):
             sim.step()
-        sim.reset_timings()
+        for key in sim.timings:  # (Simulation.reset_timings, also on older versions)
+            sim.timings[key] = 0.0
         per = []
         for _ in range(steps):
             ta = time.perf_counter()
@@ -166,7 +167,7 @@ def _machine() -> str:
     except OSError:
         pass
     return (f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numba "
-            f"{numba.__version__} ({numba.config.THREADING_LAYER} threading layer)")
+            f"{numba.__version__}, NUMBA_THREADING_LAYER={numba.config.THREADING_LAYER}")
 
 
 def _best(reps: list[list[dict]]) -> list[dict]:
@@ -227,14 +228,15 @@ def _tables(results: list[dict], threads: list[int], repeat: int) -> str:
             lines.append(f"| {r['kind']} | {r['law']} | {r['elements']} | "
                          f"{b['element_steps_per_s'] / a['element_steps_per_s']:.2f} |")
     th = threads[0]
-    phases = list(results[0]["runs"][0]["phases_s_per_step"])
+    phases = list(dict.fromkeys(p for r in results for p in r["runs"][0]["phases_s_per_step"]))
     lines.append(f"\n### time per phase, ns per element-step ({th} thread{'s' if th > 1 else ''})"
                  "\n")
     lines.append("| scene | law | elements | " + " | ".join(phases) + " |")
     lines.append("|---|---|---:|" + "---:|" * len(phases))
     for r in results:
         run = next(x for x in r["runs"] if x["threads"] == th)
-        cells = [f"{run['phases_s_per_step'][p] / r['elements'] * 1e9:.0f}" for p in phases]
+        cells = [f"{run['phases_s_per_step'].get(p, 0.0) / r['elements'] * 1e9:.0f}"
+                 for p in phases]
         lines.append(f"| {r['kind']} | {r['law']} | {r['elements']} | " + " | ".join(cells) + " |")
     lines.append("\nSet-up (scene text + validation, then elements, joints and first candidate "
                  "list), not part of any rate:\n")

@@ -27,9 +27,6 @@ def default_scene_path() -> Path:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .scene import load_scene
-    from .simulation import Simulation
-
     path = Path(args.scene) if args.scene else default_scene_path()
     overrides = {}
     for item in args.set or []:
@@ -38,7 +35,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
             raise SceneError(f"--set {item!r}: write KEY=VALUE, e.g. --set time.duration=6h")
         overrides[key.strip()] = value.strip()
     if args.threads is not None:
+        import numba
+
+        before = numba.get_num_threads()
         _set_threads(args.threads)
+        try:
+            return _run(args, path, overrides)
+        finally:
+            numba.set_num_threads(before)
+    return _run(args, path, overrides)
+
+
+def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
+    from .scene import load_scene
+    from .simulation import Simulation
+
     scene = load_scene(path, overrides)
     progress = False if args.no_progress else None
     sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart)
@@ -188,6 +199,8 @@ def main(argv: list[str] | None = None) -> int:
         except SikuError as exc:
             print(f"siku: error: {exc}", file=sys.stderr)
             return 2
+        except SystemExit as exc:  # --help, or the runner's own usage errors
+            return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     try:
         args = ap.parse_args(argv)
     except _UsageError as exc:

@@ -349,8 +349,7 @@ C_SIZE = 6
 def rotation_matrices(q, rm, nch):
     """``rm[i] = R(q_i)`` (as :func:`~siku_core.geometry.quat.qmatrix`, bit for bit)."""
     n = q.shape[0]
-
-    def chunk(c):
+    for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         for i in range(lo, hi):
             w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
@@ -363,14 +362,9 @@ def rotation_matrices(q, rm, nch):
             rm[i, 2, 0] = 2 * (x * z - w * y)
             rm[i, 2, 1] = 2 * (y * z + w * x)
             rm[i, 2, 2] = 1 - 2 * (x * x + y * y)
-    if nch == 1:  # no threads started
-        chunk(0)
-    else:
-        for c in prange(nch):
-            chunk(c)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def relative_matrix(rm, i, j):
     """``M = R_i^T R_j`` as nine scalars (row-major), summed as ``project_partner`` does."""
     m00 = rm[i, 0, 0] * rm[j, 0, 0] + rm[i, 1, 0] * rm[j, 1, 0] + rm[i, 2, 0] * rm[j, 2, 0]
@@ -385,7 +379,7 @@ def relative_matrix(rm, i, j):
     return m00, m01, m02, m10, m11, m12, m20, m21, m22
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def j_to_i(M, x, y, R, inv_r):
     """Point ``(x, y)`` [m] of ``j``'s tangent plane in ``i``'s (``project_partner``'s
     arithmetic)."""
@@ -398,7 +392,7 @@ def j_to_i(M, x, y, R, inv_r):
     return R * gx / gz, R * gy / gz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def i_to_j(M, x, y, R, inv_r):
     """Point ``(x, y)`` [m] of ``i``'s tangent plane in ``j``'s."""
     m00, m01, m02, m10, m11, m12, m20, m21, m22 = M
@@ -410,7 +404,7 @@ def i_to_j(M, x, y, R, inv_r):
     return R * gx / gz, R * gy / gz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def relative_velocity_m(M, V, w, i, j, px, py, xj, yj):
     """Velocity of ``j``'s material point at ``i``-frame ``(px, py)`` (``(xj, yj)`` in ``j``'s
     frame) minus ``i``'s, in ``i``'s frame (radial part dropped)."""
@@ -422,7 +416,7 @@ def relative_velocity_m(M, V, w, i, j, px, py, xj, yj):
     return (m00 * vjx_l + m01 * vjy_l) - vix, (m10 * vjx_l + m11 * vjy_l) - viy
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def pair_contribution(M, fx, fy, px, py, couple, inv_r, R, out, k):
     """Row ``out[k]`` (``C_*``): force ``(fx, fy)`` (``i``'s frame) and ``couple`` on ``j`` at
     ``i``-frame point ``(px, py)``, and the opposite on ``i``, as generalised forces.
@@ -494,8 +488,7 @@ def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0
     nh = hist.shape[1]
     inv_r = 1.0 / R
     counts = np.zeros(nch, dtype=np.int64)
-
-    def chunk(c):
+    for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, nj)
         g = np.empty(J_SIZE)
         res = np.empty(4)
@@ -554,19 +547,15 @@ def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0
                               inv_r, R, out, k)
             on[k] = 1
         counts[c] = nb
-    if nch == 1:  # no threads started
-        chunk(0)
-    else:
-        for c in prange(nch):
-            chunk(c)
     return counts.sum()
 
 
 def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
                      nmax, pretest, out, on, nch):
     """Clip every candidate pair (unless :func:`~siku_core.geometry.clip.separated` proves them
-    apart, with ``pretest``) and evaluate the overlapping ones into ``out[k]``, ``on[k]``;
-    returns the number of overlapping pairs. ``bigv``: each element's largest absolute local
+    apart, with ``pretest``) and evaluate the overlapping ones into ``out[k]`` with ``on[k] = 1``
+    (other values of ``on``: hints for the next evaluation); returns the number of overlapping
+    pairs. ``bigv``: each element's largest absolute local
     vertex coordinate [m] (the scale of the separation margin)."""
     fn = specialise(_collision_forces, evaluate)
     if fn is not None:
@@ -582,8 +571,7 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
     npairs = pairs.shape[0]
     inv_r = 1.0 / R
     counts = np.zeros(nch, dtype=np.int64)
-
-    def chunk(c):
+    for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, npairs)
         xy, tag = make_overlap_scratch(nmax, nmax)
         proj = np.empty((nmax, 2))
@@ -591,8 +579,11 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
         res = np.empty(4)
         no = 0
         for k in range(lo, hi):
-            # the separation test pays for pairs that did not overlap last time only
-            try_pretest = pretest and on[k] == 0
+            # on[k] from the last evaluation: 1 overlapping, 2 touching or apart but not proved
+            # apart, 0 otherwise. The separation test is tried on 0 only: it rarely proves an
+            # overlapping pair apart, and a pair it failed on gets it again every other time
+            last = on[k]
+            try_pretest = pretest and last == 0
             on[k] = 0
             i = pairs[k, 0]
             j = pairs[k, 1]
@@ -612,6 +603,8 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
             a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag,
                                                                          True)
             if a <= 0.0:
+                if try_pretest:
+                    on[k] = 2
                 continue
             no += 1
             ri = math.hypot(cx, cy)
@@ -642,11 +635,6 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
             pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
             on[k] = 1
         counts[c] = no
-    if nch == 1:  # no threads started
-        chunk(0)
-    else:
-        for c in prange(nch):
-            chunk(c)
     return counts.sum()
 
 
@@ -682,8 +670,7 @@ def gather_forces(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, p
     """Add to ``F[e], T[e]`` the contributions of element ``e``'s joints, then of its pairs,
     each in ascending contact index (fixed order: independent of the thread count)."""
     n = F.shape[0]
-
-    def chunk(c):
+    for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         for e in range(lo, hi):
             fx = F[e, 0]
@@ -698,7 +685,7 @@ def gather_forces(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, p
                     t += jout[k, s + 2]
             for a in range(poff[e], poff[e + 1]):
                 k = pidx[a]
-                if pon[k]:
+                if pon[k] == 1:
                     s = 3 * pside[a]
                     fx += pout[k, s]
                     fy += pout[k, s + 1]
@@ -706,11 +693,6 @@ def gather_forces(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, p
             F[e, 0] = fx
             F[e, 1] = fy
             T[e] = t
-    if nch == 1:  # no threads started
-        chunk(0)
-    else:
-        for c in prange(nch):
-            chunk(c)
 
 
 @njit(cache=True)

@@ -16,8 +16,10 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 
+from . import parallel
 from .diagnostics import all_finite, element_diagnostics, fastest
 from .elements import build_elements
 from .errors import NonFiniteError, SceneError, StabilityError
@@ -225,7 +227,17 @@ class Simulation:
         t0 = time.perf_counter()
         self._commit = True
         self._force_time = 0.0
-        self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
+        threads = numba.get_num_threads()
+        if threads > 1 and self.state.n < parallel.PARALLEL_MIN:
+            # a small scene: its loops run on one thread anyway (parallel.chunks), and no
+            # other thread is woken (or waited for, on a busy machine)
+            numba.set_num_threads(1)
+            try:
+                self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
+            finally:
+                numba.set_num_threads(threads)
+        else:
+            self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
         self.step_index += 1
         t1 = time.perf_counter()
         self.timings["integrator"] += t1 - t0 - self._force_time

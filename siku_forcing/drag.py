@@ -40,16 +40,10 @@ def _stress(q, V, u, v, area, rho, C, theta, subtract_ice, F, nch=1):
     field velocity ``u, v`` [m/s] (east, north) per element."""
     ct, st = math.cos(theta), math.sin(theta)
     n = q.shape[0]
-
-    def chunk(c):
+    for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         for i in range(lo, hi):
             _stress_one(q, V, i, u[i], v[i], area, rho, C, ct, st, subtract_ice, F)
-    if nch == 1:  # no threads started
-        chunk(0)
-    else:
-        for c in prange(nch):
-            chunk(c)
 
 
 @njit(cache=True, parallel=True)
@@ -57,16 +51,10 @@ def _stress_uniform(q, V, u, v, area, rho, C, theta, subtract_ice, F, nch=1):
     """:func:`_stress` for a field velocity ``(u, v)`` [m/s] that is the same everywhere."""
     ct, st = math.cos(theta), math.sin(theta)
     n = q.shape[0]
-
-    def chunk(c):
+    for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         for i in range(lo, hi):
             _stress_one(q, V, i, u, v, area, rho, C, ct, st, subtract_ice, F)
-    if nch == 1:  # no threads started
-        chunk(0)
-    else:
-        for c in prange(nch):
-            chunk(c)
 
 
 @njit(cache=True)

@@ -27,17 +27,11 @@ from siku_core.state import FREE, STATIC
 @njit(cache=True, parallel=True)
 def _siku2(q, V, w, F, T, m, I, flags, R, dt, nch=1):  # noqa: E741
     n = q.shape[0]
-
-    def chunk(c):
+    for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         tmp = np.empty(4)
         for i in range(lo, hi):
             _siku2_one(q, V, w, F, T, m, I, flags, R, dt, i, tmp)
-    if nch == 1:  # no threads started
-        chunk(0)
-    else:
-        for c in prange(nch):
-            chunk(c)
 
 
 @njit(cache=True, inline="always")

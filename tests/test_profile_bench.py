@@ -1,0 +1,80 @@
+"""``siku run --profile`` / ``--threads``, ``Simulation.timings``, and the benchmark runner
+(``siku bench`` forwards to ``python -m bench``); a tiny benchmark run as a smoke test, with no
+assertion on times."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numba
+import pytest
+
+from siku_core.cli import main
+from siku_core.simulation import PHASES, Simulation
+from siku_core.testing.contact_conformance import contact_scene_text, square_pack
+
+ROOT = Path(__file__).resolve().parents[1]
+WIND = {"source": "air_drag", "field": {"type": "uniform", "params": {"u": 10.0}}}
+
+
+def scene_text():
+    pack = square_pack(0.0, -1.0, 6, 4, 20000.0, left="static", right="steady",
+                       right_velocity=[3.0, 0.0])
+    return contact_scene_text("distributed_spring", {"tensile_strain": 0.05}, packs=[pack],
+                              dt=2.0, steps=20, forcing=[WIND])
+
+
+def test_timings_cover_every_phase_of_the_step():
+    from siku_core.scene import scene_from_text
+
+    sim = Simulation(scene_from_text(scene_text()), out=False, progress=False).run()
+    assert set(sim.timings) == set(PHASES)
+    assert sim.timed_steps == 20
+    for phase in ("forcing", "joints", "broad_phase", "collisions", "contact_sum", "integrator",
+                  "guard"):
+        assert sim.timings[phase] > 0.0, phase
+    assert [k for k, _ in sim.profile()] == [k for k in PHASES if sim.timings[k] > 0]
+    sim.reset_timings()
+    assert not any(sim.timings.values()) and sim.timed_steps == 0
+
+
+def test_run_profile_prints_the_phases(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.toml").write_text(scene_text(), encoding="utf-8")
+    assert main(["run", "s.toml", "--no-progress", "--profile", "--threads", "1",
+                 "--out", "o.h5", "--no-plots"]) == 0
+    err = capsys.readouterr().err
+    assert "profile: 20 steps of 24 elements" in err and "1 thread(s)" in err
+    for phase in ("forcing", "joints", "broad_phase", "collisions", "contact_sum",
+                  "integrator", "guard", "output", "other"):
+        assert f"\n  {phase} " in err, phase
+
+
+def test_threads_out_of_range_is_a_one_line_error(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.toml").write_text(scene_text(), encoding="utf-8")
+    assert main(["run", "s.toml", "--no-progress", "--threads", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("siku: error: --threads 0: choose 1 to ")
+    assert numba.get_num_threads() >= 1
+
+
+def test_siku_bench_forwards_to_the_runner(capsys):
+    assert main(["bench", "--help"]) == 0
+    assert "python -m bench" in capsys.readouterr().out
+    assert main(["bench", "--scenes", "nowhere"]) == 2
+
+
+@pytest.mark.skipif(not (ROOT / "bench" / "__main__.py").is_file(), reason="no bench/")
+def test_a_tiny_benchmark_runs():
+    r = subprocess.run(
+        [sys.executable, "-m", "bench", "--sizes", "120", "--laws", "distributed_spring",
+         "--steps", "3", "--threads", "1"],
+        cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    for row in ("| bonded | distributed_spring | 120 |", "| collision | collision | 120 |",
+                "| free_drift | - | 120 |", "only what a scene requires"):
+        assert row in out, row
+    assert "I/O libraries imported after building and running both scenes: none" in out
