@@ -24,6 +24,11 @@ Joint geometry ``g`` (indices ``J_*``): the end displacements ``s1, s2`` [m] (``
 ends [m/s], thicknesses [m], Young's moduli [Pa], Poisson's ratio [1], time step [s]. The
 evaluator may update its joint's history row ``hist`` and sets ``out[3] = 1`` when the joint
 breaks (it then carries no force from that step on).
+
+The engine's loops (the "fast path" below: ``joint_forces``, ``collision_forces``,
+``gather_forces``) run in parallel over contacts and elements and give the same result on any
+number of threads; ``joint_loop`` and ``collision_loop`` are the serial reference loops (the
+previous implementation, kept for tests), which add each contact straight into ``F, T``.
 """
 from __future__ import annotations
 
