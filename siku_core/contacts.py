@@ -38,11 +38,15 @@ import numpy as np
 from numba import njit, prange
 
 from .geometry.clip import (
-    make_overlap_scratch, overlap_inline, overlap_scratch, project_partner, separated,
+    make_overlap_scratch,
+    overlap_inline,
+    overlap_scratch,
+    project_partner,
+    separated,
 )
+from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 from .kernel_cache import specialise
 from .parallel import chunk_bounds
-from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 
 # collision geometry layout
 G_AREA, G_CX, G_CY, G_NX, G_NY, G_WIDTH, G_K, G_MEFF, G_VX, G_VY, G_AREA_I, G_AREA_J = range(12)
@@ -478,7 +482,7 @@ def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
                  jmeff, intact, hist, R, dt, commit, out, on, nch):
     """Evaluate every intact joint into ``out[k]`` (``C_*``) and ``on[k]``; returns the number
     that broke (only when ``commit``)."""
-    fn = specialise(_joint_forces, evaluate)
+    fn = specialise(_joint_forces, evaluate, (_joint_chunk,))
     if fn is not None:
         return fn(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff,
                   intact, hist, R, dt, commit, out, on, nch)
@@ -486,73 +490,83 @@ def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
                          jK, jmeff, intact, hist, R, dt, commit, out, on, nch)
 
 
+# The parallel loops are thin: each task calls a (serially compiled) chunk function. Numba's
+# parallel compilation of a large loop body takes twice as long as compiling it serially.
 @njit(parallel=True)
 def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
                   jmeff, intact, hist, R, dt, commit, out, on, nch):
-    nj = ji.shape[0]
-    nh = hist.shape[1]
-    inv_r = 1.0 / R
     counts = np.zeros(nch, dtype=np.int64)
     for c in prange(nch):
-        lo, hi = chunk_bounds(c, nch, nj)
-        g = np.empty(J_SIZE)
-        res = np.empty(4)
-        scratch = np.empty(nh)
-        nb = 0
-        for k in range(lo, hi):
-            on[k] = 0
-            if not intact[k]:
-                continue
-            i = ji[k]
-            j = jj[k]
-            M = relative_matrix(rm, i, j)
-            ax, ay = ends_i[k, 0, 0], ends_i[k, 0, 1]
-            bx, by = ends_i[k, 1, 0], ends_i[k, 1, 1]
-            Ax, Ay = j_to_i(M, ends_j[k, 0, 0], ends_j[k, 0, 1], R, inv_r)
-            Bx, By = j_to_i(M, ends_j[k, 1, 0], ends_j[k, 1, 1], R, inv_r)
-            g[J_S1X] = Ax - ax
-            g[J_S1Y] = Ay - ay
-            g[J_S2X] = Bx - bx
-            g[J_S2Y] = By - by
-            g[J_AX] = ax
-            g[J_AY] = ay
-            g[J_BX] = bx
-            g[J_BY] = by
-            g[J_L0] = L0[k]
-            g[J_W] = width[k]
-            g[J_K] = jK[k]
-            g[J_MEFF] = jmeff[k]
-            # the material points at the ends: i's copy at a (b), j's copy at A (B)
-            xa, ya = i_to_j(M, ax, ay, R, inv_r)
-            xb, yb = i_to_j(M, bx, by, R, inv_r)
-            g[J_VAX], g[J_VAY] = relative_velocity_m(M, V, w, i, j, ax, ay, xa, ya)
-            g[J_VBX], g[J_VBY] = relative_velocity_m(M, V, w, i, j, bx, by, xb, yb)
-            g[J_HI] = h[i]
-            g[J_HJ] = h[j]
-            g[J_EI] = E[i]
-            g[J_EJ] = E[j]
-            g[J_NU] = nu[i]
-            g[J_DT] = dt
-            res[0] = 0.0
-            res[1] = 0.0
-            res[2] = 0.0
-            res[3] = 0.0
-            if commit:
-                evaluate(g, pars, hist[k], res)
-            else:
-                for a in range(nh):
-                    scratch[a] = hist[k, a]
-                evaluate(g, pars, scratch, res)
-            if res[3] != 0.0:
-                if commit:
-                    intact[k] = False
-                    nb += 1
-                continue
-            pair_contribution(M, res[0], res[1], 0.5 * (ax + bx), 0.5 * (ay + by), res[2],
-                              inv_r, R, out, k)
-            on[k] = 1
-        counts[c] = nb
+        lo, hi = chunk_bounds(c, nch, ji.shape[0])
+        counts[c] = _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j,
+                                 L0, width, jK, jmeff, intact, hist, R, dt, commit, out, on, lo,
+                                 hi)
     return counts.sum()
+
+
+@njit
+def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
+                 jmeff, intact, hist, R, dt, commit, out, on, lo, hi):
+    """Joints ``lo <= k < hi`` of :func:`joint_forces`; returns how many broke."""
+    nh = hist.shape[1]
+    inv_r = 1.0 / R
+    g = np.empty(J_SIZE)
+    res = np.empty(4)
+    scratch = np.empty(nh)
+    nb = 0
+    for k in range(lo, hi):
+        on[k] = 0
+        if not intact[k]:
+            continue
+        i = ji[k]
+        j = jj[k]
+        M = relative_matrix(rm, i, j)
+        ax, ay = ends_i[k, 0, 0], ends_i[k, 0, 1]
+        bx, by = ends_i[k, 1, 0], ends_i[k, 1, 1]
+        Ax, Ay = j_to_i(M, ends_j[k, 0, 0], ends_j[k, 0, 1], R, inv_r)
+        Bx, By = j_to_i(M, ends_j[k, 1, 0], ends_j[k, 1, 1], R, inv_r)
+        g[J_S1X] = Ax - ax
+        g[J_S1Y] = Ay - ay
+        g[J_S2X] = Bx - bx
+        g[J_S2Y] = By - by
+        g[J_AX] = ax
+        g[J_AY] = ay
+        g[J_BX] = bx
+        g[J_BY] = by
+        g[J_L0] = L0[k]
+        g[J_W] = width[k]
+        g[J_K] = jK[k]
+        g[J_MEFF] = jmeff[k]
+        # the material points at the ends: i's copy at a (b), j's copy at A (B)
+        xa, ya = i_to_j(M, ax, ay, R, inv_r)
+        xb, yb = i_to_j(M, bx, by, R, inv_r)
+        g[J_VAX], g[J_VAY] = relative_velocity_m(M, V, w, i, j, ax, ay, xa, ya)
+        g[J_VBX], g[J_VBY] = relative_velocity_m(M, V, w, i, j, bx, by, xb, yb)
+        g[J_HI] = h[i]
+        g[J_HJ] = h[j]
+        g[J_EI] = E[i]
+        g[J_EJ] = E[j]
+        g[J_NU] = nu[i]
+        g[J_DT] = dt
+        res[0] = 0.0
+        res[1] = 0.0
+        res[2] = 0.0
+        res[3] = 0.0
+        if commit:
+            evaluate(g, pars, hist[k], res)
+        else:
+            for a in range(nh):
+                scratch[a] = hist[k, a]
+            evaluate(g, pars, scratch, res)
+        if res[3] != 0.0:
+            if commit:
+                intact[k] = False
+                nb += 1
+            continue
+        pair_contribution(M, res[0], res[1], 0.5 * (ax + bx), 0.5 * (ay + by), res[2], inv_r,
+                          R, out, k)
+        on[k] = 1
+    return nb
 
 
 def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
@@ -560,9 +574,9 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     """Clip every candidate pair (unless :func:`~siku_core.geometry.clip.separated` proves them
     apart, with ``pretest``) and evaluate the overlapping ones into ``out[k]`` with ``on[k] = 1``
     (other values of ``on``: hints for the next evaluation); returns the number of overlapping
-    pairs. ``bigv``: each element's largest absolute local
-    vertex coordinate [m] (the scale of the separation margin)."""
-    fn = specialise(_collision_forces, evaluate)
+    pairs. ``bigv``: each element's largest absolute local vertex coordinate [m] (the scale of
+    the separation margin)."""
+    fn = specialise(_collision_forces, evaluate, (_collision_chunk,))
     if fn is not None:
         return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R, nmax,
                   pretest, out, on, nch)
@@ -573,74 +587,79 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
 @njit(parallel=True)
 def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
                       nmax, pretest, out, on, nch):
-    npairs = pairs.shape[0]
-    inv_r = 1.0 / R
     counts = np.zeros(nch, dtype=np.int64)
     for c in prange(nch):
-        lo, hi = chunk_bounds(c, nch, npairs)
-        xy, tag = make_overlap_scratch(nmax, nmax)
-        proj = np.empty((nmax, 2))
-        g = np.empty(G_SIZE)
-        res = np.empty(4)
-        no = 0
-        for k in range(lo, hi):
-            # on[k] from the last evaluation: 1 overlapping, 2 touching or apart but not proved
-            # apart, 0 otherwise. The separation test is tried on 0 only: it rarely proves an
-            # overlapping pair apart, and a pair it failed on gets it again every other time
-            last = on[k]
-            try_pretest = pretest and last == 0
-            on[k] = 0
-            i = pairs[k, 0]
-            j = pairs[k, 1]
-            M = relative_matrix(rm, i, j)
-            oj = offsets[j]
-            nj = offsets[j + 1] - oj
-            big = bigv[i]
-            for v in range(nj):
-                px, py = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
-                proj[v, 0] = px
-                proj[v, 1] = py
-                big = max(big, abs(px), abs(py))
-            pj = proj[:nj]
-            pi = verts[offsets[i]:offsets[i + 1]]
-            if try_pretest and separated(pi, pj, big, True):
-                continue
-            a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag,
-                                                                         True)
-            if a <= 0.0:
-                if try_pretest:
-                    on[k] = 2
-                continue
-            no += 1
-            ri = math.hypot(cx, cy)
-            xj, yj = i_to_j(M, cx, cy, R, inv_r)
-            rj = math.hypot(xj, yj)
-            if ncross == 2:
-                width = math.hypot(p2x - p1x, p2y - p1y)
-            else:
-                width = _span_across(pi, pj, nx, ny)
-                if not width > 0.0:
-                    width = math.sqrt(a)
-            g[G_AREA] = a
-            g[G_CX] = cx
-            g[G_CY] = cy
-            g[G_NX] = nx
-            g[G_NY] = ny
-            g[G_WIDTH] = width
-            g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
-            g[G_MEFF] = 1.0 / (minv[i] + minv[j])
-            g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
-            g[G_AREA_I] = area[i]
-            g[G_AREA_J] = area[j]
-            res[0] = 0.0
-            res[1] = 0.0
-            res[2] = 0.0
-            res[3] = 0.0
-            evaluate(g, pars, res)
-            pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
-            on[k] = 1
-        counts[c] = no
+        lo, hi = chunk_bounds(c, nch, pairs.shape[0])
+        counts[c] = _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
+                                     bigv, pairs, R, nmax, pretest, out, on, lo, hi)
     return counts.sum()
+
+
+@njit
+def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
+                     nmax, pretest, out, on, lo, hi):
+    """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap."""
+    inv_r = 1.0 / R
+    xy, tag = make_overlap_scratch(nmax, nmax)
+    proj = np.empty((nmax, 2))
+    g = np.empty(G_SIZE)
+    res = np.empty(4)
+    no = 0
+    for k in range(lo, hi):
+        # on[k] from the last evaluation: 1 overlapping, 2 touching or apart but not proved
+        # apart, 0 otherwise. The separation test is tried on 0 only: it rarely proves an
+        # overlapping pair apart, and a pair it failed on gets it again every other time
+        try_pretest = pretest and on[k] == 0
+        on[k] = 0
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        M = relative_matrix(rm, i, j)
+        oj = offsets[j]
+        nj = offsets[j + 1] - oj
+        big = bigv[i]
+        for v in range(nj):
+            px, py = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
+            proj[v, 0] = px
+            proj[v, 1] = py
+            big = max(big, abs(px), abs(py))
+        pj = proj[:nj]
+        pi = verts[offsets[i]:offsets[i + 1]]
+        if try_pretest and separated(pi, pj, big, True):
+            continue
+        a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, True)
+        if a <= 0.0:
+            if try_pretest:
+                on[k] = 2
+            continue
+        no += 1
+        ri = math.hypot(cx, cy)
+        xj, yj = i_to_j(M, cx, cy, R, inv_r)
+        rj = math.hypot(xj, yj)
+        if ncross == 2:
+            width = math.hypot(p2x - p1x, p2y - p1y)
+        else:
+            width = _span_across(pi, pj, nx, ny)
+            if not width > 0.0:
+                width = math.sqrt(a)
+        g[G_AREA] = a
+        g[G_CX] = cx
+        g[G_CY] = cy
+        g[G_NX] = nx
+        g[G_NY] = ny
+        g[G_WIDTH] = width
+        g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
+        g[G_MEFF] = 1.0 / (minv[i] + minv[j])
+        g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
+        g[G_AREA_I] = area[i]
+        g[G_AREA_J] = area[j]
+        res[0] = 0.0
+        res[1] = 0.0
+        res[2] = 0.0
+        res[3] = 0.0
+        evaluate(g, pars, res)
+        pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
+        on[k] = 1
+    return no
 
 
 @njit(cache=True)
