@@ -39,7 +39,7 @@ def polygons_lonlat(q: np.ndarray, offsets: np.ndarray, verts: np.ndarray, radiu
     loc = np.column_stack([verts[:, 0] / radius, verts[:, 1] / radius, np.ones(len(verts))])
     g = np.einsum("nij,nj->ni", _rotation_matrices(q)[owner], loc)
     g /= np.linalg.norm(g, axis=1)[:, None]
-    lat = np.degrees(np.arcsin(np.clip(g[:, 2], -1, 1)))
+    lat = np.degrees(np.arctan2(g[:, 2], np.hypot(g[:, 0], g[:, 1])))
     lon = np.degrees(np.arctan2(g[:, 1], g[:, 0]))
     ll = np.column_stack([lon, lat])
     return [ll[offsets[i]:offsets[i + 1]] for i in range(len(q))]

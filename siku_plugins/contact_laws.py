@@ -157,20 +157,54 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
 
     The joint (ends ``a``, ``b`` in ``i``'s frame, unit tangent ``t = (b - a)/w``, outward
     normal of ``i`` ``n = (t_y, -t_x)``) is split into ``n_segments``; at each segment centre
-    the displacement ``d = s1 + zeta (s2 - s1)`` gives ``sigma_n = E d·n / L0`` (tension
-    positive) and ``sigma_s = G d·t / L0``, ``G = E/(2(1 + nu))``, with ``E`` and ``h`` the pair's
-    means. A segment fails for good when ``sigma_n > sigma_t``, ``sigma_n < -sigma_c`` or
-    ``|sigma_s| > tan(phi)(sigma_t - sigma_n)``; ``hist[k] = 1`` marks it. Intact segments pull
-    ``i`` with ``h (sigma_n n + sigma_s t) w / n_segments`` at their centres. The joint breaks
-    when the failed share reaches ``break_share``.
+    the displacement ``d = s1 + zeta (s2 - s1)`` gives ``sigma_n = E_s d·n / L0`` (tension
+    positive) and ``sigma_s = G_s d·t / L0``, ``G_s = E_s/(2(1 + nu))``. A segment fails for
+    good when ``sigma_n > sigma_t``, ``sigma_n < -sigma_c`` or ``|sigma_s| > tan(phi)(sigma_t -
+    sigma_n)``; ``hist[k] = 1`` marks it. Intact segments pull ``i`` with ``h_s (sigma_n n +
+    sigma_s t) w / n_segments`` at their centres. The joint breaks when the failed share
+    reaches ``break_share``.
+
+    **Two materials** (``a = h_i E_i``, ``b = h_j E_j``): the joint is two elastic strips in
+    series, ``i``'s from its centre to the joint (length ``r_i``, the distance of the joint's
+    midpoint from ``i``'s centre) and ``j``'s the rest of the centre distance ``L0 - r_i``;
+    the traction per unit length is ``(h E)_eff d / L0`` with ``(h E)_eff = a b / (lam b +
+    (1 - lam) a)``, ``lam = r_i / L0`` (``2 a b / (a + b)`` for equal cells). This is eq. 9's
+    series combination ``K = a b / (a r_j + b r_i)`` that the spring law uses and
+    ``ContactModel.stiffness_bound`` assumes, with ``L0 - r_i`` for ``j``'s lever arm ``r_j``
+    (not in ``g``). As ``r_i + r_j >= L0`` the law exceeds ``K`` only by that geometric
+    excess, a factor ``1 + a (r_i + r_j - L0) / (a (L0 - r_i) + b r_i)``: ``(r_i + r_j)/L0``
+    for identical cells, as the mean-``h E`` law did (at most 1.004 in jittered packs; on
+    regular packs ``1 + 1e-10`` for 10 m cells to ``1 + 2e-4`` for 100 km ones); the
+    mean-``h E`` law was 50× stiffer than ``K`` for 5 cm ice jointed to 10 m ice.
+    The traction is the same on both sides, so the stress is largest on the thinner one:
+    ``h_s = min(h_i, h_j)`` and ``E_s = (h E)_eff / h_s`` (``G_s`` from ``E_s``, so shear is
+    softened the same way); the default ``sigma_c`` is Table 1's at ``h_s`` as well. For
+    identical cells (same ``h`` and ``E``) ``E_s = E`` and ``h_s = h`` bit for bit (the factor
+    is ``b / b``), so uniform ice is unchanged. The damping uses the same stiffness,
+    ``(h E)_eff w / L0``.
     """
     nseg = int(pars[M_NSEG])
-    h = 0.5 * (g[J_HI] + g[J_HJ])
-    E = 0.5 * (g[J_EI] + g[J_EJ])
+    L0 = g[J_L0]
+    hi, hj = g[J_HI], g[J_HJ]
+    a = hi * g[J_EI]
+    b = hj * g[J_EJ]
+    # i's share of the centre distance: the joint midpoint's distance from i's centre
+    lam = 0.5 * math.hypot(g[J_AX] + g[J_BX], g[J_AY] + g[J_BY]) / L0 if L0 > 0.0 else 0.5
+    lam = min(max(lam, 0.0), 1.0)
+    # h, E: the thinner side's thickness and its modulus scaled so that h E = (h E)_eff;
+    # den = lam b + (1 - lam) a, written so that it is exactly b (a) when a == b: factor 1
+    if hi <= hj:
+        h = hi
+        den = b + (1.0 - lam) * (a - b)
+        E = g[J_EI] * (b / den) if den > 0.0 else 0.0
+    else:
+        h = hj
+        den = a + lam * (b - a)
+        E = g[J_EJ] * (a / den) if den > 0.0 else 0.0
     G = E / (2.0 * (1.0 + g[J_NU]))
     sigc = pars[M_SIGC]
     if sigc <= 0.0:
-        sigc = 1285e3 * min(g[J_HI], g[J_HJ]) ** (2.0 / 3.0)
+        sigc = 1285e3 * h ** (2.0 / 3.0)
     sigt = pars[M_TRATIO] * sigc
     tanphi = pars[M_TANPHI]
     ax, ay, bx, by = g[J_AX], g[J_AY], g[J_BX], g[J_BY]
@@ -182,7 +216,6 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     nx, ny = ty, -tx
     mx, my = 0.5 * (ax + bx), 0.5 * (ay + by)
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
-    L0 = g[J_L0]
     seg = w / nseg
     fx = 0.0
     fy = 0.0
@@ -210,7 +243,7 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     if nfailed >= pars[M_SHARE] * nseg - 1e-9:
         out[3] = 1.0
         return
-    # damping: share of critical for the normal stiffness h E w / L0 on the reduced mass
+    # damping: share of critical for the normal stiffness (h E)_eff w / L0 on the reduced mass
     c = 2.0 * pars[M_ZETA] * math.sqrt(h * E * w / L0 * g[J_MEFF]) * (nseg - nfailed) / nseg
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
     fx += c * 0.5 * (vax + vbx)

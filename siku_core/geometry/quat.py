@@ -104,9 +104,11 @@ def q_center(q):
 
 @njit(cache=True, inline="always")
 def xyz_to_latlon(p):
-    """Latitude and longitude (radians, lon in (-pi, pi]) of a unit vector (eq. 1)."""
-    r = math.sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2])
-    lat = math.asin(max(-1.0, min(1.0, p[2] / r)))
+    """Latitude and longitude (radians, lon in (-pi, pi]) of a vector (eq. 1; any length).
+
+    ``atan2(z, hypot(x, y))`` is exact to round-off at every latitude; ``asin(z / r)`` would
+    lose the colatitude near the poles (``z / r = 1 - colat²/2``: error ``eps / colat``)."""
+    lat = math.atan2(p[2], math.hypot(p[0], p[1]))
     lon = math.atan2(p[1], p[0])
     return lat, lon
 

@@ -86,7 +86,8 @@ def square(
     for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
         p = c + h * (sx * east + sy * north)
         p /= np.linalg.norm(p)
-        out.append([math.degrees(math.atan2(p[1], p[0])), math.degrees(math.asin(p[2]))])
+        out.append([math.degrees(math.atan2(p[1], p[0])),
+                    math.degrees(math.atan2(p[2], math.hypot(p[0], p[1])))])
     return out
 
 

@@ -25,11 +25,11 @@ The estimate must bound that frequency (``omega_lin <= omega_est = 2/dt_c``). Wi
 pack tends to the free-drift speed ``U_t = U sqrt(rho_a C_a / (rho_w C_w)) = 1.06 m/s`` (water
 drag damps relative motion), so no element exceeds ``U_t + sqrt(2 B E0 / m_min)``.
 
-Measured (this file): ``omega_lin / omega_est`` = 0.65–0.73 (spring), 0.45–0.47
-(Mohr–Coulomb), so the true critical step ``2/omega_lin`` is 1.4–1.5 ``dt_c`` and 2.1–2.2
-``dt_c``; just below the accepted step the energy stays within ``[1.003, 1.033] E0`` (``B`` =
-1.05–1.14), at 1.05 ``dt_c`` within ``[1.03, 1.18] E0``; beyond ``2/omega_lin`` the speed guard
-stops the run within 15–30 steps.
+Measured (this file): ``omega_lin / omega_est`` = 0.65–0.73 (spring), 0.45–0.51
+(Mohr–Coulomb; 0.51 the mixed corner), so the true critical step ``2/omega_lin`` is 1.4–1.5
+``dt_c`` and 2.0–2.2 ``dt_c``; just below the accepted step the energy stays within ``[1.003,
+1.033] E0`` (``B`` = 1.05–1.14), at 1.05 ``dt_c`` within ``[1.018, 1.18] E0``; beyond
+``2/omega_lin`` the speed guard stops the run within 15–30 steps.
 
 **Gap.** The packs leave 1 % open water between cells (joints are still found): then no
 collision acts and the system is conservative. Touching packs gain energy without damping at a
@@ -540,7 +540,14 @@ def site_run(law: str, site: str, motion: str, size: float) -> dict:
 
 
 SITES = [("north-pole", "equator", 2000.0), ("antimeridian", "meridian", 2000.0),
-         ("north-pole", None, 10.0)]
+         ("north-pole", "equator", 10.0)]
+PULL_STRAIN = 3e-5  # the pull's largest joint strain (measured 3.0e-5 at every site)
+
+
+def round_off_floor(size: float, steps: int = 2000) -> float:
+    """``sqrt(N) R eps / (PULL_STRAIN L0)``: the position round-off of ``N`` steps (a random
+    walk of ``R eps`` per step in each quaternion) against the pull's largest joint opening."""
+    return math.sqrt(steps) * R * np.finfo(float).eps / (PULL_STRAIN * size)
 
 
 @pytest.mark.parametrize("motion", ["spin", "pull"])
@@ -555,11 +562,18 @@ def test_jointed_pack_at_the_pole_and_across_the_antimeridian(law, site, referen
     strength), forces finite, energy in ``[E0, B E0]``. A rigid spin strains no joint beyond its
     centripetal load, strain ``~ Omega² r rho a / E ≈ 3e-9`` (measured 6e-9; allowed 1e-7).
 
-    The 2 km packs are exact turns of a reference pack (equator, 0°E) and differ from it only
-    by the round-off of the vertex coordinates: element centres near the pole move by up to
-    ``R eps / colatitude ≈ 1e-6 m`` (``asin`` of ``z`` near 1), against displacements of 0.06 m
-    or more, so energy and strain agree to 1e-5 and 1e-4. At 10 m from the pole that shift
-    reaches 0.5 mm, 5e-5 of a 10 m cell: no comparison there."""
+    The packs are exact turns of a reference pack (equator; 0°E at 70°N) and differ from it only
+    by round-off. Latitudes are exact to round-off everywhere (``atan2(z, hypot(x, y))``); the
+    former ``asin(z)`` moved the cells next to the pole by ``R eps / colatitude`` when they were
+    built (0.46 mm for 10 m cells, putting that pack's strain 15 floors from the reference;
+    1e-6 m for 2 km cells, harmless there as the joints are found in the shifted places).
+    What is left is the round-off of the positions: ``R eps = 1.4e-9 m`` per step in each
+    element's quaternion, a random walk to ``sqrt(N) R eps = 6.3e-8 m`` after the ``N = 2000``
+    steps, against the pull's largest joint opening ``3e-5 L0``: the floor ``f`` of
+    :func:`round_off_floor`, 1.05e-6 for 2 km cells and 2.1e-4 for 10 m. Measured: the largest
+    strains agree to 0.4–1.6 ``f`` (relative; the antimeridian 0.4, not a pole effect), the
+    energies to at most 0.21 ``f`` (of ``E0``; the spins' far less); allowed 10 ``f`` and
+    2 ``f``."""
     run = site_run(law, site, motion, size)
     assert run["joints"] == (24 if site == "north-pole" else 17)
     assert run["intact"] == run["joints"]
@@ -567,13 +581,14 @@ def test_jointed_pack_at_the_pole_and_across_the_antimeridian(law, site, referen
     assert_energy_within(run["energy"], run["B"], f"{law} {motion} at {site}")
     if motion == "spin":
         assert run["strain"].max() <= 1e-7
-    if reference_site is None:
-        return
     ref = site_run(law, reference_site, motion, size)
     assert ref["joints"] == run["joints"]
-    assert np.abs(run["energy"] - ref["energy"]).max() <= 1e-5
+    f = round_off_floor(size)
+    de = np.abs(run["energy"] - ref["energy"]).max()
+    assert de <= 2 * f, f"energy differs from {reference_site} by {de:.3e} E0 = {de / f:.2f} f"
     if motion == "pull":
-        assert np.abs(run["strain"] - ref["strain"]).max() <= 1e-4 * ref["strain"].max()
+        ds = np.abs(run["strain"] - ref["strain"]).max() / ref["strain"].max()
+        assert ds <= 10 * f, f"strain differs from {reference_site} by {ds:.3e} = {ds / f:.2f} f"
 
 
 # ---------------------------------------------------------------------------------------------

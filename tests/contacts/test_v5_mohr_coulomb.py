@@ -57,25 +57,34 @@ def law_pars(**params) -> np.ndarray:
     return np.ascontiguousarray(law.joint_parameters(None), dtype=float)
 
 
-def geometry(s1, s2, h=(1.0, 1.0)) -> np.ndarray:
+def geometry(s1, s2, h=(1.0, 1.0), e=(E, E), ri=1000.0) -> np.ndarray:
+    """The joint at ``x = ri`` in ``i``'s frame (``ri`` from ``i``'s centre, ``L0 - ri`` from
+    ``j``'s)."""
     g = np.zeros(J_SIZE)
     g[J_S1X], g[J_S1Y] = s1
     g[J_S2X], g[J_S2Y] = s2
-    g[J_AX], g[J_AY], g[J_BX], g[J_BY] = 1000.0, -1000.0, 1000.0, 1000.0
+    g[J_AX], g[J_AY], g[J_BX], g[J_BY] = ri, -1000.0, ri, 1000.0
     g[J_L0], g[J_W] = L0, W
-    g[J_K] = 5e5
+    g[J_K] = h[0] * e[0] * h[1] * e[1] / (h[0] * e[0] * (L0 - ri) + h[1] * e[1] * ri)
     g[J_MEFF] = 1.8e9
     g[J_HI], g[J_HJ] = h
-    g[J_EI] = g[J_EJ] = E
+    g[J_EI], g[J_EJ] = e
     g[J_NU] = NU
     g[J_DT] = 0.1
     return g
 
 
-def evaluate(pars, hist, s1, s2, h=(1.0, 1.0)):
+def evaluate(pars, hist, s1, s2, h=(1.0, 1.0), e=(E, E), ri=1000.0):
     out = np.zeros(4)
-    mohr_coulomb_evaluator(geometry(s1, s2, h), pars, hist, out)
+    mohr_coulomb_evaluator(geometry(s1, s2, h, e, ri), pars, hist, out)
     return out
+
+
+def series_he(h, e, ri=1000.0) -> float:
+    """``(h E)_eff``: strips of ``i`` (length ``ri``) and ``j`` (``L0 - ri``) in series, as
+    ``L0`` times eq. 9's ``K``."""
+    a, b = h[0] * e[0], h[1] * e[1]
+    return a * b * L0 / (a * (L0 - ri) + b * ri)
 
 
 def sigma_c_default(h_min: float) -> float:
@@ -83,13 +92,13 @@ def sigma_c_default(h_min: float) -> float:
     return 1285e3 * h_min ** (2.0 / 3.0)
 
 
-def first_failure(pars, path, n_max=3000, h=(1.0, 1.0), hist=None):
+def first_failure(pars, path, n_max=3000, h=(1.0, 1.0), hist=None, e=(E, E)):
     """Apply ``path(k) -> (s1, s2)`` for k = 1, 2, ...; return the first k where a segment
     fails, with the history and the output of that evaluation."""
     nseg = int(pars[3])
     hist = np.zeros(nseg) if hist is None else hist
     for k in range(1, n_max + 1):
-        out = evaluate(pars, hist, *path(k), h=h)
+        out = evaluate(pars, hist, *path(k), h=h, e=e)
         if hist.any():
             return k, hist, out
     raise AssertionError("no failure")  # pragma: no cover
@@ -104,9 +113,10 @@ def load(k: int, target: float) -> float:
     return (k - 0.5) * STEP * target
 
 
-def uniform_normal(target: float):
-    """Path: both ends displaced normally, stress rising to and past ``target`` [Pa]."""
-    return lambda k: ((normal_disp(load(k, target)), 0.0),) * 2
+def uniform_normal(target: float, modulus: float = E):
+    """Path: both ends displaced normally, stress ``modulus d / L0`` rising to and past
+    ``target`` [Pa]."""
+    return lambda k: ((load(k, target) * L0 / modulus, 0.0),) * 2
 
 
 def test_pure_tension_fails_at_sigma_t():
@@ -130,18 +140,56 @@ def test_pure_compression_fails_at_sigma_c():
     assert hist.all() and out[3] == 1.0
 
 
-def test_intact_joint_force_is_segment_sum():
-    """Below failure: force on ``j`` ``-h (sigma_n n + sigma_s t) w`` (uniform displacement),
-    no couple; the mean thickness and modulus of the pair carry the stress."""
-    pars = law_pars()
-    h = (1.0, 3.0)
-    d = np.array([normal_disp(50e3), 0.02])
-    out = evaluate(pars, np.zeros(10), d, d, h=h)
-    hm = 0.5 * sum(h)
-    expected = -hm * W * np.array([E * d[0] / L0, G * d[1] / L0])
+@pytest.mark.parametrize(("h", "e", "ri"), [
+    ((1.0, 1.0), (E, E), 1000.0),
+    ((1.0, 3.0), (E, E), 1000.0),
+    ((3.0, 1.0), (E, E), 1000.0),
+    ((0.05, 10.0), (E, E), 1000.0),
+    ((1.0, 1.0), (E, 4 * E), 1000.0),
+    ((2.0, 0.5), (0.25 * E, 4 * E), 1000.0),
+    ((1.0, 3.0), (E, 2 * E), 500.0),
+    ((1.0, 3.0), (E, 2 * E), 1500.0),
+], ids=["same", "thick-j", "thick-i", "5cm-10m", "stiff-j", "thin-stiff-j", "near-i", "far-i"])
+def test_intact_joint_force_is_segment_sum(h, e, ri):
+    """Below failure: force on ``j`` ``-(h E)_eff (d_n n + (G/E) d_t t) w / L0`` (uniform
+    displacement), no couple. ``(h E)_eff`` is the series combination of the two sides,
+    ``L0`` times eq. 9's ``K`` (the spring law's and the dt estimate's stiffness), ``h E`` for
+    identical cells."""
+    pars = law_pars(sigma_c=1e12)
+    he = series_he(h, e, ri)
+    d = np.array([1e-3, 2e-3])
+    out = evaluate(pars, np.zeros(10), d, d, h=h, e=e, ri=ri)
+    expected = -he * W * np.array([d[0], d[1] / (2 * (1 + NU))]) / L0
     assert out[3] == 0.0
     np.testing.assert_allclose(out[:2], expected, rtol=1e-12)
     assert abs(out[2]) < 1e-9 * abs(expected[0]) * W
+    g = geometry(d, d, h, e, ri)
+    assert out[0] == pytest.approx(-g[J_K] * W * d[0], rel=1e-12)  # normal stiffness K w
+    if h[0] == h[1] and e[0] == e[1]:
+        assert he == pytest.approx(h[0] * e[0], rel=1e-15)
+
+
+@pytest.mark.parametrize(("h", "e", "ri"), [
+    ((0.05, 10.0), (E, E), 1000.0),
+    ((3.0, 1.0), (E, 2 * E), 1000.0),
+    ((1.0, 3.0), (4 * E, E), 1500.0),
+], ids=["5cm-10m", "thin-j", "far-i"])
+def test_mixed_joint_fails_at_the_thinner_sides_stress(h, e, ri):
+    """The traction ``(h E)_eff d / L0`` is the same on both sides; the stress is largest on
+    the thinner, ``sigma = (h E)_eff d / (h_min L0)``, and the joint fails in tension when that
+    reaches the Table 1 ``sigma_t`` of ``h_min``."""
+    pars = law_pars()
+    hmin = min(h)
+    sig_t = 0.1 * sigma_c_default(hmin)
+    e_s = series_he(h, e, ri) / hmin
+    nseg = int(pars[3])
+    hist = np.zeros(nseg)
+    for k in range(1, 3000):
+        out = evaluate(pars, hist, *uniform_normal(sig_t, e_s)(k), h=h, e=e, ri=ri)
+        if hist.any():
+            break
+    assert sig_t < load(k, sig_t) <= sig_t * (1 + STEP)
+    assert hist.all() and out[3] == 1.0
 
 
 @pytest.mark.parametrize("confinement", [0.5, -0.2, -0.6],
@@ -182,16 +230,16 @@ def test_table1_default_compressive_strength(h):
     assert MohrCoulomb.params["tensile_ratio"].default == 0.1
     assert MohrCoulomb.params["friction_angle"].default == 15.0
     pars = law_pars()
-    h_mean = 0.5 * sum(h)
     sig_c = sigma_c_default(min(h))
     if h == (2.0, 3.0):
         assert sig_c == pytest.approx(2.0398e6, rel=1e-4)
-    # stresses do not depend on h; failure at the h_min strength
-    k, _, _ = first_failure(pars, uniform_normal(-sig_c), h=h)
+    # the thinner side's stress (h E)_eff d / (h_min L0) (E for equal cells); failure at the
+    # h_min strength
+    e_s = series_he(h, (E, E)) / min(h)
+    k, _, _ = first_failure(pars, uniform_normal(-sig_c, e_s), h=h)
     assert load(k, sig_c) == pytest.approx(sig_c, rel=0.01)
-    k, _, _ = first_failure(pars, uniform_normal(0.1 * sig_c), h=h)
+    k, _, _ = first_failure(pars, uniform_normal(0.1 * sig_c, e_s), h=h)
     assert load(k, 0.1 * sig_c) == pytest.approx(0.1 * sig_c, rel=0.01)
-    assert h_mean > 0
 
 
 def segment_z(nseg):
