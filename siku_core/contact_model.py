@@ -33,8 +33,8 @@ class ContactModel:
     """
 
     kind = "contacts"
-    #: skip the clip of pairs that :func:`~siku_core.geometry.clip.separated` proves apart
-    #: (exact: the clip would return no overlap); off only to test that claim
+    #: skip the clip of pairs that :func:`~siku_core.geometry.clip.apart` finds apart or
+    #: touching (their overlap has no area); off only to test that claim
     pretest = True
 
     def __init__(self, sim: "Simulation"):
@@ -60,8 +60,6 @@ class ContactModel:
         self._ref_centers: np.ndarray | None = None
         self.rm = np.empty((st.n, 3, 3))
         self.nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
-        self.bigv = (np.maximum.reduceat(np.abs(st.verts).max(axis=1), st.vert_offsets[:-1])
-                     if st.n else np.zeros(0))
         self.rebuilds = 0
         self.n_overlap = 0
         self.n_broken_total = 0
@@ -185,7 +183,7 @@ class ContactModel:
         if len(pairs):
             n = collision_forces(
                 law.collision_evaluator, self._cpars, self.rm, V, w, self.minv, st.thickness,
-                self.E, st.area, st.vert_offsets, st.verts, self.bigv, pairs, sim.radius, self.nmax,
+                self.E, st.area, st.vert_offsets, st.verts, pairs, sim.radius, self.nmax,
                 self.pretest, self.pout, self.pon, chunks(len(pairs)),
             )
             if commit:

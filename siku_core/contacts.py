@@ -38,11 +38,11 @@ import numpy as np
 from numba import njit, prange
 
 from .geometry.clip import (
+    apart,
     make_overlap_scratch,
     overlap_inline,
     overlap_scratch,
     project_partner,
-    separated,
 )
 from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 from .kernel_cache import specialise
@@ -218,7 +218,8 @@ def _span_across(pi, pj, nx, ny):
 
 
 def collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T):
-    """Clip every candidate pair and apply the collision evaluator where they overlap.
+    """Clip every candidate pair that :func:`~siku_core.geometry.clip.apart` does not find apart
+    and apply the collision evaluator where they overlap.
 
     Returns the number of overlapping pairs.
     """
@@ -245,6 +246,8 @@ def _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, p
         nj = offsets[j + 1] - offsets[j]
         pj = proj[:nj]
         project_partner(q[i], q[j], verts[offsets[j]:offsets[j + 1]], R, pj)
+        if apart(pi, pj):
+            continue
         a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_scratch(pi, pj, xy, tag)
         if a <= 0.0:
             continue
@@ -331,8 +334,10 @@ def find_shared_edges(q, offsets, verts, pairs, tol, R):
 # 1. ``rotation_matrices``: ``R(q)`` of every element, once (the loops below never rotate by a
 #    quaternion and never allocate per contact);
 # 2. ``_joint_forces``: every intact joint (parallel over joints);
-# 3. ``_collision_forces``: every candidate pair: a cheap exact separation test, else the clip
-#    and, when the polygons overlap, the law (parallel over pairs);
+# 3. ``_collision_forces``: every candidate pair: the separating-axis test (``apart``: an edge
+#    line of either polygon separates or touches them), else the clip and, when the polygons
+#    overlap, the law (parallel over pairs). Jointed neighbours of a pack touch or stand apart
+#    most of the time, so most of them are never clipped;
 # 4. ``gather_forces``: each element adds its own contacts' contributions, joints then pairs,
 #    each in ascending contact index (parallel over elements).
 #
@@ -569,34 +574,33 @@ def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
     return nb
 
 
-def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
+def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, on, nch):
-    """Clip every candidate pair (unless :func:`~siku_core.geometry.clip.separated` proves them
-    apart, with ``pretest``) and evaluate the overlapping ones into ``out[k]`` with ``on[k] = 1``
-    (other values of ``on``: hints for the next evaluation); returns the number of overlapping
-    pairs. ``bigv``: each element's largest absolute local vertex coordinate [m] (the scale of
-    the separation margin)."""
+    """Clip every candidate pair (unless, with ``pretest``, :func:`~siku_core.geometry.clip.apart`
+    finds an edge line that separates or touches them) and evaluate the overlapping ones into
+    ``out[k]`` with ``on[k] = 1`` (``0`` for the others); returns the number of overlapping
+    pairs."""
     fn = specialise(_collision_forces, evaluate, (_collision_chunk,))
     if fn is not None:
-        return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R, nmax,
+        return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R, nmax,
                   pretest, out, on, nch)
-    return _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv,
+    return _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
                              pairs, R, nmax, pretest, out, on, nch)
 
 
 @njit(parallel=True)
-def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
+def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                       nmax, pretest, out, on, nch):
     counts = np.zeros(nch, dtype=np.int64)
     for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, pairs.shape[0])
         counts[c] = _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
-                                     bigv, pairs, R, nmax, pretest, out, on, lo, hi)
+                                     pairs, R, nmax, pretest, out, on, lo, hi)
     return counts.sum()
 
 
 @njit
-def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, bigv, pairs, R,
+def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, on, lo, hi):
     """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap."""
     inv_r = 1.0 / R
@@ -606,30 +610,22 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     res = np.empty(4)
     no = 0
     for k in range(lo, hi):
-        # on[k] from the last evaluation: 1 overlapping, 2 touching or apart but not proved
-        # apart, 0 otherwise. The separation test is tried on 0 only: it rarely proves an
-        # overlapping pair apart, and a pair it failed on gets it again every other time
-        try_pretest = pretest and on[k] == 0
         on[k] = 0
         i = pairs[k, 0]
         j = pairs[k, 1]
         M = relative_matrix(rm, i, j)
         oj = offsets[j]
         nj = offsets[j + 1] - oj
-        big = bigv[i]
         for v in range(nj):
             px, py = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
             proj[v, 0] = px
             proj[v, 1] = py
-            big = max(big, abs(px), abs(py))
         pj = proj[:nj]
         pi = verts[offsets[i]:offsets[i + 1]]
-        if try_pretest and separated(pi, pj, big, True):
+        if pretest and apart(pi, pj):
             continue
         a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, True)
         if a <= 0.0:
-            if try_pretest:
-                on[k] = 2
             continue
         no += 1
         ri = math.hypot(cx, cy)

@@ -487,6 +487,48 @@ def separated(poly1, poly2, big=-1.0, quick=False):
 
 
 @njit(cache=True)
+def _edge_lines_apart(a, b):
+    """Some edge line of CCW polygon ``a`` has no vertex of ``b`` strictly inside it."""
+    n = a.shape[0]
+    m = b.shape[0]
+    for k in range(n):
+        k1 = k + 1 if k + 1 < n else 0
+        ax = a[k, 0]
+        ay = a[k, 1]
+        ex = a[k1, 0] - ax
+        ey = a[k1, 1] - ay
+        inside = False
+        for v in range(m):
+            if ex * (b[v, 1] - ay) - ey * (b[v, 0] - ax) > 0.0:
+                inside = True
+                break
+        if not inside:
+            return True
+    return False
+
+
+@njit(cache=True)
+def apart(poly1, poly2):
+    """``True`` when an edge line of either convex CCW polygon has every vertex of the other on
+    its outer side or on the line (``f(p) = e × (p - a) <= 0``, as the clipping computes it):
+    the polygons are apart or only touch, their overlap has no area (separating axis theorem).
+    ``False`` for polygons whose interiors overlap.
+
+    Exact on the given coordinates (no margin), so it decides more pairs than
+    :func:`separated`: polygons that touch along an edge or at a corner, as jointed neighbours
+    of a pack do at rest, are apart here, where the clipping returns an empty intersection or a
+    sliver of the size of the round-off of the coordinates. Cost: one pass over the edges of
+    each polygon, each stopping at the first vertex inside (about ``n1 + n2`` evaluations for
+    overlapping polygons).
+    """
+    if poly1.shape[0] < 3 or poly2.shape[0] < 3:
+        return False
+    if _edge_lines_apart(poly1, poly2):
+        return True
+    return _edge_lines_apart(poly2, poly1)
+
+
+@njit(cache=True)
 def overlap(poly1, poly2):
     """Intersection of two convex polygons in one plane: overlap geometry of one contact.
 

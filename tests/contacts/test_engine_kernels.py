@@ -4,9 +4,12 @@
   contact writes its own row and every element sums its own contacts in a fixed order, so a
   run on one thread and on two threads gives the same state bit for bit (the restart tests
   need bit-for-bit reproducibility too).
-* The separation test that skips the clipping of pairs proved apart is exact: it says
-  "separated" only when the clipping returns no overlap (random polygons, gaps down to 1e-12 of
-  the size), and a run with it gives the same state bit for bit as a run without it.
+* The separating-axis test that skips the clipping (``apart``: an edge line of either polygon
+  has the other on its outer side or on it) agrees with the clipping: pairs it calls apart have
+  no overlap area beyond round-off, pairs it does not call apart do overlap (random polygons,
+  touching squares with and without round-off noise, gaps down to 1e-12 of the size), and a run
+  with it gives the same state bit for bit as a run without it. The margin test ``separated``
+  is exact by construction (the clip returns no overlap at all).
 * The kernels agree with the serial reference loops (``joint_loop``, ``collision_loop``: the
   previous implementation, quaternion rotations per contact) to round-off, contact for contact.
 """
@@ -19,7 +22,13 @@ import pytest
 import siku_core.parallel as parallel
 from siku_core.contact_model import ContactModel
 from siku_core.contacts import collision_loop, joint_loop
-from siku_core.geometry.clip import make_overlap_scratch, overlap, overlap_scratch, separated
+from siku_core.geometry.clip import (
+    apart,
+    make_overlap_scratch,
+    overlap,
+    overlap_scratch,
+    separated,
+)
 from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 
@@ -131,6 +140,31 @@ def test_separated_polygons_never_overlap_when_clipped():
             assert overlap(p1, p2)[0] == 0.0
             assert overlap_scratch(p1, p2, xy, tag, True)[0] == 0.0
     assert proved > 500
+
+
+def test_apart_is_the_separating_axis_test_of_the_clip():
+    """``apart`` implies no overlap area: the clip's points carry an error of a few ``u big``
+    (``u = 2**-53``, ``big`` the largest coordinate), so a sliver the test misses is at most
+    that wide and ``2 sqrt(2) big`` long: area below ``32 u big²``. Not apart implies an
+    overlap (the interiors intersect): the clip finds area. Touching squares (shared edge or
+    corner, exact coordinates) are apart, and everything ``separated`` proves is apart."""
+    u = np.finfo(float).eps / 2
+    n_apart = n_touch = 0
+    for p1, p2 in _cases(seed=2, n=6000):
+        big = max(np.abs(p1).max(), np.abs(p2).max())
+        a = overlap(p1, p2)[0]
+        if apart(p1, p2):
+            n_apart += 1
+            assert a <= 32 * u * big * big
+        else:
+            assert a > 0.0
+            assert not separated(p1, p2)
+    s = 2e4
+    for off in [(s, 0), (0, s), (s, s), (-s, s), (-s, -s)]:
+        assert apart(_square((0, 0), s), _square(off, s)) and apart(_square(off, s), _square((0, 0), s))
+        n_touch += 1
+    assert not apart(_square((0, 0), s), _square((s * (1 - 1e-9), 0), s))
+    assert n_apart > 2000 and n_touch == 5
 
 
 def test_lazy_clip_gives_the_same_overlap():
