@@ -579,7 +579,8 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     """Clip every candidate pair (unless, with ``pretest``, :func:`~siku_core.geometry.clip.apart`
     finds an edge line that separates or touches them) and evaluate the overlapping ones into
     ``out[k]`` with ``on[k] = 1`` (``0`` for the others); returns the number of overlapping
-    pairs."""
+    pairs. A pair with ``on[k] = 1`` from the last evaluation skips the test (it almost always
+    still overlaps; the clip finds no area where the test would have found the pair apart)."""
     fn = specialise(_collision_forces, evaluate, (_collision_chunk,))
     if fn is not None:
         return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R, nmax,
@@ -610,6 +611,9 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     res = np.empty(4)
     no = 0
     for k in range(lo, hi):
+        # a pair that overlapped at the last evaluation almost always still does: straight to
+        # the clip (which finds no area for any pair ``apart`` would have settled)
+        test = pretest and on[k] != 1
         on[k] = 0
         i = pairs[k, 0]
         j = pairs[k, 1]
@@ -622,7 +626,7 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
             proj[v, 1] = py
         pj = proj[:nj]
         pi = verts[offsets[i]:offsets[i + 1]]
-        if pretest and apart(pi, pj):
+        if test and apart(pi, pj):
             continue
         a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, True)
         if a <= 0.0:

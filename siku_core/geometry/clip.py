@@ -245,6 +245,13 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2):
         ey = (poly2[k1, 1] - ay) * sgn2
         if ex == 0.0 and ey == 0.0:
             continue  # repeated vertex: no edge
+        allin = True
+        for idx in range(m):
+            if ex * (xy[cur, idx, 1] - ay) - ey * (xy[cur, idx, 0] - ax) < 0.0:
+                allin = False
+                break
+        if allin:
+            continue  # every point inside: the pass would copy the polygon unchanged
         nxt = 1 - cur
         mo = 0
         sx = xy[cur, m - 1, 0]
