@@ -252,11 +252,11 @@ def _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, p
         if a <= 0.0:
             continue
         n_overlap += 1
-        ri = math.hypot(cx, cy)
+        ri = math.sqrt(cx * cx + cy * cy)
         xj, yj = frame_point(q[i], q[j], cx, cy, R)
-        rj = math.hypot(xj, yj)
+        rj = math.sqrt(xj * xj + yj * yj)
         if ncross == 2:
-            width = math.hypot(p2x - p1x, p2y - p1y)
+            width = math.sqrt((p2x - p1x) ** 2 + (p2y - p1y) ** 2)
         else:
             width = _span_across(pi, pj, nx, ny)
             if not width > 0.0:
@@ -632,11 +632,11 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
         if a <= 0.0:
             continue
         no += 1
-        ri = math.hypot(cx, cy)
+        ri = math.sqrt(cx * cx + cy * cy)
         xj, yj = i_to_j(M, cx, cy, R, inv_r)
-        rj = math.hypot(xj, yj)
+        rj = math.sqrt(xj * xj + yj * yj)
         if ncross == 2:
-            width = math.hypot(p2x - p1x, p2y - p1y)
+            width = math.sqrt((p2x - p1x) ** 2 + (p2y - p1y) ** 2)
         else:
             width = _span_across(pi, pj, nx, ny)
             if not width > 0.0:

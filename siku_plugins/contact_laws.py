@@ -100,7 +100,7 @@ def spring_evaluator(g, pars, hist, out):
     relative velocity distribution along the joint like the displacement.
     """
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
-    strain = max(math.hypot(s1x, s1y), math.hypot(s2x, s2y)) / g[J_L0]
+    strain = math.sqrt(max(s1x * s1x + s1y * s1y, s2x * s2x + s2y * s2y)) / g[J_L0]
     if strain > hist[0]:
         hist[0] = strain
     eps_t = pars[S_EPS]
@@ -189,7 +189,8 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     a = hi * g[J_EI]
     b = hj * g[J_EJ]
     # i's share of the centre distance: the joint midpoint's distance from i's centre
-    lam = 0.5 * math.hypot(g[J_AX] + g[J_BX], g[J_AY] + g[J_BY]) / L0 if L0 > 0.0 else 0.5
+    mx2, my2 = g[J_AX] + g[J_BX], g[J_AY] + g[J_BY]
+    lam = 0.5 * math.sqrt(mx2 * mx2 + my2 * my2) / L0 if L0 > 0.0 else 0.5
     lam = min(max(lam, 0.0), 1.0)
     # h, E: the thinner side's thickness and its modulus scaled so that h E = (h E)_eff;
     # den = lam b + (1 - lam) a, written so that it is exactly b (a) when a == b: factor 1
