@@ -399,100 +399,6 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2):
     return area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny
 
 
-#: Relative margin of :func:`separated` (units of ``big * |edge|``, see there).
-SEPARATION_MARGIN = REL_TOL
-
-
-@njit(cache=True, inline="always")
-def _outside_edge(poly1, poly2, k, sgn2, m2):
-    """Every vertex of ``poly1`` lies outside edge ``k`` of ``poly2`` by more than
-    ``sqrt(m2) |e|`` (``f(p) = e × (p - a) < 0`` outside, as the clipping computes it)."""
-    n2 = poly2.shape[0]
-    k1 = k + 1 if k + 1 < n2 else 0
-    ax = poly2[k, 0]
-    ay = poly2[k, 1]
-    ex = (poly2[k1, 0] - ax) * sgn2
-    ey = (poly2[k1, 1] - ay) * sgn2
-    lim2 = m2 * (ex * ex + ey * ey)
-    if not lim2 > 0.0:
-        return False
-    for i in range(poly1.shape[0]):
-        fp = ex * (poly1[i, 1] - ay) - ey * (poly1[i, 0] - ax)
-        if fp >= 0.0 or fp * fp <= lim2:
-            return False
-    return True
-
-
-@njit(cache=True)
-def _big(poly1, poly2):
-    big = 0.0
-    for i in range(poly1.shape[0]):
-        big = max(big, abs(poly1[i, 0]), abs(poly1[i, 1]))
-    for i in range(poly2.shape[0]):
-        big = max(big, abs(poly2[i, 0]), abs(poly2[i, 1]))
-    return big
-
-
-@njit(cache=True)
-def separated(poly1, poly2, big=-1.0, quick=False):
-    """``True`` when an edge line of ``poly2`` has every vertex of ``poly1`` strictly outside it
-    by a margin, so that :func:`overlap_scratch` is certain to return an empty intersection
-    (area ``0.0``). Cheap (no clipping); ``False`` says nothing.
-
-    The test uses the edge lines exactly as the clipping does (same orientation sign, same
-    ``f(p) = e × (p - a)``) and asks ``f(v) < -margin`` for every vertex ``v`` of ``poly1`` with
-    ``margin = SEPARATION_MARGIN * big * |e|`` (``big``: the largest absolute vertex coordinate
-    of the two polygons, or any larger value the caller passes; ``|e|``: the edge length). Why
-    that is enough: every point the Sutherland–Hodgman loop creates lies on a segment between
-    earlier points, all within ``n2 * 4 u * big`` of the convex hull of ``poly1``
-    (``u = 2**-53``), and ``f`` is affine with gradient ``|e|``, so such a point has
-    ``f < -margin + |e| big (4 n2 + 8) u < 0`` for any ``n2`` below 10⁵: the clip against that
-    edge drops every point, and the result is empty. Touching or overlapping polygons, and gaps
-    below about ``1e-9 big``, always give ``False``.
-
-    ``quick``: try only the edge of ``poly2`` that faces the vertex mean of ``poly1`` most
-    (the separating one for separated compact polygons), not all of them.
-    """
-    n1 = poly1.shape[0]
-    n2 = poly2.shape[0]
-    if n1 < 3 or n2 < 3:
-        return False
-    if big < 0.0:
-        big = _big(poly1, poly2)
-    if not big > 0.0:
-        return False
-    sgn2 = _orientation(poly2)
-    m2 = (SEPARATION_MARGIN * big) ** 2
-    if not quick:
-        for k in range(n2):
-            if _outside_edge(poly1, poly2, k, sgn2, m2):
-                return True
-        return False
-    px = 0.0
-    py = 0.0
-    for i in range(n1):
-        px += poly1[i, 0]
-        py += poly1[i, 1]
-    px /= n1
-    py /= n1
-    best = -1
-    score = 0.0
-    for k in range(n2):
-        k1 = k + 1 if k + 1 < n2 else 0
-        ax = poly2[k, 0]
-        ay = poly2[k, 1]
-        ex = (poly2[k1, 0] - ax) * sgn2
-        ey = (poly2[k1, 1] - ay) * sgn2
-        f = ex * (py - ay) - ey * (px - ax)
-        e2 = ex * ex + ey * ey
-        if f < 0.0 and f * f > score * e2:
-            score = f * f / e2
-            best = k
-    if best < 0:
-        return False
-    return _outside_edge(poly1, poly2, best, sgn2, m2)
-
-
 @njit(cache=True)
 def _edge_lines_apart(a, b):
     """Some edge line of CCW polygon ``a`` has no vertex of ``b`` strictly inside it."""
@@ -521,10 +427,9 @@ def apart(poly1, poly2):
     the polygons are apart or only touch, their overlap has no area (separating axis theorem).
     ``False`` for polygons whose interiors overlap.
 
-    Exact on the given coordinates (no margin), so it decides more pairs than
-    :func:`separated`: polygons that touch along an edge or at a corner, as jointed neighbours
-    of a pack do at rest, are apart here, where the clipping returns an empty intersection or a
-    sliver of the size of the round-off of the coordinates. Cost: one pass over the edges of
+    Exact on the given coordinates (no margin): polygons that touch along an edge or at a
+    corner, as jointed neighbours of a pack do at rest, are apart here, where the clipping
+    returns an empty intersection or a sliver of the size of the round-off of the coordinates. Cost: one pass over the edges of
     each polygon, each stopping at the first vertex inside (about ``n1 + n2`` evaluations for
     overlapping polygons).
     """
