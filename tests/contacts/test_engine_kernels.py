@@ -134,7 +134,7 @@ def test_apart_is_the_separating_axis_test_of_the_clip():
     overlap (the interiors intersect): the clip finds area. Touching squares (shared edge or
     corner, exact coordinates) are apart."""
     u = np.finfo(float).eps / 2
-    n_apart = n_touch = 0
+    n_apart = 0
     for p1, p2 in _cases(seed=2, n=6000):
         big = max(np.abs(p1).max(), np.abs(p2).max())
         a = overlap(p1, p2)[0]
@@ -146,9 +146,8 @@ def test_apart_is_the_separating_axis_test_of_the_clip():
     s = 2e4
     for off in [(s, 0), (0, s), (s, s), (-s, s), (-s, -s)]:
         assert apart(_square((0, 0), s), _square(off, s)) and apart(_square(off, s), _square((0, 0), s))
-        n_touch += 1
     assert not apart(_square((0, 0), s), _square((s * (1 - 1e-9), 0), s))
-    assert n_apart > 2000 and n_touch == 5
+    assert n_apart > 2000
 
 
 def test_lazy_clip_gives_the_same_overlap():
