@@ -1,0 +1,125 @@
+"""Specialised contact loops (``siku_core.kernel_cache``).
+
+* A law's evaluator is recompiled without numba's reference counting for the specialised
+  loops, and that copy computes exactly what the evaluator computes (same source, same
+  arithmetic: bit for bit on random contacts).
+* An evaluator that allocates cannot be compiled so; the loop then uses it as it is.
+"""
+from __future__ import annotations
+
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from siku_core import kernel_cache
+from siku_core.contacts import (
+    G_AREA, G_AREA_I, G_AREA_J, G_K, G_MEFF, G_NX, G_NY, G_SIZE, G_WIDTH, J_DT, J_EI, J_EJ,
+    J_HI, J_HJ, J_K, J_L0, J_MEFF, J_NU, J_S1X, J_S1Y, J_S2X, J_S2Y, J_SIZE, J_VAX, J_VAY,
+    J_VBX, J_VBY, J_W, _collision_chunk, _collision_forces, _joint_chunk, _joint_forces,
+)
+from siku_plugins.contact_laws import (
+    collision_evaluator, mohr_coulomb_evaluator, spring_evaluator,
+)
+
+
+@pytest.fixture
+def fresh_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("SIKU_KERNEL_CACHE", str(tmp_path))
+    monkeypatch.setattr(kernel_cache, "_MEMO", {})
+    return tmp_path
+
+
+def _loop_evaluator(loop):
+    return sys.modules[loop.py_func.__module__].evaluate
+
+
+def _collision_case(rng):
+    g = rng.normal(0.0, 1.0, G_SIZE)
+    g[[G_AREA, G_WIDTH, G_K, G_MEFF, G_AREA_I, G_AREA_J]] = 10.0 ** rng.uniform(-3, 9, 6)
+    n = rng.normal(0.0, 1.0, 2)
+    g[[G_NX, G_NY]] = n / np.linalg.norm(n)
+    pars = np.array([rng.integers(2), rng.uniform(0, 0.9), rng.uniform(0, 10),
+                     rng.uniform(0, 1) * rng.integers(2)], dtype=float)
+    return g, pars, None
+
+
+def _joint_g(rng):
+    g = rng.normal(0.0, 1e4, J_SIZE)
+    g[[J_S1X, J_S1Y, J_S2X, J_S2Y]] = rng.normal(0.0, 1.0, 4) * 10.0 ** rng.uniform(-3, 1)
+    g[[J_L0, J_W]] = rng.uniform(1e3, 3e4, 2)
+    g[[J_K, J_MEFF]] = 10.0 ** rng.uniform(4, 12, 2)
+    g[[J_VAX, J_VAY, J_VBX, J_VBY]] = rng.normal(0.0, 1e-2, 4)
+    g[[J_HI, J_HJ]] = rng.uniform(0.05, 10, 2)
+    g[[J_EI, J_EJ]] = rng.uniform(2.5e8, 4e9, 2)
+    g[J_NU] = 0.3
+    g[J_DT] = 1.0
+    return g
+
+
+def _spring_case(rng):
+    pars = np.array([10.0 ** rng.uniform(-5, -2), rng.uniform(0, 0.9), rng.uniform(0, 1)])
+    return _joint_g(rng), pars, rng.uniform(0, 2) * pars[:1]
+
+
+def _mc_case(rng):
+    nseg = int(rng.integers(1, 16))
+    pars = np.array([10.0 ** rng.uniform(4, 7) * rng.integers(2), 0.1, np.tan(0.3), nseg,
+                     rng.uniform(0.5, 1), rng.uniform(0, 0.9)])
+    return _joint_g(rng), pars, (rng.random(nseg) < 0.2).astype(float)
+
+
+@pytest.mark.parametrize("ev, template, chunk, case", [
+    (collision_evaluator, _collision_forces, _collision_chunk, _collision_case),
+    (spring_evaluator, _joint_forces, _joint_chunk, _spring_case),
+    (mohr_coulomb_evaluator, _joint_forces, _joint_chunk, _mc_case),
+])
+def test_loops_call_a_copy_without_reference_counting(fresh_cache, ev, template, chunk, case):
+    loop = kernel_cache.specialise(template, ev, (chunk,))
+    free = _loop_evaluator(loop)
+    assert free is not ev
+    assert free.py_func.__module__.startswith(f"siku_eval_{ev.__name__}_")
+    assert free.targetoptions.get("_nrt") is False
+    rng = np.random.default_rng(5)
+    broke = 0
+    for _ in range(400):
+        g, pars, hist = case(rng)
+        outs = []
+        for f in (ev, free):
+            out = np.zeros(4)
+            if hist is None:
+                f(g, pars, out)
+                outs.append(out)
+            else:
+                h = hist.copy()
+                f(g, pars, h, out)
+                outs.append(np.concatenate([out, h]))
+        assert np.array_equal(outs[0], outs[1])
+        broke += outs[0][3] != 0.0
+    if hist is not None:  # both ways out of the joint laws were taken
+        assert 0 < broke < 400
+
+
+def test_an_allocating_evaluator_is_used_as_it_is(fresh_cache, tmp_path, monkeypatch):
+    mod = tmp_path / "plugin_src" / "alloc_law.py"
+    mod.parent.mkdir()
+    mod.write_text(textwrap.dedent('''
+        import numpy as np
+        from numba import njit
+
+        @njit(cache=False)
+        def alloc_evaluator(g, pars, out):
+            tmp = np.zeros(3)
+            tmp[0] = g[0] * pars[0]
+            out[0] = tmp[0]
+            out[1] = 0.0
+            out[2] = 0.0
+    '''))
+    monkeypatch.syspath_prepend(str(mod.parent))
+    import alloc_law
+
+    assert kernel_cache._nrt_free(alloc_law.alloc_evaluator, "", fresh_cache) is None
+    loop = kernel_cache.specialise(_collision_forces, alloc_law.alloc_evaluator,
+                                   (_collision_chunk,))
+    assert _loop_evaluator(loop) is alloc_law.alloc_evaluator
