@@ -468,9 +468,9 @@ def apart(poly1, poly2):
 
     Exact on the given coordinates (no margin): polygons that touch along an edge or at a
     corner, as jointed neighbours of a pack do at rest, are apart here, where the clipping
-    returns an empty intersection or a sliver of the size of the round-off of the coordinates. Cost: one pass over the edges of
-    each polygon, each stopping at the first vertex inside (about ``n1 + n2`` evaluations for
-    overlapping polygons).
+    returns an empty intersection or a sliver of the size of the round-off of the coordinates.
+    Cost: one pass over the edges of each polygon, each stopping at the first vertex inside
+    (about ``n1 + n2`` evaluations for overlapping polygons).
     """
     if poly1.shape[0] < 3 or poly2.shape[0] < 3:
         return False
