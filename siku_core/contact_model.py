@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .contacts import (
-    C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces, joint_constants,
+    BREAK_MODES, C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces, joint_constants,
     joint_forces, max_moved2, rotation_matrices,
 )
 from .errors import SceneError
@@ -122,6 +122,12 @@ class ContactModel:
         else:
             self.L0 = np.zeros(0)
         self.intact = np.ones(len(pairs), dtype=np.bool_)
+        #: per joint: break mode code (``contacts.BREAK_MODES``; 0 while intact) and the model
+        #: time of the break [s] (NaN while intact)
+        self.bmode = np.zeros(len(pairs))
+        self.break_time = np.full(len(pairs), np.nan)
+        #: breaks not yet taken by a writer (:meth:`take_breaks`)
+        self._pending: list[int] = []
         self.hist = np.zeros((len(pairs), max(nh, 1)))
         self.jK, self.jmeff = joint_constants(st.thickness, self.E, self.minv, self.ji, self.jj,
                                               self.ends_i, self.ends_j)
@@ -172,11 +178,12 @@ class ContactModel:
             broke = joint_forces(
                 law.joint_evaluator, self._jpars, self.rm, V, w, st.thickness, self.E,
                 self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
-                self.jK, self.jmeff, self.intact, self.hist, sim.radius, sim.dt, commit,
-                self.jout, self.jon, chunks(self.n_joints),
+                self.jK, self.jmeff, self.intact, self.bmode, self.hist, sim.radius, sim.dt,
+                commit, self.jout, self.jon, chunks(self.n_joints),
             )
-            if commit:
+            if commit and broke:
                 self.n_broken_total += broke
+                self._record_breaks(t)
         t2 = time.perf_counter()
         pairs = self._candidates(q)
         t3 = time.perf_counter()
@@ -201,6 +208,49 @@ class ContactModel:
         tm["broad_phase"] += t3 - t2
         tm["collisions"] += t4 - t3
         tm["contact_sum"] += (t1 - t0) + (t5 - t4)
+
+    def _record_breaks(self, t: float) -> None:
+        """Stamp joints that broke in this evaluation (state at model time ``t`` [s])."""
+        new = np.flatnonzero(~self.intact & np.isnan(self.break_time))
+        self.break_time[new] = t
+        self.bmode[new[self.bmode[new] == 0.0]] = 1.0  # a break without a mode: "strain"
+        self._pending.extend(new.tolist())
+
+    def break_joints(self, k: np.ndarray, mode: float, t: float) -> int:
+        """Break intact joints ``k`` from outside the law (a forcing source, a coupled model):
+        they carry no force from the next evaluation on and are recorded with ``mode``
+        (a ``contacts.BREAK_*`` code) at model time ``t`` [s]. Returns how many broke."""
+        k = np.asarray(k, dtype=np.int64)
+        k = k[self.intact[k]]
+        self.intact[k] = False
+        self.bmode[k] = mode
+        self.n_broken_total += len(k)
+        self._record_breaks(t)
+        return len(k)
+
+    def joint_midpoints(self, k: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """Latitude and longitude [deg] ``(len(k), 2)`` of the midpoints of joints ``k``."""
+        from .geometry.quat import from_tangent, xyz_to_latlon
+
+        st = self.sim.state
+        q = st.q if q is None else q
+        out = np.empty((len(k), 2))
+        for a, kk in enumerate(np.asarray(k, dtype=np.int64)):
+            m = 0.5 * (self.ends_i[kk, 0] + self.ends_i[kk, 1])
+            lat, lon = xyz_to_latlon(from_tangent(q[self.ji[kk]], m[0], m[1], self.sim.radius))
+            out[a] = np.degrees(lat), np.degrees(lon)
+        return out
+
+    def take_breaks(self) -> dict[str, np.ndarray]:
+        """Breaks since the last call, in the order they happened: ``time`` [s], ``joint``,
+        ``i``, ``j`` (element indices), ``lat``, ``lon`` [deg] of the joint midpoint at the
+        time of writing, ``mode`` (code of ``contacts.BREAK_MODES``)."""
+        k = np.array(self._pending, dtype=np.int64)
+        self._pending = []
+        k = k[np.argsort(self.break_time[k], kind="stable")]
+        ll = self.joint_midpoints(k) if len(k) else np.zeros((0, 2))
+        return {"time": self.break_time[k], "joint": k, "i": self.ji[k], "j": self.jj[k],
+                "lat": ll[:, 0], "lon": ll[:, 1], "mode": self.bmode[k].astype(np.int8)}
 
     def setup(self) -> None:
         self._cpars = np.ascontiguousarray(self.law.collision_parameters(self.sim), dtype=float)
@@ -254,7 +304,8 @@ class ContactModel:
 
     def history(self) -> dict[str, np.ndarray]:
         return {"intact": self.intact.astype(np.int8), "hist": self.hist.copy(),
-                "n_broken_total": np.array(self.n_broken_total)}
+                "n_broken_total": np.array(self.n_broken_total),
+                "break_mode": self.bmode.astype(np.int8), "break_time": self.break_time.copy()}
 
     def set_history(self, d: dict[str, np.ndarray]) -> None:
         if d["intact"].shape != self.intact.shape:
@@ -265,6 +316,13 @@ class ContactModel:
         self.intact[:] = d["intact"].astype(bool)
         self.hist[...] = d["hist"]
         self.n_broken_total = int(d["n_broken_total"])
+        if "break_mode" in d:
+            self.bmode[:] = d["break_mode"]
+            self.break_time[:] = d["break_time"]
+        else:  # a file from before break modes were recorded
+            self.bmode[:] = np.where(self.intact, 0.0, 1.0)
+            self.break_time[:] = np.where(self.intact, np.nan, -np.inf)
+        self._pending = []
 
     def describe(self) -> dict:
         return {"name": self.law.name, "params": dict(self.law.p), "joints": self.n_joints,
@@ -285,6 +343,11 @@ class ContactModel:
         joint stress extremes (see :func:`siku_core.joint_metrics.joint_diagnostics`)."""
         out = {"joints_intact": self.n_intact, "joints_broken": self.n_joints - self.n_intact,
                "contacts_overlapping": self.n_overlap}
+        if self.n_joints:
+            codes = np.bincount(self.bmode.astype(np.int64), minlength=len(BREAK_MODES))
+            for c, name in BREAK_MODES.items():
+                if c:
+                    out[f"joints_broken_{name}"] = int(codes[c])
         if self.n_joints:
             from .joint_metrics import joint_diagnostics
 

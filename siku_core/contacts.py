@@ -56,6 +56,17 @@ G_SIZE = 12
  J_VBX, J_VBY, J_HI, J_HJ, J_EI, J_EJ, J_NU, J_DT) = range(22)
 J_SIZE = 22
 
+# break modes: what a joint evaluator writes to ``out[3]`` when its joint breaks (any non-zero
+# value breaks it; the engine records the value with the break, see ``BREAK_MODES``)
+BREAK_STRAIN = 1.0  #: a strain or displacement threshold without a direction (the spring law)
+BREAK_TENSION = 2.0  #: normal (opening) stress above the tensile strength
+BREAK_SHEAR = 3.0  #: shear stress above the shear strength
+BREAK_COMPRESSION = 4.0  #: normal (closing) stress above the compressive strength
+BREAK_EXTERNAL = 5.0  #: broken by a component outside the law (e.g. wave-induced flexure)
+#: names of the break modes by code (code 0: intact), as written in output files
+BREAK_MODES = {0: "intact", 1: "strain", 2: "tension", 3: "shear", 4: "compression",
+               5: "external"}
+
 
 @njit(cache=True, inline="always")
 def frame_point(qa, qb, x, y, R):
@@ -494,22 +505,23 @@ def joint_constants(h, E, minv, ji, jj, ends_i, ends_j):
 
 
 def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                 jmeff, intact, hist, R, dt, commit, out, on, nch):
+                 jmeff, intact, bmode, hist, R, dt, commit, out, on, nch):
     """Evaluate every intact joint into ``out[k]`` (``C_*``) and ``on[k]``; returns the number
-    that broke (only when ``commit``)."""
+    that broke (only when ``commit``; their break mode, the evaluator's ``out[3]``, goes to
+    ``bmode[k]``)."""
     fn = specialise(_joint_forces, evaluate, (_joint_chunk,))
     if fn is not None:
         return fn(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff,
-                  intact, hist, R, dt, commit, out, on, nch)
+                  intact, bmode, hist, R, dt, commit, out, on, nch)
     return _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
-                         jK, jmeff, intact, hist, R, dt, commit, out, on, nch)
+                         jK, jmeff, intact, bmode, hist, R, dt, commit, out, on, nch)
 
 
 # The parallel loops are thin: each task calls a (serially compiled) chunk function. Numba's
 # parallel compilation of a large loop body takes twice as long as compiling it serially.
 @njit(parallel=True)
 def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                  jmeff, intact, hist, R, dt, commit, out, on, nch):
+                  jmeff, intact, bmode, hist, R, dt, commit, out, on, nch):
     counts = np.zeros(nch, dtype=np.int64)
     for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, ji.shape[0])
@@ -517,14 +529,14 @@ def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0
         res = np.empty(4)
         scratch = np.empty(hist.shape[1])
         counts[c] = _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j,
-                                 L0, width, jK, jmeff, intact, hist, R, dt, commit, out, on, lo,
-                                 hi, g, res, scratch)
+                                 L0, width, jK, jmeff, intact, bmode, hist, R, dt, commit, out,
+                                 on, lo, hi, g, res, scratch)
     return counts.sum()
 
 
 @njit(_nrt=False)
 def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                 jmeff, intact, hist, R, dt, commit, out, on, lo, hi, g, res, scratch):
+                 jmeff, intact, bmode, hist, R, dt, commit, out, on, lo, hi, g, res, scratch):
     """Joints ``lo <= k < hi`` of :func:`joint_forces`; returns how many broke. ``g``,
     ``res``, ``scratch``: the task's buffers (geometry, result, history row)."""
     nh = hist.shape[1]
@@ -577,6 +589,7 @@ def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
         if res[3] != 0.0:
             if commit:
                 intact[k] = False
+                bmode[k] = res[3]
                 nb += 1
             continue
         pair_contribution(M, res[0], res[1], 0.5 * (ax + bx), 0.5 * (ay + by), res[2], inv_r,

@@ -13,6 +13,11 @@ File layout::
                        lat, lon (T,N) [deg], fields/NAME (T,N) per-element quantities for
                        maps (speed [m/s], damage [1]): the snapshots
     /diagnostics       step, time [s] and one series per diagnostic
+    /breaks            one row per broken joint, in the order they broke: time [s] (model
+                       time of the state that broke it), joint, i, j (element indices), lat,
+                       lon [deg] (joint midpoint when written), mode (attrs: code -> name:
+                       strain, tension, shear, compression, external); written with each
+                       snapshot
     /restart           the latest snapshot in full (q, V, w, step, and every component's
                        history arrays under /restart/components/NAME): what a restart reads
 
@@ -46,6 +51,18 @@ def _append(group, name: str, value: np.ndarray, compression: str | None) -> Non
         ds = group[name]
         ds.resize(ds.shape[0] + 1, axis=0)
         ds[-1] = value
+
+
+def _extend(group, name: str, values: np.ndarray) -> None:
+    """Append the rows ``values`` to the 1-D dataset ``name`` (created on first use)."""
+    values = np.asarray(values)
+    if name not in group:
+        group.create_dataset(name, data=values, maxshape=(None,), chunks=(1024,))
+    elif len(values):
+        ds = group[name]
+        n = ds.shape[0]
+        ds.resize(n + len(values), axis=0)
+        ds[n:] = values
 
 
 def _replace(group, name: str, value: np.ndarray) -> None:
@@ -103,10 +120,21 @@ class HDF5Writer(Writer):
             geo.create_dataset(k, data=getattr(sim.state, k))
         f.create_group("states")
         f.create_group("diagnostics")
+        if sim.contacts is not None and sim.contacts.n_joints:
+            from siku_core.contacts import BREAK_MODES
+
+            b = f.create_group("breaks")
+            for code, name in BREAK_MODES.items():
+                b.attrs[f"mode_{code}"] = name
         f.flush()
 
     def _truncate(self, step: int) -> None:
         """Drop rows written after ``step`` (from a run that went on past its last restart)."""
+        if "breaks" in self.f and "time" in self.f["breaks"]:
+            b = self.f["breaks"]
+            keep = int(np.count_nonzero(b["time"][:] < step * float(self.f.attrs["dt"])))
+            for d in b.values():
+                d.resize(keep, axis=0)
         for gname in ("states", "diagnostics"):
             g = self.f[gname]
             if "step" not in g:
@@ -129,6 +157,7 @@ class HDF5Writer(Writer):
         fields = g.require_group("fields")
         for name, val in sim.element_fields().items():
             _append(fields, name, val, self.comp)
+        self._write_breaks(sim)
         r = self.f.require_group("restart")
         for k in ("q", "V", "w"):
             _replace(r, k, getattr(st, k))
@@ -140,6 +169,15 @@ class HDF5Writer(Writer):
             for name, arr in arrays.items():
                 _replace(cg, name, arr)
         self.f.flush()
+
+    def _write_breaks(self, sim) -> None:
+        cm = sim.contacts
+        if cm is None or not cm.n_joints or "breaks" not in self.f:
+            return
+        rows = cm.take_breaks()
+        g = self.f["breaks"]
+        for name, val in rows.items():
+            _extend(g, name, val)
 
     def write_diagnostics(self, sim, diag: Mapping[str, Any]) -> None:
         g = self.f["diagnostics"]

@@ -1,4 +1,5 @@
-"""Built-in contact laws (rheologies): collision, distributed_spring, mohr_coulomb.
+"""Built-in contact laws (rheologies): collision, distributed_spring, mohr_coulomb,
+bonded_particle.
 
 PHYSICS.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's loops in
 :mod:`siku_core.contacts` call it (layouts of ``g`` and sign conventions are documented there:
@@ -15,6 +16,7 @@ from numba import njit
 
 from siku_core import Param, hookimpl
 from siku_core.contacts import (
+    BREAK_COMPRESSION, BREAK_SHEAR, BREAK_STRAIN, BREAK_TENSION,
     G_AREA, G_AREA_I, G_AREA_J, G_K, G_MEFF, G_NX, G_NY, G_VX, G_VY, G_WIDTH,
     J_AX, J_AY, J_BX, J_BY, J_EI, J_EJ, J_HI, J_HJ, J_K, J_L0, J_MEFF, J_NU, J_S1X, J_S1Y,
     J_S2X, J_S2Y, J_VAX, J_VAY, J_VBX, J_VBY, J_W,
@@ -222,6 +224,7 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     fy = 0.0
     ci = 0.0
     nfailed = 0
+    mode = BREAK_STRAIN
     for k in range(nseg):
         z = (k + 0.5) / nseg
         dx = s1x + z * (s2x - s1x)
@@ -229,8 +232,15 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
         sn = E * (dx * nx + dy * ny) / L0
         ss = G * (dx * tx + dy * ty) / L0
         if hist[k] == 0.0:
-            if sn > sigt or sn < -sigc or abs(ss) > tanphi * (sigt - sn):
+            if sn > sigt:
                 hist[k] = 1.0
+                mode = BREAK_TENSION
+            elif sn < -sigc:
+                hist[k] = 1.0
+                mode = BREAK_COMPRESSION
+            elif abs(ss) > tanphi * (sigt - sn):
+                hist[k] = 1.0
+                mode = BREAK_SHEAR
         if hist[k] != 0.0:
             nfailed += 1
             continue
@@ -242,7 +252,7 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
         fy += sfy
         ci += px * sfy - py * sfx
     if nfailed >= pars[M_SHARE] * nseg - 1e-9:
-        out[3] = 1.0
+        out[3] = mode  # the criterion of the segment whose failure broke the joint
         return
     # damping: share of critical for the normal stiffness (h E)_eff w / L0 on the reduced mass
     c = 2.0 * pars[M_ZETA] * math.sqrt(h * E * w / L0 * g[J_MEFF]) * (nseg - nfailed) / nseg
@@ -286,6 +296,126 @@ class MohrCoulomb(Collision):
                          p["break_share"], p["joint_damping_ratio"]])
 
 
+# bonded-particle parameter vector
+B_SIGC, B_TAUC, B_ZETA = range(3)
+
+
+@njit(cache=True)
+def bonded_particle_evaluator(g, pars, hist, out):
+    """Seed 004 eqs. 10–13: one elastic bond per joint, brittle in tension or shear.
+
+    The bond sits at the joint midpoint ``m``; its cross-section is the joint, width ``w``
+    (joint length) by thickness ``h_b = min(h_i, h_j)``: area ``A = w h_b``, in-plane second
+    moment ``I = h_b w³/12``. With ``t = (b - a)/w`` along the joint and ``n = (t_y, -t_x)``
+    from ``i`` towards ``j`` (``i``'s frame):
+
+    * normal and tangential displacement of the bond point ``d_n = d·n``, ``d_s = d·t``, with
+      ``d = (s1 + s2)/2`` (``j``'s copy of the midpoint minus ``i``'s; opening positive);
+    * relative rotation ``theta``: the angle from the joint ``b - a`` to ``j``'s copy of it
+      ``(b + s2) - (a + s1)`` (counter-clockwise positive; exact for any angle);
+    * bond stiffness per unit area ``k_n = K / h_b`` [Pa/m], ``K`` of eq. 9: ``E / D`` (eq. 12)
+      for two equal elements with ``D = r_i + r_j`` their centre distance, the two halves in
+      series otherwise; ``k_s = k_n / (2 (1 + nu))`` (eq. 13);
+    * force on ``j``: ``-A (k_n d_n n + k_s d_s t)`` at ``m``, couple ``-k_n I theta``;
+    * stresses (eqs. 10–11 with Potyondy–Cundall's bending): ``sigma = k_n d_n + (w/2) k_n
+      |theta|`` (the largest normal stress over the section: the bending moment ``k_n I theta``
+      over the section modulus ``I / (w/2)``), ``tau = k_s |d_s|`` (in the plane there is no
+      twisting about the bond axis);
+    * the bond breaks for good when ``sigma > sigma_crit`` (``out[3] = BREAK_TENSION``) or
+      ``tau > tau_crit`` (``BREAK_SHEAR``; the larger ratio to its strength decides when both
+      exceed theirs) and carries no force from then on;
+    * damping: a share ``zeta`` of critical for each stiffness on the reduced mass, on the
+      relative velocity of the bond point (normal and tangential) and on the relative spin
+      ``(w × (v_b - v_a))/w²`` with the same ratio to the bending stiffness.
+
+    ``hist[0]``, ``hist[1]``: the largest ``sigma`` and ``tau`` [Pa] the bond has carried.
+    """
+    ax, ay, bx, by = g[J_AX], g[J_AY], g[J_BX], g[J_BY]
+    w = g[J_W]
+    wx, wy = bx - ax, by - ay
+    if w > 0.0:
+        tx, ty = wx / w, wy / w
+    else:  # zero-width joint: no section, no force; any direction
+        tx, ty = 1.0, 0.0
+    nx, ny = ty, -tx
+    s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
+    dx = 0.5 * (s1x + s2x)
+    dy = 0.5 * (s1y + s2y)
+    dn = dx * nx + dy * ny
+    ds = dx * tx + dy * ty
+    theta = 0.0
+    if w > 0.0:
+        Wx = wx + s2x - s1x
+        Wy = wy + s2y - s1y
+        theta = math.atan2(wx * Wy - wy * Wx, wx * Wx + wy * Wy)
+    hb = min(g[J_HI], g[J_HJ])
+    kn = g[J_K] / hb if hb > 0.0 else 0.0
+    ks = kn / (2.0 * (1.0 + g[J_NU]))
+    sigma = kn * dn + 0.5 * w * kn * abs(theta)
+    tau = ks * abs(ds)
+    if sigma > hist[0]:
+        hist[0] = sigma
+    if tau > hist[1]:
+        hist[1] = tau
+    rs = sigma / pars[B_SIGC]
+    rt = tau / pars[B_TAUC]
+    if rs > 1.0 or rt > 1.0:
+        out[3] = BREAK_TENSION if rs >= rt else BREAK_SHEAR
+        return
+    area = w * hb
+    inertia = hb * w * w * w / 12.0
+    meff = g[J_MEFF]
+    zeta = pars[B_ZETA]
+    cn = 2.0 * zeta * math.sqrt(kn * area * meff)
+    cs = 2.0 * zeta * math.sqrt(ks * area * meff)
+    vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
+    vx = 0.5 * (vax + vbx)
+    vy = 0.5 * (vay + vby)
+    vn = vx * nx + vy * ny
+    vs = vx * tx + vy * ty
+    fn = kn * area * dn + cn * vn
+    fs = ks * area * ds + cs * vs
+    spin = 0.0
+    if w > 0.0:
+        spin = (wx * (vby - vay) - wy * (vbx - vax)) / (w * w)
+    couple = kn * inertia * theta + cn * w * w / 12.0 * spin
+    out[0] = -(fn * nx + fs * tx)
+    out[1] = -(fn * ny + fs * ty)
+    out[2] = -couple
+
+
+class BondedParticle(Collision):
+    """Bonded-particle floes (seed 004 eqs. 10–13): elastic bonds that break in tension or shear.
+
+    One bond per frozen joint, at the joint midpoint, of cross-section ``w × h``: normal and
+    shear stiffness per unit area ``k_n = E / D``, ``k_s = k_n / (2 (1 + nu))`` (``D`` the
+    centre distance; eq. 9's series stiffness for unequal elements), bending ``k_n I``. A bond
+    whose normal stress ``k_n d_n + (w/2) k_n |theta|`` exceeds ``sigma_crit`` or whose shear
+    stress ``k_s |d_s|`` exceeds ``tau_crit`` breaks for good; the pair then collides.
+    """
+
+    name = "bonded_particle"
+    uses_joints = True
+    history_names = ("max_sigma", "max_tau")
+    params = {
+        **Collision.params,
+        "sigma_crit": Param(1.0e6, "Pa", "critical bond normal (tensile) stress sigma_b,crit",
+                            min=1.0),
+        "tau_crit": Param(1.0e6, "Pa", "critical bond shear stress tau_b,crit", min=1.0),
+        "joint_damping_ratio": Param(0.1, "1", "share of critical damping of a bond", min=0,
+                                     max=0.99),
+    }
+    joint_evaluator = bonded_particle_evaluator
+
+    def joint_parameters(self, sim):
+        p = self.p
+        return np.array([p["sigma_crit"], p["tau_crit"], p["joint_damping_ratio"]])
+
+    def stiffness_factor(self) -> float:
+        """Normal stiffness ``k_n A = K w`` and bending ``k_n I = K w³/12``: the spring's."""
+        return 1.0
+
+
 @hookimpl
 def siku_register_contact_laws():
-    return [Collision, DistributedSpring, MohrCoulomb]
+    return [Collision, DistributedSpring, MohrCoulomb, BondedParticle]

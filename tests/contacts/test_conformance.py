@@ -24,6 +24,8 @@ OPTIONS = {
                            "joint_damping_ratio": 0.3},
     "mohr_coulomb": {"friction": 0.3, "viscosity": 1.0, "break_share": 0.6, "n_segments": 7,
                      "sigma_c": 2e6, "friction_angle": 30.0},
+    "bonded_particle": {"sqrt_area": True, "friction": 0.3, "sigma_crit": 1e5,
+                        "tau_crit": 3e4, "joint_damping_ratio": 0.3},
 }
 
 

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from siku_core.contacts import (
+    BREAK_COMPRESSION, BREAK_SHEAR, BREAK_TENSION,
     J_AX,
     J_AY,
     J_BX,
@@ -126,8 +127,8 @@ def test_pure_tension_fails_at_sigma_t():
     sigma = load(k, sig_t)
     assert sigma == pytest.approx(sig_t, rel=0.01)
     assert sig_t < sigma <= sig_t * (1 + STEP)
-    # uniform load: every segment fails at once and the joint breaks
-    assert hist.all() and out[3] == 1.0
+    # uniform load: every segment fails at once and the joint breaks, in tension
+    assert hist.all() and out[3] == BREAK_TENSION
 
 
 def test_pure_compression_fails_at_sigma_c():
@@ -137,7 +138,7 @@ def test_pure_compression_fails_at_sigma_c():
     sigma = -load(k, -sig_c)
     assert sigma == pytest.approx(sig_c, rel=0.01)
     assert sig_c < sigma <= sig_c * (1 + STEP)
-    assert hist.all() and out[3] == 1.0
+    assert hist.all() and out[3] == BREAK_COMPRESSION
 
 
 @pytest.mark.parametrize(("h", "e", "ri"), [
@@ -189,7 +190,7 @@ def test_mixed_joint_fails_at_the_thinner_sides_stress(h, e, ri):
         if hist.any():
             break
     assert sig_t < load(k, sig_t) <= sig_t * (1 + STEP)
-    assert hist.all() and out[3] == 1.0
+    assert hist.all() and out[3] == BREAK_TENSION
 
 
 @pytest.mark.parametrize("confinement", [0.5, -0.2, -0.6],
@@ -211,7 +212,8 @@ def test_shear_under_confinement_fails_on_mohr_coulomb_envelope(confinement):
     def path(k):
         return ((dn, load(k, tau_f) * L0 / G),) * 2
 
-    k, hist, _ = first_failure(pars, path, hist=hist)
+    k, hist, out = first_failure(pars, path, hist=hist)
+    assert out[3] == BREAK_SHEAR  # uniform: every segment fails at once, on the envelope
     tau = load(k, tau_f)
     assert tau == pytest.approx(tau_f, rel=0.01)
     assert tau_f < tau <= tau_f * (1 + STEP)
@@ -286,7 +288,8 @@ def test_break_share_breaks_joint_when_share_of_segments_failed():
     for k in range(1, 20_000):
         out = evaluate(pars, hist, (0.0, 0.0), ((k - 0.5) * ds, 0.0))
         nfailed = int(hist.sum())
-        assert (out[3] == 1.0) == (nfailed >= 5), f"{nfailed} failed, break flag {out[3]}"
+        assert (out[3] == BREAK_TENSION) == (nfailed >= 5), (
+            f"{nfailed} failed, break flag {out[3]}")
         if out[3]:
             break
     assert nfailed == 5
