@@ -1,6 +1,9 @@
-"""Command line: ``siku run``, ``siku plot``, ``siku plugins``, ``siku bench``.
+"""Command line: ``siku run``, ``siku plugins``, ``siku bench``, and the commands plugins add.
 
-Bad input exits with status 2 and a one-line message (no traceback).
+The engine's own commands are ``run``, ``plugins`` and ``bench``; every other command (``plot``
+from ``siku_io``, ``lab`` from ``siku_plugins``, a third party's) is added by the package that
+owns it through the ``siku_register_commands`` hook, as datasette plugins add commands. Bad
+input exits with status 2 and a one-line message (no traceback).
 """
 from __future__ import annotations
 
@@ -18,6 +21,7 @@ DEFAULT_SCENE = "default_scene.toml"
 _KIND_TITLES = {
     "integrator": "integrators", "forcing": "forcing sources", "field": "velocity fields",
     "broad_phase": "broad phases", "contact_law": "contact laws", "writer": "writers",
+    "element_source": "element sources",
 }
 
 
@@ -135,6 +139,10 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
             for pname, p in e.cls.params.items():
                 print(f"      {pname} = {p.default!r}  [{p.unit or '-'}]  {p.doc}; "
                       f"allowed: {p.allowed()}")
+            model = getattr(e.cls, "table_model", None)
+            if model is not None:
+                keys = ", ".join(model.model_fields)
+                print(f"      keys of the scene table: {keys} (docs/reference/scene.md)")
     for pkg, err in reg.broken.items():
         print(f"failed to load: {pkg}: {err}")
     return 0
@@ -153,15 +161,6 @@ def _warn_one_line(message, category, filename, lineno, file=None, line=None) ->
     print(f"siku: warning: {' | '.join(str(message).splitlines())}", file=sys.stderr)
 
 
-def _cmd_plot(args: argparse.Namespace) -> int:
-    from siku_io.plot import plot_all
-
-    files = plot_all(args.output, args.out_dir, args.field, animation=not args.no_animation)
-    for f in files:
-        print(f)
-    return 0
-
-
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="siku", description="Discrete-element sea-ice model.")
     ap.add_argument("--version", action="version", version=f"siku {__version__}")
@@ -178,20 +177,36 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the time spent in each phase of the step")
     r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     r.set_defaults(func=_cmd_run)
-    pl = sub.add_parser("plot", help="draw maps and an animation from an output file")
-    pl.add_argument("output", help="HDF5 output file of a run")
-    pl.add_argument("--field", help="per-element field to colour by (damage, speed)")
-    pl.add_argument("--out-dir", help="directory for the pictures (default: beside the file)")
-    pl.add_argument("--no-animation", action="store_true", help="maps only")
-    pl.set_defaults(func=_cmd_plot)
     p = sub.add_parser("plugins", help="list registered components with their parameters")
     p.set_defaults(func=_cmd_plugins)
     sub.add_parser("bench", help="benchmark tables (source checkout; 'siku bench --help')")
+    _plugin_commands(sub)
     return ap
 
 
+def _plugin_commands(sub) -> None:
+    """Commands added by plugins (``siku_register_commands``); a command whose name is taken
+    is refused with a warning naming its package, the others still load."""
+    from .plugins import get_plugin_manager
+
+    try:
+        pm = get_plugin_manager()
+    except SikuError as exc:  # a broken plugin set: the engine's commands still work
+        warnings.warn(f"plugin commands unavailable: {exc}", stacklevel=2)
+        return
+    for impl in pm.hook.siku_register_commands.get_hookimpls():
+        taken = set(sub.choices)
+        try:
+            impl.function(subparsers=sub)
+        except argparse.ArgumentError as exc:
+            warnings.warn(f"plugin '{impl.plugin_name}': command not added: {exc}", stacklevel=2)
+        for name in set(sub.choices) - taken:
+            if sub.choices[name].get_default("func") is None:
+                warnings.warn(f"plugin '{impl.plugin_name}': command '{name}' sets no func",
+                              stacklevel=2)
+
+
 def main(argv: list[str] | None = None) -> int:
-    ap = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:1] == ["bench"]:  # everything after 'bench' belongs to the benchmark runner
         try:
@@ -202,16 +217,17 @@ def main(argv: list[str] | None = None) -> int:
         except SystemExit as exc:  # --help, or the runner's own usage errors
             return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     try:
-        args = ap.parse_args(argv)
-    except _UsageError as exc:
-        print(f"siku: error: {exc}", file=sys.stderr)
-        return 2
-    except SystemExit as exc:  # --help, --version
-        return int(exc.code or 0)
-    try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
             warnings.showwarning = _warn_one_line
+            try:
+                ap = build_parser()
+                args = ap.parse_args(argv)
+            except _UsageError as exc:
+                print(f"siku: error: {exc}", file=sys.stderr)
+                return 2
+            except SystemExit as exc:  # --help, --version
+                return int(exc.code or 0)
             return args.func(args)
     except SikuError as exc:
         msg = " | ".join(str(exc).splitlines())

@@ -1,57 +1,117 @@
-"""Build the element state from a scene's ``[elements]`` table."""
+"""Build the element state of a scene from its element sources.
+
+Every element comes from an element source (a plugin kind, :class:`~siku_core.interfaces.
+ElementSource`): the ``[[elements.polygon]]``, ``[[elements.pack]]`` and ``[elements.mesh]``
+tables feed the built-in ``polygon``, ``pack`` and ``mesh`` sources, and each
+``[[elements.source]]`` table names any registered source. The engine knows only the interface;
+the sources live in the packages that own them (``siku_plugins``, ``siku_io``).
+"""
 from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .errors import GeometryError
+from .errors import GeometryError, SceneError
 from .geometry.polygon import element_from_lonlat
-from .packs import rect_pack
-from .scene import Scene
-from .state import FLAG_NAMES, ElementState, STATIC, STEADY
 from .geometry.quat import east_north_local
+from .interfaces import ElementSpec
+from pydantic import ValidationError
+
+from .params import format_validation_error, validate_params
+from .scene import Scene
+from .state import FLAG_NAMES, STATIC, ElementState
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .plugins import Registry
+
+_COMMON = ("flag", "velocity", "spin", "thickness", "material")
 
 
-def build_elements(scene: Scene) -> ElementState:
-    """Elements of a scene, in the order: polygons, then packs (column by column), then the
-    cells of ``[elements.mesh]`` (``siku_io.mesh``, imported only here; coast and landfast
-    cells are static)."""
+def scene_sources(scene: Scene, registry: "Registry | None" = None) -> list[tuple[Any, Any, str]]:
+    """``(source, table, where)`` for every element source of the scene, in build order:
+    polygons, packs, the mesh, then ``[[elements.source]]`` tables in file order."""
+    from .plugins import get_registry
+
+    reg = registry or get_registry()
+    el = scene.cfg.elements
+    out = []
+    builtin = [("polygon", t, f"elements.polygon[{k}]") for k, t in enumerate(el.polygon)]
+    builtin += [("pack", t, f"elements.pack[{k}]") for k, t in enumerate(el.pack)]
+    if el.mesh is not None:
+        builtin.append(("mesh", el.mesh, "elements.mesh"))
+    for name, table, key in builtin:
+        where = scene.where(key)
+        cls = reg.get("element_source", name, where=f"{where}: ")
+        out.append((cls(table.model_dump()), table, where))
+    for k, table in enumerate(el.source):
+        key = f"elements.source[{k}]"
+        where = scene.where(key)
+        cls = reg.get("element_source", table.name, where=f"{where}: ")
+        pwhere = scene.where(key + ".params")
+        model = getattr(cls, "table_model", None)
+        if model is not None:  # a source whose keys are a scene table's ([[elements.pack]])
+            try:
+                full = model.model_validate(table.params).model_dump()
+            except ValidationError as err:
+                raise SceneError(format_validation_error(err, f"{pwhere} ({table.name})")) \
+                    from None
+        else:
+            full = validate_params(table.name, cls.params, table.params, pwhere)
+        out.append((cls(full), table, where))
+    return out
+
+
+def _seed(scene: Scene, src: Any) -> int:
+    s = src.p.get("seed")
+    return scene.cfg.run.seed if s is None or (isinstance(s, int) and s < 0) else int(s)
+
+
+def collect_specs(scene: Scene, registry: "Registry | None" = None) -> list[ElementSpec]:
+    """Every element of the scene as an :class:`ElementSpec`, defaults filled in."""
+    el = scene.cfg.elements
+    specs: list[ElementSpec] = []
+    floes = 0
+    for src, table, where in scene_sources(scene, registry):
+        made = src.build(scene, _seed(scene, src), where)
+        base = floes
+        top = -1
+        for s in made:
+            for key in _COMMON:
+                if getattr(s, key) is None:
+                    setattr(s, key, getattr(table, key, None))
+            if s.thickness is None:
+                s.thickness = el.thickness
+            if s.material is None:
+                s.material = el.material
+            if s.velocity is None:
+                s.velocity = (0.0, 0.0)
+            s.flag = s.flag or "free"
+            s.spin = 0.0 if s.spin is None else s.spin
+            s.label = f"{where} {s.label}".rstrip()
+            if s.floe >= 0:  # a source numbers its floes from 0: make them unique in the scene
+                top = max(top, s.floe)
+                s.floe += base
+            specs.append(s)
+        floes = base + top + 1
+        mats = scene.cfg.materials
+        for s in made:
+            if s.material not in mats:
+                raise SceneError(f"{s.label}: unknown material '{s.material}'; defined: "
+                                 f"{', '.join(sorted(mats))}")
+            if s.flag not in FLAG_NAMES:
+                raise SceneError(f"{s.label}: unknown flag '{s.flag}'; one of "
+                                 f"{', '.join(FLAG_NAMES)}")
+    return specs
+
+
+def build_elements(scene: Scene, registry: "Registry | None" = None) -> ElementState:
+    """The element state of a scene, in the order of :func:`scene_sources`."""
     cfg = scene.cfg
-    el = cfg.elements
     R = cfg.planet.radius
     mats = list(cfg.materials)
-    items = []  # (lonlat, flag, velocity EN, spin, thickness, material, label)
-    for k, p in enumerate(el.polygon):
-        items.append(
-            (np.array(p.vertices), p.flag, p.velocity, p.spin, p.thickness or el.thickness,
-             p.material or el.material, f"{scene.label} [elements.polygon[{k}]]")
-        )
-    for k, pk in enumerate(el.pack):
-        seed = cfg.run.seed if pk.seed is None else pk.seed
-        for cell in rect_pack(pk.lon, pk.lat, pk.nx, pk.ny, pk.gap, pk.jitter, seed):
-            flag, vel = pk.flag, pk.velocity
-            if cell.i == 0 and pk.left is not None:
-                flag, vel = pk.left, pk.left_velocity
-            elif cell.i == pk.nx - 1 and pk.right is not None:
-                flag, vel = pk.right, pk.right_velocity
-            items.append(
-                (cell.lonlat, flag, vel, pk.spin, pk.thickness or el.thickness,
-                 pk.material or el.material,
-                 f"{scene.label} [elements.pack[{k}]] cell (i={cell.i}, j={cell.j})")
-            )
-    if el.mesh is not None:
-        from siku_io.mesh import ICE, KIND_NAMES, mesh_for_scene
-
-        mc = el.mesh
-        mesh, _ = mesh_for_scene(scene)
-        for k in range(mesh.n):
-            ice = mesh.kind[k] == ICE
-            items.append(
-                (mesh.cell(k), mc.flag if ice else "static", mc.velocity if ice else [0.0, 0.0],
-                 mc.spin if ice else 0.0, mc.thickness or el.thickness, mc.material or el.material,
-                 (f"{scene.label} [elements.mesh] cell {k} ({KIND_NAMES[mesh.kind[k]]}, seed "
-                  f"{mesh.seeds[k, 0]:.4f}, {mesh.seeds[k, 1]:.4f})"))
-            )
-    n = len(items)
+    specs = collect_specs(scene, registry)
+    n = len(specs)
     q = np.empty((n, 4))
     V = np.zeros((n, 2))
     w = np.zeros(n)
@@ -61,23 +121,26 @@ def build_elements(scene: Scene) -> ElementState:
     radius = np.empty(n)
     flags = np.empty(n, dtype=np.int8)
     material = np.empty(n, dtype=np.int32)
+    floe = np.empty(n, dtype=np.int64)
     polys = []
-    for i, (ll, flag, vel, spin, h, mat, label) in enumerate(items):
+    for i, s in enumerate(specs):
         try:
-            qi, loc, a, j = element_from_lonlat(ll, R, label)
+            qi, loc, a, j = element_from_lonlat(s.lonlat, R, s.label)
         except GeometryError as exc:
             raise GeometryError(f"element {i}: {exc}") from None
         q[i] = qi
         ex, ey, nx_, ny_ = east_north_local(qi)
+        vel = s.velocity
         V[i, 0] = vel[0] * ex + vel[1] * nx_
         V[i, 1] = vel[0] * ey + vel[1] * ny_
-        w[i] = spin
+        w[i] = s.spin
         area[i] = a
         J[i] = j
-        thick[i] = h
+        thick[i] = s.thickness
         radius[i] = np.sqrt((loc**2).sum(axis=1)).max()
-        flags[i] = FLAG_NAMES[flag]
-        material[i] = mats.index(mat)
+        flags[i] = FLAG_NAMES[s.flag]
+        material[i] = mats.index(s.material)
+        floe[i] = s.floe
         polys.append(loc)
     rho = np.array([cfg.materials[mats[k]].density for k in material]) if n else np.zeros(0)
     m = rho * thick * area
@@ -88,8 +151,7 @@ def build_elements(scene: Scene) -> ElementState:
     offsets = np.zeros(n + 1, dtype=np.int64)
     offsets[1:] = np.cumsum([len(p) for p in polys])
     verts = np.concatenate(polys) if polys else np.zeros((0, 2))
-    _ = STEADY
     return ElementState(
         q=q, V=V, w=w, m=m, I=inertia, area=area, thickness=thick, radius=radius, flags=flags,
-        material=material, vert_offsets=offsets, verts=verts,
+        material=material, vert_offsets=offsets, verts=verts, floe=floe,
     )

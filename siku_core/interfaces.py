@@ -14,12 +14,14 @@ Kinds and their entry points:
 ``broad_phase``     :class:`BroadPhase` — candidate element pairs
 ``contact_law``     :class:`ContactLaw` — pair forces and joint history
 ``writer``          :class:`Writer` — output files and restart
+``element_source``  :class:`ElementSource` — makes the ice elements of a scene
 ==================  ================================================================
 """
 from __future__ import annotations
 
 import inspect
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping
 
 import numpy as np
@@ -181,6 +183,55 @@ class Writer(Component):
         """Flush and close."""
 
 
+@dataclass
+class ElementSpec:
+    """One element a source makes: a convex polygon on the sphere and how it starts.
+
+    ``None`` means "as the scene table says": the source table's ``flag``, ``velocity``,
+    ``spin``, ``thickness`` and ``material`` keys, else the ``[elements]`` defaults.
+    """
+
+    #: ``(k, 2)`` vertices ``[lon, lat]`` in degrees, counter-clockwise (clockwise is reversed)
+    lonlat: np.ndarray
+    #: ``"free"``, ``"static"`` or ``"steady"``
+    flag: str | None = None
+    #: initial ``(east, north)`` velocity [m/s]
+    velocity: tuple[float, float] | None = None
+    #: initial spin about the local vertical [rad/s], counter-clockwise positive
+    spin: float | None = None
+    #: ice thickness [m]
+    thickness: float | None = None
+    #: material name (a ``[materials.NAME]`` table)
+    material: str | None = None
+    #: what error messages call this element (e.g. ``"cell (i=3, j=0)"``)
+    label: str = ""
+    #: the floe (bonded group) the element belongs to, ``-1`` for none; written to outputs
+    floe: int = -1
+
+
+class ElementSource(Component):
+    """Makes the ice elements of a scene (polygons, packs, meshes, bonded floes, ...).
+
+    A scene names a source in an ``[[elements.source]]`` table (``name``, ``params`` and the
+    common keys ``flag``, ``velocity``, ``spin``, ``thickness``, ``material``); the built-in
+    ``polygon``, ``pack`` and ``mesh`` sources are also fed by the ``[[elements.polygon]]``,
+    ``[[elements.pack]]`` and ``[elements.mesh]`` tables. ``build`` returns the elements in a
+    fixed order; random choices must come from ``seed`` so that a scene always builds the same.
+    """
+
+    kind = "element_source"
+    required = {"build": ("scene", "seed", "where")}
+    #: a pydantic model that validates the source's parameters instead of ``params`` (the
+    #: built-in sources whose keys are those of a scene table, e.g. ``[[elements.pack]]``)
+    table_model: ClassVar[Any] = None
+
+    @abstractmethod
+    def build(self, scene: Any, seed: int, where: str) -> list[ElementSpec]:
+        """The elements of this source; ``seed`` is the source's seed (its ``seed`` parameter or
+        the scene's ``[run] seed``), ``where`` names the scene table for error messages."""
+
+
 KINDS: dict[str, type[Component]] = {
-    c.kind: c for c in (Integrator, Field, ForcingSource, BroadPhase, ContactLaw, Writer)
+    c.kind: c for c in (Integrator, Field, ForcingSource, BroadPhase, ContactLaw, Writer,
+                        ElementSource)
 }

@@ -40,6 +40,11 @@ DEFAULT_PLUGINS: tuple[str, ...] = (
     "siku_forcing.gridded",
     "siku_forcing.drag",
     "siku_io.hdf5",
+    "siku_plugins.sources",
+    "siku_plugins.floes",
+    "siku_io.sources",
+    "siku_io.commands",
+    "siku_plugins.lab",
 )
 
 
@@ -71,6 +76,15 @@ class SikuHookspecs:
         """Return writer classes."""
 
     @hookspec
+    def siku_register_element_sources(self) -> list[type]:
+        """Return element source classes (polygon, pack, mesh, floe, ...)."""
+
+    @hookspec
+    def siku_register_commands(self, subparsers: Any) -> None:
+        """Add ``siku`` subcommands: ``subparsers.add_parser(name, help=...)`` from argparse;
+        set ``func`` (``parser.set_defaults(func=fn)``, ``fn(args) -> exit status``)."""
+
+    @hookspec
     def siku_configured(self, scene: Any) -> None:
         """Called after a scene file is loaded and validated."""
 
@@ -90,6 +104,7 @@ _REGISTER_HOOKS = {
     "broad_phase": "siku_register_broad_phases",
     "contact_law": "siku_register_contact_laws",
     "writer": "siku_register_writers",
+    "element_source": "siku_register_element_sources",
 }
 
 

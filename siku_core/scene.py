@@ -129,6 +129,14 @@ class MeshCfg(_ElementCommon):
         return self
 
 
+class SourceCfg(_ElementCommon):
+    """``[[elements.source]]``: an element source by name (``siku plugins``), its parameters,
+    and defaults (flag, velocity, spin, thickness, material) for the elements it makes."""
+
+    name: str
+    params: dict[str, Any] = Field(default_factory=dict)
+
+
 class ElementsCfg(_Strict):
     """``[elements]``: defaults and the element sources."""
 
@@ -137,12 +145,14 @@ class ElementsCfg(_Strict):
     polygon: list[PolygonCfg] = Field(default_factory=list)
     pack: list[PackCfg] = Field(default_factory=list)
     mesh: MeshCfg | None = None
+    source: list[SourceCfg] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _some(self) -> "ElementsCfg":
-        if not self.polygon and not self.pack and self.mesh is None:
+        if not self.polygon and not self.pack and self.mesh is None and not self.source:
             raise ValueError(
-                "no elements: add [[elements.polygon]], [[elements.pack]] or [elements.mesh] tables"
+                "no elements: add [[elements.polygon]], [[elements.pack]], [elements.mesh] or "
+                "[[elements.source]] tables"
             )
         return self
 
@@ -234,7 +244,8 @@ class SceneCfg(_Strict):
     def _materials(self) -> "SceneCfg":
         names = [self.elements.material] + [
             e.material for e in (*self.elements.polygon, *self.elements.pack,
-                                 *([self.elements.mesh] if self.elements.mesh else []))
+                                 *([self.elements.mesh] if self.elements.mesh else []),
+                                 *self.elements.source)
             if e.material
         ]
         for n in names:

@@ -77,7 +77,7 @@ class Simulation:
         self.start: _dt.datetime | None = cfg.time.start
         self.seed = cfg.run.seed
         self.rng = np.random.default_rng(self.seed)
-        self.state = build_elements(scene)
+        self.state = build_elements(scene, self.registry)
         self.step_index = 0
         self.progress = cfg.run.progress if progress is None else progress
 

@@ -41,9 +41,13 @@ class ElementState:
     verts: np.ndarray
     F: np.ndarray = field(default=None)  # type: ignore[assignment]
     T: np.ndarray = field(default=None)  # type: ignore[assignment]
+    #: floe (bonded group made by one floe of a source) of each element, -1 for none
+    floe: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         n = self.q.shape[0]
+        if self.floe is None:
+            self.floe = np.full(n, -1, dtype=np.int64)
         if self.F is None:
             self.F = np.zeros((n, 2))
         if self.T is None:

@@ -8,7 +8,7 @@ File layout::
     /plugins           attrs: package -> version of every package that provided a component
     /components        JSON: name and parameters of every component of the run
     /geometry          vert_offsets, verts [m], m [kg], I [kg m²], area [m²], thickness [m],
-                       radius [m], flags, material
+                       radius [m], flags, material, floe (floe index of each element, -1: none)
     /states            step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N) [rad/s],
                        lat, lon (T,N) [deg], fields/NAME (T,N) per-element quantities for
                        maps (speed [m/s], damage [1]): the snapshots
@@ -37,7 +37,7 @@ from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Writer
 
 _GEOMETRY = ("vert_offsets", "verts", "m", "I", "area", "thickness", "radius", "flags",
-             "material")
+             "material", "floe")
 
 
 def _append(group, name: str, value: np.ndarray, compression: str | None) -> None:

@@ -1146,8 +1146,9 @@ def load_or_build(params: MeshParams, path: str | Path | None, **build_kw) -> tu
     return m, True
 
 
-def mesh_for_scene(scene) -> tuple[Mesh, bool]:
-    """The mesh of a scene's ``[elements.mesh]`` table, from its cache file when unchanged.
+def mesh_for_scene(scene, mc=None, where: str | None = None) -> tuple[Mesh, bool]:
+    """The mesh of a scene's ``[elements.mesh]`` table (or of the table ``mc``, a
+    :class:`~siku_core.scene.MeshCfg`, named ``where``), from its cache file when unchanged.
 
     The cache is ``mesh_file`` (relative to the scene's folder), by default
     ``<scene name>.mesh.npz`` beside the scene file; a scene without a file (built from text)
@@ -1157,8 +1158,8 @@ def mesh_for_scene(scene) -> tuple[Mesh, bool]:
     from siku_core.errors import SceneError
 
     cfg = scene.cfg
-    mc = cfg.elements.mesh
-    where = scene.where("elements.mesh")
+    mc = cfg.elements.mesh if mc is None else mc
+    where = scene.where("elements.mesh") if where is None else where
     landfast = None
     try:
         if isinstance(mc.landfast, str):

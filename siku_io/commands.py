@@ -1,0 +1,24 @@
+"""``siku plot``: maps and an animation from an output file (added through
+``siku_register_commands``)."""
+from __future__ import annotations
+
+from siku_core import hookimpl
+
+
+def _cmd_plot(args) -> int:
+    from siku_io.plot import plot_all
+
+    files = plot_all(args.output, args.out_dir, args.field, animation=not args.no_animation)
+    for f in files:
+        print(f)
+    return 0
+
+
+@hookimpl
+def siku_register_commands(subparsers):
+    pl = subparsers.add_parser("plot", help="draw maps and an animation from an output file")
+    pl.add_argument("output", help="HDF5 output file of a run")
+    pl.add_argument("--field", help="per-element field to colour by (damage, speed)")
+    pl.add_argument("--out-dir", help="directory for the pictures (default: beside the file)")
+    pl.add_argument("--no-animation", action="store_true", help="maps only")
+    pl.set_defaults(func=_cmd_plot)
