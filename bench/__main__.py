@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-KINDS = ("bonded", "collision", "free_drift")
+KINDS = ("bonded", "collision", "free_drift", "floe")
 
 
 # ---------------------------------------------------------------------------------- worker
@@ -51,8 +51,8 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int]) -> dic
     t2 = time.perf_counter()
     cm = sim.contacts
     out: dict = {
-        "kind": kind, "law": law if kind == "bonded" else ("collision" if kind == "collision"
-                                                            else "-"),
+        "kind": kind, "law": {"bonded": law, "collision": "collision",
+                              "floe": "bonded_particle"}.get(kind, "-"),
         "elements": sim.state.n, "scene_s": t1 - t0, "setup_s": t2 - t1, "runs": [],
     }
     first = None
@@ -136,7 +136,8 @@ def _worker(args: argparse.Namespace) -> None:
     results = []
     n = args.sizes[0]
     for kind in args.scenes:
-        laws = args.laws if kind == "bonded" else ["collision"]
+        laws = args.laws if kind == "bonded" else ["bonded_particle" if kind == "floe"
+                                                   else "collision"]
         for law in laws:
             results.append(_measure(kind, n, law, args.steps, args.threads))
     print(json.dumps(results))
@@ -275,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--laws", default="collision,distributed_spring,mohr_coulomb",
                     help="contact laws of the bonded pack (default: all three)")
     ap.add_argument("--scenes", default=",".join(KINDS),
-                    help="scenes: bonded, collision, free_drift (default: all)")
+                    help="scenes: bonded, collision, free_drift, floe (default: all)")
     ap.add_argument("--steps", type=int, default=50, help="timed steps per case (default 50)")
     ap.add_argument("--threads", default="1,2", help="numba thread counts (default 1,2)")
     ap.add_argument("--repeat", type=int, default=1,

@@ -11,6 +11,10 @@
   and evaluated every step. A short ``dt`` keeps the overlaps (and so the work) the same over a
   benchmark.
 * ``free_drift``: the bonded pack without a ``[contact]`` table: forcing and integrator only.
+* ``floe``: one bonded floe (seed 004) of about ``n`` Voronoi elements of mean size 5 km (element
+  source ``floe``, a 2 : 1 rectangle on the equator), law ``bonded_particle`` with strengths
+  that nothing reaches, a uniform 10 m/s wind; about three bonds per element (a Voronoi packing
+  has six neighbours per cell) against the square pack's two.
 
 Sizes are given as element counts; :func:`grid` picks the columns and rows.
 """
@@ -120,15 +124,37 @@ def collision_text(n: int, steps: int = 100, overlap: float = 0.02, jitter: floa
     return "\n\n".join(parts) + "\n"
 
 
+#: mean element size of the floe scene [m] and its time step [s] (critical step ~1.5 s)
+FLOE_D = 5000.0
+DT_FLOE = 0.5
+
+
+def floe_text(n: int, steps: int = 100) -> str:
+    """One bonded floe of about ``n`` elements (``element_size`` 5 km, 2 : 1 rectangle)."""
+    width = math.sqrt(n / 2.0) * FLOE_D
+    params = dict(outline="rectangle", center=[10.0, 0.0], length=2 * width, width=width,
+                  element_size=FLOE_D, seed=1)
+    parts = _head(f"bench floe {n}", DT_FLOE, steps)
+    parts.append(f'[[elements.source]]\nname = "floe"\nparams = {toml_value(params)}')
+    parts.append('[contact]\nlaw = "bonded_particle"\njoints = "auto"\n'
+                 "params = { sigma_crit = 1e12, tau_crit = 1e12 }")
+    parts.append(WIND)
+    parts.append("[run]\nprogress = false")
+    return "\n\n".join(parts) + "\n"
+
+
 def scene(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -> Scene:
-    """A validated benchmark scene: ``kind`` is ``bonded``, ``collision`` or ``free_drift``."""
+    """A validated benchmark scene: ``kind`` is ``bonded``, ``collision``, ``free_drift`` or
+    ``floe``."""
     if kind == "bonded":
         text = bonded_text(n, law, steps)
     elif kind == "free_drift":
         text = bonded_text(n, steps=steps, contact=False)
     elif kind == "collision":
         text = collision_text(n, steps)
+    elif kind == "floe":
+        text = floe_text(n, steps)
     else:
         raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, collision, "
-                         "free_drift")
+                         "free_drift, floe")
     return scene_from_text(text, f"<bench {kind} {n}>")

@@ -25,7 +25,7 @@ from siku_core.contacts import (
     BREAK_SHEAR, BREAK_TENSION, J_AX, J_AY, J_BX, J_BY, J_EI, J_EJ, J_HI, J_HJ, J_K, J_L0,
     J_MEFF, J_NU, J_S1X, J_S1Y, J_S2X, J_S2Y, J_SIZE, J_W,
 )
-from siku_core.geometry.quat import centers, from_tangent, qmatrix, to_tangent
+from siku_core.geometry.quat import centers, from_tangent, qmatrix
 from siku_core.scene import scene_from_text
 from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import (
