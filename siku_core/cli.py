@@ -66,9 +66,11 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
     if args.profile:
         print(profile_table(sim, wall), file=sys.stderr)
     if scene.cfg.output.plots and sim.output_path is not None and not args.no_plots:
-        from siku_io.plot import plot_all
+        from .plugins import get_plugin_manager
 
-        for f in plot_all(sim.output_path, field=scene.cfg.output.plot_field):
+        drawn = get_plugin_manager().hook.siku_draw(path=sim.output_path,
+                                                    field=scene.cfg.output.plot_field)
+        for f in [f for files in drawn for f in files or ()]:
             print(f"picture: {f}", file=sys.stderr)
     return 0
 

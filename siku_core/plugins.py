@@ -85,6 +85,11 @@ class SikuHookspecs:
         set ``func`` (``parser.set_defaults(func=fn)``, ``fn(args) -> exit status``)."""
 
     @hookspec
+    def siku_draw(self, path: Any, field: Any) -> list:
+        """Draw the pictures of an output file after ``siku run`` (``[output] plots = true``),
+        coloured by the per-element ``field`` (``None``: the default); return their paths."""
+
+    @hookspec
     def siku_configured(self, scene: Any) -> None:
         """Called after a scene file is loaded and validated."""
 

@@ -1,5 +1,5 @@
 """``siku plot``: maps and an animation from an output file (added through
-``siku_register_commands``)."""
+``siku_register_commands``), and the same pictures after ``siku run`` (``siku_draw``)."""
 from __future__ import annotations
 
 from siku_core import hookimpl
@@ -12,6 +12,14 @@ def _cmd_plot(args) -> int:
     for f in files:
         print(f)
     return 0
+
+
+@hookimpl
+def siku_draw(path, field):
+    """The maps and animation of ``siku plot`` after a run that asks for them."""
+    from siku_io.plot import plot_all
+
+    return plot_all(path, field=field)
 
 
 @hookimpl
