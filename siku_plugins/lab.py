@@ -45,20 +45,13 @@ import numpy as np
 
 from siku_core import hookimpl
 from siku_core.errors import SikuError
+from siku_core.geometry.polygon import area_centroid_moment
 from siku_core.interfaces import ElementSpec
 from siku_core.params import Param
 
 from .floes import Floe, outline_polygon, to_lonlat
 
 TESTS = ("tension", "compression", "flexure")
-
-
-def _centroid(c: np.ndarray) -> np.ndarray:
-    x, y = c[:, 0], c[:, 1]
-    xn, yn = np.roll(x, -1), np.roll(y, -1)
-    cr = x * yn - xn * y
-    a = 0.5 * cr.sum()
-    return np.array([((x + xn) * cr).sum(), ((y + yn) * cr).sum()]) / (6 * a)
 
 
 def block_layout(test: str, length: float, width: float, D: float, rng) -> tuple[
@@ -68,7 +61,7 @@ def block_layout(test: str, length: float, width: float, D: float, rng) -> tuple
     from .floes import fill_outline
 
     cells = fill_outline(outline_polygon("rectangle", length, width, 0.0, D), D, rng)
-    cen = np.array([_centroid(c) for c in cells])
+    cen = np.array([area_centroid_moment(c)[1] for c in cells])
     role = np.zeros(len(cells), dtype=np.int8)
     if test in ("tension", "compression"):
         role[cen[:, 0] < -0.5 * length + 1.5 * D] = 1
