@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .contacts import (
-    BREAK_MODES, C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces, joint_constants,
-    joint_forces, max_moved2, rotation_matrices,
+    BREAK_MODES, C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces,
+    joint_constants, joint_forces, max_moved2, rotation_matrices,
 )
 from .errors import SceneError
 from .geometry.quat import centers

@@ -333,3 +333,28 @@ def test_breaks_restart_bit_for_bit(tmp_path):
         for k in ("time", "i", "j", "mode", "joint"):
             assert np.array_equal(a["breaks"][k][:], b["breaks"][k][:])
         assert np.array_equal(a["states"]["q"][-1], b["states"]["q"][-1])
+
+
+def test_joint_broken_from_outside_the_law_carries_no_force_and_is_recorded(tmp_path):
+    """``ContactModel.break_joints`` (the interface for components other than the law, e.g.
+    wave-induced breaking): the pulled bond's force disappears from the next evaluation, the
+    break is stamped with mode ``external`` and its time, once, and reaches ``/breaks``."""
+    from siku_core.contacts import BREAK_EXTERNAL
+
+    sim = Simulation(scene_from_text(break_scene("tension", 0.01)), out=tmp_path / "x.h5",
+                     progress=False)
+    cm = sim.contacts
+    sim.run(steps=50)  # t = 0.5 s: pulled by 5 mm, below the strength
+    F, _ = contact_forces(sim)
+    assert np.abs(F[1]).max() > 0
+    assert cm.break_joints(np.array([0]), BREAK_EXTERNAL, sim.time) == 1
+    assert cm.break_joints(np.array([0]), BREAK_EXTERNAL, sim.time) == 0  # already broken
+    F, _ = contact_forces(sim)
+    assert not F.any()
+    assert cm.bmode[0] == BREAK_EXTERNAL and cm.break_time[0] == pytest.approx(0.5)
+    sim.run()
+    with h5py.File(tmp_path / "x.h5", "r") as f:
+        b = f["breaks"]
+        assert b["mode"][:].tolist() == [int(BREAK_EXTERNAL)]
+        assert b.attrs["mode_5"] == "external"
+        assert f["diagnostics"]["joints_broken_external"][-1] == 1
