@@ -147,6 +147,10 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
                 print(f"      keys of the scene table: {keys} (docs/reference/scene.md)")
     for pkg, err in reg.broken.items():
         print(f"failed to load: {pkg}: {err}")
+    for msg in reg.refused.values():
+        print(f"refused: {msg}")
+    for msg in reg.ambiguous.values():
+        print(f"ambiguous: {msg}")
     return 0
 
 

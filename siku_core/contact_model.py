@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import re
 import time
 import warnings
 from typing import TYPE_CHECKING
@@ -12,14 +13,55 @@ from .contacts import (
     BREAK_MODES, C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces,
     joint_constants, joint_forces, max_moved2, rotation_matrices,
 )
-from .errors import SceneError
+from .errors import PluginError, SceneError
 from .geometry.quat import centers
 from .interfaces import BroadPhase, ContactLaw
 from .parallel import chunks
+from .plugins import EVALUATORS, package_of
 from .state import FREE
 
 if TYPE_CHECKING:  # pragma: no cover
     from .simulation import Simulation
+
+
+def _law_head(cls: type) -> str:
+    return f"contact law '{cls.name}' from package '{package_of(cls)[0]}'"
+
+
+def _numba_reason(exc: BaseException) -> str:
+    """The lines of a numba error that say what is wrong and where (its messages span dozens
+    of lines with source excerpts and colour codes), as one line."""
+    lines = [re.sub(r"\x1b\[[0-9;]*m", "", ln).strip() for ln in str(exc).splitlines()]
+    skip = ("Failed in ", "During:", "File ", "^", "- Resolution failure", "Resolution failure")
+    useful = [ln for ln in lines if ln and not ln.startswith(skip) and set(ln) != {"^"}]
+    text = useful[0] if useful else (lines[0] if lines else type(exc).__name__)
+    if text.endswith(":") and len(useful) > 1:
+        text = f"{text} {useful[1]}"
+    where = next((ln for ln in lines if ln.startswith("File ")), "")
+    if where:
+        text = f"{text} ({where.rstrip(':')})"
+    return text if len(text) <= 300 else text[:297] + "..."
+
+
+def compile_evaluators(law_cls: type) -> None:
+    """Compile the law's evaluators for the arguments the engine passes (1-D C-contiguous
+    float64 arrays); a law whose evaluator does not compile is refused with a one-line
+    :class:`PluginError` naming the package, the law, the evaluator and numba's reason."""
+    from numba import types
+
+    for attr, names in EVALUATORS.items():
+        if attr == "joint_evaluator" and not law_cls.uses_joints:
+            continue
+        ev = getattr(law_cls, attr)
+        if not getattr(ev, "_can_compile", True):  # explicit signatures: numba checks those
+            continue
+        try:
+            ev.compile((types.float64[::1],) * len(names))
+        except Exception as exc:  # noqa: BLE001 - numba raises many kinds
+            raise PluginError(
+                f"{_law_head(law_cls)}: {attr} {ev.__name__}({', '.join(names)}) does not "
+                f"compile for float64 arrays: {_numba_reason(exc)}"
+            ) from None
 
 
 class ContactModel:
@@ -253,8 +295,25 @@ class ContactModel:
                 "lat": ll[:, 0], "lon": ll[:, 1], "mode": self.bmode[k].astype(np.int8)}
 
     def setup(self) -> None:
-        self._cpars = np.ascontiguousarray(self.law.collision_parameters(self.sim), dtype=float)
-        self._jpars = np.ascontiguousarray(self.law.joint_parameters(self.sim), dtype=float)
+        """The law's parameter vectors, and its evaluators compiled once for the engine's
+        argument types (before step 1): a fault is a one-line :class:`PluginError`."""
+        self._cpars = self._parameter_vector("collision_parameters")
+        self._jpars = self._parameter_vector("joint_parameters")
+        compile_evaluators(type(self.law))
+
+    def _parameter_vector(self, method: str) -> np.ndarray:
+        law = self.law
+        try:
+            vec = np.ascontiguousarray(getattr(law, method)(self.sim), dtype=float)
+            ok = vec.ndim == 1 and bool(np.isfinite(vec).all())
+        except (TypeError, ValueError) as exc:
+            vec, ok = None, exc
+        if ok is not True:
+            raise PluginError(
+                f"{_law_head(type(law))}: {method}(sim) must return a 1-D vector of finite "
+                f"numbers; got {vec if vec is not None else ok!r}"
+            )
+        return vec
 
     # ------------------------------------------------------------------ stability, history
     def stiffness_bound(self) -> tuple[float, int]:

@@ -354,13 +354,14 @@ def find_shared_edges(q, offsets, verts, pairs, tol, R):
 # 4. ``gather_forces``: each element adds its own contacts' contributions, joints then pairs,
 #    each in ascending contact index (parallel over elements).
 #
-# The chunk functions that run steps 2–3 are compiled without numba's reference counting
-# (``_nrt=False``): they allocate nothing (each task's buffers come from the parallel loop), and
-# without it every array view and every call that passes an array costs a pair of atomic
-# increments and decrements, which numba's pruning leaves in loops with branches like these
-# (about half of the joint loop's time and a third of the collision loop's, measured on
-# the 10 000-element pack). The laws' evaluators are compiled likewise where they allow it
-# (:func:`~siku_core.kernel_cache.specialise`).
+# The chunk functions that run steps 2–3 allocate nothing (each task's buffers come from the
+# parallel loop). Their specialised copies (:func:`~siku_core.kernel_cache.specialise`) are
+# compiled without numba's reference counting (``_nrt=False``) together with the law's
+# evaluator, where the evaluator allows it (it allocates nothing either): with it, every array
+# view and every call that passes an array costs a pair of atomic increments and decrements,
+# which numba's pruning leaves in loops with branches like these (about half of the joint
+# loop's time and a third of the collision loop's, measured on the 10 000-element pack). An
+# evaluator that allocates keeps reference counting, in its loop too, and works unchanged.
 #
 # Steps 2–3 write one row of six numbers per contact (the generalised force and torque on ``i``
 # and on ``j``, ``C_*``) and a flag saying whether the contact carries force; no two tasks write
@@ -534,7 +535,7 @@ def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0
     return counts.sum()
 
 
-@njit(_nrt=False)
+@njit
 def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
                  jmeff, intact, bmode, hist, R, dt, commit, out, on, lo, hi, g, res, scratch):
     """Joints ``lo <= k < hi`` of :func:`joint_forces`; returns how many broke. ``g``,
@@ -628,7 +629,7 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
     return counts.sum()
 
 
-@njit(_nrt=False)
+@njit
 def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      pretest, out, on, lo, hi, xy, tag, proj, g, res):
     """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap. ``xy``,

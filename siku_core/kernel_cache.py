@@ -12,8 +12,16 @@ functions it calls, and the siku version, so editing any of them produces a fres
 The evaluator itself is recompiled there too, from its own source, without numba's reference
 counting where it allows that (:func:`_nrt_free`): a call then costs what its arithmetic costs.
 
+The loop's chunk functions (the serial bodies the parallel loops call) are compiled without
+reference counting too when the evaluator is (their views and calls then cost nothing extra);
+an evaluator that allocates (``np.zeros``, array expressions) needs numba's reference counting,
+so its loop keeps it: the evaluator works unchanged and its contacts cost more (measured in
+``docs/howto/contact_laws.md``).
+
 ``SIKU_KERNEL_CACHE`` sets the directory (default ``$XDG_CACHE_HOME/siku/kernels`` or
-``~/.cache/siku/kernels``); ``SIKU_KERNEL_CACHE=off`` uses the uncached generic loops.
+``~/.cache/siku/kernels``); ``SIKU_KERNEL_CACHE=off`` writes the generated modules to a
+temporary directory of the process instead (nothing is kept, every process compiles again).
+Where a directory cannot be written, the temporary one is used as well.
 """
 from __future__ import annotations
 
@@ -22,6 +30,8 @@ import importlib.util
 import inspect
 import os
 import re
+import atexit
+import shutil
 import sys
 import tempfile
 from collections.abc import Callable
@@ -35,7 +45,11 @@ from . import __version__
 _MEMO: dict[tuple, Callable] = {}
 
 
+_TEMP: list[Path] = []
+
+
 def cache_dir() -> Path | None:
+    """The kernel cache directory; ``None`` when ``SIKU_KERNEL_CACHE=off``."""
     env = os.environ.get("SIKU_KERNEL_CACHE", "")
     if env.lower() in ("off", "0", "no", "false"):
         return None
@@ -43,6 +57,14 @@ def cache_dir() -> Path | None:
         return Path(env)
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "siku" / "kernels"
+
+
+def temporary_dir() -> Path:
+    """A directory for this process's generated modules, removed when it exits."""
+    if not _TEMP:
+        _TEMP.append(Path(tempfile.mkdtemp(prefix="siku-kernels-")))
+        atexit.register(shutil.rmtree, _TEMP[0], True)
+    return _TEMP[0]
 
 
 def _source_hash(*texts: str) -> str:
@@ -64,11 +86,11 @@ def _dependencies(template: Any) -> list[str]:
     return sorted(out)
 
 
-def _njit_opts(fn: Any) -> str:
+def _njit_opts(fn: Any, nrt: bool = True) -> str:
     opts = ["cache=True"]
     if fn.targetoptions.get("parallel"):
         opts.append("parallel=True")
-    if fn.targetoptions.get("_nrt") is False:
+    if not nrt:
         opts.append("_nrt=False")
     return ", ".join(opts)
 
@@ -130,10 +152,11 @@ def _nrt_free(evaluator: Any, esrc: str, where: Path) -> str | None:
     return name
 
 
-def _without_evaluate(fn: Any, names: list[str]) -> str | None:
+def _without_evaluate(fn: Any, names: list[str], nrt: bool = True) -> str | None:
     """Source of the ``@njit`` function ``fn`` with its leading ``evaluate`` parameter removed,
-    and ``evaluate`` dropped from its calls of the functions ``names``; ``None`` if the source
-    is not what the module says (e.g. the file changed since it was imported)."""
+    and ``evaluate`` dropped from its calls of the functions ``names``, compiled with numba's
+    reference counting or without (``nrt``); ``None`` if the source is not what the module
+    says (e.g. the file changed since it was imported)."""
     src = inspect.getsource(fn.py_func)
     body = re.sub(r"^@njit[^\n]*\n", "", src, flags=re.MULTILINE)
     body, n = re.subn(rf"^def {fn.__name__}\(evaluate,\s*", f"def {fn.__name__}(", body,
@@ -142,7 +165,7 @@ def _without_evaluate(fn: Any, names: list[str]) -> str | None:
         return None
     for name in names:
         body = re.sub(rf"\b{name}\(evaluate,\s*", f"{name}(", body)
-    return f"@njit({_njit_opts(fn)})\n" + body
+    return f"@njit({_njit_opts(fn, nrt)})\n" + body
 
 
 def specialise(template: Any, evaluator: Any, helpers: tuple = ()) -> Callable | None:
@@ -150,26 +173,28 @@ def specialise(template: Any, evaluator: Any, helpers: tuple = ()) -> Callable |
     compiled with ``evaluator`` fixed, cached on disk; ``None`` if that cannot be done (then the
     caller uses the generic loop). ``helpers``: ``@njit`` functions the template calls with
     ``evaluate`` as their first argument, specialised alongside it (so that a parallel loop can
-    stay small and call a serially compiled body)."""
+    stay small and call a serially compiled body); they are compiled without reference counting
+    when the evaluator can be, with it otherwise (an evaluator that allocates)."""
     key = (template.py_func.__module__, template.__name__, evaluator.py_func.__module__,
            evaluator.__name__, tuple(h.__name__ for h in helpers))
     if key in _MEMO:
         return _MEMO[key]
     where = cache_dir()
     if where is None:
-        return None
+        where = temporary_dir()
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+        if not os.access(where, os.W_OK):
+            raise PermissionError(where)
+    except OSError:
+        where = temporary_dir()
     names = [h.__name__ for h in helpers]
     try:
-        parts = [_without_evaluate(h, names) for h in helpers]
-        main = _without_evaluate(template, names)
         esrc = inspect.getsource(sys.modules[evaluator.py_func.__module__])
         # numba's cache does not see changes in the functions a loop calls: hash them too
         dsrc = "".join(inspect.getsource(sys.modules[m]) for m in _dependencies(template))
     except (OSError, TypeError, KeyError):
         return None
-    if main is None or any(p is None for p in parts):
-        return None
-    main = main.replace(f"def {template.__name__}(", "def loop(", 1)
     tmod = template.py_func.__module__
     emod = evaluator.py_func.__module__
     try:
@@ -178,6 +203,14 @@ def specialise(template: Any, evaluator: Any, helpers: tuple = ()) -> Callable |
         return None
     if free is not None:
         emod = free
+    try:
+        parts = [_without_evaluate(h, names, nrt=free is None) for h in helpers]
+        main = _without_evaluate(template, names)
+    except (OSError, TypeError):
+        return None
+    if main is None or any(p is None for p in parts):
+        return None
+    main = main.replace(f"def {template.__name__}(", "def loop(", 1)
     text = (
         "# Generated by siku (siku_core.kernel_cache): a contact loop specialised for one\n"
         "# evaluator. Safe to delete.\n"

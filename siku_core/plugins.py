@@ -10,7 +10,12 @@ modules are registered by name (like pytest's default plugins); third-party pack
 
 and implement hooks with :data:`siku_core.hookimpl`. ``SIKU_DISABLE_PLUGIN_AUTOLOAD=1`` skips
 entry-point loading. A broken third-party plugin becomes a warning naming its package, and an
-error only when a scene asks for a name it would have provided.
+error only when a scene asks for a name it would have provided. The same holds for a component
+that fails the checks made when it registers (its interface, its parameter declarations, a
+contact law's evaluators: :func:`check_component`) and for a name two packages register: a
+warning, and an error only for a scene that uses that name. Modules registered explicitly
+(:func:`register_module`, ``make_plugin_manager(extra=...)``) and siku's own components are
+held to the same checks, but a fault is an error at once.
 """
 from __future__ import annotations
 
@@ -21,12 +26,13 @@ import os
 import sys
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Mapping
 
 import pluggy
 
 from .errors import PluginError
 from .interfaces import KINDS, Component
+from .params import Param
 
 hookspec = pluggy.HookspecMarker("siku")
 hookimpl = pluggy.HookimplMarker("siku")
@@ -122,6 +128,11 @@ class Entry:
     version: str
 
 
+def _path(cls: type) -> str:
+    """``package.module:Class``, the name by path a scene may use instead of the name."""
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
 @dataclass
 class Registry:
     """Components of every kind, by name."""
@@ -129,17 +140,43 @@ class Registry:
     entries: dict[str, dict[str, Entry]] = field(default_factory=lambda: {k: {} for k in KINDS})
     broken: dict[str, str] = field(default_factory=dict)  # package -> error text
     plugins: dict[str, str] = field(default_factory=dict)  # package -> version
+    #: (kind, name) -> why the component was refused when it registered (one line)
+    refused: dict[tuple[str, str], str] = field(default_factory=dict)
+    #: (kind, name) -> the message of a name registered by two packages
+    ambiguous: dict[tuple[str, str], str] = field(default_factory=dict)
 
-    def add(self, kind: str, cls: type, package: str, version: str) -> None:
-        _check_component(kind, cls, package)
+    def add(self, kind: str, cls: type, package: str, version: str,
+            strict: bool = True) -> None:
+        """Register ``cls``. A component that fails :func:`check_component`, or whose name is
+        taken by another package's component, is an error when ``strict``; otherwise a warning,
+        and an error only when a scene asks for that name (:meth:`get`)."""
+        try:
+            check_component(kind, cls, package)
+        except PluginError as exc:
+            if strict:
+                raise
+            name = str(getattr(cls, "name", "") or getattr(cls, "__qualname__", repr(cls)))
+            self.refused[(kind, name)] = str(exc)
+            warnings.warn(f"siku: {exc}", stacklevel=3)
+            return
         table = self.entries[kind]
-        if cls.name in table and table[cls.name].cls is not cls:
-            other = table[cls.name].package
-            raise PluginError(
-                f"duplicate {kind} name '{cls.name}': registered by package '{other}' "
-                f"and by package '{package}'"
-            )
-        table[cls.name] = Entry(cls, package, version)
+        old = table.get(cls.name)
+        if old is None or old.cls is cls:
+            table[cls.name] = Entry(cls, package, version)
+            return
+        what = kind.replace("_", " ")
+        msg = (
+            f"duplicate {what} name '{cls.name}': registered by package '{old.package}' "
+            f"({_path(old.cls)}) and by package '{package}' ({_path(cls)})"
+        )
+        if strict:
+            raise PluginError(msg)
+        self.ambiguous[(kind, cls.name)] = (
+            f"{msg}; name the one to use by its path instead of '{cls.name}': "
+            f"'{_path(old.cls)}' or '{_path(cls)}'"
+        )
+        warnings.warn(f"siku: {msg}; a scene that uses '{cls.name}' must name one by its "
+                      "path (package.module:Class)", stacklevel=3)
 
     def names(self, kind: str) -> list[str]:
         return sorted(self.entries[kind])
@@ -148,10 +185,14 @@ class Registry:
         """Look up a component by registered name or by ``package.module:Class`` path."""
         if ":" in name:
             return self._by_path(kind, name, where)
+        if (kind, name) in self.ambiguous:
+            raise PluginError(f"{where}{self.ambiguous[(kind, name)]}")
         try:
             return self.entries[kind][name].cls
         except KeyError:
             pass
+        if (kind, name) in self.refused:
+            raise PluginError(f"{where}{self.refused[(kind, name)]}")
         known = ", ".join(self.names(kind)) or "(none registered)"
         msg = f"{where}unknown {kind.replace('_', ' ')} '{name}'; known: {known}"
         if self.broken:
@@ -166,15 +207,91 @@ class Registry:
             obj = getattr(importlib.import_module(mod_name), attr)
         except (ImportError, AttributeError) as exc:
             raise PluginError(f"{where}cannot import {kind} '{path}': {exc}") from None
-        _check_component(kind, obj, mod_name)
+        try:
+            check_component(kind, obj, mod_name)
+        except PluginError as exc:
+            raise PluginError(f"{where}{exc}") from None
         return obj
 
     def entry(self, kind: str, name: str) -> Entry | None:
         return self.entries[kind].get(name)
 
 
-def _check_component(kind: str, cls: Any, package: str) -> None:
-    """Check a component class against its kind's interface; errors name the problem."""
+#: parameter types a :class:`~siku_core.params.Param` may declare; ``bool`` and ``str``
+#: parameters (switches, names) need no unit, every other one does (``"1"``: dimensionless)
+_PARAM_TYPES = (float, int, bool, str, list, dict)
+
+
+def _check_params(kind: str, cls: Any, package: str) -> None:
+    """Every entry of ``params`` a :class:`Param` with a known type and, unless it is a
+    ``bool`` or ``str``, a unit."""
+    head = f"{kind.replace('_', ' ')} '{cls.name}' from package '{package}'"
+    params = getattr(cls, "params", None)
+    if not isinstance(params, Mapping):
+        raise PluginError(f"{head}: 'params' is {type(params).__name__}, not a mapping of "
+                          "parameter names to siku_core.Param")
+    for key, p in params.items():
+        if not isinstance(p, Param):
+            raise PluginError(
+                f"{head}: parameter '{key}' is {p!r} ({type(p).__name__}), not a "
+                "siku_core.Param(default, unit, doc)"
+            )
+        if p.type not in _PARAM_TYPES:
+            raise PluginError(
+                f"{head}: parameter '{key}' has type {p.type!r}; allowed: "
+                + ", ".join(t.__name__ for t in _PARAM_TYPES)
+            )
+        if p.type not in (bool, str) and not (isinstance(p.unit, str) and p.unit.strip()):
+            raise PluginError(
+                f"{head}: parameter '{key}' has no unit (unit={p.unit!r}); give its SI unit, "
+                "or '1' for a dimensionless number"
+            )
+
+
+#: evaluator attributes of a contact law and their reference parameters
+EVALUATORS = {
+    "collision_evaluator": ("g", "pars", "out"),
+    "joint_evaluator": ("g", "pars", "hist", "out"),
+}
+
+
+def _check_contact_law(cls: Any, package: str) -> None:
+    """A contact law's evaluators are present, jitted, and take the reference parameters; its
+    ``history_names`` are strings."""
+    head = f"contact law '{cls.name}' from package '{package}'"
+    for attr, expected in EVALUATORS.items():
+        if attr == "joint_evaluator" and not cls.uses_joints:
+            continue
+        ev = getattr(cls, attr, None)
+        if ev is None:
+            hint = (" (reuse the built-in one by subclassing "
+                    "siku_plugins.contact_laws.Collision)" if attr == "collision_evaluator"
+                    else " (uses_joints = True asks for one)")
+            raise PluginError(f"{head}: no {attr}{hint}")
+        fn = getattr(ev, "py_func", None)
+        if fn is None or not callable(ev) or not hasattr(ev, "compile"):
+            raise PluginError(
+                f"{head}: {attr} is {ev!r}, not a numba @njit function "
+                f"({attr}({', '.join(expected)}) decorated with numba.njit)"
+            )
+        got = tuple(inspect.signature(fn).parameters)
+        if len(got) != len(expected):
+            raise PluginError(
+                f"{head}: {attr} {fn.__name__}({', '.join(got)}) takes {len(got)} "
+                f"parameters, expected {len(expected)}: ({', '.join(expected)})"
+            )
+    names = cls.history_names
+    if not (isinstance(names, tuple) and all(isinstance(n, str) for n in names)):
+        raise PluginError(f"{head}: history_names is {names!r}, not a tuple of strings")
+    if getattr(cls, "history_update", "state") not in ("state", "rate"):
+        raise PluginError(f"{head}: history_update is {cls.history_update!r}; allowed: "
+                          "'state', 'rate'")
+
+
+def check_component(kind: str, cls: Any, package: str) -> None:
+    """Check a component class against its kind's interface (methods and their reference
+    signatures), its parameter declarations and, for contact laws, its evaluators; errors are
+    one line naming the kind, the component, the package and the fault."""
     base = KINDS[kind]
     if not (isinstance(cls, type) and issubclass(cls, base)):
         raise PluginError(
@@ -201,10 +318,21 @@ def _check_component(kind: str, cls: Any, package: str) -> None:
                 f"{kind} '{cls.name}' from package '{package}': {meth}() {bad} "
                 f"(reference signature: {meth}({', '.join(expected)}))"
             )
+    _check_params(kind, cls, package)
+    if kind == "contact_law":
+        _check_contact_law(cls, package)
+
 
 
 #: the import packages of the siku distribution (a third-party "siku_tides" is not one of them)
 _OWN_PACKAGES = frozenset({"siku_core", "siku_plugins", "siku_forcing", "siku_io"})
+
+
+def package_of(cls: type) -> tuple[str, str]:
+    """The distribution providing ``cls`` and its version (``("siku", version)`` for siku's
+    own packages; for a module of a package that is not installed, its top-level name and
+    ``__version__``)."""
+    return _dist_of(cls.__module__)
 
 
 def _dist_of(module_name: str, top_map: dict[str, list[str]] | None = None) -> tuple[str, str]:
@@ -259,14 +387,17 @@ def make_plugin_manager(autoload: bool | None = None, extra: tuple[Any, ...] = (
         top_map = md.packages_distributions()
     except Exception:  # pragma: no cover - metadata quirks
         top_map = {}
+    strict_plugins = {id(m) for m in extra}
     for kind, hook in _REGISTER_HOOKS.items():
         impls = getattr(pm.hook, hook).get_hookimpls()
         for impl in impls:
             plugin_mod = getattr(impl.plugin, "__name__", impl.plugin_name)
             package, version = _dist_of(plugin_mod, top_map)
             reg.plugins[package] = version
+            # siku's own components and explicitly registered modules: faults are errors
+            strict = package == "siku" or id(impl.plugin) in strict_plugins
             for cls in impl.function() or []:
-                reg.add(kind, cls, package, version)
+                reg.add(kind, cls, package, version, strict=strict)
     return pm, reg
 
 

@@ -25,7 +25,7 @@ from .elements import build_elements
 from .errors import NonFiniteError, SceneError, StabilityError
 from .interfaces import Component, Field, ForcingSource, Integrator, Writer
 from .params import validate_params
-from .plugins import Registry, get_plugin_manager, get_registry
+from .plugins import Registry, get_plugin_manager, get_registry, package_of
 from .scene import Scene, load_scene
 from .schedule import StepInterval
 from .state import DYNAMIC
@@ -411,8 +411,9 @@ class Simulation:
         out = {}
         for comp in self.components():
             e = self.registry.entry(comp.kind, comp.name)
-            if e is not None:
+            if e is not None and e.cls is type(comp):
                 out[e.package] = e.version
-            else:
-                out[type(comp).__module__.split(".")[0]] = "unknown"
+            else:  # chosen by path, or built inside another component (a forcing's field)
+                package, version = package_of(type(comp))
+                out[package] = version
         return out

@@ -102,15 +102,30 @@ def siku_register_integrators():
 '''
 
 
-def test_duplicate_name_from_two_packages_is_an_error_naming_both(siku_fake_install):
+def test_duplicate_name_from_two_packages_warns_and_fails_only_scenes_that_use_it(
+        siku_fake_install):
+    """Two installed packages register 'twin': a warning naming both, every other run still
+    works, a scene that says 'twin' gets one line naming both packages and the way out (the
+    class path), and the class path runs."""
     siku_fake_install("alpha-ice", "1.0", {"alpha": "alpha_ice"},
                       modules={"alpha_ice": TWIN_SOURCE})
+    with pytest.warns(UserWarning) as rec:
+        reg = siku_fake_install("beta-ice", "2.0", {"beta": "beta_ice"},
+                                modules={"beta_ice": TWIN_SOURCE})
+    msgs = [str(w.message) for w in rec if "duplicate integrator name 'twin'" in str(w.message)]
+    assert msgs and "'alpha-ice'" in msgs[0] and "'beta-ice'" in msgs[0]
+    Simulation(make_scene(), out=False, progress=False).run(steps=1)  # runs without 'twin'
     with pytest.raises(PluginError) as ei:
-        siku_fake_install("beta-ice", "2.0", {"beta": "beta_ice"},
-                          modules={"beta_ice": TWIN_SOURCE})
+        Simulation(make_scene(integrator="twin"), out=False, progress=False)
     msg = str(ei.value)
-    assert "duplicate integrator name 'twin'" in msg
-    assert "'alpha-ice'" in msg and "'beta-ice'" in msg
+    assert "\n" not in msg and "[integrator]" in msg
+    assert "'alpha-ice' (alpha_ice:Twin)" in msg and "'beta-ice' (beta_ice:Twin)" in msg
+    assert ("'alpha_ice:Twin' or 'beta_ice:Twin'" in msg
+            or "'beta_ice:Twin' or 'alpha_ice:Twin'" in msg)
+    sim = Simulation(make_scene(integrator="beta_ice:Twin"), out=False, progress=False)
+    sim.run(steps=1)
+    assert sim.plugin_versions()["beta-ice"] == "2.0"
+    assert reg.ambiguous
 
 
 def test_duplicate_of_a_builtin_name_is_an_error_naming_both_packages():
@@ -118,7 +133,8 @@ def test_duplicate_of_a_builtin_name_is_an_error_naming_both_packages():
         name = "siku2"
 
     mod = plugin_module("my_ice_pkg", siku_register_integrators=lambda: [Mine])
-    with pytest.raises(PluginError, match="'siku2'.*package 'siku' and by package 'my_ice_pkg'"):
+    with pytest.raises(PluginError, match=r"'siku2'.*package 'siku' \(siku_plugins.integrators:"
+                                          r"Siku2\) and by package 'my_ice_pkg'"):
         make_plugin_manager(extra=(mod,))
 
 

@@ -101,25 +101,72 @@ def test_loops_call_a_copy_without_reference_counting(fresh_cache, ev, template,
         assert 0 < broke < 400
 
 
-def test_an_allocating_evaluator_is_used_as_it_is(fresh_cache, tmp_path, monkeypatch):
+ALLOC_LAW = textwrap.dedent('''
+    import numpy as np
+    from numba import njit
+
+    from siku_plugins.contact_laws import DistributedSpring, spring_evaluator
+
+
+    @njit(cache=True)
+    def alloc_spring(g, pars, hist, out):
+        """The spring evaluator through an allocated temporary."""
+        tmp = np.zeros(4)
+        spring_evaluator(g, pars, hist, tmp)
+        for a in range(4):
+            out[a] = tmp[a]
+
+
+    class AllocSpring(DistributedSpring):
+        """The distributed spring with an allocating evaluator."""
+
+        name = "alloc_spring_test"
+        joint_evaluator = alloc_spring
+''')
+
+
+@pytest.fixture
+def alloc_law(tmp_path, monkeypatch):
     mod = tmp_path / "plugin_src" / "alloc_law.py"
     mod.parent.mkdir()
-    mod.write_text(textwrap.dedent('''
-        import numpy as np
-        from numba import njit
-
-        @njit(cache=False)
-        def alloc_evaluator(g, pars, out):
-            tmp = np.zeros(3)
-            tmp[0] = g[0] * pars[0]
-            out[0] = tmp[0]
-            out[1] = 0.0
-            out[2] = 0.0
-    '''))
+    mod.write_text(ALLOC_LAW)
     monkeypatch.syspath_prepend(str(mod.parent))
     import alloc_law
 
-    assert kernel_cache._nrt_free(alloc_law.alloc_evaluator, "", fresh_cache) is None
-    loop = kernel_cache.specialise(_collision_forces, alloc_law.alloc_evaluator,
-                                   (_collision_chunk,))
-    assert _loop_evaluator(loop) is alloc_law.alloc_evaluator
+    yield alloc_law
+    sys.modules.pop("alloc_law", None)
+
+
+def test_an_allocating_evaluator_is_used_as_it_is(fresh_cache, alloc_law):
+    """It cannot be compiled without reference counting; its loop keeps reference counting
+    (an ``_nrt=False`` loop cannot call it) and calls the evaluator itself."""
+    ev = alloc_law.alloc_spring
+    assert kernel_cache._nrt_free(ev, "", fresh_cache) is None
+    loop = kernel_cache.specialise(_joint_forces, ev, (_joint_chunk,))
+    assert _loop_evaluator(loop) is ev
+    chunk = sys.modules[loop.py_func.__module__]._joint_chunk
+    assert chunk.targetoptions.get("_nrt") is not False
+
+
+@pytest.mark.parametrize("cache", ["dir", "off"])
+def test_a_law_with_an_allocating_evaluator_runs_like_the_law_it_wraps(
+        fresh_cache, alloc_law, monkeypatch, cache):
+    """A pulled, jointed pack: the same states bit for bit as the distributed spring, with the
+    kernel cache in a directory and switched off (generated modules in a temporary one)."""
+    from siku_core.testing import contact_conformance as cc
+    from siku_plugins.contact_laws import DistributedSpring
+
+    if cache == "off":
+        monkeypatch.setenv("SIKU_KERNEL_CACHE", "off")
+    states = []
+    for law_cls in (DistributedSpring, alloc_law.AllocSpring):
+        sim = cc.law_simulation(law_cls, {"tensile_strain": 2e-5},
+                                packs=[cc.square_pack(10.0, 70.0, 3, 2, right="steady",
+                                                      velocity=[0.05, 0.0])],
+                                joints="auto", dt=0.05)
+        assert sim.contacts.n_joints == 6  # none between the two steady cells
+        sim.run(steps=40)
+        states.append((sim.state.q.copy(), sim.state.V.copy(), sim.contacts.intact.copy()))
+    for a, b in zip(*states):
+        assert np.array_equal(a, b)
+    assert not states[0][2].all()  # some joints broke: both ways out were taken
