@@ -128,6 +128,18 @@ def spring_evaluator(g, pars, hist, out):
     out[2] = -ci
 
 
+def spring_energy(g, pars, hist):
+    """Elastic energy [J] of a distributed-spring joint: ``K_d w (|s1|² + |s2|² + s1·s2)/6``,
+    the integral of ``K_d |d(z)|² / 2`` along the joint (``d`` linear from ``s1`` to ``s2``),
+    ``K_d = K (1 - damage)`` with the damage of ``hist``."""
+    eps_t = pars[S_EPS]
+    onset = pars[S_ONSET] * eps_t
+    dmg = (hist[0] - onset) / (eps_t - onset) if hist[0] > onset and eps_t > onset else 0.0
+    s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
+    q = s1x * s1x + s1y * s1y + s2x * s2x + s2y * s2y + s1x * s2x + s1y * s2y
+    return g[J_K] * (1.0 - dmg) * g[J_W] * q / 6.0
+
+
 class DistributedSpring(Collision):
     """Coalesced elements: a distributed spring along each frozen joint, brittle failure."""
 
@@ -143,6 +155,7 @@ class DistributedSpring(Collision):
                                      max=0.99),
     }
     joint_evaluator = spring_evaluator
+    joint_energy = staticmethod(spring_energy)
 
     def joint_parameters(self, sim):
         p = self.p
@@ -384,6 +397,31 @@ def bonded_particle_evaluator(g, pars, hist, out):
     out[2] = -couple
 
 
+def bonded_particle_energy(g, pars, hist):
+    """Elastic energy [J] of a bond: ``A (k_n d_n² + k_s d_s²)/2 + k_n I theta²/2`` (the
+    quantities of :func:`bonded_particle_evaluator`)."""
+    ax, ay, bx, by = g[J_AX], g[J_AY], g[J_BX], g[J_BY]
+    w = g[J_W]
+    wx, wy = bx - ax, by - ay
+    tx, ty = (wx / w, wy / w) if w > 0.0 else (1.0, 0.0)
+    nx, ny = ty, -tx
+    dx = 0.5 * (g[J_S1X] + g[J_S2X])
+    dy = 0.5 * (g[J_S1Y] + g[J_S2Y])
+    dn = dx * nx + dy * ny
+    ds = dx * tx + dy * ty
+    theta = 0.0
+    if w > 0.0:
+        Wx = wx + g[J_S2X] - g[J_S1X]
+        Wy = wy + g[J_S2Y] - g[J_S1Y]
+        theta = math.atan2(wx * Wy - wy * Wx, wx * Wx + wy * Wy)
+    hb = min(g[J_HI], g[J_HJ])
+    kn = g[J_K] / hb if hb > 0.0 else 0.0
+    ks = kn / (2.0 * (1.0 + g[J_NU]))
+    area = w * hb
+    inertia = hb * w ** 3 / 12.0
+    return 0.5 * area * (kn * dn * dn + ks * ds * ds) + 0.5 * kn * inertia * theta * theta
+
+
 class BondedParticle(Collision):
     """Bonded-particle floes (seed 004 eqs. 10–13): elastic bonds that break in tension or shear.
 
@@ -406,6 +444,7 @@ class BondedParticle(Collision):
                                      max=0.99),
     }
     joint_evaluator = bonded_particle_evaluator
+    joint_energy = staticmethod(bonded_particle_energy)
 
     def joint_parameters(self, sim):
         p = self.p

@@ -12,6 +12,7 @@ import sys
 
 import pytest
 
+import conformance_faulty_laws as faulty
 from siku_core.plugins import get_registry
 from siku_core.testing import contact_conformance as cc
 
@@ -58,6 +59,48 @@ def test_compiled_evaluator_equals_python(name):
 def test_degenerate_geometry_gives_finite_output(name):
     for params in param_sets(name):
         cc.check_degenerate_finite(law(name), params)
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_passive_over_push_release_cycles(name):
+    for params in param_sets(name):
+        cc.check_passivity(law(name), params)
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_joint_force_is_the_gradient_of_the_declared_energy(name):
+    for params in param_sets(name):
+        cc.check_energy(law(name), params)
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_history_changes_only_as_declared(name):
+    for params in param_sets(name):
+        cc.check_history(law(name), params)
+
+
+def test_laws_that_store_energy_declare_it():
+    """The check is not vacuous for the built-ins that have an energy."""
+    for name in ("distributed_spring", "bonded_particle"):
+        assert callable(getattr(law(name), "joint_energy", None)), name
+
+
+@pytest.mark.parametrize("fault", sorted(faulty.FAULTY))
+def test_the_suite_fails_a_law_with_a_planted_fault_naming_the_check(fault):
+    """An anti-spring (collision and joint), a call-counting history, a 0/0 evaluator, an
+    energy that is not the force's, and a history write past the declared columns: each fails
+    ``check_contact_law`` with a one-check message, not a raw exception."""
+    law_cls, expected = faulty.FAULTY[fault]
+    with pytest.raises(AssertionError) as ei:
+        cc.check_contact_law(law_cls)
+    assert str(ei.value).startswith(expected), str(ei.value)
+
+
+def test_a_zero_over_zero_in_degenerate_geometry_is_a_finding():
+    with pytest.raises(AssertionError, match="zero_over_zero_test: degenerate geometry: "
+                                             "collision evaluator raised ZeroDivisionError: "
+                                             "division by zero on zero area"):
+        cc.check_degenerate_finite(faulty.ZeroOverZero)
 
 
 def test_third_party_law_class_runs_unregistered():
