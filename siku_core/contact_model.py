@@ -1,6 +1,7 @@
 """The engine's contact phase: broad phase, narrow phase, joints and the chosen law."""
 from __future__ import annotations
 
+import inspect
 import math
 import re
 import time
@@ -43,16 +44,25 @@ def _numba_reason(exc: BaseException) -> str:
     return text if len(text) <= 300 else text[:297] + "..."
 
 
-def compile_evaluators(law_cls: type) -> None:
+def evaluator_of(law: ContactLaw, attr: str):
+    """The law's evaluator ``attr`` as the jitted function itself: an ``@njit`` function held
+    as a class attribute binds like a method when read from an instance (``law.attr`` is a
+    bound method), so it is looked up without binding."""
+    ev = inspect.getattr_static(law, attr)
+    return getattr(ev, "__func__", ev)  # a staticmethod wrapper
+
+
+def compile_evaluators(law: ContactLaw) -> None:
     """Compile the law's evaluators for the arguments the engine passes (1-D C-contiguous
     float64 arrays); a law whose evaluator does not compile is refused with a one-line
     :class:`PluginError` naming the package, the law, the evaluator and numba's reason."""
     from numba import types
 
+    law_cls = type(law)
     for attr, names in EVALUATORS.items():
-        if attr == "joint_evaluator" and not law_cls.uses_joints:
+        if attr == "joint_evaluator" and not law.uses_joints:
             continue
-        ev = getattr(law_cls, attr)
+        ev = evaluator_of(law, attr)
         if not getattr(ev, "_can_compile", True):  # explicit signatures: numba checks those
             continue
         try:
@@ -218,7 +228,7 @@ class ContactModel:
         joints = self.n_joints and law.uses_joints
         if joints:
             broke = joint_forces(
-                law.joint_evaluator, self._jpars, self.rm, V, w, st.thickness, self.E,
+                self._jev, self._jpars, self.rm, V, w, st.thickness, self.E,
                 self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
                 self.jK, self.jmeff, self.intact, self.bmode, self.hist, sim.radius, sim.dt,
                 commit, self.jout, self.jon, chunks(self.n_joints),
@@ -231,7 +241,7 @@ class ContactModel:
         t3 = time.perf_counter()
         if len(pairs):
             n = collision_forces(
-                law.collision_evaluator, self._cpars, self.rm, V, w, self.minv, st.thickness,
+                self._cev, self._cpars, self.rm, V, w, self.minv, st.thickness,
                 self.E, st.area, st.vert_offsets, st.verts, pairs, sim.radius, self.nmax,
                 self.pretest, self.pout, self.pon, chunks(len(pairs)),
             )
@@ -299,7 +309,9 @@ class ContactModel:
         argument types (before step 1): a fault is a one-line :class:`PluginError`."""
         self._cpars = self._parameter_vector("collision_parameters")
         self._jpars = self._parameter_vector("joint_parameters")
-        compile_evaluators(type(self.law))
+        compile_evaluators(self.law)
+        self._jev = evaluator_of(self.law, "joint_evaluator") if self.law.uses_joints else None
+        self._cev = evaluator_of(self.law, "collision_evaluator")
 
     def _parameter_vector(self, method: str) -> np.ndarray:
         law = self.law

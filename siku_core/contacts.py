@@ -56,6 +56,72 @@ G_SIZE = 12
  J_VBX, J_VBY, J_HI, J_HJ, J_EI, J_EJ, J_NU, J_DT) = range(22)
 J_SIZE = 22
 
+#: the collision geometry vector ``g``: ``(index constant, unit, meaning)`` per entry, in order
+#: (rendered for the docs by :func:`layout_table`)
+COLLISION_LAYOUT = (
+    ("G_AREA", "m²", "overlap area `A`"),
+    ("G_CX", "m", "overlap centroid, x (where the force acts)"),
+    ("G_CY", "m", "overlap centroid, y"),
+    ("G_NX", "1", "unit normal from `i` towards `j`, x"),
+    ("G_NY", "1", "unit normal from `i` towards `j`, y"),
+    ("G_WIDTH", "m", "contact width: `|P1P2|` when the boundaries cross twice, else the common "
+                     "span of both polygons across the normal"),
+    ("G_K", "Pa", "effective stiffness `K` of eq. 9 (0 for coincident centres)"),
+    ("G_MEFF", "kg", "reduced mass `1/(1/m_i + 1/m_j)` (a static or steady element counts as "
+                     "infinitely heavy)"),
+    ("G_VX", "m/s", "velocity of `j` relative to `i` at the centroid, x"),
+    ("G_VY", "m/s", "velocity of `j` relative to `i` at the centroid, y"),
+    ("G_AREA_I", "m²", "area of `i`"),
+    ("G_AREA_J", "m²", "area of `j`"),
+)
+#: the joint geometry vector ``g``: ``(index constant, unit, meaning)`` per entry, in order
+JOINT_LAYOUT = (
+    ("J_S1X", "m", "displacement of the joint's first end, `s1` (`j`'s copy minus `i`'s), x"),
+    ("J_S1Y", "m", "`s1`, y"),
+    ("J_S2X", "m", "displacement of the second end, `s2`, x"),
+    ("J_S2Y", "m", "`s2`, y"),
+    ("J_AX", "m", "first end `a` of `i`'s copy of the joint, x"),
+    ("J_AY", "m", "`a`, y"),
+    ("J_BX", "m", "second end `b`, x (`a → b` runs counter-clockwise round `i`)"),
+    ("J_BY", "m", "`b`, y"),
+    ("J_L0", "m", "rest distance of the two centres (great circle)"),
+    ("J_W", "m", "joint length `w = |b - a|` (0 for coincident ends)"),
+    ("J_K", "Pa", "effective stiffness `K` of eq. 9: traction per unit length and displacement"),
+    ("J_MEFF", "kg", "reduced mass"),
+    ("J_VAX", "m/s", "velocity of `j` relative to `i` at end `a`, x"),
+    ("J_VAY", "m/s", "same, y"),
+    ("J_VBX", "m/s", "velocity of `j` relative to `i` at end `b`, x"),
+    ("J_VBY", "m/s", "same, y"),
+    ("J_HI", "m", "thickness of `i`"),
+    ("J_HJ", "m", "thickness of `j`"),
+    ("J_EI", "Pa", "Young's modulus of `i`"),
+    ("J_EJ", "Pa", "Young's modulus of `j`"),
+    ("J_NU", "1", "Poisson's ratio (of `i`'s material)"),
+    ("J_DT", "s", "time step"),
+)
+#: what an evaluator writes to ``out`` (zeroed by the engine before every call)
+OUT_LAYOUT = (
+    ("out[0]", "N", "force on `j`, x (`i`'s frame); `i` gets the opposite"),
+    ("out[1]", "N", "force on `j`, y"),
+    ("out[2]", "N m", "couple on `j` about the local vertical, counter-clockwise positive; `i` "
+                      "gets the opposite"),
+    ("out[3]", "1", "joint evaluators: 0 while the joint holds, else its break mode "
+                    "(`BREAK_*`); the joint then carries no force from this step on"),
+)
+
+
+def layout_table(layout: tuple) -> str:
+    """A layout as a Markdown table: index, name, unit, meaning."""
+    if all(name.startswith("out[") for name, _, _ in layout):
+        rows = ["| entry | unit | meaning |", "|---|---|---|"]
+        rows += [f"| `{name}` | {unit} | {meaning} |" for name, unit, meaning in layout]
+    else:
+        rows = ["| index | name | unit | meaning |", "|---|---|---|---|"]
+        rows += [f"| {k} | `{name}` | {unit} | {meaning} |"
+                 for k, (name, unit, meaning) in enumerate(layout)]
+    return "\n".join(rows)
+
+
 # break modes: what a joint evaluator writes to ``out[3]`` when its joint breaks (any non-zero
 # value breaks it; the engine records the value with the break, see ``BREAK_MODES``)
 BREAK_STRAIN = 1.0  #: a strain or displacement threshold without a direction (the spring law)

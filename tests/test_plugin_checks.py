@@ -241,6 +241,7 @@ class SteadyBreeze(AirDrag):
     """Air drag of a steady breeze built inside the source (no field table)."""
 
     name = "steady_breeze"
+    uses_field = False
 
     def setup(self, sim):
         self.field = Breeze()

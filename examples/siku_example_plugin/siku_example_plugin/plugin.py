@@ -9,6 +9,7 @@ from __future__ import annotations
 from siku_core import hookimpl
 
 from .euler import Euler
+from .laws import BrittleBond
 from .tilt import SeaSurfaceTilt
 
 
@@ -20,3 +21,8 @@ def siku_register_forcing_sources():
 @hookimpl
 def siku_register_integrators():
     return [Euler]
+
+
+@hookimpl
+def siku_register_contact_laws():
+    return [BrittleBond]

@@ -4,7 +4,7 @@ Installed (``pip install -e .``), siku finds it through its entry point and this
 """
 from siku_core.plugins import get_registry, register_module
 
-if "sea_surface_tilt" not in get_registry().names("forcing"):
+if "brittle_bond" not in get_registry().names("contact_law"):
     import siku_example_plugin.plugin
 
     register_module(siku_example_plugin.plugin)

@@ -6,8 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from siku_core.contacts import BREAK_TENSION
 from siku_core.plugins import get_registry
 from siku_core.testing import conformance
+from siku_core.testing.contact_conformance import check_contact_law
+from siku_example_plugin.laws import BrittleBond
 
 SCENE = Path(__file__).parents[1] / "scenes" / "tilt_drift.toml"
 
@@ -67,3 +70,29 @@ def test_example_scene_runs_by_name(siku_simulation_factory):
     assert [f.name for f in sim.forcing] == ["sea_surface_tilt", "water_drag", "coriolis"]
     sim.run()
     assert np.isfinite(sim.state.V).all() and np.abs(sim.state.V).max() > 1e-3
+
+
+BRITTLE_SCENE = Path(__file__).parents[1] / "scenes" / "brittle_pull.toml"
+
+
+def test_brittle_bond_conforms():
+    """Newton's third law, no force apart, history as declared, compiled == py_func, finite
+    in degenerate geometry, passive, force = -grad(joint_energy)."""
+    check_contact_law(BrittleBond)
+    check_contact_law(BrittleBond, {"stiffness_scale": 2.0, "friction": 0.3,
+                                    "joint_damping_ratio": 0.5})
+
+
+def test_brittle_bonds_break_in_tension_when_the_stress_reaches_the_strength(
+        siku_simulation_factory):
+    """Held - free - pulled at v: each bond opens by v t / 2, so sigma = K v t / (2 h) reaches
+    the strength at t = 2 h sigma_t / (K v); both bonds break within a step of it."""
+    sim = siku_simulation_factory(BRITTLE_SCENE)
+    cm = sim.contacts
+    K, h, v = cm.jK[0], 1.0, 0.01
+    sigma_t = sim.contacts.law.p["tensile_strength"]
+    sim.run()
+    assert not cm.intact.any()
+    assert set(cm.bmode) == {BREAK_TENSION}
+    expected = 2.0 * h * sigma_t / (K * v)
+    assert np.all(np.abs(cm.break_time - expected) <= sim.dt), (cm.break_time, expected)
