@@ -22,8 +22,10 @@ Joint geometry ``g`` (indices ``J_*``): the end displacements ``s1, s2`` [m] (``
 ``i``'s copy of each joint end), the joint ends ``a, b`` in ``i``'s frame [m], rest length
 ``L0`` [m], joint length ``w`` [m], ``K`` [Pa], reduced mass [kg], relative velocities at both
 ends [m/s], thicknesses [m], Young's moduli [Pa], Poisson's ratio [1], time step [s]. The
-evaluator may update its joint's history row ``hist`` and sets ``out[3] = 1`` when the joint
-breaks (it then carries no force from that step on).
+evaluator may update its joint's history row ``hist`` and sets ``out[3]`` to a break mode
+(``BREAK_*``) when the joint breaks (it then carries no force from that step on). The layouts
+with units are :data:`COLLISION_LAYOUT`, :data:`JOINT_LAYOUT` and :data:`OUT_LAYOUT` (tables in
+``docs/howto/contact_laws.md``); ``out`` is zeroed before every call.
 
 The engine's loops (the "fast path" below: ``joint_forces``, ``collision_forces``,
 ``gather_forces``) run in parallel over contacts and elements and give the same result on any

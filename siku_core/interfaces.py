@@ -140,12 +140,19 @@ class ContactLaw(Component):
       ``uses_joints = True``), updating the joint's ``hist`` row (``history_names`` columns).
 
     ``collision_parameters(sim)`` / ``joint_parameters(sim)`` return the float64 ``pars`` vectors
-    passed to them (parameters are arguments, never compiled-in globals).
+    passed to them (parameters are arguments, never compiled-in globals). The evaluators are
+    read from the class without binding (an ``@njit`` function held as a class attribute binds
+    like a method on an instance). ``history_update`` says how the history changes: ``"state"``
+    (a function of the geometry the joint has seen: maxima, failure flags, damage) or
+    ``"rate"`` (integrated over the time step). A law may declare ``joint_energy(g, pars,
+    hist)`` [J], the joint's stored elastic energy, which the conformance suite checks the force
+    against. Guide: ``docs/howto/contact_laws.md``.
     """
 
     kind = "contact_law"
     uses_joints: ClassVar[bool] = False
     history_names: ClassVar[tuple[str, ...]] = ()
+    history_update: ClassVar[str] = "state"
     required = {"collision_parameters": ("sim",)}
 
     @abstractmethod

@@ -427,7 +427,8 @@ def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | Non
         _call(law_cls, "compiled == python", "collision (py_func)", coll.py_func, g.copy(),
               cpars, op)
         assert _close(oc, op, rtol), (
-            f"{law_cls.name}: compiled == python: compiled collision evaluator {oc.tolist()} != py_func "
+            f"{law_cls.name}: compiled == python: compiled collision evaluator {oc.tolist()} "
+            "!= py_func "
             f"{op.tolist()} for g = {g.tolist()}"
         )
     if joint is None:
@@ -443,7 +444,8 @@ def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | Non
             _call(law_cls, "compiled == python", "joint (py_func)", joint.py_func, g.copy(),
                   jpars, hp, op)
             assert oc[3] == op[3] and _close(hc, hp, rtol) and _close(oc, op, rtol), (
-                f"{law_cls.name}: compiled == python: compiled joint evaluator out {oc.tolist()}, hist "
+                f"{law_cls.name}: compiled == python: compiled joint evaluator out "
+                f"{oc.tolist()}, hist "
                 f"{hc.tolist()} != py_func out {op.tolist()}, hist {hp.tolist()} "
                 f"(evaluation {rep + 1}) for g = {g.tolist()}"
             )
@@ -647,10 +649,11 @@ def check_passivity(law_cls: type, params: Mapping[str, Any] | None = None,
     """Push–release cycles of an isolated pair through the engine: the work the contact does
     on the driven element, from the start of the cycle, is never positive (beyond the round-off
     bound of :func:`_driven_work`). Collision: two 2 km squares 10 m apart, the second pushed
-    160 m into the first with a shear of a third of that and a twist of 3e-3 rad, and back along the same path.
-    Joints (joint laws): the jointed pair opened by 5 cm (strain 2.5e-5) with shear and twist,
-    back through rest to 5 cm closed, and back. Each cycle quasi-statically (at rest at every
-    point: elastic forces only) and moving (10 s per step: damping and friction act too).
+    160 m into the first with a shear of a third of that and a twist of 3e-3 rad, and back
+    along the same path. Joints (joint laws): the jointed pair opened by 5 cm (strain 2.5e-5)
+    with shear and twist, back through rest to 5 cm closed, and back. Each cycle
+    quasi-statically (at rest at every point: elastic forces only) and moving (10 s per step:
+    damping and friction act too).
     """
     check = "passivity"
     R = EARTH_RADIUS
