@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import sys
-import textwrap
 
 import numpy as np
 import pytest
@@ -101,46 +100,18 @@ def test_loops_call_a_copy_without_reference_counting(fresh_cache, ev, template,
         assert 0 < broke < 400
 
 
-ALLOC_LAW = textwrap.dedent('''
-    import numpy as np
-    from numba import njit
-
-    from siku_plugins.contact_laws import DistributedSpring, spring_evaluator
-
-
-    @njit(cache=True)
-    def alloc_spring(g, pars, hist, out):
-        """The spring evaluator through an allocated temporary."""
-        tmp = np.zeros(4)
-        spring_evaluator(g, pars, hist, tmp)
-        for a in range(4):
-            out[a] = tmp[a]
-
-
-    class AllocSpring(DistributedSpring):
-        """The distributed spring with an allocating evaluator."""
-
-        name = "alloc_spring_test"
-        joint_evaluator = alloc_spring
-''')
-
-
 @pytest.fixture
-def alloc_law(tmp_path, monkeypatch):
-    mod = tmp_path / "plugin_src" / "alloc_law.py"
-    mod.parent.mkdir()
-    mod.write_text(ALLOC_LAW)
-    monkeypatch.syspath_prepend(str(mod.parent))
-    import alloc_law
+def alloc_law():
+    """The benchmark's law: the distributed spring through an allocated temporary."""
+    from bench import allocating_evaluator
 
-    yield alloc_law
-    sys.modules.pop("alloc_law", None)
+    return allocating_evaluator
 
 
 def test_an_allocating_evaluator_is_used_as_it_is(fresh_cache, alloc_law):
     """It cannot be compiled without reference counting; its loop keeps reference counting
     (an ``_nrt=False`` loop cannot call it) and calls the evaluator itself."""
-    ev = alloc_law.alloc_spring
+    ev = alloc_law.allocating_spring
     assert kernel_cache._nrt_free(ev, "", fresh_cache) is None
     loop = kernel_cache.specialise(_joint_forces, ev, (_joint_chunk,))
     assert _loop_evaluator(loop) is ev
@@ -159,7 +130,7 @@ def test_a_law_with_an_allocating_evaluator_runs_like_the_law_it_wraps(
     if cache == "off":
         monkeypatch.setenv("SIKU_KERNEL_CACHE", "off")
     states = []
-    for law_cls in (DistributedSpring, alloc_law.AllocSpring):
+    for law_cls in (DistributedSpring, alloc_law.AllocatingSpring):
         sim = cc.law_simulation(law_cls, {"tensile_strain": 2e-5},
                                 packs=[cc.square_pack(10.0, 70.0, 3, 2, right="steady",
                                                       velocity=[0.05, 0.0])],
