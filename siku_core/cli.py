@@ -56,7 +56,16 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
 
     scene = load_scene(path, overrides)
     progress = False if args.no_progress else None
-    sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart)
+    extend = None
+    if args.extend is not None:
+        from .units import parse_duration
+
+        try:
+            extend = parse_duration(args.extend)
+        except ValueError as exc:
+            raise SceneError(f"--extend {args.extend!r}: {exc}") from None
+    sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart,
+                     overwrite=args.overwrite, force=args.force, extend=extend)
     t0 = time.perf_counter()
     print(f"siku {__version__}: {scene.cfg.title or path.name}: {sim.state.n} elements, "
           f"{sim.n_steps - sim.step_index} steps of {sim.dt:g} s", file=sys.stderr)
@@ -174,7 +183,14 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a scene (no argument: the shipped default scene)")
     r.add_argument("scene", nargs="?", help="scene file (TOML)")
     r.add_argument("--out", help="output file (overrides [output] file)")
-    r.add_argument("--restart", help="continue from the last snapshot of this output file")
+    r.add_argument("--restart", help="continue from the last complete snapshot of this output "
+                   "file (written to the same file unless --out names another)")
+    r.add_argument("--extend", metavar="DURATION",
+                   help="with --restart: run a finished run longer, e.g. --extend 6h")
+    r.add_argument("--force", action="store_true",
+                   help="with --restart: continue even though the scene differs from the file's")
+    r.add_argument("--overwrite", action="store_true",
+                   help="replace an existing output file (kept until the new one has a snapshot)")
     r.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     r.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a scene key, e.g. --set time.duration=6h (repeatable)")

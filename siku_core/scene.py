@@ -15,27 +15,47 @@ import typing
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    model_validator,
+)
 
 from .errors import SceneError
 from .params import format_validation_error
 from .units import parse_duration
 
 Duration = Annotated[float, BeforeValidator(parse_duration), Field(gt=0)]
+
+
+def _utc(value: _dt.datetime) -> _dt.datetime:
+    """Times are UTC: a TOML local date-time (no offset) is read as UTC, others converted."""
+    if value.tzinfo is None:
+        return value.replace(tzinfo=_dt.timezone.utc)
+    return value.astimezone(_dt.timezone.utc)
+
+
+#: a TOML date-time, in UTC (with or without an offset in the file)
+UTCDateTime = Annotated[_dt.datetime, AfterValidator(_utc)]
 FlagName = Literal["free", "static", "steady"]
 Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True)
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
 
 
 class TimeCfg(_Strict):
-    """``[time]``: start (optional TOML datetime, UTC), duration or end, and the step dt."""
+    """``[time]``: start (optional TOML datetime, UTC; a time without offset is read as UTC),
+    duration or end, and the step dt."""
 
-    start: _dt.datetime | None = None
+    start: UTCDateTime | None = None
     duration: Duration | None = None
-    end: _dt.datetime | None = None
+    end: UTCDateTime | None = None
     dt: Duration
 
     @model_validator(mode="after")
@@ -95,7 +115,7 @@ class PackCfg(_ElementCommon):
     ny: int = Field(ge=1)
     gap: float = Field(0.0, ge=0, lt=0.9, description="open share of each cell's width [1]")
     jitter: float = Field(0.0, ge=0, lt=0.45, description="vertex jitter, share of cell [1]")
-    seed: int | None = None
+    seed: int | None = Field(None, ge=0)
     left: FlagName | None = None
     right: FlagName | None = None
     left_velocity: Pair = Field(default_factory=lambda: [0.0, 0.0])
@@ -113,7 +133,7 @@ class MeshCfg(_ElementCommon):
         None, gt=0, description="minimum seed spacing at the coast [m]")
     coast_distance: float = Field(
         100_000.0, gt=0, description="distance from the coast where spacing is reached [m]")
-    seed: int | None = None
+    seed: int | None = Field(None, ge=0)
     land: Literal["global-land-mask", "none"] = "global-land-mask"
     land_removal: Literal["covered", "seed"] = "covered"
     landfast: list[Pair] | str | None = None
@@ -216,7 +236,7 @@ class OutputCfg(_Strict):
 class RunCfg(_Strict):
     """``[run]``: reproducibility and safety switches."""
 
-    seed: int = 0
+    seed: int = Field(0, ge=0)
     progress: bool | None = None
     nan_check_every: int = Field(1, ge=1)
     max_speed: float = Field(

@@ -10,6 +10,7 @@ One step (``ARCHITECTURE.md``)::
 from __future__ import annotations
 
 import datetime as _dt
+import json
 import math
 import time
 import warnings
@@ -22,13 +23,22 @@ import numpy as np
 from . import parallel
 from .diagnostics import all_finite, element_diagnostics, fastest
 from .elements import build_elements
+from . import __version__
 from .errors import NonFiniteError, SceneError, StabilityError
 from .interfaces import Component, Field, ForcingSource, Integrator, Writer
+from .limits import check_limits
+from .outputs import check_output_path, input_paths, restart_differences
 from .params import validate_params
 from .plugins import Registry, get_plugin_manager, get_registry, package_of
 from .scene import Scene, load_scene
 from .schedule import StepInterval
 from .state import DYNAMIC
+
+#: run-record keys a restart may change: how long, where and how often to write, safety switches
+RESTART_MAY_CHANGE = ("scene.time.duration", "scene.time.end", "scene.output", "scene.title",
+                      "scene.run.progress", "scene.run.nan_check_every", "scene.run.max_speed",
+                      "scene.run.dt_safety", "scene.run.allow_unstable_dt",
+                      "scene.elements.mesh.cache", "scene.elements.mesh.mesh_file")
 
 #: quantities checked by the NaN guard, in the order their failure is reported
 _GUARDED = ("F", "T", "V", "w", "q")
@@ -49,7 +59,10 @@ class Simulation:
     scene : a :class:`~siku_core.scene.Scene` or a path to a scene file.
     out : output file, overriding ``[output] file``; ``False`` writes nothing.
     progress : show a progress bar (``None``: as the scene says, else only on long runs).
-    restart : continue from the last snapshot in this output file.
+    restart : continue from the last complete snapshot in this output file; refused when the
+        scene differs from the run that wrote it (``force=True`` restarts anyway) or when that
+        run is complete (``extend`` [s] runs longer).
+    overwrite : replace an existing output file (kept whole until the new one holds a snapshot).
     registry : component registry (default: the process-wide one).
     """
 
@@ -61,11 +74,22 @@ class Simulation:
         progress: bool | None = None,
         restart: str | Path | None = None,
         registry: Registry | None = None,
+        overwrite: bool = False,
+        force: bool = False,
+        extend: float | None = None,
     ):
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
         self.scene = scene
         cfg = scene.cfg
+        check_limits(scene)
+        if extend is not None and restart is None:
+            raise SceneError("--extend continues a finished run: give the file with --restart")
+        self.output_path: Path | None = None
+        if out is not False:
+            self.output_path = Path(out) if out not in (None, True) else Path(cfg.output.file)
+            check_output_path(self.output_path, input_paths(scene), overwrite=overwrite,
+                              appending_to=Path(restart) if restart is not None else None)
         self.registry = registry or get_registry()
         self.pm = get_plugin_manager() if registry is None else None
         if self.pm is not None:
@@ -113,10 +137,8 @@ class Simulation:
         self._commit = True
 
         self.writers: list[Writer] = []
-        self.output_path: Path | None = None
-        if out is not False:
-            path = Path(out) if out not in (None, True) else Path(cfg.output.file)
-            self.output_path = path
+        if self.output_path is not None:
+            path = self.output_path
             w: Writer = self._component(
                 "writer", cfg.output.writer, cfg.output.params, "output"
             )  # type: ignore[assignment]
@@ -134,10 +156,11 @@ class Simulation:
         self.restarted_from: int | None = None
         self.restart_path: Path | None = None
         if restart is not None:
-            self._restart(Path(restart))
-        self._good = {k: getattr(self.state, k).copy() for k in DYNAMIC}
-        self._good_step = self.step_index
+            self._restart(Path(restart), force=force, extend=extend)
+        self._check_initial_state()
+        self._save_good()
         self._opened = False
+        self._guarded = -1
         self._force_time = 0.0
         self.timings: dict[str, float] = dict.fromkeys(PHASES, 0.0)
         self.timed_steps = 0
@@ -261,9 +284,11 @@ class Simulation:
     def _nan_guard(self) -> None:
         """Stop on a non-finite value or a speed above ``[run] max_speed`` (a diverging run).
 
-        The state goes back to the last good one, which the writers save before the error.
+        The state and every component's history go back to the last good snapshot (the last
+        one written, or due to be written when the run writes nothing): see :meth:`_fail`.
         """
         st = self.state
+        self._guarded = self.step_index
         for name in _GUARDED:
             arr = getattr(st, name)
             if not all_finite(arr.reshape(-1)):
@@ -276,8 +301,11 @@ class Simulation:
                 f"speed of element {i} is {np.sqrt(speed2):.3g} m/s, above [run] max_speed = "
                 f"{vmax:g} m/s: the run is diverging (is dt above the stable step?)"
             )
-        for k in DYNAMIC:
-            np.copyto(self._good[k], getattr(st, k))
+
+    def _save_good(self) -> None:
+        """Remember the current state and history as the last good snapshot."""
+        self._good = {k: getattr(self.state, k).copy() for k in DYNAMIC}
+        self._good_hist = self.history_arrays()
         self._good_step = self.step_index
 
     def _fail(self, what: str) -> None:
@@ -285,13 +313,27 @@ class Simulation:
         step = self.step_index
         for k in DYNAMIC:
             getattr(st, k)[:] = self._good[k]
+        self.set_history_arrays(self._good_hist)
         self.step_index = self._good_step
         saved = ""
         if self._opened and self.writers:
-            for wr in self.writers:
-                wr.write_state(self)
-            saved = f"; last good state (step {self._good_step}) saved to {self.output_path}"
+            saved = (f"; {self.output_path} holds the snapshots to the last good state "
+                     f"(step {self._good_step}, t = {self.time:g} s)")
         raise NonFiniteError(f"{what} at step {step} (t = {step * self.dt:g} s){saved}")
+
+    def _check_initial_state(self) -> None:
+        """Refuse a run whose state is not finite before step 1 (a NaN velocity or spin in the
+        scene, or in a restart file)."""
+        st = self.state
+        for name, what in (("q", "position"), ("V", "velocity"), ("w", "spin")):
+            arr = getattr(st, name).reshape(st.n, -1)
+            bad = ~np.isfinite(arr).all(axis=1)
+            if bad.any():
+                i = int(np.argmax(bad))
+                src = (f"restart file {self.restart_path}" if self.restart_path is not None
+                       else self.scene.where("elements"))
+                raise SceneError(f"{src}: element {i} starts with a non-finite {what} "
+                                 f"{arr[i].tolist()}; the run needs finite numbers")
 
     def diagnostics(self) -> dict[str, Any]:
         st = self.state
@@ -311,12 +353,56 @@ class Simulation:
         return out
 
     # ------------------------------------------------------------------ running
-    def _restart(self, path: Path) -> None:
+    def run_record(self) -> dict[str, Any]:
+        """What the run's results depend on: the effective scene (after overrides), every
+        component's parameters (defaults included), the versions of the packages that provided
+        them, the seed and ``dt`` [s]. Writers store it; a restart compares it with its own."""
+        comps: dict[str, Any] = {}
+        for k, c in enumerate(self.components()):
+            if c.kind != "writer":
+                comps[f"{c.kind}{k}_{c.name}"] = c.describe()
+        if self.contacts is not None:
+            comps["contacts"] = self.contacts.describe()
+        return {"scene": self.scene.cfg.model_dump(mode="json"), "components": comps,
+                "versions": {"siku": __version__, **self.plugin_versions()},
+                "seed": self.seed, "dt": self.dt}
+
+    def _restart(self, path: Path, force: bool = False, extend: float | None = None) -> None:
         writer_cls = type(self.writers[0]) if self.writers else self.registry.get(
             "writer", self.scene.cfg.output.writer
         )
         data = writer_cls.read_restart(path, self)  # type: ignore[attr-defined]
         self.restarted_from = data["step"]
+        record = data.get("record")
+        if record is not None:
+            stored = json.loads(json.dumps(record, default=str))
+            mine = json.loads(json.dumps(self.run_record(), default=str))
+            diffs = restart_differences(stored, mine, RESTART_MAY_CHANGE)
+            if diffs and not force:
+                more = f" and {len(diffs) - 4} more" if len(diffs) > 4 else ""
+                raise SceneError(
+                    f"{path}: restart refused: this scene differs from the run that wrote the "
+                    f"file ({'; '.join(diffs[:4])}{more}); restart with the same scene, or pass "
+                    "--force to continue anyway (results will not match an uninterrupted run)")
+            if diffs:
+                warnings.warn(f"{path}: restarting with a different scene (--force): "
+                              f"{'; '.join(diffs)}", stacklevel=2)
+        if extend is not None:
+            if not (math.isfinite(extend) and extend > 0):
+                raise SceneError(f"--extend {extend!r}: give a positive duration, e.g. 6h")
+            stored_steps = int(data.get("n_steps", self.n_steps))
+            self.n_steps = stored_steps + max(1, round(extend / self.dt))
+            check_limits(self.scene, n_steps=self.n_steps)
+            note = (f"\n# siku run --extend {extend:g} s: continued from step {data['step']} "
+                    f"of {stored_steps} to step {self.n_steps} (t = {self.n_steps * self.dt:g} "
+                    "s)\n")
+            self.scene = Scene(self.scene.cfg, self.scene.text.rstrip("\n") + "\n" + note,
+                               self.scene.path)
+        if self.step_index >= self.n_steps:
+            raise SceneError(
+                f"{path}: the run is already complete (step {self.step_index} of "
+                f"{self.n_steps}, t = {self.time:g} s); to run longer, add --extend DURATION "
+                "(e.g. --extend 6h)")
 
     def open_outputs(self) -> None:
         if self._opened:
@@ -324,20 +410,27 @@ class Simulation:
         for w in self.writers:
             w.open(self)
         self._opened = True
-        if self.restarted_from is None:
-            self._write(force=True)
+        # the initial snapshot (a restart's first row, unless it continues the same file)
+        self._write(force=True, diagnostics=self.restarted_from is None)
 
-    def _write(self, force: bool = False) -> None:
+    def _write(self, force: bool = False, diagnostics: bool = True) -> None:
+        """Write what the schedules ask for at this step. A snapshot is the last good state:
+        the guard checks it first (if it has not at this step), then it is remembered."""
         t0 = time.perf_counter()
         k, last = self.step_index, self.n_steps
+        snapshot = force or self.state_schedule.due(k, last)
+        if snapshot and self._guarded != k:
+            self._nan_guard()
         if self.writers:
-            if force or self.diag_schedule.due(k, last):
+            if diagnostics and (force or self.diag_schedule.due(k, last)):
                 d = self.diagnostics()
                 for w in self.writers:
                     w.write_diagnostics(self, d)
-            if force or self.state_schedule.due(k, last):
+            if snapshot:
                 for w in self.writers:
                     w.write_state(self)
+        if snapshot:
+            self._save_good()
         self.timings["output"] += time.perf_counter() - t0
 
     def run(self, steps: int | None = None) -> "Simulation":

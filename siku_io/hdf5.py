@@ -1,32 +1,54 @@
-"""HDF5 output (h5py) and bit-for-bit restart.
+"""HDF5 output (h5py) that a crash, a kill or a full disk cannot corrupt, and bit-for-bit
+restart.
 
-File layout::
+File layout (``layout`` = 2)::
 
-    /                  attrs: siku_version, title, scene_file, dt [s], start (ISO or ""),
+    /                  attrs: siku_version, layout, title, scene_file, scene_sha256, dt [s],
+                              start (ISO or ""), n_steps (steps the scene asks for), seed,
                               n_elements, radius [m], created (UTC ISO)
-    /scene             the scene file text, verbatim
+    /scene             the scene file text, verbatim (with --set and --extend overrides noted)
+    /run_record        JSON: what the run depends on (effective scene, components with every
+                       parameter, versions): a restart compares it with its own
     /plugins           attrs: package -> version of every package that provided a component
     /components        JSON: name and parameters of every component of the run
     /geometry          vert_offsets, verts [m], m [kg], I [kg m²], area [m²], thickness [m],
                        radius [m], flags, material, floe (floe index of each element, -1: none)
-    /states            step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N) [rad/s],
-                       lat, lon (T,N) [deg], fields/NAME (T,N) per-element quantities for
-                       maps (speed [m/s], damage [1]): the snapshots
+    /states            the snapshots: step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N)
+                       [rad/s], lat, lon (T,N) [deg], fields/NAME (T,N) per-element quantities
+                       for maps (speed [m/s], damage [1]), history/KEY/NAME (T,...) every
+                       component's history (joint state, break modes): a restart reads the
+                       last row
     /diagnostics       step, time [s] and one series per diagnostic
     /breaks            one row per broken joint, in the order they broke: time [s] (model
                        time of the state that broke it), joint, i, j (element indices), lat,
-                       lon [deg] (joint midpoint when written), mode (attrs: code -> name:
-                       strain, tension, shear, compression, external); written with each
-                       snapshot
-    /restart           the latest snapshot in full (q, V, w, step, and every component's
-                       history arrays under /restart/components/NAME): what a restart reads
+                       lon [deg] (joint midpoint when written), mode (attrs: code -> name)
 
-Every write is flushed, so a run that stops early leaves a readable file.
+How nothing is lost (``docs/explanation/outputs.md``):
+
+* The file is built beside the target (``.NAME.PID.partial``) and put in place atomically once
+  it holds its first snapshot; an existing file is replaced only when the engine allows it
+  (``--overwrite``, or a restart continuing the same file, which copies the earlier rows).
+* The file is written in HDF5's single-writer/multiple-reader (SWMR) mode, whose ordered
+  flushes keep the file consistent on disk after every write, so a kill at any moment leaves a
+  file that opens. A snapshot is committed in two flushes: first every dataset's new row, then
+  the new row of ``/states/step``. **The number of complete snapshots is the length of
+  ``/states/step``** (likewise ``/diagnostics/step`` and ``/breaks/time``); after a kill another
+  dataset may hold one more row, itself real data of the next snapshot. :func:`open_results`
+  and :func:`n_snapshots` apply this rule.
+* A write that fails (full disk, quota, file-size limit) stops the run with a one-line error
+  naming the last snapshot safely on disk; nothing more is written to the file, and its
+  "open for writing" mark is cleared so that it opens everywhere.
+* A killed run leaves that mark set (HDF5 then refuses a plain ``h5py.File(path)``);
+  :func:`open_results` (used by every siku command) clears it when no process holds the file,
+  as ``h5clear -s`` does; ``h5py.File(path, "r", swmr=True)`` reads such a file as it is.
 """
 from __future__ import annotations
 
 import datetime as _dt
+import hashlib
 import json
+import os
+import struct
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -35,81 +57,282 @@ import numpy as np
 from siku_core import DataError, Param, __version__, hookimpl
 from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Writer
+from siku_core.outputs import RunLock, fsync_path, in_use, is_disk_full, partial_path, publish
 
+LAYOUT = 2
 _GEOMETRY = ("vert_offsets", "verts", "m", "I", "area", "thickness", "radius", "flags",
              "material", "floe")
+_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: files given up after a failed write, kept open (on /dev/null) until the process ends
+_SEALED: list = []
 
 
-def _append(group, name: str, value: np.ndarray, compression: str | None) -> None:
-    value = np.asarray(value)
-    if name not in group:
-        group.create_dataset(
-            name, data=value[None], maxshape=(None, *value.shape),
-            chunks=(1, *value.shape) if value.ndim else (256,), compression=compression,
-        )
-    else:
-        ds = group[name]
-        ds.resize(ds.shape[0] + 1, axis=0)
-        ds[-1] = value
+# ---------------------------------------------------------------------------- reading
+def _lookup3(data: bytes) -> int:
+    """Bob Jenkins' lookup3 ``hashlittle`` with initial value 0: the checksum of HDF5 metadata
+    (HDF5 file format specification, "Checksum")."""
+    m = 0xFFFFFFFF
+
+    def rot(x: int, k: int) -> int:
+        return ((x << k) | (x >> (32 - k))) & m
+
+    n = len(data)
+    a = b = c = (0xDEADBEEF + n) & m
+    i = 0
+    while n > 12:
+        a = (a + int.from_bytes(data[i:i + 4], "little")) & m
+        b = (b + int.from_bytes(data[i + 4:i + 8], "little")) & m
+        c = (c + int.from_bytes(data[i + 8:i + 12], "little")) & m
+        a = (a - c) & m; a ^= rot(c, 4); c = (c + b) & m  # noqa: E702
+        b = (b - a) & m; b ^= rot(a, 6); a = (a + c) & m  # noqa: E702
+        c = (c - b) & m; c ^= rot(b, 8); b = (b + a) & m  # noqa: E702
+        a = (a - c) & m; a ^= rot(c, 16); c = (c + b) & m  # noqa: E702
+        b = (b - a) & m; b ^= rot(a, 19); a = (a + c) & m  # noqa: E702
+        c = (c - b) & m; c ^= rot(b, 4); b = (b + a) & m  # noqa: E702
+        n -= 12
+        i += 12
+    if n == 0:
+        return c
+    tail = data[i:i + n] + bytes(12 - n)
+    a = (a + int.from_bytes(tail[0:4], "little")) & m
+    b = (b + int.from_bytes(tail[4:8], "little")) & m
+    c = (c + int.from_bytes(tail[8:12], "little")) & m
+    c ^= b; c = (c - rot(b, 14)) & m  # noqa: E702
+    a ^= c; a = (a - rot(c, 11)) & m  # noqa: E702
+    b ^= a; b = (b - rot(a, 25)) & m  # noqa: E702
+    c ^= b; c = (c - rot(b, 16)) & m  # noqa: E702
+    a ^= c; a = (a - rot(c, 4)) & m  # noqa: E702
+    b ^= a; b = (b - rot(a, 14)) & m  # noqa: E702
+    c ^= b; c = (c - rot(b, 24)) & m  # noqa: E702
+    return c
 
 
-def _extend(group, name: str, values: np.ndarray) -> None:
-    """Append the rows ``values`` to the 1-D dataset ``name`` (created on first use)."""
-    values = np.asarray(values)
-    if name not in group:
-        group.create_dataset(name, data=values, maxshape=(None,), chunks=(1024,))
-    elif len(values):
-        ds = group[name]
+def clear_open_mark(path: str | Path) -> bool:
+    """Clear the "open for writing" flags a killed writer leaves in the superblock of an HDF5
+    file (format version 2 or 3 superblock at offset 0), as ``h5clear -s`` does; ``False`` if
+    there was nothing to clear. Refused while another process holds the file."""
+    import fcntl
+
+    path = Path(path)
+    fd = os.open(path, os.O_RDWR)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise DataError(f"{path}: is being written by another process") from None
+        head = os.pread(fd, 48, 0)
+        if len(head) < 48 or head[:8] != _SIGNATURE or head[8] not in (2, 3) or head[9] != 8:
+            raise DataError(f"{path}: not an HDF5 file with a version 2/3 superblock")
+        if struct.unpack("<I", head[44:48])[0] != _lookup3(head[:44]):
+            raise DataError(f"{path}: corrupt HDF5 superblock (checksum)")
+        if head[11] == 0 and os.fstat(fd).st_size >= struct.unpack("<Q", head[28:36])[0]:
+            return False
+        eof = struct.unpack("<Q", head[28:36])[0]
+        size = os.fstat(fd).st_size
+        new = bytearray(head)
+        if size < eof:  # a block HDF5 allotted but could not write (full disk): nothing
+            new[28:36] = struct.pack("<Q", size)  # written refers to it, so end the file here
+        new[11] = 0
+        new[44:48] = struct.pack("<I", _lookup3(bytes(new[:44])))
+        os.pwrite(fd, bytes(new), 0)
+        os.fsync(fd)
+        return True
+    finally:
+        os.close(fd)
+
+
+def open_results(path: str | Path):
+    """Open a siku HDF5 output file for reading (an ``h5py.File``).
+
+    A file a killed run left behind is opened after :func:`clear_open_mark`; a file a run is
+    still writing is opened in SWMR read mode. Use :func:`n_snapshots` for the number of
+    complete snapshots."""
+    import h5py
+
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path}: output file not found")
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        if "already open for write" not in str(exc):
+            raise DataError(f"{path}: not a readable HDF5 file: {exc}") from None
+    try:
+        if in_use(path):
+            return h5py.File(path, "r", swmr=True)
+        clear_open_mark(path)
+        return h5py.File(path, "r")
+    except OSError as exc:
+        raise DataError(f"{path}: not a readable HDF5 file: {exc}") from None
+
+
+def n_snapshots(f) -> int:
+    """Number of complete snapshots in an open output file: the length of ``/states/step``."""
+    return int(f["states/step"].shape[0]) if "states" in f and "step" in f["states"] else 0
+
+
+def _check_layout(f, path: Path) -> None:
+    if "states" not in f or "step" not in f["states"]:
+        raise DataError(f"{path}: no element states (is it a siku output file?)")
+    if int(f.attrs.get("layout", 1)) != LAYOUT:
+        raise DataError(f"{path}: written by an older siku (file layout "
+                        f"{int(f.attrs.get('layout', 1))}, this version reads {LAYOUT}); rerun "
+                        "the scene to restart from it")
+
+
+def read_record(path: str | Path) -> dict:
+    """What an output file says about its run: ``record`` (the run record), ``n_steps``,
+    ``step`` (of its last complete snapshot), ``dt`` [s], ``scene`` (text)."""
+    path = Path(path)
+    with open_results(path) as f:
+        _check_layout(f, path)
+        n = n_snapshots(f)
+        if n == 0:
+            raise DataError(f"{path}: holds no complete snapshot to restart from")
+        return {"record": json.loads(f["run_record"][()]), "n_steps": int(f.attrs["n_steps"]),
+                "step": int(f["states/step"][n - 1]), "dt": float(f.attrs["dt"]),
+                "scene": f["scene"][()].decode() if isinstance(f["scene"][()], bytes)
+                else str(f["scene"][()])}
+
+
+def last_snapshot(path: str | Path) -> dict[str, Any]:
+    """The last complete snapshot of an output file: ``step``, ``time`` [s], ``q``, ``V``
+    [m/s], ``w`` [rad/s] and ``history`` (``{component: {name: array}}``), what a restart
+    reads."""
+    path = Path(path)
+    with open_results(path) as f:
+        _check_layout(f, path)
+        n = n_snapshots(f)
+        if n == 0:
+            raise DataError(f"{path}: holds no complete snapshot")
+        s = f["states"]
+        out: dict[str, Any] = {k: s[k][n - 1] for k in ("q", "V", "w")}
+        out["step"] = int(s["step"][n - 1])
+        out["time"] = float(s["time"][n - 1])
+        out["history"] = {key: {name: ds[n - 1] for name, ds in g.items()}
+                          for key, g in s["history"].items()} if "history" in s else {}
+        return out
+
+
+# ---------------------------------------------------------------------------- writing
+def _create(group, name: str, row: np.ndarray, compression: str | None):
+    """An empty dataset growing by rows shaped like ``row``."""
+    row = np.asarray(row)
+    return group.create_dataset(
+        name, shape=(0, *row.shape), maxshape=(None, *row.shape), dtype=row.dtype,
+        chunks=(1, *row.shape) if row.ndim else (256,),
+        compression=compression if row.ndim else None,
+    )
+
+
+def _grow(ds, value) -> None:
+    n = ds.shape[0]
+    ds.resize(n + 1, axis=0)
+    ds[n] = value
+
+
+def _extend(ds, values: np.ndarray) -> None:
+    if len(values):
         n = ds.shape[0]
         ds.resize(n + len(values), axis=0)
         ds[n:] = values
 
 
-def _replace(group, name: str, value: np.ndarray) -> None:
-    if name in group:
-        del group[name]
-    group.create_dataset(name, data=value)
-
-
 class HDF5Writer(Writer):
-    """Element states, diagnostics, scene text and plugin versions in one HDF5 file."""
+    """Element states, diagnostics, breaks, scene text and plugin versions in one HDF5 file,
+    written so that no fault corrupts it (module docstring)."""
 
     name = "hdf5"
     params = {
-        "compression": Param("gzip", "", "dataset compression", type=str,
+        "compression": Param("none", "", "compression of the per-snapshot datasets (gzip, lzf: "
+                             "smaller files, slower writes)", type=str,
                              choices=("gzip", "lzf", "none")),
     }
 
+    # -------------------------------------------------------------- opening
     def open(self, sim) -> None:
         import h5py
 
-        path = Path(self.path)
-        # a second run() of the same simulation reopens the file this writer created
-        reopen = path.exists() and getattr(self, "_created", None) == path.resolve()
-        append = reopen or sim.restarted_from is not None and path.exists() and getattr(
-            sim, "restart_path", None
-        ) is not None and Path(sim.restart_path).resolve() == path.resolve()
-        try:
-            if path.parent and not path.parent.exists():
-                path.parent.mkdir(parents=True, exist_ok=True)
-            self.f = h5py.File(path, "a" if append else "w")
-        except OSError as exc:
-            raise DataError(f"{path}: cannot open output file: {exc}") from None
+        self.target = Path(self.path)
+        # a second run() of the same simulation continues the file this writer made
+        again = getattr(self, "_ino", None)
+        self._again = again is not None and self.target.exists() and (
+            self.target.stat().st_ino == again)
+        self.partial = partial_path(self.target)
+        self.replace = self.target.exists()  # the engine allowed it (--overwrite or restart)
+        self.published = False
+        self.lock = None
+        self.f = None
         self.comp = None if self.p["compression"] == "none" else self.p["compression"]
+        self._last_state = None  # (step, time) of the last committed snapshot
+        self._last_diag = None
+        try:
+            self.target.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise DataError(f"{self.target}: cannot create its folder: {exc}") from None
+        self._check_space(sim)
+        try:
+            self.f = h5py.File(self.partial, "w", libver="latest")
+            self._layout(sim)
+            self._copied = self._copy_restart(sim)
+            self.f.swmr_mode = True
+            self.lock = RunLock(self.partial)
+        except (OSError, RuntimeError, ValueError) as exc:
+            self._discard(close=False)
+            what = "disk full" if is_disk_full(exc) else f"cannot create the output file: {exc}"
+            raise DataError(f"{self.target}: {what}; nothing written (an existing file is "
+                            "untouched)") from None
+        if self._copied:  # the file already holds real snapshots
+            self._publish()
+        self._ino = os.stat(self.partial if not self.published else self.target).st_ino
+
+    def _check_space(self, sim) -> None:
+        """Refuse to start when the disk (or the file-size limit) cannot hold the file with its
+        first snapshot, and warn when it cannot hold the whole run."""
+        import resource
+        import shutil
+        import warnings
+
+        rows = self._state_rows(sim)
+        row = sum(np.asarray(v).nbytes for v in rows.values()) + 8
+        n_diag = len(sim.diagnostics())
+        geometry = sum(np.asarray(getattr(sim.state, k)).nbytes for k in _GEOMETRY)
+        series = n_diag + 8 + sum(np.ndim(v) == 0 for v in rows.values())  # 2 KiB chunks
+        first = 32768 + 2560 * series + 512 * (len(rows) + len(_GEOMETRY)) + geometry + row + len(
+            sim.scene.text)
+        snaps = sim.n_steps // max(sim.state_schedule.every, 1) + 2
+        diags = sim.n_steps // max(sim.diag_schedule.every, 1) + 2
+        whole = first + snaps * row + diags * 8 * n_diag
+        free = shutil.disk_usage(self.target.parent).free
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        if limit != resource.RLIM_INFINITY:
+            free = min(free, limit)
+        if first > free:
+            raise DataError(f"{self.target}: disk full: {free} bytes free (or allowed per file), "
+                            f"the file needs about {first} to hold its first snapshot; nothing "
+                            "written (an existing file is untouched)")
+        if whole > free:
+            warnings.warn(f"{self.target}: the run will write about {whole / 1e6:.3g} MB but only "
+                          f"{free / 1e6:.3g} MB are free; it stops with a message naming the last "
+                          "snapshot on disk if the disk fills", stacklevel=2)
+
+    def _layout(self, sim) -> None:
         f = self.f
-        if append:
-            self._truncate(sim.step_index if reopen else sim.restarted_from)
-            return
-        self._created = path.resolve()
+        st = sim.state
         f.attrs["siku_version"] = __version__
+        f.attrs["layout"] = LAYOUT
         f.attrs["title"] = sim.scene.cfg.title
         f.attrs["scene_file"] = str(sim.scene.path or "")
+        f.attrs["scene_sha256"] = hashlib.sha256(sim.scene.text.encode()).hexdigest()
         f.attrs["dt"] = sim.dt
         f.attrs["start"] = sim.start.isoformat() if sim.start else ""
-        f.attrs["n_elements"] = sim.state.n
+        f.attrs["n_steps"] = sim.n_steps
+        f.attrs["seed"] = sim.seed
+        f.attrs["n_elements"] = st.n
         f.attrs["radius"] = sim.radius
         f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat()
         f.create_dataset("scene", data=sim.scene.text)
+        f.create_dataset("run_record", data=json.dumps(sim.run_record(), default=str))
         g = f.create_group("plugins")
         for pkg, ver in sim.plugin_versions().items():
             g.attrs[pkg] = ver
@@ -117,112 +340,240 @@ class HDF5Writer(Writer):
             [dict(kind=c.kind, **c.describe()) for c in sim.components()], default=str))
         geo = f.create_group("geometry")
         for k in _GEOMETRY:
-            geo.create_dataset(k, data=getattr(sim.state, k))
-        f.create_group("states")
-        f.create_group("diagnostics")
+            geo.create_dataset(k, data=getattr(st, k))
+        s = f.create_group("states")
+        self.rows = {}
+        for name, row in self._state_rows(sim, fields=True).items():
+            self.rows[name] = _create(s, name, row, self.comp)
+        self.step_ds = _create(s, "step", np.int64(0), None)
+        self.diag = {}
+        dg = f.create_group("diagnostics")
+        for k, v in sim.diagnostics().items():
+            self.diag[k] = _create(dg, k, np.asarray(v), None)
+        self.breaks = None
         if sim.contacts is not None and sim.contacts.n_joints:
             from siku_core.contacts import BREAK_MODES
 
             b = f.create_group("breaks")
             for code, name in BREAK_MODES.items():
                 b.attrs[f"mode_{code}"] = name
-        f.flush()
+            cols = {"time": np.float64(0), "joint": np.int64(0), "i": np.int64(0),
+                    "j": np.int64(0), "lat": np.float64(0), "lon": np.float64(0),
+                    "mode": np.int8(0)}
+            self.breaks = {k: b.create_dataset(k, shape=(0,), maxshape=(None,), dtype=v.dtype,
+                                               chunks=(256,)) for k, v in cols.items()}
 
-    def _truncate(self, step: int) -> None:
-        """Drop rows written after ``step`` (from a run that went on past its last restart)."""
-        if "breaks" in self.f and "time" in self.f["breaks"]:
-            b = self.f["breaks"]
-            keep = int(np.count_nonzero(b["time"][:] < step * float(self.f.attrs["dt"])))
-            for d in b.values():
-                d.resize(keep, axis=0)
-        for gname in ("states", "diagnostics"):
-            g = self.f[gname]
-            if "step" not in g:
-                continue
-            keep = int(np.searchsorted(g["step"][:], step, side="right"))
-            for k, ds in g.items():
-                for d in ds.values() if hasattr(ds, "values") else (ds,):
-                    d.resize(keep, axis=0)
-
-    def write_state(self, sim) -> None:
+    def _state_rows(self, sim, fields: bool = True) -> dict[str, np.ndarray]:
+        """Every per-snapshot dataset's row for the current state, by path in ``/states``."""
         st = sim.state
-        g = self.f["states"]
-        if "step" in g and g["step"].shape[0] and g["step"][-1] == sim.step_index:
-            return
         lat, lon = latlon_of(st.q)
-        for name, val in (("step", np.int64(sim.step_index)), ("time", sim.time), ("q", st.q),
-                          ("V", st.V), ("w", st.w), ("lat", np.degrees(lat)),
-                          ("lon", np.degrees(lon))):
-            _append(g, name, val, self.comp if np.ndim(val) else None)
-        fields = g.require_group("fields")
+        rows = {"time": np.float64(sim.time), "q": st.q, "V": st.V, "w": st.w,
+                "lat": np.degrees(lat), "lon": np.degrees(lon)}
         for name, val in sim.element_fields().items():
-            _append(fields, name, val, self.comp)
-        self._write_breaks(sim)
-        r = self.f.require_group("restart")
-        for k in ("q", "V", "w"):
-            _replace(r, k, getattr(st, k))
-        r.attrs["step"] = sim.step_index
-        r.attrs["time"] = sim.time
-        comps = r.require_group("components")
+            rows[f"fields/{name}"] = np.asarray(val)
         for key, arrays in sim.history_arrays().items():
-            cg = comps.require_group(key)
             for name, arr in arrays.items():
-                _replace(cg, name, arr)
-        self.f.flush()
+                rows[f"history/{key}/{name}"] = np.asarray(arr)
+        return rows
 
-    def _write_breaks(self, sim) -> None:
-        cm = sim.contacts
-        if cm is None or not cm.n_joints or "breaks" not in self.f:
+    def _copy_restart(self, sim) -> bool:
+        """Continuing the file a restart read: copy its complete snapshots, the diagnostics up
+        to the restart step and the breaks before it. ``False`` when writing another file."""
+        if self._again:
+            src, step = self.target, sim.step_index
+        else:
+            src = getattr(sim, "restart_path", None)
+            if sim.restarted_from is None or src is None or not self.target.exists():
+                return False
+            if not os.path.samefile(src, self.target):
+                return False
+            step = sim.restarted_from
+        with open_results(src) as g:
+            n = n_snapshots(g)
+            s = g["states"]
+            names = {k for k in _leaves(s) if k != "step"}
+            if names != set(self.rows):
+                raise DataError(
+                    f"{self.target}: cannot continue this file in place: its snapshots hold "
+                    f"{', '.join(sorted(names - set(self.rows))) or 'no'} extra and "
+                    f"{', '.join(sorted(set(self.rows) - names)) or 'no'} missing datasets for "
+                    "this scene; write the continued run to another --out")
+            for name, ds in self.rows.items():
+                _extend(ds, s[name][:n])
+            _extend(self.step_ds, s["step"][:n])
+            d = g["diagnostics"]
+            if "step" in d:
+                keep = int(np.searchsorted(d["step"][:d["step"].shape[0]], step, side="right"))
+                for k, ds in self.diag.items():
+                    if k in d:
+                        _extend(ds, d[k][:keep])
+                if keep:
+                    self._last_diag = int(d["step"][keep - 1])
+            if self.breaks is not None and "breaks" in g:
+                b = g["breaks"]
+                t = b["time"][:b["time"].shape[0]]
+                keep = int(np.count_nonzero(t < step * sim.dt))
+                for k, ds in self.breaks.items():
+                    _extend(ds, b[k][:keep])
+        self._last_state = (step, step * sim.dt)
+        return True
+
+    # -------------------------------------------------------------- writing
+    def write_state(self, sim) -> None:
+        if self._last_state is not None and self._last_state[0] == sim.step_index:
             return
-        rows = cm.take_breaks()
-        g = self.f["breaks"]
-        for name, val in rows.items():
-            _extend(g, name, val)
+        data = [(self.rows[k], v) for k, v in self._state_rows(sim).items() if k in self.rows]
+        markers = [(self.step_ds, np.int64(sim.step_index))]
+        cm = sim.contacts
+        if self.breaks is not None and cm is not None:
+            rows = cm.take_breaks()
+            data += [(self.breaks[k], v) for k, v in rows.items() if k != "time"]
+            markers.insert(0, (self.breaks["time"], rows["time"]))
+        self._commit(data, markers, f"the snapshot at step {sim.step_index}")
+        self._last_state = (sim.step_index, sim.time)
+        if not self.published:
+            self._publish()
 
     def write_diagnostics(self, sim, diag: Mapping[str, Any]) -> None:
-        g = self.f["diagnostics"]
-        if "step" in g and g["step"].shape[0] and g["step"][-1] == diag["step"]:
+        if self._last_diag == diag["step"]:
             return
-        for k, v in diag.items():
-            _append(g, k, np.asarray(v), None)
-        self.f.flush()
+        data = [(self.diag[k], np.asarray(v)) for k, v in diag.items()
+                if k in self.diag and k != "step"]
+        self._commit(data, [(self.diag["step"], np.asarray(diag["step"]))],
+                     f"the diagnostics at step {diag['step']}")
+        self._last_diag = diag["step"]
+
+    def _commit(self, data, markers, what: str) -> None:
+        """Write the rows ``data`` and flush, then the ``markers`` (the datasets whose length
+        counts complete rows) and flush: a kill in between leaves the rows uncounted."""
+        try:
+            for phase in (data, markers):
+                for ds, v in phase:
+                    if np.ndim(v) == 1 and ds.ndim == 1:
+                        _extend(ds, v)
+                    else:
+                        _grow(ds, v)
+                self.f.flush()
+        except (OSError, RuntimeError, ValueError) as exc:
+            self._abandon(exc, what)
+
+    def _publish(self) -> None:
+        publish(self.partial, self.target, replace=self.replace)
+        self.published = True
+        fsync_path(self.target)
+        self._ino = self.target.stat().st_ino
+
+    # -------------------------------------------------------------- faults and closing
+    def _seal(self, close: bool = True) -> None:
+        """Stop every further write to the file: HDF5's descriptor now points at ``/dev/null``,
+        so closing the file (which flushes what HDF5 still holds) writes nothing to it and
+        HDF5 closes cleanly."""
+        f = self.f
+        if f is None or not f.id.valid:
+            return
+        try:
+            fd = f.id.get_vfd_handle()
+            null = os.open(os.devnull, os.O_RDWR)
+            os.dup2(null, fd)
+            os.close(null)
+        except (OSError, ValueError, TypeError):
+            pass
+        if close:
+            try:
+                f.close()
+            except Exception:  # noqa: BLE001 - the close is expected to fail on the sealed file
+                pass
+        else:  # HDF5 may be in no state to close it (a failed switch to SWMR mode): keep it
+            _SEALED.append(f)
+        self.f = None
+
+    def _abandon(self, exc: BaseException, what: str) -> None:
+        self._seal()
+        if self.lock is not None:
+            self.lock.release()
+            self.lock = None
+        why = "disk full" if is_disk_full(exc) else f"write failed ({exc})"
+        if not self.published:
+            self._discard()
+            raise DataError(f"{self.target}: {why} while writing {what}; nothing written (an "
+                            "existing file is untouched)") from None
+        try:
+            clear_open_mark(self.target)
+        except (OSError, DataError):
+            pass
+        step, t = self._last_state if self._last_state else (None, None)
+        held = (f"holds complete snapshots to step {step} (t = {t:g} s); continue with "
+                f"--restart {self.target}") if step is not None else "holds no snapshot"
+        raise DataError(f"{self.target}: {why} while writing {what}; the file {held}") from None
+
+    def _discard(self, close: bool = True) -> None:
+        self._seal(close)
+        try:
+            os.unlink(self.partial)
+        except OSError:
+            pass
 
     def close(self, sim) -> None:
         f = getattr(self, "f", None)
         if f is not None and f.id.valid:
-            f.close()
+            try:
+                f.close()
+            except (OSError, RuntimeError) as exc:
+                self._abandon(exc, "the end of the file")
+        self.f = None
+        if not getattr(self, "published", True):
+            self._discard()  # stopped before its first new snapshot: the old file stays
+        elif hasattr(self, "target"):
+            fsync_path(self.target)
+        if getattr(self, "lock", None) is not None:
+            self.lock.release()
+            self.lock = None
 
+    # -------------------------------------------------------------- restart
     @classmethod
     def read_restart(cls, path, sim) -> dict:
-        """Load the latest snapshot of ``path`` into ``sim`` (state and component history)."""
-        import h5py
-
+        """Load the last complete snapshot of ``path`` into ``sim`` (state and every
+        component's history); returns ``step`` and the file's ``record`` and ``n_steps``."""
         path = Path(path)
         if not path.is_file():
             raise DataError(f"{path}: restart file not found")
         try:
-            with h5py.File(path, "r") as f:
-                if "restart" not in f:
-                    raise DataError(f"{path}: no restart data (was it written by siku?)")
-                r = f["restart"]
-                n = r["q"].shape[0]
-                if n != sim.state.n:
+            with open_results(path) as f:
+                _check_layout(f, path)
+                n = n_snapshots(f)
+                if n == 0:
+                    raise DataError(f"{path}: holds no complete snapshot to restart from")
+                s = f["states"]
+                N = s["q"].shape[1]
+                if N != sim.state.n:
                     raise DataError(
-                        f"{path}: restart has {n} elements but the scene builds {sim.state.n}"
+                        f"{path}: restart has {N} elements but the scene builds {sim.state.n}"
                     )
                 for k in ("q", "V", "w"):
-                    getattr(sim.state, k)[...] = r[k][...]
-                step = int(r.attrs["step"])
-                hist = {}
-                if "components" in r:
-                    for key, g in r["components"].items():
-                        hist[key] = {name: ds[...] for name, ds in g.items()}
+                    getattr(sim.state, k)[...] = s[k][n - 1]
+                step = int(s["step"][n - 1])
+                hist: dict[str, dict[str, np.ndarray]] = {}
+                if "history" in s:
+                    for key, g in s["history"].items():
+                        hist[key] = {name: ds[n - 1] for name, ds in g.items()}
+                record = json.loads(f["run_record"][()])
+                n_steps = int(f.attrs["n_steps"])
         except OSError as exc:
             raise DataError(f"{path}: cannot read restart file: {exc}") from None
         sim.step_index = step
         sim.restart_path = path
         sim.set_history_arrays(hist)
-        return {"step": step}
+        return {"step": step, "record": record, "n_steps": n_steps}
+
+
+def _leaves(group, prefix: str = "") -> list[str]:
+    out = []
+    for k, v in group.items():
+        if hasattr(v, "items"):
+            out.extend(_leaves(v, f"{prefix}{k}/"))
+        else:
+            out.append(prefix + k)
+    return out
 
 
 @hookimpl

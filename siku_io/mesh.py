@@ -747,16 +747,22 @@ def read_contour(path: str | Path) -> list[np.ndarray]:
         except ImportError:
             raise ImportError(f"{p}: reading shapefiles needs the package pyshp") from None
         polys = []
-        with shapefile.Reader(str(p)) as sf:
-            for shp in sf.shapes():
-                pts = np.asarray(shp.points, dtype=float)
-                parts = list(shp.parts) + [len(pts)]
-                for a, b in itertools.pairwise(parts):
-                    ring = pts[a:b]
-                    if len(ring) > 1 and np.array_equal(ring[0], ring[-1]):
-                        ring = ring[:-1]
-                    if len(ring) >= 3:
-                        polys.append(ring)
+        try:
+            sf = shapefile.Reader(str(p))
+            shapes = sf.shapes()
+            sf.close()
+        except Exception as exc:  # noqa: BLE001 - pyshp raises many kinds on a bad file
+            raise ValueError(f"{p}: not a readable shapefile ({type(exc).__name__}: {exc})") \
+                from None
+        for shp in shapes:
+            pts = np.asarray(shp.points, dtype=float)
+            parts = list(shp.parts) + [len(pts)]
+            for a, b in itertools.pairwise(parts):
+                ring = pts[a:b]
+                if len(ring) > 1 and np.array_equal(ring[0], ring[-1]):
+                    ring = ring[:-1]
+                if len(ring) >= 3:
+                    polys.append(ring)
         return polys
     polys, cur = [], []
     for line in p.read_text(encoding="utf-8").splitlines():

@@ -49,18 +49,13 @@ class Output:
     """Read-only view of an output file for plotting."""
 
     def __init__(self, path: str | Path):
-        import h5py
+        from .hdf5 import n_snapshots, open_results
 
         self.path = Path(path)
-        if not self.path.is_file():
-            raise DataError(f"{self.path}: output file not found")
-        try:
-            f = h5py.File(self.path, "r")
-        except OSError as exc:
-            raise DataError(f"{self.path}: not a readable HDF5 file: {exc}") from None
-        with f:
+        with open_results(self.path) as f:
             if "states" not in f or "q" not in f["states"]:
                 raise DataError(f"{self.path}: no element states (is it a siku output file?)")
+            n = n_snapshots(f)  # complete snapshots only (a killed run may leave one more row)
             self.title = str(f.attrs.get("title", ""))
             self.radius = float(f.attrs["radius"])
             self.start = str(f.attrs.get("start", ""))
@@ -68,9 +63,9 @@ class Output:
             self.offsets = geo["vert_offsets"][...]
             self.verts = geo["verts"][...]
             self.flags = geo["flags"][...]
-            self.time = f["states/time"][...]
-            self.q = f["states/q"][...]
-            self.fields = {k: v[...] for k, v in f["states"].get("fields", {}).items()}
+            self.time = f["states/time"][:n]
+            self.q = f["states/q"][:n]
+            self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()}
 
     def field(self, name: str) -> np.ndarray:
         if name not in self.fields:

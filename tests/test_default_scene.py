@@ -34,7 +34,7 @@ def test_default_scene_runs_from_the_command_line_with_pictures(tmp_path, monkey
     with h5py.File(tmp_path / "siku_default.h5") as f:
         assert "# time.duration = 2h" in f["scene"][()].decode()
         assert f["geometry/flags"][...].tolist().count(STATIC) > 0
-        assert f["states/step"][-1] == f["restart"].attrs["step"] > 0
+        assert f["states/step"][-1] == f.attrs["n_steps"] > 0
         assert "damage" in f["states/fields"]
         plugins = dict(f["plugins"].attrs)
     assert "siku" in plugins

@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from siku_core.cli import main
+from siku_core.errors import SceneError
 from siku_core.simulation import Simulation
 from siku_core.testing import scene_text
+from siku_io.hdf5 import last_snapshot
 
 N = 6
 DT = 60.0
@@ -32,9 +34,7 @@ def write_scene(path, integrator: str, steps: int, out: str = "run.h5") -> str:
 
 
 def final_state(path) -> dict[str, np.ndarray]:
-    with h5py.File(path, "r") as f:
-        r = f["restart"]
-        return {k: r[k][...] for k in ("q", "V", "w")} | {"step": int(r.attrs["step"])}
+    return last_snapshot(path)
 
 
 def assert_bitwise_equal(a: dict, b: dict) -> None:
@@ -98,8 +98,9 @@ def test_restart_into_another_file_leaves_the_first_untouched(tmp_path):
     sim = Simulation(scene, out=b, restart=a, progress=False).run()
     assert a.read_bytes() == before
     with h5py.File(b, "r") as f:
-        assert f["states/step"][:].tolist() == [2 * N]
-        assert np.array_equal(f["restart/q"][...], sim.state.q)
+        # the new file starts with the snapshot it continues from, then the new ones
+        assert f["states/step"][:].tolist() == [N, 2 * N]
+        assert np.array_equal(f["states/q"][-1], sim.state.q)
 
 
 def test_running_one_simulation_twice_keeps_every_snapshot(tmp_path):
@@ -112,3 +113,75 @@ def test_running_one_simulation_twice_keeps_every_snapshot(tmp_path):
     assert np.array_equal(sim.state.q, whole.state.q)
     with h5py.File(tmp_path / "twice.h5", "r") as f:
         assert f["states/step"][:].tolist() == [0, N, 2 * N]
+
+
+# ------------------------------------------------------------------ restarts that cannot go wrong
+def scene_with(path, steps: int = 2 * N, dt: float = DT, integrator: str = "siku2",
+               thickness: float | None = None, water_c: float | None = None,
+               seed: int | None = None) -> str:
+    forcing = [dict(f) for f in FORCING]
+    if water_c is not None:
+        forcing[1] = {"source": "water_drag", "params": {"C": water_c}}
+    path.write_text(scene_text(ELEMENTS, forcing=forcing, integrator=integrator, dt=dt,
+                               duration=steps * DT, thickness=thickness,
+                               run=None if seed is None else {"seed": seed},
+                               output={"file": "run.h5", "every": N * DT}), encoding="utf-8")
+    return str(path)
+
+
+@pytest.mark.parametrize("change, difference", [
+    ({"dt": DT / 2}, "scene.time.dt: 60.0 -> 30.0"),
+    ({"thickness": 2.0}, "scene.elements.thickness: 1.0 -> 2.0"),
+    ({"integrator": "rk4"}, "scene.integrator.name: 'siku2' -> 'rk4'"),
+    ({"water_c": 0.005}, "components.forcing2_water_drag.params.C: 0.0045 -> 0.005"),
+    ({"seed": 3}, "scene.run.seed: 0 -> 3"),
+])
+def test_restart_with_a_different_scene_is_refused_with_the_differences(tmp_path, change,
+                                                                        difference):
+    part = tmp_path / "part.h5"
+    Simulation(scene_with(tmp_path / "a.toml"), out=part, progress=False).run(steps=N)
+    before = part.read_bytes()
+    other = scene_with(tmp_path / "b.toml", **change)
+    with pytest.raises(SceneError, match="restart refused: this scene differs from the run "
+                                         "that wrote the file") as ei:
+        Simulation(other, out=part, restart=part, progress=False)
+    assert difference in str(ei.value) and "--force" in str(ei.value)
+    assert part.read_bytes() == before
+    with pytest.warns(UserWarning, match="restarting with a different scene"):
+        sim = Simulation(other, out=part, restart=part, progress=False, force=True)
+    assert sim.step_index == N
+
+
+def test_restart_of_a_finished_run_says_how_to_extend_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    scene = scene_with(tmp_path / "s.toml")
+    assert main(["run", scene, "--no-progress"]) == 0
+    assert main(["run", scene, "--no-progress", "--restart", "run.h5"]) == 2
+    err = capsys.readouterr().err
+    assert f"run.h5: the run is already complete (step {2 * N} of {2 * N}, t = 720 s); to run " \
+           "longer, add --extend DURATION" in err
+
+
+def test_extend_continues_a_finished_run_bit_for_bit_and_records_it(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    scene = scene_with(tmp_path / "s.toml")
+    longer = Simulation(scene_with(tmp_path / "long.toml", steps=3 * N), out="long.h5",
+                        progress=False).run()
+    assert main(["run", scene, "--no-progress"]) == 0
+    assert main(["run", scene, "--no-progress", "--restart", "run.h5", "--extend",
+                 f"{N * DT / 60:g}min"]) == 0
+    assert_bitwise_equal(final_state("run.h5"), final_state("long.h5"))
+    assert longer.step_index == 3 * N
+    with h5py.File("run.h5", "r") as f, h5py.File("long.h5", "r") as g:
+        assert f["states/step"][:].tolist() == [0, N, 2 * N, 3 * N]
+        assert np.array_equal(f["states/q"][:], g["states/q"][:])
+        assert f.attrs["n_steps"] == 3 * N
+        assert f"# siku run --extend 360 s: continued from step {2 * N} of {2 * N} to step " \
+               f"{3 * N}" in f["scene"][()].decode()
+
+
+def test_extend_needs_a_restart_file(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", scene_with(tmp_path / "s.toml"), "--extend", "1h"]) == 2
+    assert "--extend continues a finished run: give the file with --restart" in \
+        capsys.readouterr().err

@@ -1,0 +1,94 @@
+"""Sane bounds checked before a run does any work: steps, elements, mesh rasters, memory.
+
+A scene past a bound is refused with one line naming the key and the bound, instead of running
+for days, filling the memory or building a mesh forever. The bounds are far above what a
+2-core laptop or a large node runs (a million elements, a year in one-second steps).
+"""
+from __future__ import annotations
+
+import math
+import os
+
+from .errors import SceneError
+
+#: most time steps one run may take (a year of 1 s steps is 3.2e7)
+MAX_STEPS = 10**9
+#: most ice elements one scene may build
+MAX_ELEMENTS = 10**8
+#: memory one element needs in a run with contacts [bytes]: state, geometry, contact candidate
+#: lists and joints, measured on bonded packs (``bench/memory.py``) and rounded up
+BYTES_PER_ELEMENT = 4096
+#: most pixels of the land raster a mesh builds (an eighth of the finest spacing per pixel)
+MAX_LAND_PIXELS = 4 * 10**8
+
+
+def physical_memory() -> int:
+    """Memory of this machine [bytes] (``0`` when the system does not say)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 0
+
+
+def _box_area(lon: list[float], lat: list[float], R: float) -> float:
+    """Area of a lon/lat box on a sphere of radius ``R`` [m²]."""
+    dlon = math.radians((lon[1] - lon[0]) % 360.0 or 360.0)
+    return R * R * dlon * abs(math.sin(math.radians(lat[1])) - math.sin(math.radians(lat[0])))
+
+
+def estimate_elements(scene) -> float:
+    """A lower estimate of the number of elements the scene's built-in tables make (sources
+    named in ``[[elements.source]]`` check their own ``max_elements``)."""
+    cfg = scene.cfg
+    el = cfg.elements
+    n = float(len(el.polygon)) + sum(float(p.nx) * float(p.ny) for p in el.pack)
+    mc = el.mesh
+    if mc is not None:
+        R = cfg.planet.radius
+        area = _box_area(mc.lon, mc.lat, R)
+        n += area / (mc.spacing * mc.spacing)
+        if mc.coast_spacing is not None and mc.coast_spacing < mc.spacing:
+            # a graded band of width coast_distance along about one box side of coast
+            side = math.sqrt(area)
+            n += side * mc.coast_distance / (mc.coast_spacing * mc.spacing)
+    return n
+
+
+def check_limits(scene, n_steps: int | None = None) -> None:
+    """Refuse a scene past a bound (:class:`SceneError` naming the key and the bound)."""
+    cfg = scene.cfg
+    t = cfg.time
+    for key, v in (("dt", t.dt), ("duration", t.total)):
+        if not math.isfinite(v):
+            raise SceneError(f"{scene.where('time')}: {key} = {v!r} s: give a finite duration")
+    steps = n_steps if n_steps is not None else t.total / t.dt
+    if steps > MAX_STEPS:
+        raise SceneError(
+            f"{scene.where('time')}: {t.total:.4g} s in steps of dt = {t.dt:g} s is {steps:.3g} "
+            f"steps, above the limit of {MAX_STEPS:.0e} steps; shorten duration or raise dt")
+    mc = cfg.elements.mesh
+    if mc is not None and mc.land != "none":
+        fine = min(mc.spacing, mc.coast_spacing or mc.spacing)
+        R = cfg.planet.radius
+        extra = 6.0 * max(mc.spacing, mc.coast_spacing or 0.0) + mc.coast_distance
+        lon_w = math.radians(mc.lon[1] - mc.lon[0]) * R * math.cos(
+            math.radians(min(80.0, max(abs(mc.lat[0]), abs(mc.lat[1]))))) + 2 * extra
+        lat_w = math.radians(mc.lat[1] - mc.lat[0]) * R + 2 * extra
+        pixels = lon_w * lat_w / (fine / 8.0) ** 2
+        if pixels > MAX_LAND_PIXELS:
+            raise SceneError(
+                f"{scene.where('elements.mesh')}: spacing {fine:g} m over this box needs a land "
+                f"raster of {pixels:.3g} pixels (an eighth of the finest spacing each), above "
+                f"the limit of {MAX_LAND_PIXELS:.0e}; raise coast_spacing/spacing or shrink "
+                "the box")
+    n = estimate_elements(scene)
+    if n > MAX_ELEMENTS:
+        raise SceneError(f"{scene.where('elements')}: the scene would build about {n:.3g} "
+                         f"elements, above the limit of {MAX_ELEMENTS:.0e}")
+    ram = physical_memory()
+    need = n * BYTES_PER_ELEMENT
+    if ram and need > ram:
+        raise SceneError(
+            f"{scene.where('elements')}: about {n:.3g} elements need about "
+            f"{need / 2**30:.3g} GiB ({BYTES_PER_ELEMENT} bytes each), more than this machine's "
+            f"{ram / 2**30:.3g} GiB of memory")
