@@ -73,6 +73,7 @@ import datetime as _dt
 import glob as _glob
 import math
 import warnings
+from struct import error as struct_error
 from pathlib import Path
 from typing import Any
 
@@ -248,6 +249,100 @@ def _norm_units(text: Any) -> str:
     return " ".join(str(text).strip().lower().split())
 
 
+#: byte sizes of the NetCDF classic types (NC_BYTE .. NC_UINT64)
+_NC_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 4, 6: 8, 7: 1, 8: 2, 9: 4, 10: 8, 11: 8}
+
+
+def classic_size(path: Path) -> tuple[int, int] | None:
+    """``(bytes, records)`` a NetCDF classic file (CDF-1, CDF-2 or CDF-5) must have according to
+    its header (NetCDF classic format specification), or ``None`` for other files; a header
+    that cannot be parsed raises ``ValueError``."""
+    import struct
+
+    with open(path, "rb") as fh:
+        magic = fh.read(4)
+        if magic[:3] != b"CDF" or len(magic) < 4 or magic[3] not in (1, 2, 5):
+            return None
+        v = magic[3]
+
+        def take(n: int) -> bytes:
+            b = fh.read(n)
+            if len(b) < n:
+                raise ValueError("header cut short")
+            return b
+
+        def u32() -> int:
+            return struct.unpack(">I", take(4))[0]
+
+        def u64() -> int:
+            return struct.unpack(">Q", take(8))[0]
+
+        count = u64 if v == 5 else u32
+        offset = u64 if v in (2, 5) else u32
+
+        def name() -> None:
+            n = count()
+            take(n + (-n) % 4)
+
+        def attributes() -> None:
+            tag, n = u32(), count()
+            if tag not in (0, 0x0C):
+                raise ValueError(f"bad attribute list tag {tag}")
+            for _ in range(n):
+                name()
+                t = u32()
+                k = count() * _NC_SIZES.get(t, 1)
+                take(k + (-k) % 4)
+
+        numrecs = count()
+        if numrecs in (0xFFFFFFFF, 0xFFFFFFFFFFFFFFFF):  # streaming: no record count
+            return None
+        u32()  # NC_DIMENSION tag (or ABSENT)
+        n = count()
+        dims = []
+        for _ in range(n):
+            name()
+            dims.append(count())
+        attributes()
+        u32()  # NC_VARIABLE tag (or ABSENT)
+        n = count()
+        fixed_end, records = 0, []
+        for _ in range(n):
+            name()
+            ids = [count() for _ in range(count())]
+            attributes()
+            size = _NC_SIZES.get(u32(), 1)
+            vsize = count()
+            begin = offset()
+            shape = [dims[i] for i in ids]
+            if shape and shape[0] == 0:  # a record variable
+                per = size * int(np.prod(shape[1:], dtype=np.int64))
+                records.append((begin, per, vsize))
+            else:
+                fixed_end = max(fixed_end, begin + size * int(np.prod(shape, dtype=np.int64)))
+        end = fixed_end
+        if records and numrecs:
+            recsize = records[0][1] if len(records) == 1 else sum(r[2] for r in records)
+            end = max(end, max(b + (numrecs - 1) * recsize + per for b, per, _ in records))
+        return end, numrecs
+
+
+def check_complete(path: Path, where: str) -> None:
+    """Refuse a NetCDF classic file shorter than its header says (a download or copy cut
+    short: the NetCDF library would read the missing records as zeros)."""
+    try:
+        need = classic_size(path)
+    except (ValueError, OSError, struct_error) as exc:
+        raise DataError(f"{where}: {path}: not a readable NetCDF file ({exc})") from None
+    if need is None:
+        return
+    size = path.stat().st_size
+    if size < need[0]:
+        recs = f" ({need[1]} records)" if need[1] else ""
+        raise DataError(f"{where}: {path} is cut short: its header describes {need[0]} bytes"
+                        f"{recs} but the file has {size} (an interrupted download or copy?)")
+
+
 def _iso(t: np.datetime64) -> str:
     return str(np.datetime_as_string(np.datetime64(t, "s"), unit="s"))
 
@@ -324,10 +419,14 @@ class _Component:
         times: list[np.ndarray] = []
         self.tdim: str | None = None
         for p in paths:
+            check_complete(p, where)
             try:
                 ds = xr.open_dataset(p, engine="netcdf4", cache=False, decode_timedelta=False)
             except Exception as exc:  # noqa: BLE001 - any reader failure is a data error
-                raise DataError(f"{where}: cannot read {p} as NetCDF: {exc}") from None
+                hint = ""
+                if "HDF error" in str(exc):
+                    hint = " (an HDF5-based NetCDF-4 file that is cut short or corrupt?)"
+                raise DataError(f"{where}: cannot read {p} as NetCDF: {exc}{hint}") from None
             self.datasets.append(ds)
             da, lat, lon, t = self._open_var(ds, p, names)
             if self.lat is None:

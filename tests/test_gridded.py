@@ -582,3 +582,32 @@ def test_run_with_a_uniform_gridded_field_drifts_as_with_the_uniform_field(tmp_p
     u, v = fld.sample(9 * HOUR, rad(75.0), rad(-150.0))
     assert (u[0], v[0]) == pytest.approx((U, V), rel=1e-12)
     assert fld.records_read == [0, 1, 2]
+
+
+@pytest.mark.parametrize("fmt", ["NETCDF3_CLASSIC", "NETCDF3_64BIT", "NETCDF4"])
+def test_a_file_cut_short_is_refused_by_name(tmp_path, fmt):
+    """A NetCDF-3 file cut short opens in the NetCDF library, which reads the missing records as
+    zeros: its header's size is checked. A NetCDF-4 (HDF5) file cut short fails to open."""
+    times = hours(0, 6, 12, 18)
+    LON, LAT = np.meshgrid(NCEP_LON, NCEP_LAT)
+    u = np.stack([bilinear(LAT, LON, CU) + k for k in range(times.size)])
+    for var in ("uwnd", "vwnd"):
+        ds = xr.Dataset({var: (("time", "lat", "lon"), u, {"units": "m/s"})},
+                        coords={"time": times,
+                                "lat": ("lat", NCEP_LAT, {"units": "degrees_north"}),
+                                "lon": ("lon", NCEP_LON, {"units": "degrees_east"})})
+        ds.to_netcdf(tmp_path / f"{var}.nc", format=fmt, engine="netcdf4",
+                     unlimited_dims=["time"])
+    f = field(tmp_path, u_file="uwnd.nc", v_file="vwnd.nc")  # whole files read fine
+    got, _ = f.sample(18 * HOUR, rad(65.0), rad(50.0))
+    assert got[0] == pytest.approx(u[3, 10, 20])
+    f.close()  # (HDF5 would reuse the open file instead of reading the cut one)
+    full = (tmp_path / "uwnd.nc").read_bytes()
+    (tmp_path / "uwnd.nc").write_bytes(full[: int(0.7 * len(full))])
+    if fmt.startswith("NETCDF3"):
+        match = (rf"uwnd\.nc is cut short: its header describes {len(full)} bytes \(4 records\) "
+                 rf"but the file has {int(0.7 * len(full))}")
+    else:
+        match = r"cannot read .*uwnd\.nc as NetCDF: .*cut short or corrupt"
+    with pytest.raises(DataError, match=match):
+        field(tmp_path, u_file="uwnd.nc", v_file="vwnd.nc")
