@@ -18,7 +18,8 @@ File layout (``layout`` = 2)::
                        for maps (speed [m/s], damage [1]), history/KEY/NAME (T,...) every
                        component's history (joint state, break modes): a restart reads the
                        last row
-    /diagnostics       step, time [s] and one series per diagnostic
+    /diagnostics       step, time [s] and one series per diagnostic (its rows are written
+                       with the snapshots, so they end where the snapshots end)
     /breaks            one row per broken joint, in the order they broke: time [s] (model
                        time of the state that broke it), joint, i, j (element indices), lat,
                        lon [deg] (joint midpoint when written), mode (attrs: code -> name)
@@ -32,9 +33,9 @@ How nothing is lost (``docs/explanation/outputs.md``):
   flushes keep the file consistent on disk after every write, so a kill at any moment leaves a
   file that opens. A snapshot is committed in two flushes: first every dataset's new row, then
   the new row of ``/states/step``. **The number of complete snapshots is the length of
-  ``/states/step``** (likewise ``/diagnostics/step`` and ``/breaks/time``); after a kill another
-  dataset may hold one more row, itself real data of the next snapshot. :func:`open_results`
-  and :func:`n_snapshots` apply this rule.
+  ``/states/step``** (likewise ``/diagnostics/step`` and ``/breaks/time``); after a fault other
+  datasets may hold the rows of the commit it cut short, whose data may not have reached the
+  disk. :func:`open_results`, :func:`n_snapshots` and :func:`last_snapshot` apply this rule.
 * A write that fails (full disk, quota, file-size limit) stops the run with a one-line error
   naming the last snapshot safely on disk; nothing more is written to the file, and its
   "open for writing" mark is cleared so that it opens everywhere.
@@ -266,6 +267,7 @@ class HDF5Writer(Writer):
         self.comp = None if self.p["compression"] == "none" else self.p["compression"]
         self._last_state = None  # (step, time) of the last committed snapshot
         self._last_diag = None
+        self._diag_rows: list[dict] = []  # diagnostics rows kept until the next snapshot
         try:
             self.target.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -424,6 +426,9 @@ class HDF5Writer(Writer):
             return
         data = [(self.rows[k], v) for k, v in self._state_rows(sim).items() if k in self.rows]
         markers = [(self.step_ds, np.int64(sim.step_index))]
+        ddata, dmarkers = self._diagnostics_upto(sim.step_index)
+        data += ddata
+        markers = dmarkers + markers
         cm = sim.contacts
         if self.breaks is not None and cm is not None:
             rows = cm.take_breaks()
@@ -435,13 +440,23 @@ class HDF5Writer(Writer):
             self._publish()
 
     def write_diagnostics(self, sim, diag: Mapping[str, Any]) -> None:
+        """Keep one row of diagnostics; the rows go to the file with the next snapshot (one
+        write per series instead of one per row), so the file's diagnostics end where its
+        snapshots end."""
         if self._last_diag == diag["step"]:
             return
-        data = [(self.diag[k], np.asarray(v)) for k, v in diag.items()
-                if k in self.diag and k != "step"]
-        self._commit(data, [(self.diag["step"], np.asarray(diag["step"]))],
-                     f"the diagnostics at step {diag['step']}")
+        self._diag_rows.append({k: v for k, v in diag.items() if k in self.diag})
         self._last_diag = diag["step"]
+
+    def _diagnostics_upto(self, step: int) -> tuple[list, list]:
+        """The kept diagnostics rows up to ``step`` as (data, markers) of one commit."""
+        rows = [r for r in self._diag_rows if r["step"] <= step]
+        self._diag_rows = [r for r in self._diag_rows if r["step"] > step]
+        if not rows:
+            return [], []
+        data = [(ds, np.array([r[k] for r in rows], dtype=ds.dtype))
+                for k, ds in self.diag.items() if k != "step"]
+        return data, [(self.diag["step"], np.array([r["step"] for r in rows], dtype=np.int64))]
 
     def _commit(self, data, markers, what: str) -> None:
         """Write the rows ``data`` and flush, then the ``markers`` (the datasets whose length
