@@ -59,7 +59,7 @@ def input_paths(scene: Any, extra: Iterable[tuple[str, Path]] = ()) -> list[tupl
             try:
                 if p.is_file():
                     found.append((f"[{key}]", p))
-            except OSError:  # a name too long or otherwise impossible: not a file
+            except (OSError, ValueError):  # too long, a NUL byte...: not a file name
                 pass
 
     walk(scene.cfg.model_dump(exclude={"output": {"file"}}), "")
@@ -83,6 +83,8 @@ def check_output_path(path: Path, inputs: list[tuple[str, Path]], *, overwrite: 
       (``appending_to``, the restart file);
     * a file another process is writing (:func:`in_use`).
     """
+    if "\x00" in str(path):
+        raise DataError(f"{str(path)!r}: an output file name cannot hold a NUL character")
     if path.is_dir():
         raise DataError(f"{path}: is a folder; --out (or [output] file) names the output file")
     for key, p in inputs:

@@ -441,6 +441,19 @@ def apply_overrides(data: dict, overrides: dict[str, str], label: str) -> None:
         cur[parts[-1]] = _override_value(raw)
 
 
+def _refuse_nul(value: Any, label: str, key: str = "") -> None:
+    """A NUL character in a string (TOML allows ``\\u0000``) fits no file name, HDF5 string or
+    message: refused, naming the key."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _refuse_nul(v, label, f"{key}.{k}" if key else str(k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _refuse_nul(v, label, f"{key}[{i}]")
+    elif isinstance(value, str) and "\x00" in value:
+        raise SceneError(f"{label}: key '{key}' holds a NUL character (\\u0000)")
+
+
 def scene_from_text(
     text: str, label: str = "<scene>", path: Path | None = None,
     overrides: dict[str, str] | None = None,
@@ -459,6 +472,7 @@ def scene_from_text(
         text = text.rstrip("\n") + "\n\n# command-line overrides (siku run --set):\n" + "".join(
             f"# {k} = {v}\n" for k, v in overrides.items()
         )
+    _refuse_nul(data, label)
     try:
         cfg = SceneCfg.model_validate(data)
     except ValidationError as exc:

@@ -93,3 +93,10 @@ def test_nan_initial_velocity_is_refused_before_step_1(tmp_path, monkeypatch, ca
     assert rc == 2 and "key 'elements.polygon[0].velocity[0]' = nan" in err
     assert not (tmp_path / "o.h5").exists()
 
+
+
+def test_a_nul_character_in_a_scene_string(tmp_path, monkeypatch, capsys):
+    text = BASE.replace('title = "siku test scene"', 'title = "ice\\u0000floe"')
+    rc, err = run(tmp_path, monkeypatch, capsys, text)
+    assert rc == 2 and "s.toml: key 'title' holds a NUL character" in err, err
+    assert not list(tmp_path.glob("*.h5")) and not list(tmp_path.glob(".*.partial"))

@@ -62,7 +62,7 @@ BASES: list[dict[str, Any]] = [
 
 NUMBERS = [0, -1, 1, 3, 0.5, -0.5, 1e-3, 1e-300, 1e300, 1e6, float("nan"), float("inf"),
            float("-inf"), 2**63, -(2**63), 10**30]
-STRINGS = ["", "abc", "6h", "-5 min", "1e30d", "nope.nc", "/dev/null", ".", "*.nc",
+STRINGS = ["", "abc", "6h", "-5 min", "1e30d", "nope.nc", "/dev/null", ".", "*.nc", "a\x00b",
            "2001-13-40T00:00:00", "static", "gridded", "collision"]
 OTHERS = [True, False, [], [0], [1.0, 2.0, 3.0], [[0.0, 0.0]], {}, {"x": 1}]
 ADVERSARIAL = NUMBERS + STRINGS + OTHERS
