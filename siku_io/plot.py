@@ -49,7 +49,7 @@ class Output:
     """Read-only view of an output file for plotting."""
 
     def __init__(self, path: str | Path):
-        from .hdf5 import n_snapshots, open_results
+        from .results import n_snapshots, open_results
 
         self.path = Path(path)
         with open_results(self.path) as f:
