@@ -1,4 +1,6 @@
-"""Global diagnostics: energy and momentum about the planet centre."""
+"""Global diagnostics: energy and momentum about the planet centre, the load on held elements,
+and the catalogue of every diagnostic the engine writes (:data:`DIAGNOSTICS`: units and
+meaning), which output files and ensemble summaries use."""
 from __future__ import annotations
 
 import math
@@ -52,6 +54,70 @@ def element_diagnostics(q, V, w, m, I, radius) -> dict[str, float]:  # noqa: E74
         "mean_speed": vsum / n if n else 0.0,
         "max_speed": vmax,
     }
+
+
+#: every diagnostic the engine and its contact model can report: name -> (unit, meaning).
+#: Components add their own through ``diagnostic_units`` (:class:`~siku_core.interfaces.Component`).
+DIAGNOSTICS: dict[str, tuple[str, str]] = {
+    "step": ("1", "step index"),
+    "time": ("s", "model time since the start of the run"),
+    "kinetic_energy": ("J", "kinetic energy of translation and spin"),
+    **{f"momentum_{c}": ("kg m s-1", f"linear momentum, global {c} component")
+       for c in "xyz"},
+    **{f"angular_momentum_{c}": ("kg m2 s-1", "angular momentum about the planet centre, "
+                                 f"global {c} component") for c in "xyz"},
+    "mean_speed": ("m s-1", "mean speed of the elements"),
+    "max_speed": ("m s-1", "largest speed of an element"),
+    "static_force_east": ("N", "force on the static elements (coast, fixed handles), sum of "
+                          "their local eastward components"),
+    "static_force_north": ("N", "force on the static elements, northward components"),
+    "steady_force_east": ("N", "force on the steady elements (moving handles, pushers), sum of "
+                          "their local eastward components"),
+    "steady_force_north": ("N", "force on the steady elements, northward components"),
+    "joints_intact": ("1", "frozen joints still intact"),
+    "joints_broken": ("1", "frozen joints broken"),
+    "contacts_overlapping": ("1", "element pairs overlapping"),
+    "lead_area": ("m2", "open water in leads: normal opening of broken joints times length"),
+    "lead_fraction": ("1", "lead area over the area of free ice plus leads"),
+    "joint_stress_max": ("Pa", "largest tensile normal stress over intact joints"),
+    "joint_stress_min": ("Pa", "largest compressive normal stress over intact joints "
+                         "(negative)"),
+    "joint_strain_max": ("1", "largest joint strain max(|s1|, |s2|)/L0 over intact joints"),
+}
+
+
+def catalogue(registry=None) -> dict[str, tuple[str, str]]:
+    """Every diagnostic a run can report, name -> (unit, meaning): :data:`DIAGNOSTICS`, the
+    joints broken by each mode (``contacts.BREAK_MODES``) and what registered components declare
+    in ``diagnostic_units`` (``registry``: default the process-wide one)."""
+    from .contacts import BREAK_MODES
+    from .plugins import get_registry
+
+    out = dict(DIAGNOSTICS)
+    for code, mode in BREAK_MODES.items():
+        if code:
+            out[f"joints_broken_{mode}"] = ("1", f"frozen joints broken by {mode}")
+    reg = registry or get_registry()
+    for table in reg.entries.values():
+        for entry in table.values():
+            for name, unit in getattr(entry.cls, "diagnostic_units", {}).items():
+                out.setdefault(name, (unit, f"reported by {entry.cls.kind} '{entry.cls.name}'"))
+    return out
+
+
+def held_forces(F, flags) -> dict[str, float]:
+    """The forces [N] of the last force evaluation on the static and on the steady elements
+    (sums of their local east and north components: the load on a coast or a handle, exact for
+    a group of elements spanning a small angle), for the kinds the scene has."""
+    from .state import STATIC, STEADY
+
+    out = {}
+    for name, code in (("static", STATIC), ("steady", STEADY)):
+        held = flags == code
+        if held.any():
+            out[f"{name}_force_east"] = float(F[held, 0].sum())
+            out[f"{name}_force_north"] = float(F[held, 1].sum())
+    return out
 
 
 @njit(cache=True)

@@ -45,6 +45,10 @@ class Component(ABC):
     params: ClassVar[Mapping[str, Param]] = {}
     #: per-kind reference methods checked at registration: {method: [parameter names]}
     required: ClassVar[Mapping[str, tuple[str, ...]]] = {}
+    #: diagnostics this component reports, name -> unit: a component that declares some
+    #: defines ``diagnostics(sim) -> {name: float}``, called on the diagnostics schedule; the
+    #: values go to the output file's ``/diagnostics`` and to ensemble summaries
+    diagnostic_units: ClassVar[Mapping[str, str]] = {}
 
     def __init__(self, params: Mapping[str, Any] | None = None):
         full = {k: p.default for k, p in self.params.items()}

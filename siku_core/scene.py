@@ -368,13 +368,16 @@ def _allowed_range(model: type[BaseModel], loc: tuple) -> str:
     return f"; allowed range: {lo}{loc[-1]}{hi}" + (f" [{unit}]" if unit else "")
 
 
-def _explain(err: ValidationError, where: str) -> str:
+def _explain(err: ValidationError, where: str, model: type[BaseModel] | None = None) -> str:
+    """One line per problem of ``err`` (a validation of ``model``, default :class:`SceneCfg`),
+    each starting with ``where`` and naming the key."""
+    model = model or SceneCfg
     lines = []
     for e in err.errors():
         loc = tuple(e["loc"])
         path = _toml_path(loc)
         if e["type"] == "extra_forbidden":
-            keys = ", ".join(_allowed_keys(SceneCfg, loc)) or "(none)"
+            keys = ", ".join(_allowed_keys(model, loc)) or "(none)"
             lines.append(f"{where}: unknown key '{path}'; allowed keys here: {keys}")
         elif e["type"] == "missing":
             lines.append(f"{where}: missing required key '{path}'")
@@ -386,7 +389,7 @@ def _explain(err: ValidationError, where: str) -> str:
                 hint = ""
                 if e["type"] in ("greater_than", "greater_than_equal", "less_than",
                                  "less_than_equal"):
-                    hint = _allowed_range(SceneCfg, loc)
+                    hint = _allowed_range(model, loc)
                 lines.append(
                     f"{where}: key '{path}' = {e['input']!r}: {msg[0].lower() + msg[1:]}{hint}"
                 )

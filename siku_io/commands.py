@@ -1,5 +1,6 @@
-"""``siku plot``: maps and an animation from an output file (added through
-``siku_register_commands``), and the same pictures after ``siku run`` (``siku_draw``)."""
+"""``siku plot`` (maps and an animation from an output file) and ``siku ensemble`` (a sweep of
+scenes on Dask), added through ``siku_register_commands``, and the pictures after ``siku run``
+(``siku_draw``)."""
 from __future__ import annotations
 
 from siku_core import hookimpl
@@ -30,3 +31,28 @@ def siku_register_commands(subparsers):
     pl.add_argument("--out-dir", help="directory for the pictures (default: beside the file)")
     pl.add_argument("--no-animation", action="store_true", help="maps only")
     pl.set_defaults(func=_cmd_plot)
+
+
+def _cmd_ensemble(args) -> int:
+    from siku_io.ensemble import cmd_ensemble
+
+    return cmd_ensemble(args)
+
+
+@hookimpl(specname="siku_register_commands")
+def register_ensemble(subparsers):
+    en = subparsers.add_parser(
+        "ensemble", help="run every member of a sweep file on a Dask cluster (a local one by "
+        "default) and write a summary dataset")
+    en.add_argument("sweep", help="sweep file (TOML): a base scene and its axes")
+    en.add_argument("--scheduler", help="address of a running Dask scheduler (default: the "
+                    "sweep's [cluster] scheduler, else a local cluster); 'serial' runs the "
+                    "members one after another in this process")
+    en.add_argument("--workers", type=int, help="local cluster: worker processes (default: "
+                    "one per core)")
+    en.add_argument("--threads", type=int, help="numba threads per member (default: cores / "
+                    "workers)")
+    en.add_argument("--out-dir", help="folder of the member outputs and the summary (default: "
+                    "the sweep's out_dir)")
+    en.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    en.set_defaults(func=_cmd_ensemble)

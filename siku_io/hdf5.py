@@ -5,7 +5,9 @@ File layout (``layout`` = 2)::
 
     /                  attrs: siku_version, layout, title, scene_file, scene_sha256, dt [s],
                               start (ISO or ""), n_steps (steps the scene asks for), seed,
-                              n_elements, radius [m], created (UTC ISO)
+                              n_elements, radius [m]; nothing about when or where it
+                              was written, so the same scene, seed and versions give the
+                              same file, byte for byte
     /scene             the scene file text, verbatim (with --set and --extend overrides noted)
     /run_record        JSON: what the run depends on (effective scene, components with every
                        parameter, versions): a restart compares it with its own
@@ -18,8 +20,9 @@ File layout (``layout`` = 2)::
                        for maps (speed [m/s], damage [1]), history/KEY/NAME (T,...) every
                        component's history (joint state, break modes): a restart reads the
                        last row
-    /diagnostics       step, time [s] and one series per diagnostic (its rows are written
-                       with the snapshots, so they end where the snapshots end)
+    /diagnostics       step, time [s] and one series per diagnostic, attrs units and
+                       long_name (siku_core.diagnostics.DIAGNOSTICS); its rows are written
+                       with the snapshots, so they end where the snapshots end
     /breaks            one row per broken joint, in the order they broke: time [s] (model
                        time of the state that broke it), joint, i, j (element indices), lat,
                        lon [deg] (joint midpoint when written), mode (attrs: code -> name)
@@ -45,7 +48,6 @@ How nothing is lost (``docs/explanation/outputs.md``):
 """
 from __future__ import annotations
 
-import datetime as _dt
 import hashlib
 import json
 import os
@@ -78,9 +80,9 @@ _SEALED: list = []
 def _create(group, name: str, row: np.ndarray, compression: str | None):
     """An empty dataset growing by rows shaped like ``row``."""
     row = np.asarray(row)
-    return group.create_dataset(
-        name, shape=(0, *row.shape), maxshape=(None, *row.shape), dtype=row.dtype,
-        chunks=(1, *row.shape) if row.ndim else (256,),
+    return group.create_dataset(  # (a zero-length row, e.g. no joints, still needs chunks > 0)
+        name, shape=(0, *row.shape), maxshape=(None, *(d or None for d in row.shape)),
+        dtype=row.dtype, chunks=(1, *(max(d, 1) for d in row.shape)) if row.ndim else (256,),
         compression=compression if row.ndim else None,
     )
 
@@ -132,14 +134,18 @@ class HDF5Writer(Writer):
         except OSError as exc:
             raise DataError(f"{self.target}: cannot create its folder: {exc}") from None
         self._check_space(sim)
+        swmr = False
         try:
             self.f = h5py.File(self.partial, "w", libver="latest")
             self._layout(sim)
             self._copied = self._copy_restart(sim)
+            swmr = True
             self.f.swmr_mode = True
             self.lock = RunLock(self.partial)
         except (OSError, RuntimeError, ValueError) as exc:
-            self._discard(close=False)
+            # closed (so that HDF5 forgets the file: a later file of this process may get the
+            # same inode) unless the switch to SWMR mode failed, after which HDF5 cannot close
+            self._discard(close=not swmr)
             what = "disk full" if is_disk_full(exc) else f"cannot create the output file: {exc}"
             raise DataError(f"{self.target}: {what}; nothing written (an existing file is "
                             "untouched)") from None
@@ -191,7 +197,6 @@ class HDF5Writer(Writer):
         f.attrs["seed"] = sim.seed
         f.attrs["n_elements"] = st.n
         f.attrs["radius"] = sim.radius
-        f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat()
         f.create_dataset("scene", data=sim.scene.text)
         f.create_dataset("run_record", data=json.dumps(sim.run_record(), default=str))
         g = f.create_group("plugins")
@@ -209,8 +214,13 @@ class HDF5Writer(Writer):
         self.step_ds = _create(s, "step", np.int64(0), None)
         self.diag = {}
         dg = f.create_group("diagnostics")
+        from siku_core.diagnostics import catalogue
+
+        known = catalogue(sim.registry)
         for k, v in sim.diagnostics().items():
             self.diag[k] = _create(dg, k, np.asarray(v), None)
+            if k in known:
+                self.diag[k].attrs["units"], self.diag[k].attrs["long_name"] = known[k]
         self.breaks = None
         if sim.contacts is not None and sim.contacts.n_joints:
             from siku_core.contacts import BREAK_MODES

@@ -12,6 +12,8 @@ import struct
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from siku_core import DataError
 from siku_core.outputs import in_use
 
@@ -151,3 +153,51 @@ def last_snapshot(path: str | Path) -> dict[str, Any]:
         out["record"] = json.loads(f["run_record"][()])
         out["n_steps"] = int(f.attrs["n_steps"])
         return out
+
+
+def run_progress(path: str | Path) -> dict[str, Any]:
+    """How far the run in an output file got: ``step`` (of its last complete snapshot; -1 with
+    none), ``n_steps`` (the steps its scene asks for), ``complete`` (``step == n_steps``) and
+    ``scene_sha256`` (of the scene text the file records)."""
+    path = Path(path)
+    with open_results(path) as f:
+        check_layout(f, path)
+        n = n_snapshots(f)
+        step = int(f["states/step"][n - 1]) if n else -1
+        n_steps = int(f.attrs["n_steps"])
+        return {"step": step, "n_steps": n_steps, "complete": step == n_steps,
+                "scene_sha256": str(f.attrs.get("scene_sha256", ""))}
+
+
+def read_diagnostics(path: str | Path) -> dict[str, tuple[np.ndarray, str]]:
+    """The complete rows of every diagnostic series of an output file: name -> (values, unit)
+    (``time`` [s] and ``step`` included)."""
+    path = Path(path)
+    with open_results(path) as f:
+        check_layout(f, path)
+        g = f["diagnostics"]
+        n = int(g["step"].shape[0])
+        return {k: (ds[:n], str(ds.attrs.get("units", "1" if k == "step" else
+                                             "s" if k == "time" else "")))
+                for k, ds in g.items()}
+
+
+def snapshot_drift(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """``(time [s], mean drift [m])`` at every complete snapshot: the mean great-circle
+    distance of the free elements from where they were at the file's first snapshot."""
+    path = Path(path)
+    with open_results(path) as f:
+        check_layout(f, path)
+        n = n_snapshots(f)
+        s = f["states"]
+        time = s["time"][:n]
+        free = f["geometry/flags"][:] == 0
+        radius = float(f.attrs["radius"])
+        lat, lon = np.radians(s["lat"][:n][:, free]), np.radians(s["lon"][:n][:, free])
+    if n == 0 or not free.any():
+        return time, np.zeros(n)
+    x, y, z = np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)
+    dot = x * x[0] + y * y[0] + z * z[0]
+    cross = np.sqrt((y * z[0] - z * y[0]) ** 2 + (z * x[0] - x * z[0]) ** 2
+                    + (x * y[0] - y * x[0]) ** 2)
+    return time, radius * np.arctan2(cross, dot).mean(axis=1)

@@ -1,0 +1,473 @@
+"""Ensembles on Dask: every member of a sweep (``siku_io.sweep``) run as a task on a Dask
+distributed cluster, and a summary dataset (xarray, one dimension per axis, written as NetCDF).
+
+.. code-block:: python
+
+    from siku_io import ensemble
+
+    ds = ensemble.run("rheology.toml")          # a local cluster, one worker per core
+    ds["joints_broken"].sel(law="mohr_coulomb")
+
+* Each member runs exactly as ``siku run BASE --set KEY=VALUE ... --out OUTPUT`` would
+  (``ds.command`` holds that line): its output file is the same, byte for byte.
+* A member that fails (a bad combination of values, a diverging run, a lost worker) gets status
+  ``failed`` and its one-line message; the others go on.
+* Running a sweep again skips members whose output is complete (status ``reused``), continues
+  those an interruption cut short from their last snapshot (a bit-for-bit restart), and runs
+  the rest. An output that holds another scene's run is never touched (the member fails,
+  naming it).
+* The summary (``[summary]`` of the sweep: final values and time series of any diagnostic a
+  run reports, and ``mean_drift``, the mean distance [m] the free elements moved since the
+  first snapshot) is written to ``OUT_DIR/summary.nc`` with the sweep text, the base scene and
+  the versions in its attributes.
+
+Where the members run: a local cluster (``distributed.LocalCluster``: one worker process per
+core, one task at a time per worker, numba threads per member = cores / workers, so the machine
+is never oversubscribed), or an existing cluster (``scheduler = ADDRESS``; on an HPC system,
+start one with dask-jobqueue, docs/howto/ensembles.md). ``scheduler="serial"`` runs the members
+one after another in this process (no Dask; what ``bench`` compares against).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from siku_core import __version__
+from siku_core.errors import DataError, SceneError, SikuError
+from siku_core.outputs import partial_path, publish
+
+from .sweep import DERIVED, Member, Sweep, load_sweep, sweep_from_text
+
+SUMMARY_KIND = "siku ensemble summary"
+
+
+# ---------------------------------------------------------------------------- one member
+def run_member(scene_path: str, overrides: dict[str, str], output: str, restart: bool,
+               threads: int | None) -> dict[str, Any]:
+    """Run one member (in a Dask worker or in this process): the scene at ``scene_path`` with
+    ``overrides`` (``--set``), written to ``output``; with ``restart`` continued from the last
+    snapshot of ``output``. Never raises: a failure is returned as ``status = "failed"`` with a
+    one-line ``message``."""
+    t0 = time.perf_counter()
+    before = None
+    try:
+        import numba
+
+        from siku_core.scene import load_scene
+        from siku_core.simulation import Simulation
+
+        if threads is not None:
+            before = numba.get_num_threads()
+            numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+        scene = load_scene(scene_path, overrides)
+        sim = Simulation(scene, out=output, progress=False,
+                         restart=output if restart else None)
+        first = sim.step_index
+        sim.run()
+        return {"status": "done", "message": "restarted at step %d" % first if restart else "",
+                "wall_time": time.perf_counter() - t0, "steps": sim.step_index - first}
+    except SikuError as exc:
+        msg = " | ".join(str(exc).splitlines())
+    except Exception as exc:  # a member's bug must not stop the others: report it
+        msg = f"{type(exc).__name__}: {' | '.join(str(exc).splitlines())}"
+    finally:
+        if before is not None:
+            import numba
+
+            numba.set_num_threads(before)
+    return {"status": "failed", "message": msg, "wall_time": time.perf_counter() - t0,
+            "steps": 0}
+
+
+def _scene_sha(member: Member, scene_text: str) -> str:
+    return hashlib.sha256(member.scene(scene_text).text.encode()).hexdigest()
+
+
+def plan(sweep: Sweep) -> dict[str, dict[str, Any]]:
+    """What each member needs, by name: ``{"action": "run" | "restart" | "reuse" | "fail",
+    "message": ...}``, from its scene (validated, components checked) and its output file."""
+    from siku_core.simulation import check_components
+
+    from .results import run_progress
+
+    out: dict[str, dict[str, Any]] = {}
+    for m in sweep.members:
+        try:
+            scene = m.scene(sweep.scene_text)
+            check_components(scene)
+        except SikuError as exc:
+            out[m.name] = {"action": "fail", "message": " | ".join(str(exc).splitlines())}
+            continue
+        if not m.output.exists():
+            out[m.name] = {"action": "run", "message": ""}
+            continue
+        try:
+            prog = run_progress(m.output)
+        except (SikuError, OSError, KeyError) as exc:
+            out[m.name] = {"action": "fail", "message": f"{m.output}: exists and is not an "
+                           f"output of this member ({exc}); move it away to run the member"}
+            continue
+        sha = hashlib.sha256(scene.text.encode()).hexdigest()
+        if prog["scene_sha256"] != sha:
+            out[m.name] = {"action": "fail", "message": f"{m.output}: holds a run of another "
+                           "scene (the sweep or its base scene changed); move it away to run "
+                           "the member again"}
+        elif prog["complete"]:
+            out[m.name] = {"action": "reuse", "message": "complete output from an earlier run"}
+        else:
+            out[m.name] = {"action": "restart", "message": ""}
+    return out
+
+
+# ---------------------------------------------------------------------------- the cluster
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+class _Cluster:
+    """A Dask client on a local cluster or at ``scheduler``; closed on exit."""
+
+    def __init__(self, sweep: Sweep, scheduler: str | None, workers: int | None,
+                 threads: int | None):
+        import logging
+
+        from distributed import Client, LocalCluster
+
+        cfg = sweep.cfg.cluster
+        address = scheduler or cfg.scheduler
+        self.cluster = None
+        if address:
+            try:
+                self.client = Client(address, timeout=cfg.timeout)
+            except (OSError, TimeoutError, ValueError) as exc:
+                where = ("--scheduler" if scheduler else f"{sweep.label} [cluster] key "
+                         "'scheduler'")
+                raise SceneError(f"{where}: cannot reach the Dask scheduler at {address!r} "
+                                 f"within {cfg.timeout:g} s ({type(exc).__name__}: "
+                                 f"{' '.join(str(exc).split())[:200]})") from None
+            self.threads = threads or cfg.threads or 1
+            return
+        n = workers or cfg.workers or _cores()
+        self.threads = threads or cfg.threads or max(1, _cores() // n)
+        env = {"NUMBA_NUM_THREADS": str(max(self.threads, 1)), "OMP_NUM_THREADS": "1"}
+        self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                    dashboard_address=None, silence_logs=logging.ERROR, env=env)
+        self.client = Client(self.cluster)
+
+    def close(self) -> None:
+        try:
+            self.client.close()
+        finally:
+            if self.cluster is not None:
+                self.cluster.close()
+
+
+# ---------------------------------------------------------------------------- running
+def _as_sweep(sweep: Sweep | str | Path | Mapping[str, Any], out_dir) -> Sweep:
+    if isinstance(sweep, Sweep):
+        return sweep
+    if isinstance(sweep, Mapping):
+        from .sweep import toml_value
+
+        lines = []
+        tables = {}
+        for k, v in sweep.items():
+            if isinstance(v, Mapping):
+                tables[k] = v
+            elif isinstance(v, list) and v and all(isinstance(x, Mapping) for x in v):
+                tables[k] = v
+            else:
+                lines.append(f"{k} = {toml_value(v)}")
+        for k, v in tables.items():
+            for t in (v if isinstance(v, list) else [v]):
+                lines.append(f"[[{k}]]" if isinstance(v, list) else f"[{k}]")
+                lines += [f"{json.dumps(str(a))} = {toml_value(b)}" for a, b in t.items()]
+        return sweep_from_text("\n".join(lines) + "\n", "<sweep>", Path.cwd(), out_dir)
+    return load_sweep(sweep, out_dir)
+
+
+def _check_summary_target(sweep: Sweep) -> None:
+    """The summary file may be replaced only if it is an earlier summary of this sweep."""
+    path = sweep.summary_path
+    if not path.exists():
+        return
+    ok = False
+    try:
+        import netCDF4
+
+        with netCDF4.Dataset(path) as nc:
+            ok = (getattr(nc, "kind", "") == SUMMARY_KIND
+                  and getattr(nc, "sweep_out_dir", "") == str(sweep.out_dir))
+    except (OSError, RuntimeError):
+        ok = False
+    if not ok:
+        raise SceneError(f"{sweep.label} [summary] key 'file': {path} exists and is not a "
+                         "summary of this sweep; move it away or name another file")
+
+
+def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None = None,
+        workers: int | None = None, threads: int | None = None, out_dir=None,
+        progress: bool | None = None, write: bool = True):
+    """Run every member of ``sweep`` (a sweep file, a :class:`~siku_io.sweep.Sweep`, or the
+    sweep as a dict) and return the summary dataset (``xarray.Dataset``).
+
+    scheduler : a Dask scheduler address, ``"serial"`` (one after another in this process),
+        or ``None``: the sweep's ``[cluster] scheduler``, else a local cluster.
+    workers : worker processes of a local cluster (default: the sweep's, else one per core).
+    threads : numba threads per member (default: the sweep's, else cores / workers).
+    out_dir : overrides the sweep's ``out_dir``.
+    progress : a progress bar over the members (``None``: when stderr is a terminal).
+    write : write the summary to its NetCDF file.
+    """
+    sw = _as_sweep(sweep, out_dir)
+    if write:
+        _check_summary_target(sw)
+    sw.out_dir.mkdir(parents=True, exist_ok=True)
+    todo = plan(sw)
+    results: dict[str, dict[str, Any]] = {}
+    for m in sw.members:
+        p = todo[m.name]
+        if p["action"] in ("fail", "reuse"):
+            results[m.name] = {"status": "failed" if p["action"] == "fail" else "reused",
+                               "message": p["message"], "wall_time": math.nan, "steps": 0}
+    jobs = [m for m in sw.members if todo[m.name]["action"] in ("run", "restart")]
+    show = sys.stderr.isatty() if progress is None else progress
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=len(sw.members), unit="member", desc=sw.cfg.title or "ensemble",
+               disable=not show, initial=len(sw.members) - len(jobs))
+    try:
+        if (scheduler or sw.cfg.cluster.scheduler) == "serial":
+            for m in jobs:
+                results[m.name] = run_member(str(m.scene_path), m.overrides, str(m.output),
+                                             todo[m.name]["action"] == "restart", threads)
+                bar.update(1)
+        elif jobs:
+            _run_dask(sw, jobs, todo, results, bar, scheduler, workers, threads)
+    finally:
+        bar.close()
+    ds = summarize(sw, results)
+    if write:
+        write_summary(ds, sw.summary_path)
+    return ds
+
+
+def _run_dask(sw: Sweep, jobs: list[Member], todo, results, bar, scheduler, workers,
+              threads) -> None:
+    from distributed import as_completed
+
+    cl = _Cluster(sw, scheduler, workers, threads)
+    try:
+        futures = {}
+        for m in jobs:
+            fut = cl.client.submit(run_member, str(m.scene_path), m.overrides, str(m.output),
+                                   todo[m.name]["action"] == "restart", cl.threads,
+                                   key=f"siku-member-{m.name}-{sw.sha256[:12]}", pure=False,
+                                   retries=0)
+            futures[fut] = m
+        for fut in as_completed(futures):
+            m = futures[fut]
+            try:
+                results[m.name] = fut.result()
+            except Exception as exc:  # a lost worker (killed, out of memory)
+                results[m.name] = {"status": "failed", "wall_time": math.nan, "steps": 0,
+                                   "message": f"{type(exc).__name__}: "
+                                              f"{' '.join(str(exc).split())[:300]}"}
+            bar.update(1)
+    finally:
+        cl.close()
+
+
+# ---------------------------------------------------------------------------- the summary
+def _coord(values: list[Any]) -> np.ndarray:
+    if all(isinstance(v, bool) for v in values):
+        return np.array(values, dtype=bool)
+    if all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in values):
+        return np.array(values, dtype=np.int64)
+    if all(isinstance(v, (int, float, np.number)) and not isinstance(v, bool) for v in values):
+        return np.array(values, dtype=np.float64)
+    if all(isinstance(v, str) for v in values):
+        return np.array(values, dtype=object)
+    from .sweep import toml_value
+
+    return np.array([toml_value(v) for v in values], dtype=object)
+
+
+def _quantities(sw: Sweep, outputs: dict[str, Path]) -> tuple[list[str], list[str]]:
+    cfg = sw.cfg.summary
+    if cfg.final is not None:
+        return list(cfg.final), list(cfg.series)
+    from .results import read_diagnostics
+
+    names: list[str] = []
+    for path in outputs.values():
+        for k in read_diagnostics(path):
+            if k not in ("step", "time") and k not in names:
+                names.append(k)
+    return sorted(names) + list(DERIVED), list(cfg.series)
+
+
+def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
+    """The summary dataset of a sweep from its members' ``results`` and output files."""
+    import xarray as xr
+
+    from siku_core.diagnostics import catalogue
+
+    from .results import read_diagnostics, snapshot_drift
+
+    dims = [a.dim for a in sw.axes]
+    shape = sw.shape
+    coords: dict[str, Any] = {}
+    for a in sw.axes:
+        if a.kind == "values":
+            coords[a.dim] = (a.dim, _coord([r[0] for r in a.rows]),
+                             {"scene_key": a.keys[0]})
+        else:
+            coords[a.dim] = (a.dim, np.arange(len(a)), {"long_name": f"{a.kind} index"})
+            for k, key in enumerate(a.keys):
+                coords[key] = (a.dim, _coord([r[k] for r in a.rows]), {"scene_key": key})
+    done = {m.name: m.output for m in sw.members
+            if results.get(m.name, {}).get("status") in ("done", "reused")}
+    finals, series = _quantities(sw, done)
+    known = catalogue()
+    diag: dict[str, dict[str, tuple[np.ndarray, str]]] = {}
+    for name, path in done.items():
+        try:
+            d = read_diagnostics(path)
+            if "mean_drift" in finals or "mean_drift" in series:
+                t, v = snapshot_drift(path)
+                d["mean_drift"] = (v, "m")
+                d["_snapshot_time"] = (t, "s")
+            diag[name] = d
+        except (SikuError, OSError, KeyError) as exc:
+            results = dict(results)
+            results[name] = {**results[name], "status": "failed",
+                             "message": f"{path}: cannot read its results: {exc}"}
+
+    def times_of(d, q):
+        return d["_snapshot_time"][0] if q in DERIVED else d["time"][0]
+
+    times = sorted({float(t) for d in diag.values() for q in series if q in d
+                    for t in times_of(d, q)})
+    data: dict[str, Any] = {}
+    for key, dtype in (("status", object), ("message", object), ("output", object),
+                       ("command", object)):
+        data[key] = np.empty(shape, dtype=dtype)
+    data["wall_time"] = np.full(shape, np.nan)
+    data["steps"] = np.zeros(shape, dtype=np.int64)
+    for q in finals:
+        data[q] = np.full(shape, np.nan)
+    for q in series:
+        data[f"{q}_series"] = np.full(shape + (len(times),), np.nan)
+    tindex = {t: k for k, t in enumerate(times)}
+    units: dict[str, str] = {}
+    for m in sw.members:
+        r = results.get(m.name, {"status": "failed", "message": "not run"})
+        data["status"][m.index] = r["status"]
+        data["message"][m.index] = r.get("message", "")
+        data["output"][m.index] = str(m.output)
+        data["command"][m.index] = m.command()
+        data["wall_time"][m.index] = r.get("wall_time", math.nan)
+        data["steps"][m.index] = r.get("steps", 0)
+        d = diag.get(m.name)
+        if d is None:
+            continue
+        for q in finals:
+            if q in d and len(d[q][0]):
+                data[q][m.index] = float(d[q][0][-1])
+                units[q] = d[q][1]
+        for q in series:
+            if q in d:
+                cols = [tindex[float(t)] for t in times_of(d, q)]
+                data[f"{q}_series"][m.index + (cols,)] = d[q][0]
+                units[q] = d[q][1]
+    variables: dict[str, Any] = {}
+    meaning = {**{k: v[1] for k, v in known.items()}, **{k: v[1] for k, v in DERIVED.items()}}
+    for q in finals:
+        variables[q] = (dims, data[q], {"units": units.get(q, known.get(q, ("",))[0]),
+                                        "long_name": f"{meaning.get(q, q)} (at the end)"})
+    for q in series:
+        variables[f"{q}_series"] = (dims + ["time"], data[f"{q}_series"],
+                                    {"units": units.get(q, known.get(q, ("",))[0]),
+                                     "long_name": meaning.get(q, q)})
+    variables["status"] = (dims, data["status"], {"long_name": "done, reused (complete output "
+                                                  "of an earlier run) or failed"})
+    variables["message"] = (dims, data["message"], {"long_name": "why a member failed"})
+    variables["output"] = (dims, data["output"], {"long_name": "the member's output file"})
+    variables["command"] = (dims, data["command"], {"long_name": "siku run command that runs "
+                                                    "the member alone"})
+    variables["wall_time"] = (dims, data["wall_time"], {"units": "s", "long_name": "wall-clock "
+                                                        "time of the member's run"})
+    variables["steps"] = (dims, data["steps"], {"long_name": "steps run by this sweep"})
+    if series:
+        coords["time"] = ("time", np.array(times, dtype=np.float64),
+                          {"units": "s", "long_name": "model time since the start of the run"})
+    import importlib.metadata as md
+
+    versions = {"siku": __version__}
+    for pkg in ("numpy", "numba", "dask", "distributed", "xarray", "h5py"):
+        try:
+            versions[pkg] = md.version(pkg)
+        except md.PackageNotFoundError:
+            pass
+    attrs = {"kind": SUMMARY_KIND, "title": sw.cfg.title, "sweep": sw.text,
+             "sweep_file": sw.label, "sweep_out_dir": str(sw.out_dir),
+             "scene_file": str(sw.scene_path), "scene": sw.scene_text,
+             "versions": json.dumps(versions), "n_members": len(sw.members),
+             "n_failed": int(sum(1 for m in sw.members
+                                 if results.get(m.name, {}).get("status") == "failed"))}
+    return xr.Dataset(variables, coords=coords, attrs=attrs)
+
+
+def write_summary(ds, path: Path) -> Path:
+    """Write the summary dataset as NetCDF-4, built beside ``path`` and renamed into place."""
+    path = Path(path)
+    part = partial_path(path)
+    try:
+        enc = {k: {"dtype": str} for k, v in ds.variables.items() if v.dtype == object}
+        ds.to_netcdf(part, engine="netcdf4", encoding=enc)
+        publish(part, path, replace=True)
+    except OSError as exc:
+        part.unlink(missing_ok=True)
+        raise DataError(f"{path}: cannot write the summary: {exc}") from None
+    return path
+
+
+# ---------------------------------------------------------------------------- command line
+def cmd_ensemble(args) -> int:
+    """``siku ensemble SWEEP.toml``: exit 0 when every member is done, 1 when some failed
+    (listed), 2 for a bad sweep file or an unreachable scheduler."""
+    sw = load_sweep(args.sweep, args.out_dir)
+    todo = plan(sw)
+    counts: dict[str, int] = {}
+    for p in todo.values():
+        counts[p["action"]] = counts.get(p["action"], 0) + 1
+    print(f"siku {__version__}: ensemble {sw.cfg.title or sw.label}: {len(sw.members)} members "
+          f"({' x '.join(f'{a.dim} {len(a)}' for a in sw.axes) or 'one scene'}); "
+          + ", ".join(f"{n} to {k}" for k, n in sorted(counts.items())), file=sys.stderr)
+    t0 = time.perf_counter()
+    ds = run(sw, scheduler=args.scheduler, workers=args.workers, threads=args.threads,
+             progress=False if args.no_progress else None)
+    failed = [(str(o), str(msg)) for s, o, msg in zip(ds.status.values.ravel(),
+                                                      ds.output.values.ravel(),
+                                                      ds.message.values.ravel())
+              if s == "failed"]
+    for out, msg in failed:
+        print(f"siku: member failed: {Path(out).stem}: {msg}", file=sys.stderr)
+    print(f"done in {time.perf_counter() - t0:.1f} s: {len(sw.members) - len(failed)} of "
+          f"{len(sw.members)} members complete; summary: {sw.summary_path}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+__all__ = ["run", "plan", "summarize", "run_member", "write_summary", "cmd_ensemble"]

@@ -1,0 +1,543 @@
+"""Sweep files: an ensemble of scenes as a base scene and its axes (``siku ensemble``).
+
+A sweep file is TOML, strict like a scene file (an unknown key is an error naming it)::
+
+    title = "Rheology comparison"
+    scene = "rheology_comparison.toml"   # the base scene, relative to this file
+    out_dir = "rheology"                 # member outputs and the summary (default: this
+                                         # file's name without .toml), relative to this file
+
+    [set]                                # every member, like siku run --set KEY=VALUE
+    "time.duration" = "2h"
+
+    [[axis]]                             # a dimension: one key and its values
+    key = "contact.law"
+    values = ["collision", "distributed_spring", "mohr_coulomb"]
+
+    [[axis]]                             # zipped keys: one dimension, the lists move together
+    name = "wind"
+    zip = { "forcing.0.field.params.vmax" = [8.0, 11.0],
+            "forcing.0.field.params.rmax" = [4e5, 5e5] }
+
+    [[axis]]                             # random draws: n values per key, drawn together
+    name = "sample"
+    n = 8
+    seed = 1
+    draw = { "materials.ice.youngs_modulus" = { distribution = "loguniform",
+                                                low = 5e8, high = 5e9 } }
+
+    [replicates]                         # the whole product again, replicate r with seed + r
+    n = 3
+    key = "run.seed"
+
+    [summary]                            # what the summary dataset holds
+    final = ["joints_broken", "lead_fraction", "mean_drift"]   # default: every diagnostic
+    series = ["lead_fraction"]           # time series (dimension time)
+    file = "summary.nc"                  # in out_dir
+
+    [cluster]
+    scheduler = "tcp://10.0.0.1:8786"    # default: a local cluster
+    workers = 2                          # local cluster: worker processes (default: cores)
+    threads = 1                          # numba threads per member (default: cores / workers)
+    timeout = 10                         # s to reach a scheduler
+
+The members are the product of the axes (a zip or a draw axis is one dimension) times the
+replicates. Keys are the keys of ``siku run --set`` (``forcing.0.field.params.vmax``: list items
+by index); values are TOML values. Each member is the base scene with its keys set exactly as
+``siku run BASE --set KEY=VALUE ... --out OUTPUT`` sets them (:meth:`Member.command`), so any
+member reruns alone and gives the same file.
+
+Draws (``distribution``): ``uniform`` (``low``, ``high``), ``loguniform`` (``low``, ``high``,
+both > 0), ``normal`` (``mean``, ``std``), ``lognormal`` (``mean``, ``sigma`` of the natural
+log), ``integers`` (``low`` to ``high`` inclusive), ``choice`` (``values``); numpy's default
+generator seeded with the axis ``seed``, keys drawn in the order the file lists them.
+"""
+from __future__ import annotations
+
+import copy
+import datetime as _dt
+import hashlib
+import itertools
+import json
+import math
+import re
+import shlex
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, Mapping
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from siku_core.errors import SceneError
+from siku_core.scene import (
+    Scene,
+    SceneCfg,
+    _allowed_keys,
+    _explain,
+    _override_value,
+    apply_overrides,
+    scene_from_text,
+)
+
+#: summary quantities computed from the snapshots rather than read from the diagnostics
+DERIVED = {"mean_drift": ("m", "mean great-circle distance of the free elements from their "
+                          "position at the first snapshot")}
+#: names the summary dataset uses for its own variables: no axis may take them
+RESERVED = ("time", "status", "message", "output", "command", "wall_time", "steps")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class DrawCfg(_Strict):
+    """A distribution to draw one key's values from."""
+
+    distribution: Literal["uniform", "loguniform", "normal", "lognormal", "integers", "choice"]
+    low: float | None = None
+    high: float | None = None
+    mean: float | None = None
+    std: float | None = Field(None, ge=0)
+    sigma: float | None = Field(None, ge=0)
+    values: list[Any] | None = None
+
+    @model_validator(mode="after")
+    def _needs(self) -> "DrawCfg":
+        need = {"uniform": ("low", "high"), "loguniform": ("low", "high"),
+                "integers": ("low", "high"), "normal": ("mean", "std"),
+                "lognormal": ("mean", "sigma"), "choice": ("values",)}[self.distribution]
+        given = {k for k in ("low", "high", "mean", "std", "sigma", "values")
+                 if getattr(self, k) is not None}
+        missing = [k for k in need if k not in given]
+        extra = sorted(given - set(need))
+        if missing or extra:
+            raise ValueError(f"distribution '{self.distribution}' takes {', '.join(need)}"
+                             + (f" (missing: {', '.join(missing)})" if missing else "")
+                             + (f" (not used: {', '.join(extra)})" if extra else ""))
+        if need == ("low", "high"):
+            if not (math.isfinite(self.low) and math.isfinite(self.high)
+                    and self.low < self.high):
+                raise ValueError(f"give finite low < high (low = {self.low}, high = "
+                                 f"{self.high})")
+            if self.distribution == "loguniform" and self.low <= 0:
+                raise ValueError(f"loguniform needs low > 0 (low = {self.low})")
+        if self.distribution == "choice" and not self.values:
+            raise ValueError("choice needs a non-empty list of values")
+        return self
+
+    def sample(self, rng: np.random.Generator, n: int) -> list[Any]:
+        d = self.distribution
+        if d == "uniform":
+            x = rng.uniform(self.low, self.high, n)
+        elif d == "loguniform":
+            x = np.exp(rng.uniform(math.log(self.low), math.log(self.high), n))
+        elif d == "normal":
+            x = rng.normal(self.mean, self.std, n)
+        elif d == "lognormal":
+            x = rng.lognormal(self.mean, self.sigma, n)
+        elif d == "integers":
+            return [int(v) for v in rng.integers(int(self.low), int(self.high), n,
+                                                 endpoint=True)]
+        else:
+            return [copy.deepcopy(self.values[int(k)]) for k in rng.integers(0, len(self.values),
+                                                                            n)]
+        return [float(v) for v in x]
+
+
+class AxisCfg(_Strict):
+    """``[[axis]]``: one dimension of the ensemble."""
+
+    name: str | None = None
+    key: str | None = None
+    values: list[Any] | None = None
+    zip: dict[str, list[Any]] | None = None
+    draw: dict[str, DrawCfg] | None = None
+    n: int | None = Field(None, ge=1, le=1_000_000)
+    seed: int = Field(0, ge=0)
+
+    @model_validator(mode="after")
+    def _one_form(self) -> "AxisCfg":
+        forms = [f for f in ("values", "zip", "draw") if getattr(self, f) is not None]
+        if len(forms) != 1:
+            raise ValueError("give exactly one of: key with values, zip, or draw with n")
+        if self.values is not None:
+            if not self.key:
+                raise ValueError("'values' needs the 'key' they set")
+            if not self.values:
+                raise ValueError(f"key '{self.key}': empty list of values")
+        elif self.key is not None:
+            raise ValueError("'key' goes with 'values'; a zip or draw names its keys inside")
+        if self.zip is not None:
+            if not self.zip:
+                raise ValueError("zip: give at least one key")
+            lengths = {k: len(v) for k, v in self.zip.items()}
+            first = next(iter(lengths))
+            for k, n in lengths.items():
+                if n == 0:
+                    raise ValueError(f"zip key '{k}': empty list of values")
+                if n != lengths[first]:
+                    raise ValueError(f"zip key '{k}': {n} values, but '{first}' has "
+                                     f"{lengths[first]}; zipped lists need equal lengths")
+        if self.draw is not None:
+            if not self.draw:
+                raise ValueError("draw: give at least one key")
+            if self.n is None:
+                raise ValueError("draw needs n, the number of members to draw")
+        elif self.n is not None:
+            raise ValueError("'n' is the number of draws: it goes with 'draw'")
+        return self
+
+
+class ReplicatesCfg(_Strict):
+    """``[replicates]``: the product again ``n`` times, replicate ``r`` with ``key = seed + r``."""
+
+    n: int = Field(ge=1, le=1_000_000)
+    key: str = "run.seed"
+    seed: int = Field(0, ge=0)
+
+
+class SummaryCfg(_Strict):
+    """``[summary]``: the diagnostics of the summary dataset."""
+
+    final: list[str] | None = None
+    series: list[str] = Field(default_factory=list)
+    file: str = "summary.nc"
+
+
+class ClusterCfg(_Strict):
+    """``[cluster]``: where the members run."""
+
+    scheduler: str | None = None
+    workers: int | None = Field(None, ge=1, le=4096)
+    threads: int | None = Field(None, ge=1, le=4096)
+    timeout: float = Field(10.0, gt=0, le=3600, description="time to reach a scheduler [s]")
+
+
+class SweepCfg(_Strict):
+    """The whole sweep file."""
+
+    title: str = ""
+    scene: str
+    out_dir: str | None = None
+    set: dict[str, Any] = Field(default_factory=dict)
+    axis: list[AxisCfg] = Field(default_factory=list)
+    replicates: ReplicatesCfg | None = None
+    summary: SummaryCfg = Field(default_factory=SummaryCfg)
+    cluster: ClusterCfg = Field(default_factory=ClusterCfg)
+
+
+# ---------------------------------------------------------------------------- values
+def toml_value(v: Any) -> str:
+    """``v`` as a TOML value, read back by ``--set`` to the same value (floats exactly)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        x = float(v)
+        return ("nan" if x != x else "inf" if x > 0 else "-inf") if not math.isfinite(x) \
+            else repr(x)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, (_dt.datetime, _dt.date, _dt.time)):
+        return v.isoformat()
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    if isinstance(v, Mapping):
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_value(x)}"
+                               for k, x in v.items()) + "}"
+    raise TypeError(f"not a TOML value: {v!r}")
+
+
+def _label(v: Any) -> str:
+    """A value as part of a file name."""
+    if isinstance(v, bool):
+        s = "true" if v else "false"
+    elif isinstance(v, (float, np.floating)):
+        s = f"{float(v):g}"
+    elif isinstance(v, (int, str, np.integer)):
+        s = str(v)
+    else:
+        s = hashlib.sha256(toml_value(v).encode()).hexdigest()[:8]
+    return re.sub(r"[^A-Za-z0-9.+=-]+", "_", s).strip("_.") or "_"
+
+
+def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}.{k}" if prefix else str(k)
+        if isinstance(v, Mapping):
+            out.update(_flatten(v, key))
+        else:
+            out[key] = v
+    return out
+
+
+# ---------------------------------------------------------------------------- the ensemble
+@dataclass
+class Axis:
+    """One dimension: its name, the keys it sets and, per position, their values."""
+
+    dim: str
+    keys: list[str]
+    rows: list[list[Any]]  # rows[i][k]: the value of keys[k] at position i
+    labels: list[str]
+    kind: str  # values, zip, draw, replicates
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+
+@dataclass
+class Member:
+    """One scene of the ensemble."""
+
+    index: tuple[int, ...]
+    name: str
+    overrides: dict[str, str]  # key -> TOML value, in the order siku run --set gets them
+    output: Path
+    scene_path: Path
+
+    def scene(self, text: str) -> Scene:
+        """The member's scene from the base scene's ``text`` (as ``load_scene`` makes it)."""
+        return scene_from_text(text, str(self.scene_path), self.scene_path, self.overrides)
+
+    def command(self) -> str:
+        """The ``siku run`` command that runs this member alone (and writes the same file)."""
+        sets = " ".join(f"--set {shlex.quote(f'{k}={v}')}" for k, v in self.overrides.items())
+        return (f"siku run {shlex.quote(str(self.scene_path))} {sets} --out "
+                f"{shlex.quote(str(self.output))}").replace("  ", " ")
+
+
+@dataclass
+class Sweep:
+    """A validated sweep: its file, base scene, axes and members."""
+
+    cfg: SweepCfg
+    text: str
+    label: str
+    scene_path: Path
+    scene_text: str
+    out_dir: Path
+    axes: list[Axis]
+    members: list[Member] = field(default_factory=list)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(a) for a in self.axes)
+
+    @property
+    def summary_path(self) -> Path:
+        return self.out_dir / self.cfg.summary.file
+
+    @property
+    def sha256(self) -> str:
+        """What the members depend on: the sweep text and the base scene text."""
+        return hashlib.sha256((self.text + "\0" + self.scene_text).encode()).hexdigest()
+
+
+def _where(label: str, what: str) -> str:
+    return f"{label} [{what}]"
+
+
+def _axes(cfg: SweepCfg, label: str) -> list[Axis]:
+    axes: list[Axis] = []
+    for a_k, a in enumerate(cfg.axis):
+        where = _where(label, f"axis[{a_k}]")
+        if a.values is not None:
+            keys, rows = [a.key], [[v] for v in a.values]
+            labels, kind = [_label(v) for v in a.values], "values"
+        elif a.zip is not None:
+            keys = list(a.zip)
+            rows = [list(r) for r in zip(*a.zip.values())]
+            labels, kind = ["_".join(_label(v) for v in r) for r in rows], "zip"
+        else:
+            keys = list(a.draw)
+            rng = np.random.default_rng(a.seed)
+            cols = [a.draw[k].sample(rng, a.n) for k in keys]
+            rows = [list(r) for r in zip(*cols)]
+            labels, kind = [str(i) for i in range(a.n)], "draw"
+        dim = a.name or (keys[0].rsplit(".", 1)[-1] if len(keys) == 1 else "_".join(
+            k.rsplit(".", 1)[-1] for k in keys))
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", dim):
+            raise SceneError(f"{where}: axis name '{dim}': use letters, digits and _ (it names "
+                             "a dimension of the summary dataset); set name = \"...\"")
+        if kind != "draw" and len({toml_value(r) for r in rows}) < len(rows):
+            raise SceneError(f"{where}: '{', '.join(keys)}' repeats a value: each position of "
+                             "an axis must differ (use [replicates] for repeats)")
+        if len(set(labels)) < len(labels):
+            w = len(str(len(labels) - 1))
+            labels = [f"{i:0{w}d}-{s}" for i, s in enumerate(labels)]
+        if kind == "draw":
+            w = len(str(a.n - 1))
+            labels = [f"{int(s):0{w}d}" for s in labels]
+        axes.append(Axis(dim, keys, rows, labels, kind))
+    if cfg.replicates is not None:
+        r = cfg.replicates
+        w = len(str(r.n - 1))
+        axes.append(Axis("replicate", [r.key], [[r.seed + i] for i in range(r.n)],
+                         [f"{i:0{w}d}" for i in range(r.n)], "replicates"))
+    seen: dict[str, str] = {}
+    for name in [a.dim for a in axes]:
+        if name in RESERVED or name in seen:
+            raise SceneError(f"{label}: axis name '{name}' is "
+                             + ("taken by the summary dataset" if name in RESERVED
+                                else "used twice") + "; give the axis another name = \"...\"")
+        seen[name] = name
+    keys_seen: dict[str, str] = {k: "set" for k in _flatten(cfg.set)}
+    for a_k, a in enumerate(axes):
+        for key in a.keys:
+            if key in keys_seen:
+                raise SceneError(f"{label}: key '{key}' is set by both {keys_seen[key]} and "
+                                 f"axis '{a.dim}'")
+            keys_seen[key] = f"axis '{a.dim}'"
+    return axes
+
+
+def _component_of(cfg: SceneCfg, prefix: str) -> tuple[str, str] | None:
+    """The (kind, name) of the component whose ``params`` table is at ``prefix``."""
+    parts = prefix.split(".")
+    try:
+        if prefix == "integrator":
+            return "integrator", cfg.integrator.name
+        if prefix == "contact" and cfg.contact is not None:
+            return "contact_law", cfg.contact.law
+        if prefix == "output":
+            return "writer", cfg.output.writer
+        if parts[0] == "forcing" and len(parts) == 2:
+            return "forcing", cfg.forcing[int(parts[1])].source
+        if parts[0] == "forcing" and len(parts) == 3 and parts[2] == "field":
+            f = cfg.forcing[int(parts[1])].field
+            return ("field", f.type) if f is not None else None
+    except (ValueError, IndexError):
+        return None
+    return None
+
+
+def _check_key(sweep_label: str, where: str, key: str, value: Any, base: dict, scene_label: str,
+               cfgs: list[SceneCfg], registry) -> None:
+    """Refuse a key the scene does not have (naming the sweep file and the key)."""
+    data = copy.deepcopy(base)
+    try:
+        apply_overrides(data, {key: toml_value(value)}, scene_label)
+    except SceneError as exc:
+        raise SceneError(f"{where}: key '{key}': {str(exc).split(': ', 1)[-1]}") from None
+    try:
+        SceneCfg.model_validate(data)
+    except ValidationError as err:
+        for e in err.errors():
+            loc = ".".join(str(p) for p in e["loc"])
+            if e["type"] == "extra_forbidden" and (loc == key or key.startswith(loc + ".")):
+                allowed = ", ".join(_allowed_keys(SceneCfg, tuple(e["loc"]))) or "(none)"
+                raise SceneError(f"{where}: key '{key}' is not a key of the scene ('{loc}' is "
+                                 f"unknown; allowed keys there: {allowed})") from None
+    m = re.fullmatch(r"(.+)\.params\.([^.]+)(\..+)?", key)
+    if m is None or not cfgs:
+        return
+    known = []
+    for cfg in cfgs:
+        comp = _component_of(cfg, m.group(1))
+        if comp is None:
+            continue
+        cls = registry.entry(*comp)
+        if cls is None:
+            continue
+        if m.group(2) in cls.cls.params:
+            return
+        known.append((comp, sorted(cls.cls.params)))
+    if known:
+        (kind, name), names = known[0]
+        raise SceneError(f"{where}: key '{key}': {kind.replace('_', ' ')} '{name}' has no "
+                         f"parameter '{m.group(2)}'; its parameters: {', '.join(names) or '-'}")
+
+
+def sweep_from_text(text: str, label: str = "<sweep>", base_dir: Path | None = None,
+                    out_dir: str | Path | None = None, registry=None) -> Sweep:
+    """Parse and validate sweep TOML ``text``; paths are relative to ``base_dir`` (default:
+    the working directory); errors name ``label`` and the key. ``out_dir`` overrides the
+    file's."""
+    base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{label}: TOML syntax error: {exc}") from None
+    try:
+        cfg = SweepCfg.model_validate(data)
+    except ValidationError as err:
+        raise SceneError(_explain(err, label, SweepCfg)) from None
+    scene_path = (base_dir / cfg.scene).resolve()
+    if not scene_path.is_file():
+        raise SceneError(f"{label}: key 'scene': scene file {scene_path} not found")
+    try:
+        scene_text = scene_path.read_text(encoding="utf-8")
+        base = tomllib.loads(scene_text)
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise SceneError(f"{label}: key 'scene': cannot read {scene_path}: {exc}") from None
+    axes = _axes(cfg, label)
+    fixed = {k: toml_value(v) for k, v in _flatten(cfg.set).items()}
+    if out_dir is None:
+        out_dir = cfg.out_dir if cfg.out_dir is not None else Path(label).stem or "ensemble"
+    out = (base_dir / Path(out_dir)).resolve()
+    # every key exists in the scene (checked with each axis's first value, the components
+    # of every member: a parameter key must belong to the component some member uses)
+    from siku_core.plugins import get_registry
+
+    reg = registry or get_registry()
+    members = _members(axes, fixed, out, scene_path)
+    cfgs = []
+    for m in members[:64]:
+        try:
+            cfgs.append(m.scene(scene_text).cfg)
+        except SceneError:
+            pass
+    checks = [("set", k, _override_value(v)) for k, v in fixed.items()]
+    for a_k, a in enumerate(axes):
+        what = "replicates" if a.kind == "replicates" else f"axis[{a_k}]"
+        checks += [(what, k, a.rows[0][i]) for i, k in enumerate(a.keys)]
+    for what, key, value in checks:
+        _check_key(label, _where(label, what), key, value, base, str(scene_path), cfgs, reg)
+    from siku_core.diagnostics import catalogue
+
+    known = {**catalogue(reg), **DERIVED}
+    known.pop("step"), known.pop("time")
+    for what, names in (("final", cfg.summary.final or []), ("series", cfg.summary.series)):
+        for name in names:
+            if name not in known:
+                raise SceneError(f"{_where(label, 'summary')} key '{what}': '{name}' is not a "
+                                 f"diagnostic; known: {', '.join(sorted(known))}")
+    return Sweep(cfg, text, label, scene_path, scene_text, out, axes, members)
+
+
+def _members(axes: list[Axis], fixed: dict[str, str], out: Path, scene_path: Path
+             ) -> list[Member]:
+    members = []
+    for index in itertools.product(*(range(len(a)) for a in axes)):
+        overrides = dict(fixed)
+        parts = []
+        for a, i in zip(axes, index):
+            for k, key in enumerate(a.keys):
+                overrides[key] = toml_value(a.rows[i][k])
+            parts.append(f"{a.dim}-{a.labels[i]}")
+        name = "__".join(parts) or "member"
+        if len(name) > 200:  # file names stop at 255 bytes
+            name = "member-" + "-".join(str(i) for i in index)
+        members.append(Member(tuple(index), name, overrides, out / f"{name}.h5", scene_path))
+    return members
+
+
+def load_sweep(path: str | Path, out_dir: str | Path | None = None, registry=None) -> Sweep:
+    """Read and validate a sweep file (module docstring); ``out_dir`` overrides the file's."""
+    p = Path(path)
+    if not p.is_file():
+        raise SceneError(f"{p}: sweep file not found")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{p}: cannot read sweep file: {exc}") from None
+    return sweep_from_text(text, str(p), p.resolve().parent, out_dir, registry)
+
+
+__all__ = ["Sweep", "Member", "Axis", "SweepCfg", "load_sweep", "sweep_from_text",
+           "toml_value"]
