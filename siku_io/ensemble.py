@@ -164,13 +164,44 @@ class _Cluster:
         self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                     dashboard_address=None, silence_logs=logging.ERROR, env=env)
         self.client = Client(self.cluster)
+        self.pids = [int(p) for p in self.client.run(os.getpid).values()]
+
+    def stop_members(self, futures) -> None:
+        """After an interruption: cancel what has not run; on a local cluster also stop the
+        members running now (their worker processes are ended: each member's output keeps its
+        last complete snapshot, from which a rerun of the sweep continues)."""
+        try:
+            self.client.cancel(list(futures), force=True)
+        except Exception:  # noqa: BLE001 - the cluster may already be going down
+            pass
+        if self.cluster is None:
+            return
+        import psutil
+
+        procs = []
+        for pid in self.pids:  # the worker processes of our own local cluster
+            try:
+                procs.append(psutil.Process(pid))
+            except psutil.Error:
+                pass
+        for p in procs:
+            try:
+                p.terminate()
+            except psutil.Error:
+                pass
+        _, alive = psutil.wait_procs(procs, timeout=5)
+        for p in alive:
+            try:
+                p.kill()
+            except psutil.Error:
+                pass
 
     def close(self) -> None:
         try:
-            self.client.close()
+            self.client.close(timeout=10)
         finally:
             if self.cluster is not None:
-                self.cluster.close()
+                self.cluster.close(timeout=10)
 
 
 # ---------------------------------------------------------------------------- running
@@ -218,7 +249,7 @@ def _check_summary_target(sweep: Sweep) -> None:
 
 def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None = None,
         workers: int | None = None, threads: int | None = None, out_dir=None,
-        progress: bool | None = None, write: bool = True):
+        progress: bool | None = None, write: bool = True, on_start=None):
     """Run every member of ``sweep`` (a sweep file, a :class:`~siku_io.sweep.Sweep`, or the
     sweep as a dict) and return the summary dataset (``xarray.Dataset``).
 
@@ -229,6 +260,8 @@ def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None 
     out_dir : overrides the sweep's ``out_dir``.
     progress : a progress bar over the members (``None``: when stderr is a terminal).
     write : write the summary to its NetCDF file.
+    on_start : called with the plan (``{member name: action}``) once the members can start
+        (the cluster is up).
     """
     sw = _as_sweep(sweep, out_dir)
     if write:
@@ -247,14 +280,18 @@ def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None 
 
     bar = tqdm(total=len(sw.members), unit="member", desc=sw.cfg.title or "ensemble",
                disable=not show, initial=len(sw.members) - len(jobs))
+    actions = {m.name: todo[m.name]["action"] for m in sw.members}
     try:
-        if (scheduler or sw.cfg.cluster.scheduler) == "serial":
+        if (scheduler or sw.cfg.cluster.scheduler) == "serial" or not jobs:
+            if on_start is not None:
+                on_start(actions)
             for m in jobs:
                 results[m.name] = run_member(str(m.scene_path), m.overrides, str(m.output),
                                              todo[m.name]["action"] == "restart", threads)
                 bar.update(1)
-        elif jobs:
-            _run_dask(sw, jobs, todo, results, bar, scheduler, workers, threads)
+        else:
+            _run_dask(sw, jobs, todo, results, bar, scheduler, workers, threads,
+                      lambda: on_start(actions) if on_start is not None else None)
     finally:
         bar.close()
     ds = summarize(sw, results)
@@ -264,12 +301,13 @@ def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None 
 
 
 def _run_dask(sw: Sweep, jobs: list[Member], todo, results, bar, scheduler, workers,
-              threads) -> None:
+              threads, started) -> None:
     from distributed import as_completed
 
     cl = _Cluster(sw, scheduler, workers, threads)
+    futures: dict[Any, Member] = {}
     try:
-        futures = {}
+        started()
         for m in jobs:
             fut = cl.client.submit(run_member, str(m.scene_path), m.overrides, str(m.output),
                                    todo[m.name]["action"] == "restart", cl.threads,
@@ -285,6 +323,9 @@ def _run_dask(sw: Sweep, jobs: list[Member], todo, results, bar, scheduler, work
                                    "message": f"{type(exc).__name__}: "
                                               f"{' '.join(str(exc).split())[:300]}"}
             bar.update(1)
+    except KeyboardInterrupt:
+        cl.stop_members(futures)
+        raise
     finally:
         cl.close()
 
@@ -449,16 +490,18 @@ def cmd_ensemble(args) -> int:
     """``siku ensemble SWEEP.toml``: exit 0 when every member is done, 1 when some failed
     (listed), 2 for a bad sweep file or an unreachable scheduler."""
     sw = load_sweep(args.sweep, args.out_dir)
-    todo = plan(sw)
-    counts: dict[str, int] = {}
-    for p in todo.values():
-        counts[p["action"]] = counts.get(p["action"], 0) + 1
-    print(f"siku {__version__}: ensemble {sw.cfg.title or sw.label}: {len(sw.members)} members "
-          f"({' x '.join(f'{a.dim} {len(a)}' for a in sw.axes) or 'one scene'}); "
-          + ", ".join(f"{n} to {k}" for k, n in sorted(counts.items())), file=sys.stderr)
+
+    def started(actions: dict[str, str]) -> None:
+        counts: dict[str, int] = {}
+        for a in actions.values():
+            counts[a] = counts.get(a, 0) + 1
+        print(f"siku {__version__}: ensemble {sw.cfg.title or sw.label}: {len(sw.members)} "
+              f"members ({' x '.join(f'{a.dim} {len(a)}' for a in sw.axes) or 'one scene'}); "
+              + ", ".join(f"{n} to {k}" for k, n in sorted(counts.items())), file=sys.stderr)
+
     t0 = time.perf_counter()
     ds = run(sw, scheduler=args.scheduler, workers=args.workers, threads=args.threads,
-             progress=False if args.no_progress else None)
+             progress=False if args.no_progress else None, on_start=started)
     failed = [(str(o), str(msg)) for s, o, msg in zip(ds.status.values.ravel(),
                                                       ds.output.values.ravel(),
                                                       ds.message.values.ravel())

@@ -342,8 +342,25 @@ def _where(label: str, what: str) -> str:
     return f"{label} [{what}]"
 
 
+def _default_dim(keys: list[str], taken: set[str]) -> str:
+    """An axis's dimension name from its keys: the last part of the key (``contact.law`` ->
+    ``law``), longer where that is taken (``run.max_speed`` -> ``run_max_speed``: the summary
+    holds the diagnostic ``max_speed``)."""
+    parts = [k.split(".") for k in keys]
+    for n in range(1, max(len(p) for p in parts) + 1):
+        name = "_".join("_".join(p[-n:]) for p in parts)
+        name = re.sub(r"[^A-Za-z0-9_]", "_", name)
+        if name not in taken:
+            return name
+    return name
+
+
 def _axes(cfg: SweepCfg, label: str) -> list[Axis]:
+    from siku_core.diagnostics import catalogue
+
     axes: list[Axis] = []
+    # names the summary's variables may take: its own, every diagnostic, the derived ones
+    taken = set(RESERVED) | set(catalogue()) | set(DERIVED)
     for a_k, a in enumerate(cfg.axis):
         where = _where(label, f"axis[{a_k}]")
         if a.values is not None:
@@ -359,8 +376,7 @@ def _axes(cfg: SweepCfg, label: str) -> list[Axis]:
             cols = [a.draw[k].sample(rng, a.n) for k in keys]
             rows = [list(r) for r in zip(*cols)]
             labels, kind = [str(i) for i in range(a.n)], "draw"
-        dim = a.name or (keys[0].rsplit(".", 1)[-1] if len(keys) == 1 else "_".join(
-            k.rsplit(".", 1)[-1] for k in keys))
+        dim = a.name or _default_dim(keys, taken)
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", dim):
             raise SceneError(f"{where}: axis name '{dim}': use letters, digits and _ (it names "
                              "a dimension of the summary dataset); set name = \"...\"")
@@ -381,9 +397,9 @@ def _axes(cfg: SweepCfg, label: str) -> list[Axis]:
                          [f"{i:0{w}d}" for i in range(r.n)], "replicates"))
     seen: dict[str, str] = {}
     for name in [a.dim for a in axes]:
-        if name in RESERVED or name in seen:
+        if name in taken or name in seen:
             raise SceneError(f"{label}: axis name '{name}' is "
-                             + ("taken by the summary dataset" if name in RESERVED
+                             + ("taken by a variable of the summary dataset" if name in taken
                                 else "used twice") + "; give the axis another name = \"...\"")
         seen[name] = name
     keys_seen: dict[str, str] = {k: "set" for k in _flatten(cfg.set)}

@@ -18,6 +18,9 @@ every test suite in an environment where siku is installed has these fixtures:
     package look installed (a ``.dist-info`` folder on ``sys.path``, see
     :func:`siku_core.testing.write_dist_info`) and rebuilds the registry, so the real
     entry-point path is exercised without ``pip``; everything is undone after the test.
+``siku_dask_scheduler``
+    the address of a local Dask cluster of two single-threaded worker processes, started once
+    per test session, for ``siku_io.ensemble.run(sweep, scheduler=...)``.
 """
 from __future__ import annotations
 
@@ -121,3 +124,19 @@ def siku_fake_install(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterat
         if mod.split(".")[0] in tops:
             del sys.modules[mod]
     get_registry(refresh=True)
+
+
+@pytest.fixture(scope="session")
+def siku_dask_scheduler() -> Iterator[str]:
+    """Address of a local Dask cluster (two worker processes, one task and one numba thread
+    each), shared by the session's ensemble tests."""
+    import logging
+
+    distributed = pytest.importorskip("distributed")
+    cluster = distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        silence_logs=logging.ERROR, env={"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"})
+    try:
+        yield cluster.scheduler_address
+    finally:
+        cluster.close()
