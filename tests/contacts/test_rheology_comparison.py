@@ -9,6 +9,10 @@ which is set to ``collision``, ``distributed_spring`` and ``mohr_coulomb`` in tu
 keeps its default parameters (those cannot differ between the runs without changing more than
 the law: the strict parameter tables of the three laws only share the collision keys).
 
+The comparison is an ensemble (``siku_io.ensemble``, on the session's local Dask cluster): the
+three laws times five values of the anticyclone's ``vmax`` (8, 8.5, 11, 14 and 15 m/s), fifteen
+members; the metrics below come from the summary dataset and the members' output files.
+
 Metrics (all measured after the 6 h of the scene)
 -------------------------------------------------
 * **opening**: the mean increase of the distance between the centres of the element pairs that
@@ -18,10 +22,12 @@ Metrics (all measured after the 6 h of the scene)
 * **leads**: the share of those pairs whose separation grew by more than 0.1 % of their rest
   distance (5 × the spring's breaking strain 2e-4: beyond any elastic stretch).
 * **broken**: the share of frozen joints broken.
-* **failure modes** (Mohr–Coulomb): each failed segment is classified by the stresses it had in
-  the evaluation that failed it (the state at the start of that step, recomputed here as the law
-  does): *tension* ``sigma_n > sigma_t``, *compression* ``sigma_n < -sigma_c``, otherwise *shear*
+* **failure modes** (Mohr–Coulomb): each broken joint by the mode the law recorded for the
+  evaluation that broke it (``joints_broken_<mode>`` diagnostics, ``/breaks/mode``): *tension*
+  ``sigma_n > sigma_t``, *compression* ``sigma_n < -sigma_c``, otherwise *shear*
   (``|sigma_s| > tan(phi)(sigma_t - sigma_n)``, the Mohr–Coulomb envelope).
+* **largest spring strain**: the largest ``max(|s1|, |s2|)/L0`` any joint reached during the
+  run (the spring's history, read from the last snapshot).
 
 Expected, and why the parameters give it
 ----------------------------------------
@@ -32,8 +38,8 @@ fails in shear at ``|sigma_s| = tan 15° × 128.5 kPa = 34 kPa`` without tension
 of ``34 kPa / G = 9e-5``; the spring breaks only when ``max(|s1|, |s2|)/L0`` exceeds
 ``2e-4``, which for a traction of any direction means about 200 kPa. Measured thresholds of the
 anticyclone's ``vmax`` in this scene: Mohr–Coulomb joints start failing between 8 and 8.5 m/s,
-springs between 14 and 15 m/s; the scene's 11 m/s sits in the middle (stresses scale with
-``vmax²``: a factor 1.6–1.8 from either threshold).
+springs between 14 and 15 m/s (the ensemble checks both thresholds); the scene's 11 m/s sits in
+the middle (stresses scale with ``vmax²``: a factor 1.6–1.8 from either threshold).
 
 * collision: no joints; every floe drifts with its own wind and the pack spreads: it opens most;
 * distributed_spring: nothing breaks (largest strain about 1.2e-4); opening about 0 (elastic);
@@ -43,112 +49,106 @@ springs between 14 and 15 m/s; the scene's 11 m/s sits in the middle (stresses s
 """
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
-from siku_core import Simulation
-from siku_core.contacts import frame_point
-from siku_core.geometry.quat import centers
-from siku_core.scene import scene_from_text
+from siku_core.scene import load_scene
 from siku_core.state import STATIC
+from siku_io import ensemble
+from siku_io.results import last_snapshot
+
+pytest.importorskip("distributed")
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "examples" / "rheology_comparison.toml"
 LAWS = ("collision", "distributed_spring", "mohr_coulomb")
+VMAX = (8.0, 8.5, 11.0, 14.0, 15.0)
 LEAD_STRAIN = 1e-3
 
 
-def with_law(text: str, law: str) -> str:
-    """The scene text with only its ``[contact] law = ...`` line changed."""
-    new, n = re.subn(r'^law = "[a-z_]+"', f'law = "{law}"', text, count=1,
-                     flags=re.MULTILINE)
-    assert n == 1, "the example has no `law = ...` line"
-    return new
+def sweep() -> dict:
+    """The comparison as a sweep: the scene's law line times the anticyclone's ``vmax``."""
+    return {
+        "title": "rheology comparison",
+        "scene": str(SCENE),
+        "axis": [{"key": "contact.law", "values": list(LAWS)},
+                 {"key": "forcing.0.field.params.vmax", "values": list(VMAX)}],
+        "summary": {"final": ["joints_intact", "joints_broken", "joints_broken_tension",
+                              "joints_broken_shear", "joints_broken_compression",
+                              "joints_broken_strain", "mean_drift"]},
+    }
 
 
-def mc_segment_stresses(sim, k: int, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``sigma_n, sigma_s`` [Pa] of the segments of joint ``k`` for the state ``q``, as
-    :func:`siku_plugins.contact_laws.mohr_coulomb_evaluator` computes them."""
-    cm, R = sim.contacts, sim.radius
-    i, j = cm.ji[k], cm.jj[k]
-    a, b = cm.ends_i[k]
-    A = np.array(frame_point(q[j], q[i], cm.ends_j[k, 0, 0], cm.ends_j[k, 0, 1], R))
-    B = np.array(frame_point(q[j], q[i], cm.ends_j[k, 1, 0], cm.ends_j[k, 1, 1], R))
-    s1, s2 = A - a, B - b
-    t = (b - a) / np.hypot(*(b - a))
-    n = np.array([t[1], -t[0]])
-    nseg = int(cm.law.p["n_segments"])
-    z = (np.arange(nseg) + 0.5) / nseg
-    d = s1[None, :] + z[:, None] * (s2 - s1)[None, :]
-    E = 0.5 * (cm.E[i] + cm.E[j])
-    G = E / (2.0 * (1.0 + cm.nu[i]))
-    return E * (d @ n) / cm.L0[k], G * (d @ t) / cm.L0[k]
-
-
-def run_law(law: str) -> dict:
-    text = with_law(SCENE.read_text(encoding="utf-8"), law)
-    sim = Simulation(scene_from_text(text, f"{SCENE.name} with law = {law}"), out=False,
-                     progress=False)
-    st, cm = sim.state, sim.contacts
-    pk = sim.scene.cfg.elements.pack[0]
+def neighbour_pairs(flags: np.ndarray) -> np.ndarray:
+    """The element pairs of the pack that share an edge (pairs of two static cells left out)."""
+    pk = load_scene(SCENE).cfg.elements.pack[0]
     nx, ny = pk.nx, pk.ny
     idx = np.arange(nx * ny).reshape(nx, ny)  # pack cells are stored column by column
     pairs = np.array([(idx[i, j], idx[i + 1, j]) for i in range(nx - 1) for j in range(ny)]
                      + [(idx[i, j], idx[i, j + 1]) for i in range(nx) for j in range(ny - 1)])
-    pairs = pairs[~((st.flags[pairs[:, 0]] == STATIC) & (st.flags[pairs[:, 1]] == STATIC))]
+    return pairs[~((flags[pairs[:, 0]] == STATIC) & (flags[pairs[:, 1]] == STATIC))]
 
-    def separations() -> np.ndarray:
-        c = centers(st.q)
-        dot = np.clip(np.sum(c[pairs[:, 0]] * c[pairs[:, 1]], axis=1), -1.0, 1.0)
-        return sim.radius * np.arccos(dot)
 
-    rest = separations()
-    modes = {"tension": 0, "shear": 0, "compression": 0}
-    mc = law == "mohr_coulomb"
-    if mc:
-        sigc = float(cm.law.p["sigma_c"]) or 1285e3 * float(st.thickness.min()) ** (2 / 3)
-        sigt = float(cm.law.p["tensile_ratio"]) * sigc
-    for _ in range(sim.n_steps):
-        if mc:
-            q0, failed0 = st.q.copy(), cm.hist != 0.0
-        sim.step()
-        if mc:
-            new = (cm.hist != 0.0) & ~failed0
-            for k in np.flatnonzero(new.any(axis=1)):
-                sn, _ = mc_segment_stresses(sim, k, q0)
-                for s in sn[new[k]]:
-                    key = "tension" if s > sigt else "compression" if s < -sigc else "shear"
-                    modes[key] += 1
-    opening = separations() - rest
+def metrics(ds, law: str, vmax: float) -> dict:
+    """The metrics of one member (module docstring) from the summary and its output file."""
+    m = ds.sel(law=law, vmax=vmax)
+    assert str(m.status.values) == "done", str(m.message.values)
+    path = Path(str(m.output.values))
+    with h5py.File(path, "r") as f:
+        flags = f["geometry/flags"][:]
+        R = float(f.attrs["radius"])
+        lat, lon = np.radians(f["states/lat"][:]), np.radians(f["states/lon"][:])
+    pairs = neighbour_pairs(flags)
+
+    def separation(k: int) -> np.ndarray:  # haversine [m] between the pair centres
+        a, b = pairs[:, 0], pairs[:, 1]
+        h = (np.sin((lat[k, b] - lat[k, a]) / 2) ** 2
+             + np.cos(lat[k, a]) * np.cos(lat[k, b]) * np.sin((lon[k, b] - lon[k, a]) / 2) ** 2)
+        return 2 * R * np.arcsin(np.sqrt(h))
+
+    rest = separation(0)
+    opening = separation(-1) - rest
+    joints = int(m.joints_intact) + int(m.joints_broken)
+    strain = np.nan
+    if law == "distributed_spring":
+        strain = float(last_snapshot(path)["history"]["contacts"]["hist"][:, 0].max())
     return {
-        "law": law,
         "opening": float(opening.mean()),
         "leads": float(np.mean(opening > LEAD_STRAIN * rest)),
-        "pairs": len(pairs),
-        "joints": cm.n_joints,
-        "broken": cm.n_joints - cm.n_intact,
-        "broken_share": (cm.n_joints - cm.n_intact) / cm.n_joints if cm.n_joints else 0.0,
-        "max_strain": float(cm.hist[:, 0].max()) if law == "distributed_spring" else math.nan,
-        "modes": modes,
-        "critical_dt": sim.critical_dt,
-        "dt": sim.dt,
+        "joints": joints,
+        "broken": int(m.joints_broken),
+        # (a run without joints reports no break modes: NaN in the summary)
+        "modes": {k: int(m[f"joints_broken_{k}"]) for k in ("tension", "shear", "compression",
+                                                           "strain") if joints},
+        "max_strain": strain,
+        "wall_time": float(m.wall_time),
     }
 
 
 @pytest.fixture(scope="module")
-def results() -> dict[str, dict]:
-    return {law: run_law(law) for law in LAWS}
+def ds(tmp_path_factory, siku_dask_scheduler):
+    out = tmp_path_factory.mktemp("rheology")
+    return ensemble.run(sweep(), scheduler=siku_dask_scheduler, out_dir=out, progress=False)
+
+
+@pytest.fixture(scope="module")
+def results(ds) -> dict[str, dict]:
+    """The metrics of the scene as it is (``vmax = 11 m/s``) for each law."""
+    return {law: metrics(ds, law, 11.0) for law in LAWS}
 
 
 def test_only_the_law_line_changes():
+    """The members differ from the scene file by the law line only (and ``vmax``)."""
+    sw = ensemble._as_sweep(sweep(), Path("unused"))
+    for m in sw.members:
+        assert list(m.overrides) == ["contact.law", "forcing.0.field.params.vmax"]
     text = SCENE.read_text(encoding="utf-8")
-    a, b = with_law(text, "collision"), with_law(text, "mohr_coulomb")
-    diff = [(x, y) for x, y in zip(a.splitlines(), b.splitlines()) if x != y]
-    assert len(diff) == 1 and diff[0][0].startswith("law = ")
+    assert len(re.findall(r'^law = "[a-z_]+"', text, flags=re.MULTILINE)) == 1
+    assert len(re.findall(r"vmax = 11\.0", text)) == 1
 
 
 def test_collision_pack_opens_most(results):
@@ -171,25 +171,44 @@ def test_mohr_coulomb_pack_fails_in_shear(results):
     assert m["joints"] == 69
     assert m["broken"] >= 12  # at least every coast joint
     modes = m["modes"]
-    total = sum(modes.values())
-    assert total >= 10 * m["broken"]  # every segment of each broken joint was counted
-    assert modes["shear"] >= 0.9 * total, modes
-    assert modes["compression"] == 0
+    assert sum(modes.values()) == m["broken"]  # every break classified by the envelope
+    assert modes["strain"] == 0 and modes["compression"] == 0
+    assert modes["shear"] >= 0.9 * m["broken"], modes
+
+
+def test_failure_thresholds_of_vmax(ds):
+    """Mohr–Coulomb joints start failing between vmax = 8 and 8.5 m/s, springs between 14 and
+    15 m/s (module docstring); the collision law has no joints to break."""
+    broken = ds.joints_broken
+    assert broken.sel(law="mohr_coulomb", vmax=8.0) == 0
+    assert (broken.sel(law="mohr_coulomb", vmax=[8.5, 11.0, 14.0, 15.0]) > 0).all()
+    assert (broken.sel(law="distributed_spring", vmax=[8.0, 8.5, 11.0, 14.0]) == 0).all()
+    assert broken.sel(law="distributed_spring", vmax=15.0) > 0
+    assert (broken.sel(law="collision") == 0).all()
+    # a stronger wind never breaks fewer joints
+    for law in ("mohr_coulomb", "distributed_spring"):
+        assert (np.diff(broken.sel(law=law).values) >= 0).all()
 
 
 if __name__ == "__main__":  # print the table of docs/explanation/contacts.md
-    import time
+    import tempfile
 
-    print("| law | joints | broken | MC segment failures (tension/shear/compression) "
-          "| opening [m] | leads | largest spring strain | run [s] |")
-    print("|---|---|---|---|---|---|---|---|")
-    for law in LAWS:
-        t0 = time.perf_counter()
-        r = run_law(law)
-        dt = time.perf_counter() - t0
-        md = r["modes"]
-        mode = f"{md['tension']}/{md['shear']}/{md['compression']}" if law == "mohr_coulomb" \
-            else "—"
-        strain = f"{r['max_strain']:.2e}" if law == "distributed_spring" else "—"
-        print(f"| {law} | {r['joints']} | {r['broken']} | {mode} | {r['opening']:.1f} | "
-              f"{r['leads']:.0%} | {strain} | {dt:.1f} |")
+    with tempfile.TemporaryDirectory() as tmp:
+        data = ensemble.run(sweep(), out_dir=tmp, progress=True, write=False)
+        print("| law | joints | broken | MC joint failures (tension/shear/compression) "
+              "| opening [m] | leads | largest spring strain | run [s] |")
+        print("|---|---|---|---|---|---|---|---|")
+        for law in LAWS:
+            r = metrics(data, law, 11.0)
+            md = r["modes"]
+            mode = f"{md['tension']}/{md['shear']}/{md['compression']}" \
+                if law == "mohr_coulomb" else "—"
+            strain = f"{r['max_strain']:.2e}" if law == "distributed_spring" else "—"
+            print(f"| {law} | {r['joints']} | {r['broken'] if r['joints'] else '—'} | {mode} | "
+                  f"{r['opening']:.1f} | {r['leads']:.0%} | {strain} | {r['wall_time']:.1f} |")
+        print("\njoints broken against vmax [m/s]:")
+        print("| law | " + " | ".join(f"{v:g}" for v in VMAX) + " |")
+        print("|---|" + "---|" * len(VMAX))
+        for law in LAWS[1:]:
+            row = data.joints_broken.sel(law=law).values
+            print(f"| {law} | " + " | ".join(str(int(x)) for x in row) + " |")
