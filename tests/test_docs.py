@@ -299,6 +299,12 @@ def test_toml_examples_in_the_docs_parse(where, block):
     if re.search(r"^\[(project|tool|build-system)\b", block, re.MULTILINE):  # pyproject.toml
         tomllib.loads(block)
         return
+    if re.search(r"^scene = ", block, re.MULTILINE):  # a sweep file (docs/howto/ensembles.md)
+        from siku_io.sweep import sweep_from_text
+
+        sw = sweep_from_text(block, where, ROOT / "examples" / "sweeps")
+        assert sw.members
+        return
     scene_from_text(as_scene(block), where)
 
 
