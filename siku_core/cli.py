@@ -1,9 +1,11 @@
-"""Command line: ``siku run``, ``siku plugins``, ``siku bench``, and the commands plugins add.
+"""Command line: ``siku run``, ``siku plugins``, and the commands plugins add.
 
-The engine's own commands are ``run``, ``plugins`` and ``bench``; every other command (``plot``
-from ``siku_io``, ``lab`` from ``siku_plugins``, a third party's) is added by the package that
-owns it through the ``siku_register_commands`` hook, as datasette plugins add commands. Bad
-input exits with status 2 and a one-line message (no traceback).
+The engine's own commands are ``run`` and ``plugins``; every other command (``plot``,
+``ensemble`` and ``bench`` from ``siku_io``, ``lab`` from ``siku_plugins``, a third party's) is
+added by the package that owns it through the ``siku_register_commands`` hook, as datasette
+plugins add commands. A command whose parser sets the default ``raw_args=True`` gets the rest
+of the command line as it is (``func(argv)``: a runner with its own options). Bad input exits
+with status 2 and a one-line message (no traceback).
 """
 from __future__ import annotations
 
@@ -116,26 +118,6 @@ def profile_table(sim, wall: float) -> str:
     return "\n".join(lines)
 
 
-def _repo_bench() -> Path:
-    return Path(__file__).resolve().parents[1] / "bench"
-
-
-def _cmd_bench(argv: list[str]) -> int:
-    """``siku bench ...``: the runner in the repository's ``bench/`` (``python -m bench``);
-    benchmarks are not installed, so this needs a source checkout (an editable install)."""
-    where = _repo_bench()
-    if not (where / "__main__.py").is_file():
-        raise SikuError(f"siku bench needs a source checkout: {where} not found (siku is not "
-                        "installed from a clone); clone the repository and run "
-                        "'python -m bench' there")
-    root = str(where.parent)
-    if root not in sys.path:
-        sys.path.insert(0, root)
-    from bench.__main__ import main as bench_main
-
-    return bench_main(argv)
-
-
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from .plugins import get_registry
 
@@ -201,8 +183,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=_cmd_run)
     p = sub.add_parser("plugins", help="list registered components with their parameters")
     p.set_defaults(func=_cmd_plugins)
-    sub.add_parser("bench", help="benchmark tables (source checkout; 'siku bench --help')")
     _plugin_commands(sub)
+    ap.set_defaults(commands=sub)
     return ap
 
 
@@ -230,20 +212,15 @@ def _plugin_commands(sub) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv[:1] == ["bench"]:  # everything after 'bench' belongs to the benchmark runner
-        try:
-            return _cmd_bench(argv[1:])
-        except SikuError as exc:
-            print(f"siku: error: {exc}", file=sys.stderr)
-            return 2
-        except SystemExit as exc:  # --help, or the runner's own usage errors
-            return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
             warnings.showwarning = _warn_one_line
             try:
                 ap = build_parser()
+                cmd = ap.get_default("commands").choices.get(argv[0]) if argv else None
+                if cmd is not None and cmd.get_default("raw_args"):
+                    return cmd.get_default("func")(argv[1:])
                 args = ap.parse_args(argv)
             except _UsageError as exc:
                 print(f"siku: error: {exc}", file=sys.stderr)

@@ -94,3 +94,32 @@ def check_limits(scene, n_steps: int | None = None) -> None:
             f"{scene.where('elements')}: about {n:.3g} elements need about "
             f"{need / 2**30:.3g} GiB ({BYTES_PER_ELEMENT} bytes each), more than this machine's "
             f"{ram / 2**30:.3g} GiB of memory")
+
+
+def check_components(scene, registry=None) -> None:
+    """Check what a scene names without building it: every component's name (integrator,
+    forcing sources and their fields, contact law and broad phase, writer, element sources) is
+    registered and its parameters are valid; raises :class:`SceneError` naming the table, as
+    building the :class:`Simulation` would. Cheap: no element, mesh or file is made."""
+    from .elements import scene_sources
+    from .params import validate_params
+    from .plugins import get_registry
+
+    reg = registry or get_registry()
+    cfg = scene.cfg
+
+    def one(kind: str, name: str, params: dict, table: str) -> None:
+        where = scene.where(table)
+        cls = reg.get(kind, name, where=f"{where}: ")
+        validate_params(name, cls.params, params, where)
+
+    one("integrator", cfg.integrator.name, cfg.integrator.params, "integrator")
+    for k, f in enumerate(cfg.forcing):
+        one("forcing", f.source, f.params, f"forcing[{k}]")
+        if f.field is not None:
+            one("field", f.field.type, f.field.params, f"forcing[{k}].field")
+    if cfg.contact is not None:
+        one("contact_law", cfg.contact.law, cfg.contact.params, "contact")
+        one("broad_phase", cfg.contact.broad_phase, {}, "contact")
+    one("writer", cfg.output.writer, cfg.output.params, "output")
+    scene_sources(scene, reg)

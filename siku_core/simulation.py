@@ -22,7 +22,7 @@ import numpy as np
 
 from . import parallel
 from .diagnostics import all_finite, element_diagnostics, fastest, held_forces
-from .elements import build_elements, scene_sources
+from .elements import build_elements
 from . import __version__
 from .errors import NonFiniteError, SceneError, StabilityError
 from .interfaces import Component, Field, ForcingSource, Integrator, Writer
@@ -49,31 +49,6 @@ _GUARDED = ("F", "T", "V", "w", "q")
 #: the integrator (its own work, without the force evaluations); the NaN guard; writers
 PHASES = ("forcing", "joints", "broad_phase", "collisions", "contact_sum", "integrator",
           "guard", "output")
-
-
-def check_components(scene: Scene, registry: Registry | None = None) -> None:
-    """Check what a scene names without building it: every component's name (integrator,
-    forcing sources and their fields, contact law and broad phase, writer, element sources) is
-    registered and its parameters are valid; raises :class:`SceneError` naming the table, as
-    building the :class:`Simulation` would. Cheap: no element, mesh or file is made."""
-    reg = registry or get_registry()
-    cfg = scene.cfg
-
-    def one(kind: str, name: str, params: dict, table: str) -> None:
-        where = scene.where(table)
-        cls = reg.get(kind, name, where=f"{where}: ")
-        validate_params(name, cls.params, params, where)
-
-    one("integrator", cfg.integrator.name, cfg.integrator.params, "integrator")
-    for k, f in enumerate(cfg.forcing):
-        one("forcing", f.source, f.params, f"forcing[{k}]")
-        if f.field is not None:
-            one("field", f.field.type, f.field.params, f"forcing[{k}].field")
-    if cfg.contact is not None:
-        one("contact_law", cfg.contact.law, cfg.contact.params, "contact")
-        one("broad_phase", cfg.contact.broad_phase, {}, "contact")
-    one("writer", cfg.output.writer, cfg.output.params, "output")
-    scene_sources(scene, reg)
 
 
 class Simulation:

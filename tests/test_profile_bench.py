@@ -60,9 +60,9 @@ def test_threads_out_of_range_is_a_one_line_error(tmp_path, monkeypatch, capsys)
     assert numba.get_num_threads() >= 1
 
 
-def test_siku_bench_forwards_to_the_runner(capsys):
+def test_siku_bench_forwards_to_the_runner(capfd):
     assert main(["bench", "--help"]) == 0
-    assert "python -m bench" in capsys.readouterr().out
+    assert "python -m bench" in capfd.readouterr().out
     assert main(["bench", "--scenes", "nowhere"]) == 2
 
 
