@@ -85,10 +85,6 @@ def run_member(scene_path: str, overrides: dict[str, str], output: str, restart:
             "steps": 0}
 
 
-def _scene_sha(member: Member, scene_text: str) -> str:
-    return hashlib.sha256(member.scene(scene_text).text.encode()).hexdigest()
-
-
 def plan(sweep: Sweep) -> dict[str, dict[str, Any]]:
     """What each member needs, by name: ``{"action": "run" | "restart" | "reuse" | "fail",
     "message": ...}``, from its scene (validated, components checked) and its output file."""
