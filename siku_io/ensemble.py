@@ -38,13 +38,11 @@ import time
 from pathlib import Path
 from typing import Any, Mapping
 
-
 from siku_core import __version__
 from siku_core.errors import SceneError, SikuError
 
 from .ensemble_summary import SUMMARY_KIND, summarize, write_summary
 from .sweep import Member, Sweep, load_sweep, sweep_from_text
-
 
 
 # ---------------------------------------------------------------------------- one member

@@ -83,6 +83,7 @@ from siku_core.scene import (
 
 from .sweep_cfg import DERIVED, RESERVED, SweepCfg
 
+
 # ---------------------------------------------------------------------------- values
 def toml_value(v: Any) -> str:
     """``v`` as a TOML value, read back by ``--set`` to the same value (floats exactly)."""
