@@ -483,16 +483,22 @@ def scene_from_text(
     return Scene(cfg, text, path)
 
 
+def read_input_text(path: str | Path, what: str = "scene file") -> str:
+    """The UTF-8 text of an input file; a missing or unreadable one is a :class:`SceneError`
+    naming it (``what``: how messages call it)."""
+    p = Path(path)
+    if not p.is_file():
+        raise SceneError(f"{p}: {what} not found")
+    try:
+        return p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{p}: cannot read {what}: {exc}") from None
+
+
 def load_scene(path: str | Path, overrides: dict[str, str] | None = None) -> Scene:
     """Read and validate a scene file (``overrides``: see :func:`scene_from_text`)."""
     p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"{p}: scene file not found")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{p}: cannot read scene file: {exc}") from None
-    return scene_from_text(text, str(p), p.resolve(), overrides)
+    return scene_from_text(read_input_text(p), str(p), p.resolve(), overrides)
 
 
 __all__ = ["Scene", "SceneCfg", "load_scene", "scene_from_text", "format_validation_error"]

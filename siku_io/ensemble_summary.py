@@ -33,20 +33,6 @@ def _coord(values: list[Any]) -> np.ndarray:
     return np.array([toml_value(v) for v in values], dtype=object)
 
 
-def _quantities(sw: Sweep, outputs: dict[str, Path]) -> tuple[list[str], list[str]]:
-    cfg = sw.cfg.summary
-    if cfg.final is not None:
-        return list(cfg.final), list(cfg.series)
-    from .results import read_diagnostics
-
-    names: list[str] = []
-    for path in outputs.values():
-        for k in read_diagnostics(path):
-            if k not in ("step", "time") and k not in names:
-                names.append(k)
-    return sorted(names) + list(DERIVED), list(cfg.series)
-
-
 def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
     """The summary dataset of a sweep from its members' ``results`` and output files."""
     import xarray as xr
@@ -68,13 +54,15 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
                 coords[key] = (a.dim, _coord([r[k] for r in a.rows]), {"scene_key": key})
     done = {m.name: m.output for m in sw.members
             if results.get(m.name, {}).get("status") in ("done", "reused")}
-    finals, series = _quantities(sw, done)
+    cfg = sw.cfg.summary
+    series = list(cfg.series)
+    drift = cfg.final is None or "mean_drift" in cfg.final or "mean_drift" in series
     known = catalogue()
     diag: dict[str, dict[str, tuple[np.ndarray, str]]] = {}
-    for name, path in done.items():
+    for name, path in done.items():  # each output read once
         try:
             d = read_diagnostics(path)
-            if "mean_drift" in finals or "mean_drift" in series:
+            if drift:
                 t, v = snapshot_drift(path)
                 d["mean_drift"] = (v, "m")
                 d["_snapshot_time"] = (t, "s")
@@ -83,6 +71,12 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
             results = dict(results)
             results[name] = {**results[name], "status": "failed",
                              "message": f"{path}: cannot read its results: {exc}"}
+
+    # without a [summary] final list: every diagnostic some member reports, and the derived
+    finals = list(cfg.final) if cfg.final is not None else sorted(
+        {k for d in diag.values() for k in d
+         if k not in ("step", "time") and not k.startswith("_") and k not in DERIVED}
+    ) + list(DERIVED)
 
     def times_of(d, q):
         return d["_snapshot_time"][0] if q in DERIVED else d["time"][0]

@@ -78,6 +78,7 @@ from siku_core.scene import (
     _explain,
     _override_value,
     apply_overrides,
+    read_input_text,
     scene_from_text,
 )
 
@@ -402,13 +403,8 @@ def _members(axes: list[Axis], fixed: dict[str, str], out: Path, scene_path: Pat
 def load_sweep(path: str | Path, out_dir: str | Path | None = None, registry=None) -> Sweep:
     """Read and validate a sweep file (module docstring); ``out_dir`` overrides the file's."""
     p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"{p}: sweep file not found")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{p}: cannot read sweep file: {exc}") from None
-    return sweep_from_text(text, str(p), p.resolve().parent, out_dir, registry)
+    return sweep_from_text(read_input_text(p, "sweep file"), str(p), p.resolve().parent,
+                           out_dir, registry)
 
 
 __all__ = ["Sweep", "Member", "Axis", "SweepCfg", "load_sweep", "sweep_from_text",
