@@ -400,14 +400,24 @@ class ContactModel:
                 "broad_phase": self.broad.name}
 
     def element_fields(self) -> dict[str, np.ndarray]:
-        """``damage``: share of each element's joints that have broken [1] (0 without joints)."""
-        n = self.sim.state.n
+        """``damage``: share of each element's joints that have broken [1] (0 without joints);
+        ``stress_ee``, ``stress_nn``, ``stress_en``: the element's mean stress from its contact
+        forces of the last evaluation [N/m] (``siku_core.stress``)."""
+        from .stress import element_stress
+
+        st = self.sim.state
+        n = st.n
+        lists = [(self.ji, self.jj, self.jout, self.jon)] if self.n_joints else []
+        if len(self.pairs) and len(self.pon) == len(self.pairs):
+            lists.append((self.pairs[:, 0], self.pairs[:, 1], self.pout, self.pon))
+        s = element_stress(st.q, self.rm, st.area, self.sim.radius, lists)
+        out = {"stress_ee": s[:, 0], "stress_nn": s[:, 1], "stress_en": s[:, 2]}
         if not self.n_joints:
-            return {"damage": np.zeros(n)}
+            return {"damage": np.zeros(n), **out}
         total = np.bincount(self.ji, minlength=n) + np.bincount(self.jj, minlength=n)
         broken = ~self.intact
         nb = np.bincount(self.ji[broken], minlength=n) + np.bincount(self.jj[broken], minlength=n)
-        return {"damage": np.where(total > 0, nb / np.maximum(total, 1), 0.0)}
+        return {"damage": np.where(total > 0, nb / np.maximum(total, 1), 0.0), **out}
 
     def diagnostics(self) -> dict[str, float]:
         """Joint counts, overlapping pairs, and with joints the lead area and fraction and the

@@ -444,9 +444,10 @@ def find_shared_edges(q, offsets, verts, pairs, tol, R):
 # ``M^T`` goes back. ``M`` is computed exactly as ``project_partner`` does, so the narrow phase
 # sees the same partner vertices as before, bit for bit.
 
-#: per-contact contribution layout: generalised force and torque on ``i``, then on ``j``
-C_FIX, C_FIY, C_TI, C_FJX, C_FJY, C_TJ = range(6)
-C_SIZE = 6
+#: per-contact contribution layout: generalised force and torque on ``i``, then on ``j``, then
+#: the contact point in ``i``'s frame [m] (what the element stress of ``siku_core.stress`` needs)
+C_FIX, C_FIY, C_TI, C_FJX, C_FJY, C_TJ, C_PX, C_PY = range(8)
+C_SIZE = 8
 
 
 @njit(cache=True, parallel=True)
@@ -523,7 +524,8 @@ def relative_velocity_m(M, V, w, i, j, px, py, xj, yj):
 @njit(cache=True)
 def pair_contribution(M, fx, fy, px, py, couple, inv_r, R, out, k):
     """Row ``out[k]`` (``C_*``): force ``(fx, fy)`` (``i``'s frame) and ``couple`` on ``j`` at
-    ``i``-frame point ``(px, py)``, and the opposite on ``i``, as generalised forces.
+    ``i``-frame point ``(px, py)``, and the opposite on ``i``, as generalised forces; and the
+    point itself.
 
     As :func:`apply_pair`: with ``X`` the contact point (unit vector) and ``f`` the force, the
     torque about the planet centre on ``j`` is ``tau = R X × f + couple X``; in ``i``'s frame
@@ -551,6 +553,8 @@ def pair_contribution(M, fx, fy, px, py, couple, inv_r, R, out, k):
     out[k, C_FJX] = t1
     out[k, C_FJY] = -t0
     out[k, C_TJ] = R * t2
+    out[k, C_PX] = px
+    out[k, C_PY] = py
 
 
 @njit(cache=True)

@@ -233,6 +233,28 @@ class HDF5Writer(Writer):
                     "mode": np.int8(0)}
             self.breaks = {k: b.create_dataset(k, shape=(0,), maxshape=(None,), dtype=v.dtype,
                                                chunks=(256,)) for k, v in cols.items()}
+        self._describe(sim, known)
+
+    def _describe(self, sim, diagnostics) -> None:
+        """``units`` and ``long_name`` on every dataset (``siku_io.layout``), CF flag meanings
+        on the coded ones, and the epoch of the time axes when the scene has a start."""
+        from siku_core.contacts import BREAK_MODES
+        from siku_core.state import FLAG_NAMES
+
+        from .layout import describe, flag_attrs
+
+        epoch = sim.start.strftime("%Y-%m-%d %H:%M:%S") if sim.start else None
+        for path in _leaves(self.f):
+            ds = self.f[path]
+            units, long_name = describe(path, diagnostics)
+            if path.endswith("time") and path.count("/") == 1 and epoch:
+                units = f"seconds since {epoch}"
+            ds.attrs["units"] = units
+            ds.attrs["long_name"] = long_name
+        flags = self.f["geometry/flags"]
+        flags.attrs.update(flag_attrs({v: k for k, v in FLAG_NAMES.items()}, flags.dtype))
+        if self.breaks is not None:
+            self.breaks["mode"].attrs.update(flag_attrs(BREAK_MODES, np.int8))
 
     def _state_rows(self, sim, fields: bool = True) -> dict[str, np.ndarray]:
         """Every per-snapshot dataset's row for the current state, by path in ``/states``."""
