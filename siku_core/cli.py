@@ -76,6 +76,13 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
     print(f"done in {wall:.1f} s; output: {sim.output_path}", file=sys.stderr)
     if args.profile:
         print(profile_table(sim, wall), file=sys.stderr)
+    if sim.output_path is not None and sim.step_index == sim.n_steps:
+        from .plugins import get_plugin_manager
+
+        made = get_plugin_manager().hook.siku_postprocess(path=sim.output_path, scene=scene,
+                                                         overwrite=args.overwrite)
+        for f in [f for files in made for f in files or ()]:
+            print(f"derived: {f}", file=sys.stderr)
     if scene.cfg.output.plots and sim.output_path is not None and not args.no_plots:
         from .plugins import get_plugin_manager
 

@@ -46,6 +46,7 @@ DEFAULT_PLUGINS: tuple[str, ...] = (
     "siku_forcing.gridded",
     "siku_forcing.drag",
     "siku_io.hdf5",
+    "siku_io.netcdf",
     "siku_plugins.sources",
     "siku_plugins.floes",
     "siku_io.sources",
@@ -94,6 +95,12 @@ class SikuHookspecs:
     def siku_draw(self, path: Any, field: Any) -> list:
         """Draw the pictures of an output file after ``siku run`` (``[output] plots = true``),
         coloured by the per-element ``field`` (``None``: the default); return their paths."""
+
+    @hookspec
+    def siku_postprocess(self, path: Any, scene: Any, overwrite: bool) -> list:
+        """Derived files of a completed run's output ``path`` (gridded fields of
+        ``[output.grid]``...), made after ``siku run``; an existing file is replaced only with
+        ``overwrite`` (``--overwrite``); return their paths."""
 
     @hookspec
     def siku_configured(self, scene: Any) -> None:

@@ -343,3 +343,29 @@ class Grid:
     @property
     def dims(self) -> tuple[str, str]:
         return ("y", "x")
+
+
+def grid_error(exc: Exception, where: str) -> DataError:
+    """One line per problem of a grid table that does not validate."""
+    from pydantic import ValidationError
+
+    if isinstance(exc, ValidationError):
+        from siku_core.scene import _explain
+
+        return DataError(_explain(exc, where, GridCfg))
+    return DataError(f"{where}: {exc}")
+
+
+def scene_grid(path) -> dict | None:
+    """The ``[output.grid]`` table of the scene an output file records (``None``: none)."""
+    import tomllib
+
+    from .results import open_results
+
+    with open_results(path) as f:
+        text = f["scene"][()].decode()
+    try:
+        cfg = tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return None
+    return (cfg.get("output") or {}).get("grid")

@@ -106,6 +106,32 @@ class Snapshot:
         self.broken = np.zeros((0, 2), np.int64) if broken is None else np.asarray(broken)
 
 
+def snapshot_of(sim) -> Snapshot:
+    """The :class:`Snapshot` of a running simulation's current state (its stress: that of the
+    last force evaluation)."""
+    from siku_core.geometry.quat import latlon_of
+
+    from .plot import polygons_lonlat
+    from .xr import east_north
+
+    st = sim.state
+    lat, lon = latlon_of(st.q)
+    u, v = east_north(st.q, st.V)
+    ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, sim.radius)
+    nodes = np.concatenate(ll) if ll else np.zeros((0, 2))
+    fields = sim.element_fields()
+    stress = None
+    if "stress_ee" in fields:
+        stress = np.column_stack([fields[k] for k in ("stress_ee", "stress_nn", "stress_en")])
+    broken = None
+    cm = sim.contacts
+    if cm is not None and cm.n_joints:
+        b = ~cm.intact
+        broken = np.column_stack([cm.ji[b], cm.jj[b]])
+    return Snapshot(np.degrees(lon), np.degrees(lat), u, v, st.area, st.thickness, st.m,
+                    nodes[:, 0], nodes[:, 1], st.vert_offsets, stress, broken)
+
+
 def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
     """Every field of :data:`FIELDS` on ``grid`` for one state, ``(ny, nx)`` arrays."""
     ny, nx = grid.shape
