@@ -9,15 +9,16 @@ et al. 2019, simplified):
    for open leads, where a joint has broken);
 2. its skeleton (``skimage.morphology.skeletonize``), one cell wide;
 3. junctions: skeleton cells with three or more branches leaving them (crossing number of the
-   8-neighbourhood); removing each junction and its neighbours splits the skeleton into
-   branches (``skimage.measure.label``, 8-connected);
+   8-neighbourhood); removing the skeleton within two cells of each junction splits it into
+   branches (``skimage.measure.label``, 8-connected), and junctions that close are one;
 4. at each junction the branches are paired when their directions differ by less than
    ``MERGE_ANGLE`` (closest first): a lead that a crossing lead cut in two is one lead again;
 5. each lead at least ``lead_min_length`` cells long: its orientation is the principal axis of
    its cells (degrees counter-clockwise from the grid's x axis, in [0, 180)), its length the
    distance along that axis between the centres of its two end cells (its ends);
-   ``opening`` is the velocity jump across it, the mean divergence along it times the cell
-   width [m/s] (positive: opening, negative: closing);
+   ``opening`` is the velocity jump across it, the integral of the divergence over its cells
+   divided by its extent along itself (length plus one cell) [m/s] (positive: opening,
+   negative: closing): exact for a jump spread over a band one cell wide;
 6. an intersection is a junction where two different leads meet: the acute angle between
    them [degrees] and where.
 
@@ -111,7 +112,9 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
     mask = np.asarray(mask, bool)
     skel = skeletonize(mask)
     junc = junctions(skel)
-    zone = binary_dilation(junc, structure=np.ones((3, 3), bool)) & skel
+    # a junction and the skeleton within two cells of it: two junctions that close (the
+    # skeleton of a crossing of wide bands is two forks joined by a stub) are one crossing
+    zone = binary_dilation(junc, structure=np.ones((3, 3), bool), iterations=2) & skel
     branches = label(skel & ~zone, connectivity=2)
     zones = label(zone, connectivity=2)
     nb = int(branches.max())
@@ -150,7 +153,14 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
         groups.setdefault(uf.find(b), []).append(b)
     leads: list[Lead] = []
     owner = {}
-    cell_w = np.sqrt(grid.cell_area)
+    if grid.kind == "lonlat":  # cell sides [m] in the plane of the lead
+        dlon = np.radians(np.diff(grid.x_edges))[None, :] * np.ones(grid.shape)
+        dlat = np.radians(np.diff(grid.y_edges))[:, None] * np.ones(grid.shape)
+        side_x = grid.radius * np.cos(np.radians(lat_c)) * dlon
+        side_y = grid.radius * dlat
+    else:
+        side_x = np.diff(grid.x_edges)[None, :] * np.ones(grid.shape)
+        side_y = np.diff(grid.y_edges)[:, None] * np.ones(grid.shape)
     for members in groups.values():
         rc = np.concatenate([cells[b] for b in members])
         # the junction cells between two joined branches belong to the lead
@@ -160,7 +170,8 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
         xy = metres(rc)
         ax, ang = _axis(xy)
         proj = (xy - xy.mean(axis=0)) @ ax
-        w = float(cell_w[rc[:, 0], rc[:, 1]].mean())
+        sx, sy = side_x[rc[:, 0], rc[:, 1]], side_y[rc[:, 0], rc[:, 1]]
+        w = float(np.mean(np.abs(sx * ax[0]) + np.abs(sy * ax[1])))  # one cell along the lead
         length = float(proj.max() - proj.min())
         if length < (min_length - 1) * w * (1 - 1e-6):
             continue
@@ -168,7 +179,9 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
         opening = np.nan
         if divergence is not None:
             dv = divergence[rc[:, 0], rc[:, 1]]
-            opening = float(np.nanmean(dv) * w) if np.isfinite(dv).any() else np.nan
+            ok = np.isfinite(dv)
+            if ok.any():  # integral over the band / its extent along the lead
+                opening = float(np.sum(dv[ok] * sx[ok] * sy[ok]) / (ok.mean() * (length + w)))
         for b in members:
             owner[b] = len(leads)
         leads.append(Lead(rc, length, ang, (float(lon_c[tuple(rc.T)].mean()),

@@ -104,3 +104,36 @@ def test_lead_and_stress_diagnostics(run6h):
     # × 3e-4 = 150 kPa)
     assert 0 < d["joint_stress_max"] <= 0.5e9 * 3e-4
     assert d["joint_stress_min"] <= 0
+
+
+def test_the_leads_found_on_the_grid_start_at_the_coast(run6h):
+    """Report Fig. 11: leads run from the coast into the pack. The broken joints on a polar
+    stereographic grid of 40 km cells (about the floe size, 30 km), reduced to leads by
+    ``siku_io.leads``: the longest lead and at least half of them have an end within 1.5
+    cells (a floe plus the half-diagonal of a cell) of the static ice, while the pack's joints
+    lie at a median 196 km from it (test above)."""
+    from siku_io.grid import Grid, GridCfg
+    from siku_io.gridding import grid_snapshot, snapshot_of
+    from siku_io.leads import detect
+
+    sim = run6h
+    cell = 40e3
+    grid = Grid(GridCfg(kind="polar_stereographic", central_longitude=-155.0,
+                        x=(-800e3, 800e3), y=(-2400e3, -1200e3), resolution=cell), sim.radius)
+    snap = snapshot_of(sim)
+    f = grid_snapshot(grid, snap)
+    assert f["broken_joints"].sum() == (~sim.contacts.intact).sum()  # all on the grid
+    leads, _ = detect(f["broken_joints"] > 0, grid, min_length=3)
+    assert len(leads) >= 2
+    static = sim.state.flags == STATIC
+    X, Y = grid.to_plane(snap.lon[static], snap.lat[static])
+
+    def to_coast(lon, lat):
+        x, y = grid.to_plane(lon, lat)
+        return np.hypot(X - x, Y - y).min()
+
+    near = np.array([min(to_coast(*e) for e in lead.ends) for lead in leads])
+    longest = int(np.argmax([lead.length for lead in leads]))
+    assert near[longest] < 1.5 * cell
+    assert np.mean(near < 1.5 * cell) >= 0.5
+
