@@ -124,8 +124,9 @@ def _cmd_grid(args) -> int:
     out = Path(args.out) if args.out else Path(args.output).with_suffix(".grid.nc")
     write_netcdf(ds, out, overwrite=args.overwrite)
     n = int(ds.sizes.get("lead", 0))
-    print(f"{out}: {ds.sizes['time']} times on {cfg.kind} grid of {ds.sizes['y']} x "
-          f"{ds.sizes['x']} cells; {n} leads")
+    ny, nx = (ds.sizes[d] for d in (("lat", "lon") if cfg.kind == "lonlat" else ("y", "x")))
+    print(f"{out}: {ds.sizes['time']} times on a {cfg.kind} grid of {ny} x {nx} cells; {n} "
+          "leads")
     return 0
 
 
@@ -145,7 +146,9 @@ def register_grid(subparsers):
     g.add_argument("--kind", choices=("lonlat", "polar_stereographic"))
     g.add_argument("--lon", nargs=2, type=float, metavar=("WEST", "EAST"), help="degrees")
     g.add_argument("--lat", nargs=2, type=float, metavar=("SOUTH", "NORTH"), help="degrees")
-    g.add_argument("--x", nargs=2, type=float, metavar=("X0", "X1"), help="projected m")
+    g.add_argument("--x", nargs=2, type=float, metavar=("X0", "X1"),
+                   help="projected m (write -2000000, not -2e6: argparse takes -2e6 for an "
+                   "option)")
     g.add_argument("--y", nargs=2, type=float, metavar=("Y0", "Y1"), help="projected m")
     g.add_argument("--resolution", type=float, help="cell size: degrees (lonlat) or m")
     g.add_argument("--hemisphere", choices=("north", "south"))

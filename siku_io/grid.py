@@ -310,16 +310,18 @@ class Grid:
         lon2, lat2 = self.centres_lonlat
         if self.kind == "lonlat":
             return {
-                "lon": (("x",), self.x, {"units": "degrees_east", "standard_name": "longitude",
-                                         "long_name": "longitude of the cell centre",
-                                         "axis": "X", "bounds": "lon_bnds"}),
-                "lat": (("y",), self.y, {"units": "degrees_north", "standard_name": "latitude",
-                                         "long_name": "latitude of the cell centre",
-                                         "axis": "Y", "bounds": "lat_bnds"}),
-                "lon_bnds": (("x", "nv"), np.column_stack([self.x_edges[:-1],
-                                                          self.x_edges[1:]]), {}),
-                "lat_bnds": (("y", "nv"), np.column_stack([self.y_edges[:-1],
-                                                          self.y_edges[1:]]), {}),
+                "lon": (("lon",), self.x, {"units": "degrees_east",
+                                           "standard_name": "longitude", "axis": "X",
+                                           "long_name": "longitude of the cell centre",
+                                           "bounds": "lon_bnds"}),
+                "lat": (("lat",), self.y, {"units": "degrees_north",
+                                           "standard_name": "latitude", "axis": "Y",
+                                           "long_name": "latitude of the cell centre",
+                                           "bounds": "lat_bnds"}),
+                "lon_bnds": (("lon", "nv"), np.column_stack([self.x_edges[:-1],
+                                                            self.x_edges[1:]]), {}),
+                "lat_bnds": (("lat", "nv"), np.column_stack([self.y_edges[:-1],
+                                                            self.y_edges[1:]]), {}),
             }
         c = self.cfg
         return {
@@ -332,6 +334,7 @@ class Grid:
             "lat": (("y", "x"), lat2, {"units": "degrees_north", "standard_name": "latitude",
                                        "long_name": "latitude of the cell centre"}),
             "crs": ((), np.int32(0), {
+                "long_name": "polar stereographic projection of the model sphere",
                 "grid_mapping_name": "polar_stereographic",
                 "straight_vertical_longitude_from_pole": c.central_longitude,
                 "latitude_of_projection_origin": 90.0 * self.sign,
@@ -342,7 +345,8 @@ class Grid:
 
     @property
     def dims(self) -> tuple[str, str]:
-        return ("y", "x")
+        """Names of the grid's dimensions in files: ``(lat, lon)`` or ``(y, x)``."""
+        return ("lat", "lon") if self.kind == "lonlat" else ("y", "x")
 
 
 def grid_error(exc: Exception, where: str) -> DataError:

@@ -222,7 +222,8 @@ def detect_series(grid, ds, cfg):
             for c in cross:
                 xrows.append((t, kind, c, base))
     tv = ds["time"].values
-    T = {"long_name": "time of the gridded field"}
+    T = {"long_name": "time of the gridded field", **{
+        k: v for k, v in ds["time"].attrs.items() if k in ("units", "calendar")}}
 
     def var(dim, vals, units, long_name, **more):
         return xr.Variable(dim, np.asarray(vals), {"units": units, "long_name": long_name,

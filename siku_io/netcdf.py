@@ -1,25 +1,32 @@
 """CF-NetCDF output of element results: ``siku export OUT.h5 --to netcdf`` and the writer
 ``[output] writer = "netcdf"``.
 
-Layout (CF 1.8, checked with the IOOS ``compliance-checker``): every element is a discrete
-sampling geometry feature of type ``trajectory`` (``element`` is its ``trajectory_id``),
-sampled at the snapshot times:
+Layout of ``siku export`` (CF 1.8, checked with the IOOS ``compliance-checker``): every
+element is a discrete sampling geometry feature of type ``trajectory`` (``element`` is its
+``trajectory_id``) in the multidimensional array representation, sampled at the snapshots:
 
-* dimensions ``element``, ``time``, ``node`` (the polygon vertices of all elements, in order);
-* ``time(time)`` (``seconds since`` the scene's start, or 1970-01-01 when it sets none: the
-  ``comment`` says so), ``lon``/``lat(element, time)`` [degrees] of the centroids;
-* per element and time: ``u``/``v`` (``eastward_sea_ice_velocity``, ``northward_...``) [m/s],
+* dimensions ``element``, ``obs`` (the snapshots), ``node`` (the polygon vertices of all
+  elements, in order);
+* ``time(element, obs)`` (``seconds since`` the scene's start, or 1970-01-01 when it sets none:
+  the ``comment`` says so; the same times for every element), ``lon``/``lat(element, obs)``
+  [degrees] of the centroids;
+* per element and snapshot: ``u``/``v`` (``eastward_sea_ice_velocity``, ``northward_...``) [m/s],
   ``spin`` [rad/s], every per-element field (``speed``, ``damage``, ``stress_ee`` ... [N/m]);
 * per element: ``area`` [m²], ``thickness`` (``sea_ice_thickness``) [m], ``mass`` [kg],
   ``flags`` (``flag_values``/``flag_meanings``), ``material``, ``floe``;
 * outlines as CF polygon geometry: the container ``outline`` (``geometry_type = "polygon"``)
   with ``node_count(element)`` and ``node_lon``/``node_lat(node)``: the polygons at the first
-  time (CF geometry does not vary in time); ``node_lon_t``/``node_lat_t(time, node)`` hold them
-  at every time.
+  time (CF geometry does not vary in time); ``node_lon_t``/``node_lat_t(node, obs)`` hold them
+  at every snapshot.
+
+The writer (a file that grows while the run goes) holds the same variables with the record
+dimension ``time`` first, as the NetCDF-3 format requires: ``time(time)``, ``lon(time,
+element)``... (CF's "incomplete" orientation; ``siku export`` of the run's HDF5 output gives the
+trajectory form above).
 
 The writer writes the NetCDF-3 64-bit-offset format in unbuffered shared mode with fill values
-on: a new record is first filled with missing values (NaN), then written variable by
-variable, ``step`` last; a kill leaves at most one record whose ``step`` is missing, which
+on: a new record is written ``time`` first (which fills the record's other variables with
+missing values, NaN), then variable by variable, ``step`` last; a kill leaves at most one record whose ``step`` is missing, which
 :func:`complete_records` (and every siku reader) leaves out and any other reader sees as
 missing values, never as numbers. The file is built beside its target and put in place with
 its first snapshot, as the HDF5 writer's (``docs/explanation/outputs.md``).
@@ -80,9 +87,11 @@ def cf_dataset(path):
 
     src = open_output(path, decode_times=False)
     units, comment = _epoch(str(src.attrs.get("start", "")))
-    E, T = "element", "time"
+    E, T = "element", "obs"
+    src = src.rename({"time": "obs"})
+    n = src.sizes[E]
     coords = {
-        "time": xr.Variable(T, src["time"].values, {
+        "time": xr.Variable((E, T), np.broadcast_to(src["obs"].values, (n, src.sizes[T])), {
             "standard_name": "time", "long_name": "time of the snapshot", "units": units,
             "calendar": "proleptic_gregorian", "axis": "T", "comment": comment}),
         "lon": xr.Variable((E, T), src["lon"].values.T, {
@@ -131,11 +140,12 @@ def cf_dataset(path):
     data["node_lat"] = xr.Variable("node", nt[n0] if n0 is not None else nt[:0, 0], {
         "units": "degrees_north", "standard_name": "latitude", "axis": "Y",
         "long_name": "latitude of the polygon vertices at the first time"})
-    data["node_lon_t"] = xr.Variable((T, "node"), nl, {
+    data["node_lon_t"] = xr.Variable(("node", T), nl.T, {
         "units": "degrees_east", "long_name": "longitude of the polygon vertices"})
-    data["node_lat_t"] = xr.Variable((T, "node"), nt, {
+    data["node_lat_t"] = xr.Variable(("node", T), nt.T, {
         "units": "degrees_north", "long_name": "latitude of the polygon vertices"})
     out = xr.Dataset(data, coords, global_attrs(src.attrs))
+    out = out.drop_vars("obs", errors="ignore")
     out.attrs["siku_plugins"] = src.attrs.get("plugins", "{}")
     return out
 
@@ -220,7 +230,7 @@ class NetCDFWriter(Writer):
         nc.createDimension("time", None)
         nc.createDimension("node", nodes)
         units, comment = _epoch(start)
-        v = nc.createVariable("time", "f8", ("time",), fill_value=np.nan)
+        v = nc.createVariable("time", "f8", ("time",), fill_value=False)
         v.setncatts({"standard_name": "time", "long_name": "time of the snapshot",
                      "units": units, "calendar": "proleptic_gregorian", "axis": "T",
                      "comment": comment})
@@ -308,9 +318,11 @@ class NetCDFWriter(Writer):
             flat = np.concatenate(ll) if ll else np.zeros((0, 2))
             rows["node_lon_t"], rows["node_lat_t"] = flat[:, 0], flat[:, 1]
         try:
+            # time first (it grows the record: the other variables get missing values), step
+            # last: a kill in between leaves a record with its time and missing values
+            self.nc["time"][t] = sim.time
             for k, a in rows.items():
                 self.nc[k][t] = a
-            self.nc["time"][t] = sim.time
             self.nc.sync()
             self.nc["step"][t] = np.int32(sim.step_index)
             self.nc.sync()
