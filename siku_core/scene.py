@@ -230,8 +230,8 @@ class OutputCfg(_Strict):
     diagnostics_every: Duration | None = Field(None, description="diagnostics interval [s]")
     plots: bool = Field(False, description="after the run, draw maps and an animation")
     plot_field: str | None = Field(None, description="per-element field to colour maps by")
-    grid: dict[str, Any] | None = Field(None, description="[output.grid]: gridded fields and "
-                                        "leads written after the run (siku_io.grid)")
+    grid: dict[str, Any] | None = Field(None, description="gridded fields and leads written "
+                                        "after the run (siku_io.grid; keys: output.grid)")
     params: dict[str, Any] = Field(default_factory=dict)
 
 

@@ -8,8 +8,10 @@ from siku_core import hookimpl
 
 def _cmd_plot(args) -> int:
     from siku_io.plot import plot_all
+    from siku_io.plot_grid import is_grid_file, plot_grid
 
-    files = plot_all(args.output, args.out_dir, args.field, animation=not args.no_animation)
+    draw = plot_grid if is_grid_file(args.output) else plot_all
+    files = draw(args.output, args.out_dir, args.field, animation=not args.no_animation)
     for f in files:
         print(f)
     return 0
@@ -26,8 +28,10 @@ def siku_draw(path, field):
 @hookimpl
 def siku_register_commands(subparsers):
     pl = subparsers.add_parser("plot", help="draw maps and an animation from an output file")
-    pl.add_argument("output", help="HDF5 output file of a run")
-    pl.add_argument("--field", help="per-element field to colour by (damage, speed)")
+    pl.add_argument("output", help="HDF5 output file of a run, or a gridded file of 'siku grid'")
+    pl.add_argument("--field", help="per-element field to colour by (damage, speed, stress_ee "
+                    "...), or for a gridded file the field to map (total_deformation, "
+                    "concentration, stress_I ...)")
     pl.add_argument("--out-dir", help="directory for the pictures (default: beside the file)")
     pl.add_argument("--no-animation", action="store_true", help="maps only")
     pl.set_defaults(func=_cmd_plot)

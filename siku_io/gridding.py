@@ -328,6 +328,7 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
         "history": f"gridded from {src.attrs.get('source', 'a siku output file')}",
         "grid": cfg.model_dump_json(exclude_none=True),
         "start": str(src.attrs.get("start", "")),
+        "earth_radius": float(grid.radius),
         "scene": src.attrs.get("scene", ""),
         "references": "Kwok et al. (2008), J. Geophys. Res. 113, C08010 (RGPS strain rates)",
     })

@@ -26,10 +26,10 @@ trajectory form above).
 
 The writer writes the NetCDF-3 64-bit-offset format in unbuffered shared mode with fill values
 on: a new record is written ``time`` first (which fills the record's other variables with
-missing values, NaN), then variable by variable, ``step`` last; a kill leaves at most one record whose ``step`` is missing, which
-:func:`complete_records` (and every siku reader) leaves out and any other reader sees as
-missing values, never as numbers. The file is built beside its target and put in place with
-its first snapshot, as the HDF5 writer's (``docs/explanation/outputs.md``).
+missing values, NaN), then variable by variable, ``step`` last; a kill leaves at most one
+record whose ``step`` is missing, which :func:`complete_records` leaves out and any other
+reader sees as missing values, never as numbers. The file is built beside its target and put
+in place with its first snapshot, as the HDF5 writer's (``docs/explanation/outputs.md``).
 """
 from __future__ import annotations
 

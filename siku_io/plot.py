@@ -14,7 +14,8 @@ import numpy as np
 
 from siku_core import DataError
 
-UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)"}
+UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)", "stress_ee": "N/m",
+         "stress_nn": "N/m", "stress_en": "N/m"}
 STATIC = 1
 
 

@@ -211,3 +211,26 @@ def test_a_scene_grid_table_is_checked_before_the_run_and_written_after_it(tmp_p
     err = capsys.readouterr().err
     assert "[output.grid]" in err and "colour" in err
     assert not (tmp_path / "b.h5").exists()
+
+
+def test_gridded_fields_are_drawn_with_their_units(outputs):
+    from siku_io.plot_grid import plot_grid
+
+    grid = outputs / "run.grid.nc"
+    if not grid.exists():
+        assert main(["grid", str(outputs / "run.h5"), "--lon", "-1", "11", "--lat", "-3", "3",
+                     "--resolution", "0.5", "--no-progress"]) == 0
+    files = plot_grid(grid, outputs / "pictures", "stress_I", animation=False)
+    assert [f.name for f in files] == ["run_grid_stress_I_first.png",
+                                       "run_grid_stress_I_last.png"]
+    assert all(f.stat().st_size > 10_000 for f in files)
+    assert main(["plot", str(grid), "--field", "colour"]) == 2
+
+
+def test_every_grid_key_is_on_the_scene_reference():
+    from siku_io.grid import GridCfg
+
+    text = (ROOT / "docs" / "reference" / "scene.md").read_text(encoding="utf-8")
+    section = text.split("## `output.grid`")[1].split("\n## ")[0]
+    for key in GridCfg.model_fields:
+        assert f"| `{key}` |" in section, key
