@@ -272,3 +272,44 @@ def test_a_run_that_fails_before_its_first_new_snapshot_leaves_the_old_file(tmp_
     assert "element 3 starts with a non-finite velocity" in capsys.readouterr().err
     assert (tmp_path / "out.h5").read_bytes() == before
 
+
+
+def test_a_killed_netcdf_run_leaves_a_file_of_real_rows_and_missing_values(tmp_path):
+    """The NetCDF writer (``siku_io.netcdf``): after ``kill -9`` at random moments the file
+    opens in xarray; every record with a ``step`` equals the uninterrupted run's; a record
+    without one (the write the kill cut short) holds its time and, per variable, the real row
+    or missing values: never other numbers."""
+    import xarray as xr
+
+    from siku_io.netcdf import complete_records
+
+    text = scene_text().replace('file = "out.h5"', 'file = "out.nc"\nwriter = "netcdf"')
+    ref_dir = tmp_path / "ref"
+    ref_dir.mkdir()
+    (ref_dir / "scene.toml").write_text(text, encoding="utf-8")
+    rc, err = siku(["scene.toml"], ref_dir)
+    assert rc == 0, err
+    ref = xr.open_dataset(ref_dir / "out.nc", decode_times=False)
+    rng = np.random.default_rng(11)
+    for k in range(3):
+        d = tmp_path / f"kill{k}"
+        d.mkdir()
+        (d / "scene.toml").write_text(text, encoding="utf-8")
+        p = siku(["scene.toml"], d, wait=False)
+        t0 = time.monotonic()
+        while not (d / "out.nc").exists() and time.monotonic() - t0 < 300:
+            assert p.poll() is None, p.communicate()[1]
+            time.sleep(0.002)
+        time.sleep(rng.uniform(0.0, 1.0))
+        p.send_signal(signal.SIGKILL)
+        p.communicate()
+        got = xr.open_dataset(d / "out.nc", decode_times=False)
+        n = complete_records(d / "out.nc")
+        assert 1 <= n <= got.sizes["time"] <= n + 1
+        for name in ("lon", "lat", "u", "v", "damage", "time"):
+            assert np.array_equal(got[name].values[:n], ref[name].values[:n]), name
+        if got.sizes["time"] > n:  # the record the kill cut short: time, and no numbers
+            assert got["time"].values[n] == ref["time"].values[n]
+            for name in ("lon", "u", "damage"):
+                row = got[name].values[n]
+                assert np.all(np.isnan(row) | (row == ref[name].values[n])), name
