@@ -234,3 +234,31 @@ def test_every_grid_key_is_on_the_scene_reference():
     section = text.split("## `output.grid`")[1].split("\n## ")[0]
     for key in GridCfg.model_fields:
         assert f"| `{key}` |" in section, key
+
+
+def test_the_results_guide_runs(outputs, monkeypatch):
+    """The python blocks of docs/howto/results.md run on a real output (its file names
+    replaced), and its [output.grid] tables validate."""
+    import tomllib
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from siku_io.grid import GridCfg
+
+    guide = (ROOT / "docs" / "howto" / "results.md").read_text(encoding="utf-8")
+    grid = outputs / "run.grid.nc"
+    if not grid.exists():
+        assert main(["grid", str(outputs / "run.h5"), "--lon", "-1", "11", "--lat", "-3", "3",
+                     "--resolution", "0.5", "--no-progress"]) == 0
+    blocks = re.findall(r"^```python\s*\n(.*?)^```", guide, re.MULTILINE | re.DOTALL)
+    assert len(blocks) >= 2
+    scope: dict = {}
+    for code in blocks:
+        code = code.replace("siku_default.grid.nc", str(grid)).replace(
+            "siku_default.h5", str(outputs / "run.h5"))
+        exec(compile(code, "results.md", "exec"), scope)
+    tables = re.findall(r"^```toml\s*\n(.*?)^```", guide, re.MULTILINE | re.DOTALL)
+    assert tables
+    for t in tables:
+        GridCfg(**tomllib.loads(t)["output"]["grid"])
