@@ -1,7 +1,7 @@
 """Maps of gridded fields (``siku grid`` files): ``siku plot RUN.grid.nc --field NAME``.
 
 Each map shows one field of one time on the cells (their true outlines: lon/lat or polar
-stereographic), with a colourbar in the field's units, the coast where ``global-land-mask`` has
+stereographic; cells without ice are left blank), with a colourbar in the field's units, the coast where ``global-land-mask`` has
 it, and the leads found at that time (``siku_io.leads``) drawn end to end: from the
 deformation in black, from broken joints in red.
 """
@@ -80,7 +80,10 @@ class GridPainter:
         self.ax.set_extent(self.extent, crs=ccrs.PlateCarree())
         _coast(self.ax, self.proj, self.extent)
         self.ax.gridlines(draw_labels=True, linewidth=0.3, color="0.5", alpha=0.5)
-        values = self.ds[field].values
+        values = self.ds[field].values.astype(float)
+        if field != "concentration" and "concentration" in self.ds:  # open water shows through
+            values = np.where(self.ds["concentration"].values > 0, values, np.nan)
+        self.values = values
         scale = float(np.nanmax(np.abs(values))) if np.isfinite(values).any() else 1.0
         scale = scale or 1.0
         signed = field in SIGNED
@@ -99,7 +102,7 @@ class GridPainter:
         import cartopy.crs as ccrs
 
         ds = self.ds
-        self.mesh.set_array(np.ma.masked_invalid(ds[self.field].values[index]).ravel())
+        self.mesh.set_array(np.ma.masked_invalid(self.values[index]).ravel())
         for ln in self.lines:
             ln.remove()
         self.lines = []
