@@ -181,6 +181,19 @@ def in_use(path: Path) -> bool:
     return False
 
 
+def settle(writer: Any) -> None:
+    """A writer's file after the writer closed it: a file never put in place (the run stopped
+    before its first snapshot) is removed (``writer._discard()``), a published one is synced to
+    the disk, and the run's lock on it is released."""
+    if not getattr(writer, "published", True):
+        writer._discard()  # stopped before its first new snapshot: an old file stays
+    elif hasattr(writer, "target"):
+        fsync_path(writer.target)
+    if getattr(writer, "lock", None) is not None:
+        writer.lock.release()
+        writer.lock = None
+
+
 def restart_differences(stored: dict, current: dict, ignore: Iterable[str] = ()) -> list[str]:
     """``"key: stored -> current"`` for every flattened key that differs between two run
     records (:meth:`~siku_core.simulation.Simulation.run_record`), skipping keys that start with
@@ -210,4 +223,4 @@ def restart_differences(stored: dict, current: dict, ignore: Iterable[str] = ())
 
 
 __all__ = ["check_output_path", "input_paths", "partial_path", "publish", "RunLock", "in_use",
-           "is_disk_full", "restart_differences", "fsync_path", "DISK_FULL"]
+           "is_disk_full", "restart_differences", "fsync_path", "settle", "DISK_FULL"]

@@ -211,8 +211,6 @@ def _midpoints(lon1, lat1, lon2, lat2):
 def snapshots(ds, breaks=None):
     """:class:`Snapshot` of every time of an output dataset (``siku_io.xr.open_output``), with
     the breaks dataset (``group="breaks"``) for the broken joints."""
-    from .xr import outlines_at  # noqa: F401 - the layout this reads
-
     off = np.r_[ds["node_offset"].values, ds.sizes["node"]]
     stress = all(k in ds for k in ("stress_ee", "stress_nn", "stress_en"))
     bt = bi = bj = None

@@ -59,7 +59,14 @@ import numpy as np
 from siku_core import DataError, Param, __version__, hookimpl
 from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Writer
-from siku_core.outputs import RunLock, fsync_path, is_disk_full, partial_path, publish
+from siku_core.outputs import (
+    RunLock,
+    fsync_path,
+    is_disk_full,
+    partial_path,
+    publish,
+    settle,
+)
 
 from .results import (  # noqa: F401 - the readers, also offered here
     LAYOUT,
@@ -427,13 +434,7 @@ class HDF5Writer(Writer):
             except (OSError, RuntimeError) as exc:
                 self._abandon(exc, "the end of the file")
         self.f = None
-        if not getattr(self, "published", True):
-            self._discard()  # stopped before its first new snapshot: the old file stays
-        elif hasattr(self, "target"):
-            fsync_path(self.target)
-        if getattr(self, "lock", None) is not None:
-            self.lock.release()
-            self.lock = None
+        settle(self)
 
     # -------------------------------------------------------------- restart
     @classmethod

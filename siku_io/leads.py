@@ -136,9 +136,8 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
     angle = [_axis(metres(rc))[1] if len(rc) else 0.0 for rc in cells]
     uf = _Union(nb)
     touch_zone: dict[int, list[int]] = {}
-    near = binary_dilation  # the branches touching each junction zone
-    for z in range(1, int(zones.max()) + 1):
-        ring = near(zones == z, structure=np.ones((3, 3), bool))
+    for z in range(1, int(zones.max()) + 1):  # the branches touching each junction zone
+        ring = binary_dilation(zones == z, structure=np.ones((3, 3), bool))
         touching = sorted(set(np.unique(branches[ring])) - {0})
         touch_zone[z] = [b - 1 for b in touching]
         pairs = sorted(((_angle_between(angle[a], angle[b]), a, b)

@@ -368,21 +368,15 @@ class NetCDFWriter(Writer):
             pass
 
     def close(self, sim) -> None:
-        from siku_core.outputs import fsync_path
+        from siku_core.outputs import settle
 
-        if self.nc is not None:
+        if getattr(self, "nc", None) is not None:
             try:
                 self.nc.close()
             except (OSError, RuntimeError):
                 pass
             self.nc = None
-        if not getattr(self, "published", True):
-            self._discard()
-        elif hasattr(self, "target"):
-            fsync_path(self.target)
-        if getattr(self, "lock", None) is not None:
-            self.lock.release()
-            self.lock = None
+        settle(self)
 
     @classmethod
     def read_restart(cls, path, sim) -> dict:
