@@ -35,14 +35,20 @@ def pack_scene(contact: bool):
 
 
 def traced_peak(scene) -> tuple[int, Simulation]:
+    """Peak traced allocation of building and running ``scene``: the smaller of two traced
+    runs, so that what the process allocates once (caches filled on first use, whatever
+    earlier tests left to do) counts in neither."""
     Simulation(scene, out=False, progress=False).run(2)  # compile outside the traced region
-    tracemalloc.start()
-    try:
-        sim = Simulation(scene, out=False, progress=False)
-        sim.run(3)
-        return tracemalloc.get_traced_memory()[1], sim
-    finally:
-        tracemalloc.stop()
+    peaks = []
+    for _ in range(2):
+        tracemalloc.start()
+        try:
+            sim = Simulation(scene, out=False, progress=False)
+            sim.run(3)
+            peaks.append(tracemalloc.get_traced_memory()[1])
+        finally:
+            tracemalloc.stop()
+    return min(peaks), sim
 
 
 def test_free_drift_allocates_no_contact_arrays():
