@@ -285,10 +285,10 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
             raise DataError(f"[output.grid] fields: unknown {', '.join(unknown)}; known: "
                             f"{', '.join(FIELDS)}")
     dims = ("time", *grid.dims)
-    from .netcdf import _epoch
+    from .netcdf import cf_time_units
 
     coords = {k: xr.Variable(d, v, a) for k, (d, v, a) in grid.cf_coords().items()}
-    units, comment = _epoch(str(src.attrs.get("start", "")))
+    units, comment = cf_time_units(str(src.attrs.get("start", "")))
     coords["time"] = xr.Variable("time", _seconds(src), {
         "standard_name": "time", "long_name": "time of the gridded fields", "units": units,
         "calendar": "proleptic_gregorian", "axis": "T", "comment": comment})

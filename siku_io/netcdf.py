@@ -53,7 +53,7 @@ _STATIC = {"area": "area", "thickness": "thickness", "mass": "mass",
            "floe": "floe"}
 
 
-def _epoch(start: str) -> tuple[str, str]:
+def cf_time_units(start: str) -> tuple[str, str]:
     """CF time units and a comment."""
     if start:
         stamp = start.replace("T", " ").replace("+00:00", "").replace("Z", "")[:19]
@@ -86,7 +86,7 @@ def cf_dataset(path):
     from .xr import open_output
 
     src = open_output(path, decode_times=False)
-    units, comment = _epoch(str(src.attrs.get("start", "")))
+    units, comment = cf_time_units(str(src.attrs.get("start", "")))
     E, T = "element", "obs"
     src = src.rename({"time": "obs"})
     n = src.sizes[E]
@@ -229,7 +229,7 @@ class NetCDFWriter(Writer):
         nc.createDimension("element", N)
         nc.createDimension("time", None)
         nc.createDimension("node", nodes)
-        units, comment = _epoch(start)
+        units, comment = cf_time_units(start)
         v = nc.createVariable("time", "f8", ("time",), fill_value=False)
         v.setncatts({"standard_name": "time", "long_name": "time of the snapshot",
                      "units": units, "calendar": "proleptic_gregorian", "axis": "T",
