@@ -9,13 +9,14 @@ import warnings
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numba import njit
 
 from .contacts import (
     BREAK_MODES, C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces,
     joint_constants, joint_forces, max_moved2, rotation_matrices,
 )
 from .errors import PluginError, SceneError
-from .geometry.quat import centers
+from .geometry.quat import centers, east_north_row, from_tangent, xyz_to_latlon
 from .interfaces import BroadPhase, ContactLaw
 from .parallel import chunks
 from .plugins import EVALUATORS, package_of
@@ -293,6 +294,26 @@ class ContactModel:
             out[a] = np.degrees(lat), np.degrees(lon)
         return out
 
+    def joint_lines(self, q: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+        """Where every joint is for state ``q`` (default: the current one): midpoint latitude
+        and longitude [rad], and the unit direction of the joint edge ``(east, north)`` at the
+        midpoint, as five arrays of ``n_joints``. For components that act on joints (forcing
+        that breaks them, coupled models) without reading a law's arrays."""
+        st = self.sim.state
+        return _joint_lines(st.q if q is None else q, self.ji, self.ends_i, self.sim.radius)
+
+    def floe_labels(self) -> tuple[int, np.ndarray]:
+        """Floes as the connected groups of elements over intact joints: ``(count, label)``,
+        ``label[element]`` in ``0..count-1`` (an element without intact joints is a floe)."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        n = self.sim.state.n
+        k = self.intact
+        g = coo_matrix((np.ones(int(k.sum())), (self.ji[k], self.jj[k])), shape=(n, n))
+        count, label = connected_components(g, directed=False)
+        return int(count), label
+
     def take_breaks(self) -> dict[str, np.ndarray]:
         """Breaks since the last call, in the order they happened: ``time`` [s], ``joint``,
         ``i``, ``j`` (element indices), ``lat``, ``lon`` [deg] of the joint midpoint at the
@@ -437,3 +458,31 @@ class ContactModel:
                                          self.L0, self.width, self.intact, self.E, st.area,
                                          st.flags, self.sim.radius))
         return out
+
+
+@njit(cache=True)
+def _joint_lines(q, ji, ends_i, R):
+    n = ji.shape[0]
+    lat = np.empty(n)
+    lon = np.empty(n)
+    de = np.empty(n)
+    dn = np.empty(n)
+    for k in range(n):
+        i = ji[k]
+        a0, a1 = ends_i[k, 0, 0], ends_i[k, 0, 1]
+        b0, b1 = ends_i[k, 1, 0], ends_i[k, 1, 1]
+        p = from_tangent(q[i], 0.5 * (a0 + b0), 0.5 * (a1 + b1), R)
+        lat[k], lon[k] = xyz_to_latlon(p)
+        # the edge direction: a tangent vector of element i's frame, taken to the midpoint's
+        # east/north (the frames differ by the element's size over R: negligible)
+        ex, ey, nx, ny = east_north_row(q, i)
+        tx, ty = b0 - a0, b1 - a1
+        el = math.sqrt(tx * tx + ty * ty)
+        if el == 0.0:
+            de[k] = 1.0
+            dn[k] = 0.0
+            continue
+        # local (tx, ty) -> east/north: east = (ex, ey), north = (nx, ny) are orthonormal
+        de[k] = (tx * ex + ty * ey) / el
+        dn[k] = (tx * nx + ty * ny) / el
+    return lat, lon, de, dn

@@ -130,10 +130,11 @@ BREAK_STRAIN = 1.0  #: a strain or displacement threshold without a direction (t
 BREAK_TENSION = 2.0  #: normal (opening) stress above the tensile strength
 BREAK_SHEAR = 3.0  #: shear stress above the shear strength
 BREAK_COMPRESSION = 4.0  #: normal (closing) stress above the compressive strength
-BREAK_EXTERNAL = 5.0  #: broken by a component outside the law (e.g. wave-induced flexure)
+BREAK_EXTERNAL = 5.0  #: broken by a component outside the law, without a more precise mode
+BREAK_FLEXURE = 6.0  #: flexural (bending) strain above the critical strain (wave-induced)
 #: names of the break modes by code (code 0: intact), as written in output files
 BREAK_MODES = {0: "intact", 1: "strain", 2: "tension", 3: "shear", 4: "compression",
-               5: "external"}
+               5: "external", 6: "flexure"}
 
 
 @njit(cache=True, inline="always")

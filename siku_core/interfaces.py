@@ -115,6 +115,17 @@ class ForcingSource(Component):
     #: whether the scene table may carry a ``field`` sub-table
     uses_field: ClassVar[bool] = False
 
+    @classmethod
+    def accepts_field(cls, field_cls: type) -> bool:
+        """Whether this source can use a field of class ``field_cls`` (a source that needs
+        more than velocities, e.g. wave elevations, narrows it)."""
+        return True
+
+    def zero_field(self) -> "Field | None":
+        """A field of a kind this source accepts that is zero everywhere (calm air or water),
+        for the conformance suite's zero-stress check; ``None``: any zero velocity field."""
+        return None
+
     @abstractmethod
     def add(
         self, t: float, q: np.ndarray, V: np.ndarray, w: np.ndarray, F: np.ndarray, T: np.ndarray

@@ -45,6 +45,7 @@ DEFAULT_PLUGINS: tuple[str, ...] = (
     "siku_forcing.fields",
     "siku_forcing.gridded",
     "siku_forcing.drag",
+    "siku_forcing.waves",
     "siku_io.hdf5",
     "siku_io.netcdf",
     "siku_plugins.sources",

@@ -122,6 +122,11 @@ class Simulation:
                 src.field = self._component(
                     "field", f.field.type, f.field.params, f"forcing[{k}].field"
                 )  # type: ignore[assignment]
+                if not src.accepts_field(type(src.field)):
+                    raise SceneError(
+                        f"{scene.where(f'forcing[{k}].field')}: forcing source '{f.source}' "
+                        f"cannot use a field of type '{f.field.type}'"
+                    )
             elif src.uses_field and getattr(src, "field_required", True):
                 raise SceneError(
                     f"{scene.where(f'forcing[{k}]')}: forcing source '{f.source}' needs a "
@@ -222,6 +227,12 @@ class Simulation:
     def time(self) -> float:
         """Model time since the start [s]."""
         return self.step_index * self.dt
+
+    @property
+    def committing(self) -> bool:
+        """True during the first force evaluation of a step, the one whose joint history and
+        breaks count (forcing sources that change joints act only then)."""
+        return self._commit
 
     def datetime_at(self, t: float) -> _dt.datetime | None:
         return None if self.start is None else self.start + _dt.timedelta(seconds=t)

@@ -126,6 +126,8 @@ def forcing_cases(
             cases.append(ForcingCase(**common, missing=_missing(cls, sp)))
         for fname in field_names:
             fcls = reg.get("field", fname)
+            if not cls.accepts_field(fcls):
+                continue
             fp = dict(field_params.get(fname, {}))
             miss = _missing(cls, sp) + _missing(fcls, fp, f"{fname}.")
             cases.append(ForcingCase(**common, field=fname, field_params=fp, missing=miss))
@@ -204,7 +206,7 @@ def check_forcing_zero_field(
     sim, src = build_forcing(case, registry)
     if not src.uses_field:
         raise ValueError(f"{case.id}: not a drag (takes no field)")
-    zero = ZeroField({})
+    zero = src.zero_field() or ZeroField({})
     zero.setup(sim)
     src.field = zero  # type: ignore[attr-defined]
     st = sim.state

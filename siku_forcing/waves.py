@@ -1,0 +1,463 @@
+"""Surface gravity waves on the ice: linear waves, a directional JONSWAP sea, and their forces.
+
+Linear (Airy) theory. A sea is a sum of components ``j`` with amplitude ``a_j`` [m], angular
+frequency ``omega_j`` [rad/s], wavenumber ``k_j`` [rad/m] from the finite-depth dispersion relation
+``omega² = g k tanh(k h)`` (:func:`wavenumber`), direction of travel ``theta_j`` (clockwise from
+north: 90° travels east) and phase ``phi_j``:
+
+* elevation ``eta = sum a_j cos(psi_j)``, ``psi_j = kx_j x + ky_j y - omega_j t + phi_j``;
+* slope ``grad eta = -sum a_j (kx_j, ky_j) sin(psi_j)``;
+* surface orbital velocity ``u = sum a_j omega_j coth(k_j h) cos(psi_j) (kx_j, ky_j) / k_j``;
+* curvature along a unit direction ``s``: ``d²eta/ds² = -sum a_j (k_j · s)² cos(psi_j)``.
+
+``(x, y)`` [m] are east and north distances from the field's ``origin`` on the model sphere,
+``x = R cos(lat0) (lon - lon0)``, ``y = R (lat - lat0)``: the phases are exact plane waves in that
+plane, and east derivatives carry the metric factor ``cos(lat0) / cos(lat)`` (1 to within ``(L /
+R) tan(lat)`` over a domain of size ``L``).
+
+Forces (:class:`Waves`, forcing source ``waves``) on each element, at its own centre:
+
+* water drag on the velocity relative to the orbital velocity, ``S rho_w C_d |u - U| (u - U)``
+  with the log-layer drag coefficient of seed 004 eq. 6, ``C_d = [kappa / ln(30 dz / K_s)]²``
+  (``kappa = 0.41``, roughness ``K_s``, layer thickness ``dz``), unless ``C`` is given;
+* the surface-slope force ``-m g grad eta``;
+* with ``breaking = true``, the wave-induced flexural breaking of :mod:`siku_forcing.wave_breaking`.
+
+The fields also serve any drag as a current: ``sample`` returns the surface orbital velocity.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from siku_core import Param, SceneError, hookimpl
+from siku_core.geometry.quat import east_north_row
+from siku_core.interfaces import Field, ForcingSource
+from siku_core.state import FREE
+
+#: von Kármán constant of the log-layer drag coefficient (seed 004 eq. 6)
+KAPPA = 0.41
+#: a separate random stream for wave phases: ``default_rng([seed, PHASE_STREAM])``
+PHASE_STREAM = 2004
+
+
+def wavenumber(omega, depth, g: float = 9.81):
+    """Wavenumber ``k`` [rad/m] of ``omega`` [rad/s] in water of ``depth`` [m]
+    (``inf``: deep water), solving ``omega² = g k tanh(k h)`` by Newton's method on ``x = k h``
+    from Eckart's approximation ``x = y / sqrt(tanh y)``, ``y = omega² h / g``, until the step is
+    below 1e-15 relative (a few iterations; the relation then holds to round-off)."""
+    omega = np.asarray(omega, dtype=float)
+    depth = np.broadcast_to(np.asarray(depth, dtype=float), omega.shape)
+    k = np.empty(omega.shape)
+    deep = ~np.isfinite(depth)
+    k[deep] = omega[deep] ** 2 / g
+    fin = ~deep
+    if fin.any():
+        h = depth[fin]
+        y = omega[fin] ** 2 * h / g
+        x = y / np.sqrt(np.tanh(y))
+        for _ in range(60):
+            th = np.tanh(x)
+            dx = (x * th - y) / (th + x * (1.0 - th * th))
+            x = x - dx
+            if np.all(np.abs(dx) <= 1e-15 * x):
+                break
+        k[fin] = x / h
+    return k if k.ndim else float(k)
+
+
+def log_layer_drag(dz: float, roughness: float) -> float:
+    """Drag coefficient of a logarithmic boundary layer, seed 004 eq. 6:
+    ``C_d = [kappa / ln(30 dz / K_s)]²`` for a layer ``dz`` [m] and roughness ``K_s`` [m]."""
+    r = 30.0 * dz / roughness
+    if r <= 1.0:
+        raise ValueError(f"30 dz / K_s = {r:g} must exceed 1 (dz = {dz:g} m, K_s = "
+                         f"{roughness:g} m)")
+    return (KAPPA / math.log(r)) ** 2
+
+
+def jonswap(f, hs: float, tp: float, gamma: float = 3.3, g: float = 9.81):
+    """JONSWAP frequency spectrum ``S(f)`` [m²/Hz] of significant wave height ``hs`` [m] and
+    peak period ``tp`` [s]: ``alpha g² (2 pi)^-4 f^-5 exp(-5/4 (fp/f)^4) gamma^r``, ``r =
+    exp(-(f - fp)² / (2 sigma² fp²))``, ``sigma`` 0.07 below the peak and 0.09 above, with
+    ``alpha`` set so that ``4 sqrt(integral of S over 0..inf) = hs`` (the integral by adaptive
+    quadrature)."""
+    from scipy.integrate import quad
+
+    fp = 1.0 / tp
+
+    def shape(x):
+        x = np.asarray(x, dtype=float)
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+            sig = np.where(x <= fp, 0.07, 0.09)
+            r = np.exp(-((x - fp) ** 2) / (2.0 * sig**2 * fp**2))
+            s = g**2 * (2 * np.pi) ** -4 * x**-5.0 * np.exp(-1.25 * (fp / x) ** 4) * gamma**r
+        return np.where(x > 0, s, 0.0)
+
+    m0 = sum(quad(lambda x: float(shape(x)), a, b, limit=200)[0]
+             for a, b in ((0.0, fp), (fp, 3 * fp), (3 * fp, 30 * fp)))
+    m0 += quad(lambda x: float(shape(x)), 30 * fp, np.inf)[0]
+    return shape(f) * (hs / 4.0) ** 2 / m0
+
+
+# ----------------------------------------------------------------------------- kernels
+@njit(cache=True, inline="always")
+def _wrap(d):
+    """A longitude difference [rad] into [-pi, pi] (unchanged, bit for bit, when inside)."""
+    if d > math.pi:
+        return d - 2.0 * math.pi
+    if d < -math.pi:
+        return d + 2.0 * math.pi
+    return d
+
+
+@njit(cache=True)
+def _plane(lat, lon, lat0, lon0, R):
+    n = lat.shape[0]
+    x = np.empty(n)
+    y = np.empty(n)
+    c0 = math.cos(lat0)
+    for i in range(n):
+        d = _wrap(lon[i] - lon0)
+        x[i] = R * c0 * d
+        y[i] = R * (lat[i] - lat0)
+    return x, y
+
+
+@njit(cache=True, inline="always")
+def _at(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo, out):
+    """eta, d eta/d east, d eta/d north, u east, u north at one point into ``out[0:5]``."""
+    c0 = math.cos(lat0)
+    d = _wrap(lon - lon0)
+    x = R * c0 * d
+    y = R * (lat - lat0)
+    m = c0 / max(math.cos(lat), 1e-12)
+    eta = 0.0
+    gx = 0.0
+    gy = 0.0
+    ue = 0.0
+    un = 0.0
+    for j in range(amp.shape[0]):
+        psi = kx[j] * x + ky[j] * y - om[j] * t + ph[j]
+        c = math.cos(psi)
+        s = math.sin(psi)
+        eta += amp[j] * c
+        gx -= amp[j] * kx[j] * m * s
+        gy -= amp[j] * ky[j] * s
+        k = math.sqrt(kx[j] * kx[j] + ky[j] * ky[j])
+        ue += uo[j] * c * kx[j] * m / k
+        un += uo[j] * c * ky[j] / k
+    out[0] = eta
+    out[1] = gx
+    out[2] = gy
+    out[3] = ue
+    out[4] = un
+
+
+@njit(cache=True)
+def _evaluate(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo):
+    n = lat.shape[0]
+    res = np.empty((n, 5))
+    for i in range(n):
+        _at(t, lat[i], lon[i], lat0, lon0, R, amp, kx, ky, om, ph, uo, res[i])
+    return res
+
+
+@njit(cache=True)
+def _curvature(t, lat, lon, se, sn, lat0, lon0, R, amp, kx, ky, om, ph):
+    """d²eta/ds² [1/m] at points along unit directions ``(se, sn)`` (east, north)."""
+    n = lat.shape[0]
+    out = np.zeros(n)
+    c0 = math.cos(lat0)
+    for i in range(n):
+        d = _wrap(lon[i] - lon0)
+        x = R * c0 * d
+        y = R * (lat[i] - lat0)
+        m = c0 / max(math.cos(lat[i]), 1e-12)
+        acc = 0.0
+        for j in range(amp.shape[0]):
+            ks = kx[j] * m * se[i] + ky[j] * sn[i]
+            acc -= amp[j] * ks * ks * math.cos(kx[j] * x + ky[j] * y - om[j] * t + ph[j])
+        out[i] = acc
+    return out
+
+
+@njit(cache=True)
+def _wave_forces(t, q, V, m, area, free, lat0, lon0, R, amp, kx, ky, om, ph, uo, g, slope,
+                 drag_coef, F):
+    """Add ``-m g grad eta`` (if ``slope``) and ``S drag_coef |u - U| (u - U)`` with
+    ``drag_coef = rho_w C_d`` to the free elements (local frames)."""
+    buf = np.empty(5)
+    for i in range(q.shape[0]):
+        if not free[i]:
+            continue
+        z = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])
+        x3 = 2.0 * (q[i, 1] * q[i, 3] + q[i, 0] * q[i, 2])
+        y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
+        lat = math.asin(max(-1.0, min(1.0, z)))
+        lon = math.atan2(y3, x3)
+        _at(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo, buf)
+        ex, ey, nx, ny = east_north_row(q, i)
+        fe = 0.0
+        fn = 0.0
+        if slope:
+            fe -= m[i] * g * buf[1]
+            fn -= m[i] * g * buf[2]
+        if drag_coef > 0.0:
+            ue = V[i, 0] * ex + V[i, 1] * ey
+            un = V[i, 0] * nx + V[i, 1] * ny
+            de = buf[3] - ue
+            dn = buf[4] - un
+            s = area[i] * drag_coef * math.sqrt(de * de + dn * dn)
+            fe += s * de
+            fn += s * dn
+        F[i, 0] += fe * ex + fn * nx
+        F[i, 1] += fe * ey + fn * ny
+
+
+# ----------------------------------------------------------------------------- fields
+class WaveField(Field):
+    """Base of wave fields: components ``amp, kx, ky, omega, phase`` (arrays) and the methods
+    of the module docstring. Subclasses fill the components in :meth:`components`."""
+
+    #: common parameters: where phases are measured from, gravity, depth
+    common = {
+        "origin": Param([0.0, 0.0], "deg", "[lon, lat] where x = y = 0 (phase reference)",
+                        type=list),
+        "depth": Param(-1.0, "m", "water depth h; -1: deep water", min=-1.0),
+        "g": Param(9.81, "m/s^2", "gravitational acceleration", min=0.0),
+    }
+    radius = 6_371_000.0
+
+    def setup(self, sim):
+        self.radius = float(sim.radius)
+        self.seed = int(sim.seed)
+        self._build()
+
+    def _build(self):
+        o = self.p["origin"]
+        if len(o) != 2 or not all(isinstance(v, (int, float)) for v in o) or abs(o[1]) >= 90:
+            raise SceneError(f"{self.name}: 'origin' must be [lon, lat] in degrees, off the poles")
+        self.lon0, self.lat0 = math.radians(o[0]), math.radians(o[1])
+        amp, omega, direction, phase = self.components()
+        depth = self.p["depth"]
+        self.h = math.inf if depth < 0 else float(depth)
+        if self.h == 0.0:
+            raise SceneError(f"{self.name}: depth must be positive (or -1 for deep water)")
+        k = np.atleast_1d(wavenumber(omega, self.h, self.p["g"]))
+        th = np.radians(direction)
+        self.amp = np.ascontiguousarray(amp, dtype=float)
+        self.omega = np.ascontiguousarray(omega, dtype=float)
+        self.k = k
+        self.kx = np.ascontiguousarray(k * np.sin(th))
+        self.ky = np.ascontiguousarray(k * np.cos(th))
+        self.phase = np.ascontiguousarray(phase, dtype=float)
+        coth = 1.0 / np.tanh(k * self.h) if math.isfinite(self.h) else np.ones_like(k)
+        self.u_orbital = np.ascontiguousarray(self.amp * self.omega * coth)
+
+    def components(self):
+        """``(amp [m], omega [rad/s], direction [deg clockwise from north], phase [rad])``."""
+        raise NotImplementedError
+
+    def _args(self):
+        if not hasattr(self, "amp"):
+            self._build()
+        return (self.lat0, self.lon0, self.radius, self.amp, self.kx, self.ky, self.omega,
+                self.phase)
+
+    def plane(self, lat, lon):
+        """East and north distances [m] of points ``lat, lon`` [rad] from the origin."""
+        a = self._args()
+        return _plane(np.ascontiguousarray(lat, dtype=float),
+                      np.ascontiguousarray(lon, dtype=float), a[0], a[1], a[2])
+
+    def evaluate(self, t, lat, lon) -> dict[str, np.ndarray]:
+        """``eta`` [m], slope ``eta_e``, ``eta_n`` [1] (east, north), orbital velocity ``u``,
+        ``v`` [m/s] at ``lat, lon`` [rad] and time ``t`` [s]."""
+        r = _evaluate(float(t), np.ascontiguousarray(lat, dtype=float),
+                      np.ascontiguousarray(lon, dtype=float), *self._args(), self.u_orbital)
+        return {"eta": r[:, 0], "eta_e": r[:, 1], "eta_n": r[:, 2], "u": r[:, 3], "v": r[:, 4]}
+
+    def sample(self, t, lat, lon):
+        r = self.evaluate(t, lat, lon)
+        return r["u"], r["v"]
+
+    def curvature(self, t, lat, lon, se, sn) -> np.ndarray:
+        """Curvature ``d²eta/ds²`` [1/m] along unit directions ``(se, sn)`` (east, north)."""
+        f = np.ascontiguousarray
+        return _curvature(float(t), f(lat, dtype=float), f(lon, dtype=float),
+                          f(se, dtype=float), f(sn, dtype=float), *self._args())
+
+    def variance(self) -> float:
+        """Variance of the elevation [m²], ``sum a_j² / 2``."""
+        self._args()
+        return float(np.sum(self.amp**2) / 2.0)
+
+    def shortest_period(self) -> float:
+        self._args()
+        return float(2 * np.pi / np.max(self.omega))
+
+
+class LinearWave(WaveField):
+    """A monochromatic linear wave: ``eta = a cos(k·x - omega t + phase)``, finite depth."""
+
+    name = "linear_wave"
+    params = {
+        "amplitude": Param(0.5, "m", "amplitude a (half the height)", min=0.0),
+        "period": Param(8.0, "s", "period T = 2 pi / omega", min=1e-3),
+        "direction": Param(90.0, "deg", "direction of travel, clockwise from north (90: east)"),
+        "phase": Param(0.0, "deg", "phase at the origin at t = 0"),
+        **WaveField.common,
+    }
+
+    def components(self):
+        p = self.p
+        return (np.array([p["amplitude"]]), np.array([2 * math.pi / p["period"]]),
+                np.array([p["direction"]]), np.array([math.radians(p["phase"])]))
+
+
+class Jonswap(WaveField):
+    """A directional sea: JONSWAP spectrum, ``cos^2s`` spreading, random phases from the seed.
+
+    ``n_frequencies`` bins of equal width over ``[f_low, f_high] × f_p`` and ``n_directions``
+    over the whole circle; component amplitude ``a = sqrt(2 S(f) D(theta) df dtheta)`` at the
+    bin centres, so the elevation variance is the spectrum's integral over the band (the tail
+    above ``4 f_p`` holds 0.5 % of the variance: Hs 0.25 % low by default). Spreading ``D(theta)
+    ∝ cos^2s((theta - theta_m) / 2)``, normalised over the discrete directions. Phases are
+    uniform on ``[0, 2 pi)`` from ``seed`` (-1: the scene's ``[run] seed``).
+    """
+
+    name = "jonswap"
+    params = {
+        "hs": Param(1.0, "m", "significant wave height Hs = 4 sqrt(m0)", min=0.0),
+        "tp": Param(8.0, "s", "peak period", min=1e-3),
+        "gamma": Param(3.3, "1", "peak enhancement factor", min=1.0),
+        "direction": Param(90.0, "deg", "mean direction of travel, clockwise from north"),
+        "spreading": Param(10.0, "1", "directional spreading exponent s of cos^2s", min=0.0),
+        "n_frequencies": Param(48, "1", "frequency bins", type=int, min=1, max=4096),
+        "n_directions": Param(16, "1", "direction bins (1: unidirectional)", type=int, min=1,
+                              max=720),
+        "f_low": Param(0.5, "1", "lowest frequency, in units of the peak frequency", min=0.01),
+        "f_high": Param(4.0, "1", "highest frequency, in units of the peak frequency", min=1.0),
+        "seed": Param(-1, "1", "random seed of the phases (-1: the scene's [run] seed)",
+                      type=int, min=-1),
+        **WaveField.common,
+    }
+    seed = 0
+
+    def components(self):
+        p = self.p
+        fp = 1.0 / p["tp"]
+        if p["f_low"] >= p["f_high"]:
+            raise SceneError(f"{self.name}: f_low must be below f_high")
+        nf, nd = p["n_frequencies"], p["n_directions"]
+        edges = np.linspace(p["f_low"] * fp, p["f_high"] * fp, nf + 1)
+        f = 0.5 * (edges[1:] + edges[:-1])
+        S = jonswap(f, p["hs"], p["tp"], p["gamma"], p["g"]) * np.diff(edges)
+        if nd == 1:
+            th = np.array([p["direction"]])
+            D = np.ones(1)
+        else:
+            dth = 360.0 / nd
+            th = p["direction"] - 180.0 + dth * (np.arange(nd) + 0.5)
+            D = np.cos(np.radians(th - p["direction"]) / 2.0) ** (2 * p["spreading"])
+            D /= D.sum()
+        amp = np.sqrt(2.0 * np.outer(S, D)).ravel()
+        omega = np.repeat(2 * np.pi * f, len(th))
+        direction = np.tile(th, nf)
+        seed = self.seed if p["seed"] < 0 else p["seed"]
+        phase = np.random.default_rng([seed, PHASE_STREAM]).uniform(0, 2 * np.pi, amp.size)
+        keep = amp > 0
+        return amp[keep], omega[keep], direction[keep], phase[keep]
+
+
+# ----------------------------------------------------------------------------- forcing
+class Waves(ForcingSource):
+    """Wave forces on every element at its centre: drag on the velocity relative to the orbital
+    velocity (log-layer ``C_d``, seed 004 eq. 6) and the slope force ``-m g grad eta``; optional
+    wave-induced flexural breaking of joints (``siku_forcing.wave_breaking``)."""
+
+    name = "waves"
+    uses_field = True
+    field_required = True
+    params = {
+        "drag": Param(True, "", "water drag relative to the orbital velocity", type=bool),
+        "slope": Param(True, "", "surface-slope force -m g grad eta", type=bool),
+        "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0.0),
+        "C": Param(-1.0, "1", "drag coefficient; -1: log layer, eq. 6", min=-1.0),
+        "roughness": Param(0.001, "m", "roughness height K_s of eq. 6", min=1e-9),
+        "layer": Param(1.0, "m", "thickness dz of the layer below the ice in eq. 6", min=1e-9),
+        "breaking": Param(False, "", "break joints by wave-induced flexure", type=bool),
+        "critical_strain": Param(3e-5, "1", "flexural strain that breaks a joint", min=0.0),
+        "break_every": Param(0.0, "s", "interval between breaking checks (0: every step)",
+                             min=0.0),
+    }
+
+    @classmethod
+    def accepts_field(cls, field_cls):
+        return issubclass(field_cls, WaveField)
+
+    def zero_field(self):
+        """A calm sea: a linear wave of zero amplitude."""
+        return LinearWave({**{k: p.default for k, p in LinearWave.params.items()},
+                           "amplitude": 0.0})
+
+    def setup(self, sim):
+        self.sim = sim
+        self.st = sim.state
+        p = self.p
+        if p["C"] >= 0:
+            self.C = float(p["C"])
+        else:
+            try:
+                self.C = log_layer_drag(p["layer"], p["roughness"])
+            except ValueError as exc:
+                raise SceneError(f"forcing 'waves': {exc}") from None
+        self.g = float(self.field.p["g"])
+        self.free = self.st.flags == FREE
+        self.breaker = None
+        if p["breaking"]:
+            from .wave_breaking import FlexuralBreaking
+
+            self.breaker = FlexuralBreaking(sim, self.field, p["critical_strain"],
+                                            p["break_every"], p["rho"])
+
+    def add(self, t, q, V, w, F, T):
+        f = self.field
+        f._args()
+        if self.breaker is not None and self.sim.committing:
+            self.breaker.check(t, q)
+        drag = self.C * self.p["rho"] if self.p["drag"] else 0.0
+        if drag == 0.0 and not self.p["slope"]:
+            return
+        _wave_forces(float(t), q, V, self.st.m, self.st.area, self.free, f.lat0, f.lon0,
+                     f.radius, f.amp, f.kx, f.ky, f.omega, f.phase, f.u_orbital, self.g,
+                     bool(self.p["slope"]), drag, F)
+
+    def stability_limit(self, sim):
+        """Drag: ``dt < m / (S rho_w C_d |dU|)`` with ``|dU|`` the largest orbital speed plus
+        1 m/s of drift; and a tenth of the shortest wave period at ``dt_safety = 0.5``, so that
+        every wave is sampled at ten steps or more."""
+        st = sim.state
+        limits = [(0.2 * self.field.shortest_period(),
+                   f"the shortest wave period {self.field.shortest_period():.4g} s")]
+        free = st.flags == FREE
+        if self.p["drag"] and free.any() and self.C * self.p["rho"] > 0:
+            du = float(np.sum(self.field.u_orbital)) + 1.0
+            per_area = st.m[free] / st.area[free]
+            i = int(np.argmin(per_area))
+            limits.append((per_area[i] / (self.p["rho"] * self.C * du),
+                           f"wave drag (C_d = {self.C:.4g}, |dU| up to {du:.3g} m/s)"))
+        return min(limits, key=lambda x: x[0])
+
+
+@hookimpl
+def siku_register_fields():
+    return [LinearWave, Jonswap]
+
+
+@hookimpl
+def siku_register_forcing_sources():
+    return [Waves]
