@@ -48,6 +48,7 @@ DEFAULT_PLUGINS: tuple[str, ...] = (
     "siku_forcing.waves",
     "siku_io.hdf5",
     "siku_io.netcdf",
+    "siku_io.coupling",
     "siku_plugins.sources",
     "siku_plugins.floes",
     "siku_io.sources",

@@ -261,6 +261,8 @@ class SceneCfg(_Strict):
     contact: ContactCfg | None = None
     output: OutputCfg = Field(default_factory=OutputCfg)
     run: RunCfg = Field(default_factory=RunCfg)
+    coupling: dict[str, Any] | None = Field(None, description="exchange grid of a coupled run "
+                                            "(siku_io.coupling; keys: grid, write_output)")
 
     @model_validator(mode="after")
     def _materials(self) -> "SceneCfg":

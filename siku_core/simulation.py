@@ -478,6 +478,14 @@ class Simulation:
             self.close()
         return self
 
+    def advance(self, steps: int) -> None:
+        """Take ``steps`` steps, writing on the schedules, and leave the outputs open (a
+        coupled run advanced by another model; :meth:`close` ends it)."""
+        self.open_outputs()
+        for _ in range(steps):
+            self.step()
+            self._write()
+
     def close(self) -> None:
         if self._opened:
             for w in self.writers:

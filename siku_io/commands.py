@@ -177,7 +177,10 @@ def register_grid(subparsers):
 
 @hookimpl
 def siku_configured(scene):
-    """Check ``[output.grid]`` before the run starts."""
+    """Check ``[output.grid]`` and ``[coupling]`` before the run starts."""
+    from siku_io.coupling import check_coupling
+
+    check_coupling(scene)
     table = scene.cfg.output.grid
     if table is not None:
         from siku_core.errors import SceneError

@@ -95,32 +95,33 @@ class GridCfg(BaseModel):
         return self
 
 
-def _edges(lo: float, hi: float, step: float, what: str) -> np.ndarray:
+def _edges(lo: float, hi: float, step: float, what: str, table: str) -> np.ndarray:
     n = int(round((hi - lo) / step))
     if n < 1 or abs(lo + n * step - hi) > 1e-9 * max(abs(step), 1.0) * max(n, 1):
-        raise DataError(f"[output.grid] {what}: the extent {hi - lo:g} is not a whole number "
+        raise DataError(f"{table} {what}: the extent {hi - lo:g} is not a whole number "
                         f"of cells of {step:g}")
     if n > 20000:
-        raise DataError(f"[output.grid] {what}: {n} cells along one axis; choose a coarser "
+        raise DataError(f"{table} {what}: {n} cells along one axis; choose a coarser "
                         "resolution")
     return lo + step * np.arange(n + 1)
 
 
 class Grid:
-    """A regular grid on a sphere of radius ``radius`` [m] (module docstring)."""
+    """A regular grid on a sphere of radius ``radius`` [m] (module docstring); ``table`` names
+    it in error messages."""
 
-    def __init__(self, cfg: GridCfg, radius: float):
+    def __init__(self, cfg: GridCfg, radius: float, table: str = "[output.grid]"):
         self.cfg = cfg
         self.kind = cfg.kind
         self.radius = float(radius)
         if cfg.kind == "lonlat":
             dx = cfg.dlon or cfg.resolution
             dy = cfg.dlat or cfg.resolution
-            self.x_edges = _edges(cfg.lon[0], cfg.lon[1], dx, "lon")
-            self.y_edges = _edges(cfg.lat[0], cfg.lat[1], dy, "lat")
+            self.x_edges = _edges(cfg.lon[0], cfg.lon[1], dx, "lon", table)
+            self.y_edges = _edges(cfg.lat[0], cfg.lat[1], dy, "lat", table)
         else:
-            self.x_edges = _edges(cfg.x[0], cfg.x[1], cfg.resolution, "x")
-            self.y_edges = _edges(cfg.y[0], cfg.y[1], cfg.resolution, "y")
+            self.x_edges = _edges(cfg.x[0], cfg.x[1], cfg.resolution, "x", table)
+            self.y_edges = _edges(cfg.y[0], cfg.y[1], cfg.resolution, "y", table)
             self.sign = 1.0 if cfg.hemisphere == "north" else -1.0
             ts = math.radians(abs(cfg.true_scale_latitude))
             #: the scale factor at the pole: rho = 2 R k0 tan(pi/4 - |lat|/2)
@@ -329,9 +330,9 @@ class Grid:
                                    "long_name": "x of the cell centre", "axis": "X"}),
             "y": (("y",), self.y, {"units": "m", "standard_name": "projection_y_coordinate",
                                    "long_name": "y of the cell centre", "axis": "Y"}),
-            "lon": (("y", "x"), lon2, {"units": "degrees_east", "standard_name": "longitude",
+            "lon": (("y", "x", table), lon2, {"units": "degrees_east", "standard_name": "longitude",
                                        "long_name": "longitude of the cell centre"}),
-            "lat": (("y", "x"), lat2, {"units": "degrees_north", "standard_name": "latitude",
+            "lat": (("y", "x", table), lat2, {"units": "degrees_north", "standard_name": "latitude",
                                        "long_name": "latitude of the cell centre"}),
             "crs": ((), np.int32(0), {
                 "long_name": "polar stereographic projection of the model sphere",
@@ -346,7 +347,7 @@ class Grid:
     @property
     def dims(self) -> tuple[str, str]:
         """Names of the grid's dimensions in files: ``(lat, lon)`` or ``(y, x)``."""
-        return ("lat", "lon") if self.kind == "lonlat" else ("y", "x")
+        return ("lat", "lon", table) if self.kind == "lonlat" else ("y", "x", table)
 
 
 def grid_error(exc: Exception, where: str) -> DataError:
