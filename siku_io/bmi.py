@@ -42,6 +42,10 @@ VARIABLES: dict[str, tuple[str, str, str, str]] = {
         "tau_x", "N m-2", "in", "force per area on the ice along x"),
     "sea_ice_bottom_surface__y_component_of_stress": (
         "tau_y", "N m-2", "in", "force per area on the ice along y"),
+    "atmosphere_bottom_air_flow__x_component_of_velocity": (
+        "wind_u", "m s-1", "in", "wind velocity (10 m) along x"),
+    "atmosphere_bottom_air_flow__y_component_of_velocity": (
+        "wind_v", "m s-1", "in", "wind velocity (10 m) along y"),
     "sea_ice__area_fraction": ("area_fraction", "1", "out", "ice area over cell area"),
     "sea_ice__volume": ("volume", "m3", "out", "ice volume in the cell"),
     "sea_ice_top_surface__elevation": ("top", "m", "out", "highest ice top in the cell"),

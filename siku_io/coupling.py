@@ -11,7 +11,8 @@ grid components,
   one-sided at the edges, over true distances on the sphere);
 * drag: ``S_ec rho_w C |u_c - U_e| (u_c - U_e)``, ``u_c`` the cell's water velocity, ``C`` as
   for waves (log layer, seed 004 eq. 6, unless given);
-* stress: ``S_ec tau_c``, a force per area handed over by the other model.
+* stress: ``S_ec tau_c``, a force per area handed over by the other model;
+* wind: ``S_ec rho_a C_a |U_a| U_a`` (report eq. 19, no turning), ``U_a`` the cell's wind.
 
 An element gets the sum over its cells; a cell reports the sum over its elements (``force_x``,
 ``force_y`` [N]: on free elements, the mean over the steps since the last exchange of each step's first force
@@ -47,6 +48,8 @@ INPUTS: dict[str, tuple[str, str]] = {
     "water_v": ("m s-1", "water velocity along the grid's y axis"),
     "tau_x": ("N m-2", "force per area on the ice along x"),
     "tau_y": ("N m-2", "force per area on the ice along y"),
+    "wind_u": ("m s-1", "wind velocity (10 m) along x"),
+    "wind_v": ("m s-1", "wind velocity (10 m) along y"),
 }
 
 
@@ -118,8 +121,8 @@ def cell_gradient(grid: Grid, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @njit(cache=True)
-def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx, ty, g,
-                 drag_coef, F, cfx, cfy, record):
+def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx, ty, au, av,
+                 g, drag_coef, air_coef, F, cfx, cfy, record):
     """Pair forces of the module docstring (grid components), added to ``F`` (local frames)
     and, if ``record``, to the per-cell sums ``cfx, cfy``."""
     for p in range(el.shape[0]):
@@ -128,6 +131,10 @@ def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx
         S = frac[p] * area[e]
         fx = -frac[p] * m[e] * g * gx[c] + S * tx[c]
         fy = -frac[p] * m[e] * g * gy[c] + S * ty[c]
+        if air_coef > 0.0:
+            s = S * air_coef * math.sqrt(au[c] * au[c] + av[c] * av[c])
+            fx += s * au[c]
+            fy += s * av[c]
         ex, ey, nx, ny = east_north_row(q, e)
         if drag_coef > 0.0:
             ue = V[e, 0] * ex + V[e, 1] * ey
@@ -151,7 +158,7 @@ def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx
 
 class Exchange(ForcingSource):
     """Forces on the ice from per-cell fields of the exchange grid (``[coupling.grid]``):
-    slope of the sea surface, water drag, and a force per area; set by a coupled model through
+    slope of the sea surface, water drag, a force per area and wind drag; set by a coupled model through
     the BMI (``siku_io.bmi``), zero otherwise."""
 
     name = "exchange"
@@ -162,6 +169,8 @@ class Exchange(ForcingSource):
         "C": Param(-1.0, "1", "drag coefficient; -1: log layer, seed 004 eq. 6", min=-1.0),
         "roughness": Param(0.001, "m", "roughness height K_s of eq. 6", min=1e-9),
         "layer": Param(1.0, "m", "thickness dz of the layer below the ice in eq. 6", min=1e-9),
+        "rho_air": Param(1.3, "kg/m^3", "air density rho_a", min=0.0),
+        "C_air": Param(0.0016, "1", "air–ice drag coefficient C_a (eq. 21)", min=0.0),
         "g": Param(9.81, "m/s^2", "gravitational acceleration", min=0.0),
         "max_relative_speed": Param(
             1.0, "m/s", "largest expected ice–water speed, for the stable-time-step estimate",
@@ -224,8 +233,11 @@ class Exchange(ForcingSource):
                      np.ascontiguousarray(f["water_u"].ravel()),
                      np.ascontiguousarray(f["water_v"].ravel()),
                      np.ascontiguousarray(f["tau_x"].ravel()),
-                     np.ascontiguousarray(f["tau_y"].ravel()), float(p["g"]),
-                     self.C * p["rho"] if p["drag"] else 0.0, F, self.cell_force[0],
+                     np.ascontiguousarray(f["tau_y"].ravel()),
+                     np.ascontiguousarray(f["wind_u"].ravel()),
+                     np.ascontiguousarray(f["wind_v"].ravel()), float(p["g"]),
+                     self.C * p["rho"] if p["drag"] else 0.0, p["rho_air"] * p["C_air"], F,
+                     self.cell_force[0],
                      self.cell_force[1], record)
         if record:
             self.recorded += 1

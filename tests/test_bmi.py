@@ -98,13 +98,17 @@ def test_update_until_lands_on_steps(bmi):
 
 
 def test_round_trip_moves_ice_as_the_scene_forcing(tmp_path):
-    """Water velocity set through the BMI on every cell moves the ice exactly as the same
-    velocity given by the scene to ``water_drag`` (same coefficient, no turning, no spin drag)."""
-    u, v = 0.3, -0.12
+    """Water velocity and wind set through the BMI on every cell move the ice exactly as the
+    same velocities given by the scene to ``water_drag`` (same coefficient, no turning, no spin
+    drag) and ``air_drag`` (eq. 19 defaults)."""
+    u, v, ua, va = 0.3, -0.12, 8.0, 5.0
     ref_text = BASE + f"""[[forcing]]
 source = "water_drag"
 params = {{C = 0.0045, spin_drag = false}}
 field = {{type = "uniform", params = {{u = {u}, v = {v}}}}}
+[[forcing]]
+source = "air_drag"
+field = {{type = "uniform", params = {{u = {ua}, v = {va}}}}}
 """
     ref = Simulation(scene(tmp_path, ref_text, "ref.toml"), out=False, progress=False)
     ref.run(30)
@@ -112,6 +116,8 @@ field = {{type = "uniform", params = {{u = {u}, v = {v}}}}}
     b.initialize(scene(tmp_path, BASE + EXCHANGE + GRID))
     n = b.get_grid_size(0)
     b.set_value("sea_water_flowing__x_component_of_velocity", np.full(n, u))
+    b.set_value("atmosphere_bottom_air_flow__x_component_of_velocity", np.full(n, ua))
+    b.set_value("atmosphere_bottom_air_flow__y_component_of_velocity", np.full(n, va))
     b.set_value("sea_water_flowing__y_component_of_velocity", np.full(n, v))
     b.update_until(300.0)
     got = b.sim

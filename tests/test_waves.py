@@ -4,6 +4,7 @@ of the slope force over a bonded floe, and wave-induced breaking."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -221,48 +222,37 @@ def test_slope_force_on_a_floe_follows_sinc(kL):
 
 
 # ----------------------------------------------------------------------------- breaking
-def _strip(L, D, a, T=8.0, E=1e9, eps=3e-5):
-    """A strip of ``L/D`` square elements along the waves, checked for breaking at 32 phases of
-    one period (the breaking check alone: nothing moves)."""
-    dlon, dlat = math.degrees(L / R), math.degrees(D / R)
-    wave = {"type": "linear_wave", "params": {"amplitude": a, "period": T, "direction": 90.0,
-                                              "origin": [0.0, 0.0]}}
-    sc = make_scene([], packs=[{"lon": [-dlon / 2, dlon / 2], "lat": [-dlat / 2, dlat / 2],
-                                "nx": int(round(L / D)), "ny": 1}],
-                    thickness=1.0, dt=1e-4, duration=1e-4, materials={"ice": {
-                        "youngs_modulus": E}},
-                    forcing=[{"source": "waves", "params": {
-                        "breaking": True, "drag": False, "slope": False,
-                        "critical_strain": eps}, "field": wave}],
-                    extra='[contact]\nlaw = "distributed_spring"\n'
-                          'params = {tensile_strain = 1.0}\n',
-                    run={"allow_unstable_dt": True})
-    sim = Simulation(sc, out=False, progress=False)
-    br = sim.forcing[0].breaker
-    for t in np.linspace(0, T, 33)[:-1]:
-        br.check(t, sim.state.q)
-    cm = sim.contacts
-    _, label = cm.floe_labels()
-    return cm, np.bincount(label) * D
+def _breaking():
+    """The strip experiment of ``examples/waves/breaking.py`` (documented there)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "waves" / "breaking.py"
+    spec = importlib.util.spec_from_file_location("breaking_example", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
 def test_breaking_critical_length():
     """A strip breaks only if longer than ``L_c = (64 E h² eps_c / (rho_w g a k²))^(1/4)``
     (module docstring of wave_breaking): 0.8 L_c stays whole, 1.6 L_c breaks, in flexure."""
+    ex = _breaking()
     a, T, E, eps = 0.5, 8.0, 1e9, 3e-5
     k = (2 * math.pi / T) ** 2 / G
     Lc = (64 * E * eps / (1026.0 * G * a * k * k)) ** 0.25
+    assert Lc == pytest.approx(ex.critical_length(a, T, E, 1.0, eps), rel=1e-15)
     assert 15 < Lc < 20
-    cm, sizes = _strip(0.8 * Lc, Lc / 16, a, T, E, eps)
+    cm, sizes = ex.strip(0.8 * Lc, Lc / 16, a, T, E, eps)
     assert cm.intact.all()
-    cm, sizes = _strip(1.6 * Lc, Lc / 16, a, T, E, eps)
+    cm, sizes = ex.strip(1.6 * Lc, Lc / 16, a, T, E, eps)
     assert (~cm.intact).sum() >= 1
     assert set(cm.bmode[~cm.intact]) == {6.0}  # BREAK_FLEXURE
     assert sizes.max() <= Lc * 1.05
 
 
 def test_fragments_shrink_as_waves_grow():
-    means = [_strip(200.0, 2.0, a)[1].mean() for a in (0.1, 0.5, 2.0)]
+    ex = _breaking()
+    means = [ex.strip(200.0, 2.0, a)[1].mean() for a in (0.1, 0.5, 2.0)]
     assert means[0] > means[1] > means[2]
 
 
