@@ -15,9 +15,9 @@ grid components,
 * wind: ``S_ec rho_a C_a |U_a| U_a`` (report eq. 19, no turning), ``U_a`` the cell's wind.
 
 An element gets the sum over its cells; a cell reports the sum over its elements (``force_x``,
-``force_y`` [N]: on free elements, the mean over the steps since the last exchange of each step's first force
-evaluation): the same pair forces summed two ways, so what the ice receives and what the cells
-report agree to round-off, cell by cell. The overlap is recomputed at every exchange
+``force_y`` [N]: on free elements, the mean over the steps since the last exchange of each
+step's first force evaluation): the same pair forces summed two ways, so what the ice
+receives and what the cells report agree to round-off, cell by cell. The overlap is recomputed at every exchange
 (:meth:`Exchange.refresh`), from the positions then, and held until the next.
 
 What the ice reports per cell (:func:`ice_fields`), at the current positions: area fraction,
@@ -158,8 +158,8 @@ def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx
 
 class Exchange(ForcingSource):
     """Forces on the ice from per-cell fields of the exchange grid (``[coupling.grid]``):
-    slope of the sea surface, water drag, a force per area and wind drag; set by a coupled model through
-    the BMI (``siku_io.bmi``), zero otherwise."""
+    slope of the sea surface, water drag, a force per area and wind drag; set by a coupled
+    model through the BMI (``siku_io.bmi``), zero otherwise."""
 
     name = "exchange"
     params = {

@@ -330,9 +330,9 @@ class Grid:
                                    "long_name": "x of the cell centre", "axis": "X"}),
             "y": (("y",), self.y, {"units": "m", "standard_name": "projection_y_coordinate",
                                    "long_name": "y of the cell centre", "axis": "Y"}),
-            "lon": (("y", "x", table), lon2, {"units": "degrees_east", "standard_name": "longitude",
+            "lon": (("y", "x"), lon2, {"units": "degrees_east", "standard_name": "longitude",
                                        "long_name": "longitude of the cell centre"}),
-            "lat": (("y", "x", table), lat2, {"units": "degrees_north", "standard_name": "latitude",
+            "lat": (("y", "x"), lat2, {"units": "degrees_north", "standard_name": "latitude",
                                        "long_name": "latitude of the cell centre"}),
             "crs": ((), np.int32(0), {
                 "long_name": "polar stereographic projection of the model sphere",
@@ -347,7 +347,7 @@ class Grid:
     @property
     def dims(self) -> tuple[str, str]:
         """Names of the grid's dimensions in files: ``(lat, lon)`` or ``(y, x)``."""
-        return ("lat", "lon", table) if self.kind == "lonlat" else ("y", "x", table)
+        return ("lat", "lon") if self.kind == "lonlat" else ("y", "x")
 
 
 def grid_error(exc: Exception, where: str) -> DataError:

@@ -11,7 +11,7 @@ interval, held over it).
 So the ice shelters itself: floes at the ice edge surge with nearly the incident wave, floes deep
 in the pack with a wave that the pack in front of them has damped.
 
-Run ``python examples/coupling/two_way_waves.py`` (draws ``two_way_waves.png``).
+Run ``python examples/coupling/two_way_waves.py`` (draws ``docs/gallery/two_way_waves.png``).
 """
 from __future__ import annotations
 
@@ -52,7 +52,6 @@ def run(scene=HERE / "waves_ice.toml", duration=None, exchange_every=0.5, alpha=
     """Run the coupled system; returns ``(ice BMI (finalized), waves, record)`` with ``record``
     holding per exchange the time [s] and the ice velocities along the flume [m/s]."""
     from siku_core.geometry.quat import latlon_of
-
     from siku_io.bmi import SikuBmi
     from siku_io.xr import east_north
 
@@ -116,8 +115,9 @@ def main():  # pragma: no cover - a demonstration
     a2.legend()
     fig.suptitle("Waves and ice coupled through the BMI")
     fig.tight_layout()
-    fig.savefig(HERE / "two_way_waves.png", dpi=110)
-    print("wrote", HERE / "two_way_waves.png")
+    out = HERE.parents[1] / "docs" / "gallery" / "two_way_waves.png"
+    fig.savefig(out, dpi=110)
+    print("wrote", out)
 
 
 if __name__ == "__main__":  # pragma: no cover
