@@ -17,8 +17,8 @@ grid components,
 An element gets the sum over its cells; a cell reports the sum over its elements (``force_x``,
 ``force_y`` [N]: on free elements, the mean over the steps since the last exchange of each
 step's first force evaluation): the same pair forces summed two ways, so what the ice
-receives and what the cells report agree to round-off, cell by cell. The overlap is recomputed at every exchange
-(:meth:`Exchange.refresh`), from the positions then, and held until the next.
+receives and what the cells report agree to round-off, cell by cell. The overlap is recomputed
+at every exchange (:meth:`Exchange.refresh`), from the positions then, and held until the next.
 
 What the ice reports per cell (:func:`ice_fields`), at the current positions: area fraction,
 volume [m³], the elevations of the top and bottom of the floating ice (freeboard ``h (1 -
