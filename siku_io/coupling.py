@@ -162,6 +162,8 @@ class Exchange(ForcingSource):
     model through the BMI (``siku_io.bmi``), zero otherwise."""
 
     name = "exchange"
+    #: read besides the parameters (the conformance suite cannot build the source without it)
+    scene_tables = ("coupling.grid",)
     params = {
         "drag": Param(True, "", "water drag relative to the cells' water velocity", type=bool),
         "slope": Param(True, "", "surface-slope force -m g grad eta", type=bool),

@@ -90,6 +90,8 @@ def _missing(cls: type, given: Mapping[str, Any], prefix: str = "") -> tuple[str
     out = tuple(
         f"{prefix}{k}" for k, p in cls.params.items() if p.default is None and k not in given
     )
+    # scene tables the component reads besides its parameters (the exchange grid of a coupling)
+    out += tuple(f"{prefix}[{t}] table" for t in getattr(cls, "scene_tables", ()))
     # a component may need one of several parameter groups (a gridded field: its data files)
     groups = getattr(cls, "required_one_of", ())
     if groups and not any(all(k in given for k in g) for g in groups):
