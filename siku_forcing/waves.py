@@ -78,6 +78,26 @@ def log_layer_drag(dz: float, roughness: float) -> float:
     return (KAPPA / math.log(r)) ** 2
 
 
+#: parameters of a water drag with the log-layer coefficient (``waves``, ``exchange``)
+WATER_DRAG_PARAMS = {
+    "slope": Param(True, "", "surface-slope force -m g grad eta", type=bool),
+    "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0.0),
+    "C": Param(-1.0, "1", "drag coefficient; -1: log layer, seed 004 eq. 6", min=-1.0),
+    "roughness": Param(0.001, "m", "roughness height K_s of eq. 6", min=1e-9),
+    "layer": Param(1.0, "m", "thickness dz of the layer below the ice in eq. 6", min=1e-9),
+}
+
+
+def drag_coefficient(p, source: str) -> float:
+    """``C`` of parameters ``p`` (:data:`WATER_DRAG_PARAMS`): as given, or eq. 6 when -1."""
+    if p["C"] >= 0:
+        return float(p["C"])
+    try:
+        return log_layer_drag(p["layer"], p["roughness"])
+    except ValueError as exc:
+        raise SceneError(f"forcing '{source}': {exc}") from None
+
+
 def jonswap(f, hs: float, tp: float, gamma: float = 3.3, g: float = 9.81):
     """JONSWAP frequency spectrum ``S(f)`` [m²/Hz] of significant wave height ``hs`` [m] and
     peak period ``tp`` [s]: ``alpha g² (2 pi)^-4 f^-5 exp(-5/4 (fp/f)^4) gamma^r``, ``r =
@@ -384,11 +404,7 @@ class Waves(ForcingSource):
     field_required = True
     params = {
         "drag": Param(True, "", "water drag relative to the orbital velocity", type=bool),
-        "slope": Param(True, "", "surface-slope force -m g grad eta", type=bool),
-        "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0.0),
-        "C": Param(-1.0, "1", "drag coefficient; -1: log layer, eq. 6", min=-1.0),
-        "roughness": Param(0.001, "m", "roughness height K_s of eq. 6", min=1e-9),
-        "layer": Param(1.0, "m", "thickness dz of the layer below the ice in eq. 6", min=1e-9),
+        **WATER_DRAG_PARAMS,
         "breaking": Param(False, "", "break joints by wave-induced flexure", type=bool),
         "critical_strain": Param(3e-5, "1", "flexural strain that breaks a joint", min=0.0),
         "break_every": Param(0.0, "s", "interval between breaking checks (0: every step)",
@@ -408,13 +424,7 @@ class Waves(ForcingSource):
         self.sim = sim
         self.st = sim.state
         p = self.p
-        if p["C"] >= 0:
-            self.C = float(p["C"])
-        else:
-            try:
-                self.C = log_layer_drag(p["layer"], p["roughness"])
-            except ValueError as exc:
-                raise SceneError(f"forcing 'waves': {exc}") from None
+        self.C = drag_coefficient(p, self.name)
         self.g = float(self.field.p["g"])
         self.free = self.st.flags == FREE
         self.breaker = None

@@ -38,6 +38,7 @@ from siku_core import DataError, Param, SceneError, hookimpl
 from siku_core.geometry.quat import east_north_row
 from siku_core.interfaces import ForcingSource
 from siku_core.state import FREE
+from siku_forcing.waves import WATER_DRAG_PARAMS, drag_coefficient
 
 from .grid import Grid, GridCfg, grid_error
 
@@ -166,11 +167,7 @@ class Exchange(ForcingSource):
     scene_tables = ("coupling.grid",)
     params = {
         "drag": Param(True, "", "water drag relative to the cells' water velocity", type=bool),
-        "slope": Param(True, "", "surface-slope force -m g grad eta", type=bool),
-        "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0.0),
-        "C": Param(-1.0, "1", "drag coefficient; -1: log layer, seed 004 eq. 6", min=-1.0),
-        "roughness": Param(0.001, "m", "roughness height K_s of eq. 6", min=1e-9),
-        "layer": Param(1.0, "m", "thickness dz of the layer below the ice in eq. 6", min=1e-9),
+        **WATER_DRAG_PARAMS,
         "rho_air": Param(1.3, "kg/m^3", "air density rho_a", min=0.0),
         "C_air": Param(0.0016, "1", "air–ice drag coefficient C_a (eq. 21)", min=0.0),
         "g": Param(9.81, "m/s^2", "gravitational acceleration", min=0.0),
@@ -180,16 +177,10 @@ class Exchange(ForcingSource):
     }
 
     def setup(self, sim):
-        from siku_forcing.waves import log_layer_drag
-
         self.sim = sim
         self.st = sim.state
         self.grid = coupling_grid(sim.scene)
-        p = self.p
-        try:
-            self.C = float(p["C"]) if p["C"] >= 0 else log_layer_drag(p["layer"], p["roughness"])
-        except ValueError as exc:
-            raise SceneError(f"forcing 'exchange': {exc}") from None
+        self.C = drag_coefficient(self.p, self.name)
         ny, nx = self.grid.shape
         #: the input fields, ``(ny, nx)`` each (INPUTS); a coupled model sets them
         self.fields = {k: np.zeros((ny, nx)) for k in INPUTS}
