@@ -1,6 +1,6 @@
 """Command line: ``siku run``, ``siku plugins``, and the commands plugins add.
 
-The engine's own commands are ``run`` and ``plugins``; every other command (``plot``,
+The engine's own commands are ``run``, ``warm`` and ``plugins``; every other command (``plot``,
 ``ensemble`` and ``bench`` from ``siku_io``, ``lab`` from ``siku_plugins``, a third party's) is
 added by the package that owns it through the ``siku_register_commands`` hook, as datasette
 plugins add commands. A command whose parser sets the default ``raw_args=True`` gets the rest
@@ -69,8 +69,11 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
     sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart,
                      overwrite=args.overwrite, force=args.force, extend=extend)
     t0 = time.perf_counter()
-    print(f"siku {__version__}: {scene.cfg.title or path.name}: {sim.state.n} elements, "
-          f"{sim.n_steps - sim.step_index} steps of {sim.dt:g} s", file=sys.stderr)
+    fitted = ("" if sim.dt == sim.dt_requested else
+              f" ({sim.dt_requested:g} s in the scene, shortened so that outputs fall on steps)")
+    print(f"siku {__version__}: {scene.cfg.title or path.name}: "
+          f"{plural(sim.state.n, 'element')}, {plural(sim.n_steps - sim.step_index, 'step')} "
+          f"of {sim.dt:.6g} s{fitted}", file=sys.stderr)
     sim.run()
     wall = time.perf_counter() - t0
     print(f"done in {wall:.1f} s; output: {sim.output_path}", file=sys.stderr)
@@ -91,6 +94,30 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
         for f in [f for files in drawn for f in files or ()]:
             print(f"picture: {f}", file=sys.stderr)
     return 0
+
+
+def _cmd_warm(args: argparse.Namespace) -> int:
+    """Build a scene (its mesh cache included) and take two steps without output: every kernel
+    the scene uses is compiled and cached, so that its first real run starts at full speed."""
+    from .scene import load_scene
+    from .simulation import Simulation
+
+    path = Path(args.scene) if args.scene else default_scene_path()
+    t0 = time.perf_counter()
+    scene = load_scene(path)
+    sim = Simulation(scene, out=False, progress=False)
+    t1 = time.perf_counter()
+    sim.run(steps=min(2, sim.n_steps))
+    t2 = time.perf_counter()
+    print(f"siku warm: {scene.cfg.title or path.name}: built {plural(sim.state.n, 'element')} "
+          f"in {t1 - t0:.1f} s, compiled or loaded its kernels in {t2 - t1:.1f} s",
+          file=sys.stderr)
+    return 0
+
+
+def plural(n: int, noun: str) -> str:
+    """``"1 element"``, ``"2 elements"``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def _set_threads(n: int) -> None:
@@ -188,6 +215,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the time spent in each phase of the step")
     r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
     r.set_defaults(func=_cmd_run)
+    w = sub.add_parser("warm", help="compile and cache the kernels (and mesh) a scene uses, "
+                       "so that its first run starts at full speed (no argument: the default)")
+    w.add_argument("scene", nargs="?", help="scene file (TOML)")
+    w.set_defaults(func=_cmd_warm)
     p = sub.add_parser("plugins", help="list registered components with their parameters")
     p.set_defaults(func=_cmd_plugins)
     _plugin_commands(sub)

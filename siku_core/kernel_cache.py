@@ -55,8 +55,18 @@ def cache_dir() -> Path | None:
         return None
     if env:
         return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "siku" / "kernels"
+    return user_cache_dir("kernels")
+
+
+def user_cache_dir(what: str) -> Path:
+    """Folder ``what`` of siku's per-user cache: ``$SIKU_CACHE_DIR/what``, by default
+    ``$XDG_CACHE_HOME/siku/what`` or ``~/.cache/siku/what`` (kernels, meshes of shipped
+    scenes). Never a folder of the installed package."""
+    base = os.environ.get("SIKU_CACHE_DIR")
+    if base:
+        return Path(base) / what
+    xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(xdg) / "siku" / what
 
 
 def temporary_dir() -> Path:

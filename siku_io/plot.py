@@ -3,8 +3,9 @@
 Elements are drawn as their polygons, coloured by a per-element field written by the HDF5
 writer (``/states/fields/NAME``: ``speed`` [m/s], ``damage`` [1] = share of an element's
 joints that have broken); static elements (coast, landfast ice) are grey. Polar regions use a
-polar stereographic projection. The coastline is drawn from the ``global-land-mask`` data when
-that package is installed (nothing is downloaded).
+polar stereographic projection. Maps carry a labelled graticule, a scale bar, a legend and the
+date; land from the GSHHG shorelines is drawn for scenes that have a coast
+(:mod:`siku_io.mapdeco`; nothing is downloaded).
 """
 from __future__ import annotations
 
@@ -67,6 +68,11 @@ class Output:
             self.time = f["states/time"][:n]
             self.q = f["states/q"][:n]
             self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()}
+            scene = f["scene"][()] if "scene" in f else b""
+        from .mapdeco import scene_has_coast
+
+        #: whether the run's scene has a coast (a mesh against land data): land is drawn
+        self.has_coast = scene_has_coast(scene.decode() if isinstance(scene, bytes) else scene)
 
     def field(self, name: str) -> np.ndarray:
         if name not in self.fields:
@@ -77,43 +83,34 @@ class Output:
 
 
 def _projection(lat_mean: float, lon_mean: float):
-    import cartopy.crs as ccrs
+    from .mapdeco import projection
 
-    if lat_mean > 45:
-        return ccrs.NorthPolarStereo(central_longitude=lon_mean)
-    if lat_mean < -45:
-        return ccrs.SouthPolarStereo(central_longitude=lon_mean)
-    return ccrs.PlateCarree(central_longitude=lon_mean)
+    return projection(lat_mean, lon_mean)
 
 
-def _coast(ax, proj, extent_ll) -> None:
-    try:
-        from global_land_mask import globe
-    except ImportError:  # optional: maps without coastline
-        return
-    import cartopy.crs as ccrs
+def _levels(vmax: float, field: str) -> np.ndarray:
+    """Colour levels: tenths for damage, about ten round steps up to ``vmax`` otherwise."""
+    if field == "damage":
+        return np.linspace(0.0, 1.0, 11)
+    from .mapdeco import _nice
 
-    lon0, lon1, lat0, lat1 = extent_ll
-    lons = np.linspace(lon0, lon1, 400)
-    lats = np.linspace(max(lat0, -89.9), min(lat1, 89.9), 300)
-    LON, LAT = np.meshgrid(lons, lats)
-    land = globe.is_land(LAT, ((LON + 180) % 360) - 180).astype(float)
-    ax.contourf(LON, LAT, land, levels=[0.5, 1.5], colors=["#d9d0c1"],
-                transform=ccrs.PlateCarree(), zorder=0)
-    ax.contour(LON, LAT, land, levels=[0.5], colors="k", linewidths=0.6,
-               transform=ccrs.PlateCarree(), zorder=3)
+    step = _nice(vmax / 10.0) if vmax > 0 else 0.1
+    return np.arange(0.0, vmax + step * 1.0001, step)
 
 
 class MapPainter:
     """Draws one snapshot of an output file; reused for animation frames."""
 
-    def __init__(self, out: Output, field: str = "damage", vmax: float | None = None):
-        import cartopy.crs as ccrs
+    def __init__(self, out: Output, field: str = "damage", vmax: float | None = None,
+                 land: bool | None = None):
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         from matplotlib.collections import PolyCollection
+        from matplotlib.colors import BoundaryNorm
+
+        from . import mapdeco
 
         self.out = out
         self.field_name = field
@@ -125,30 +122,33 @@ class MapPainter:
         lon_ref = float(allv[0, 0])
         lonw = (allv[:, 0] - lon_ref + 180) % 360 - 180 + lon_ref
         lat_mean = float(allv[:, 1].mean())
-        self.proj = _projection(lat_mean, float(lonw.mean()))
+        self.proj = mapdeco.projection(lat_mean, float(lonw.mean()))
         self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
         self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
-        pad_lon = 0.15 * (lonw.max() - lonw.min()) + 0.5
-        pad_lat = 0.15 * (allv[:, 1].max() - allv[:, 1].min()) + 0.2
-        self.extent = (lonw.min() - pad_lon, lonw.max() + pad_lon,
-                       max(allv[:, 1].min() - pad_lat, -90), min(allv[:, 1].max() + pad_lat, 90))
-        self.ax.set_extent(self.extent, crs=ccrs.PlateCarree())
-        _coast(self.ax, self.proj, self.extent)
-        self.ax.gridlines(draw_labels=False, linewidth=0.3, color="0.5", alpha=0.5)
+        self.ax.set_facecolor(mapdeco.OCEAN)
+        self.box = mapdeco.frame_for(self.ax, self.proj, lonw, allv[:, 1])
+        self.land = out.has_coast if land is None else land
+        self.land_level = (mapdeco.draw_land(self.ax, self.proj, self.box) if self.land
+                           else None)
+        mapdeco.graticule(self.ax)
+        mapdeco.scale_bar(self.ax, self.proj, self.box, out.radius)
+        self.static = out.flags == STATIC
+        mapdeco.legend(self.ax, land=self.land_level is not None, static=bool(self.static.any()))
         vmax = vmax if vmax is not None else (1.0 if field == "damage" else
                                               float(np.nanmax(self.values)) or 1.0)
-        cmap = matplotlib.colormaps["viridis" if field != "damage" else "magma_r"].with_extremes(
-            bad="0.55")
-        self.coll = PolyCollection([], cmap=cmap,
-                                   edgecolors="0.25", linewidths=0.2, zorder=2)
-        self.coll.set_clim(0.0, vmax)
+        levels = _levels(vmax, field)
+        cmap = matplotlib.colormaps["viridis" if field != "damage" else "magma_r"]
+        cmap = cmap.resampled(len(levels) - 1).with_extremes(bad=mapdeco.STATIC_GREY)
+        self.coll = PolyCollection([], cmap=cmap, norm=BoundaryNorm(levels, len(levels) - 1),
+                                   edgecolors="0.25", linewidths=0.15, zorder=2)
         self.ax.add_collection(self.coll)
-        cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.8)
+        cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.8, pad=0.03, ticks=levels[::2])
         cb.set_label(f"{field} [{UNITS.get(field, '')}]")
-        self.static = out.flags == STATIC
 
     def draw(self, index: int) -> None:
         import cartopy.crs as ccrs
+
+        from .mapdeco import when
 
         out = self.out
         polys = polygons_lonlat(out.q[index], out.offsets, out.verts, out.radius)
@@ -158,9 +158,8 @@ class MapPainter:
         self.coll.set_verts(segs)
         vals = np.ma.masked_array(self.values[index], mask=self.static)
         self.coll.set_array(vals)
-        hours = out.time[index] / 3600.0
-        when = f"t = {hours:.1f} h" + (f" after {out.start}" if out.start else "")
-        self.ax.set_title(f"{out.title or out.path.name}\n{when}", fontsize=10)
+        self.ax.set_title(f"{out.title or out.path.name}\n"
+                          f"{when(out.start, float(out.time[index]))}", fontsize=10)
 
 
 def draw_map(path: str | Path, out_png: str | Path, index: int = -1,
@@ -178,17 +177,17 @@ def draw_map(path: str | Path, out_png: str | Path, index: int = -1,
 
 
 def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: int = 6) -> Path:
-    """Write a GIF animation of every snapshot coloured by ``field``."""
+    """Write a GIF animation of every snapshot coloured by ``field`` (tight frames)."""
     import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    from .mapdeco import save_gif
 
     out = Output(path)
     painter = MapPainter(out, field)
-    anim = FuncAnimation(painter.fig, painter.draw, frames=len(out.time), blit=False)
-    out_gif = Path(out_gif)
-    anim.save(out_gif, writer=PillowWriter(fps=fps))
-    plt.close(painter.fig)
-    return out_gif
+    try:
+        return save_gif(painter.fig, painter.draw, len(out.time), Path(out_gif), fps)
+    finally:
+        plt.close(painter.fig)
 
 
 def plot_all(path: str | Path, out_dir: str | Path | None = None, field: str | None = None,

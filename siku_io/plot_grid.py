@@ -1,8 +1,8 @@
 """Maps of gridded fields (``siku grid`` files): ``siku plot RUN.grid.nc --field NAME``.
 
 Each map shows one field of one time on the cells (their true outlines: lon/lat or polar
-stereographic; cells without ice are left blank), with a colourbar in the field's units, the coast where ``global-land-mask`` has
-it, and the leads found at that time (``siku_io.leads``) drawn end to end: from the
+stereographic; cells without ice are left blank), with a colourbar in the field's units, land
+from the GSHHG shorelines where the run's scene has a coast, graticule, scale bar, and the leads found at that time (``siku_io.leads``) drawn end to end: from the
 deformation in black, from broken joints in red.
 """
 from __future__ import annotations
@@ -56,7 +56,7 @@ class GridPainter:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from .plot import _coast, _projection
+        from . import mapdeco
 
         self.path = Path(path)
         self.ds, self.grid = _open(path)
@@ -72,14 +72,16 @@ class GridPainter:
         ref = float(lon[lon.shape[0] // 2, lon.shape[1] // 2])
         self.lon = (lon - ref + 180.0) % 360.0 - 180.0 + ref
         self.lat = lat
-        self.proj = _projection(float(lat.mean()), float(self.lon.mean()))
+        self.proj = mapdeco.projection(float(lat.mean()), float(self.lon.mean()))
         self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
         self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
-        self.extent = (float(self.lon.min()), float(self.lon.max()),
-                       max(float(lat.min()), -90.0), min(float(lat.max()), 90.0))
-        self.ax.set_extent(self.extent, crs=ccrs.PlateCarree())
-        _coast(self.ax, self.proj, self.extent)
-        self.ax.gridlines(draw_labels=True, linewidth=0.3, color="0.5", alpha=0.5)
+        self.ax.set_facecolor(mapdeco.OCEAN)
+        self.box = mapdeco.frame_for(self.ax, self.proj, self.lon.ravel(), lat.ravel(),
+                                     pad=0.02)
+        land = mapdeco.scene_has_coast(str(self.ds.attrs.get("scene", "")))
+        self.land_level = mapdeco.draw_land(self.ax, self.proj, self.box) if land else None
+        mapdeco.graticule(self.ax)
+        mapdeco.scale_bar(self.ax, self.proj, self.box, float(self.ds.attrs["earth_radius"]))
         values = self.ds[field].values.astype(float)
         if field != "concentration" and "concentration" in self.ds:  # open water shows through
             values = np.where(self.ds["concentration"].values > 0, values, np.nan)
@@ -118,10 +120,13 @@ class GridPainter:
                                      label="lead (deformation)" if kind == 1 else
                                      "lead (broken joints)")
                 self.lines.append(ln)
-        if self.lines:
-            handles = {ln.get_label(): ln for ln in self.lines}
-            leg = self.ax.legend(handles.values(), handles.keys(), loc="lower left", fontsize=8)
-            self.lines.append(leg)
+        handles = {ln.get_label(): ln for ln in self.lines}
+        from .mapdeco import legend
+
+        legend(self.ax, land=self.land_level is not None, static=False,
+               extra=list(handles.values()))
+        if self.ax.get_legend() is not None:
+            self.lines.append(self.ax.get_legend())
         if not np.issubdtype(np.asarray(t).dtype, np.datetime64):
             when = f"t = {float(t) / 3600:.1f} h"
         elif not ds.attrs.get("start"):  # model time written as seconds since 1970
@@ -157,12 +162,13 @@ def plot_grid(path, out_dir=None, field: str | None = None, animation: bool = Tr
              draw_grid_map(path, out_dir / f"{stem}_{field}_last.png", field, -1)]
     if animation:
         import matplotlib.pyplot as plt
-        from matplotlib.animation import FuncAnimation, PillowWriter
+
+        from .mapdeco import save_gif
 
         p = GridPainter(path, field)
-        anim = FuncAnimation(p.fig, p.draw, frames=p.ds.sizes["time"], blit=False)
-        gif = out_dir / f"{stem}_{field}.gif"
-        anim.save(gif, writer=PillowWriter(fps=4))
-        plt.close(p.fig)
-        files.append(gif)
+        try:
+            files.append(save_gif(p.fig, p.draw, p.ds.sizes["time"],
+                                  out_dir / f"{stem}_{field}.gif", fps=4))
+        finally:
+            plt.close(p.fig)
     return files

@@ -444,7 +444,7 @@ def test_scene_mesh_errors_name_the_table():
     with pytest.raises(SceneError, match="south < north"):
         scene_from_text(base + "lat = [71, 70]\nspacing = 1000.0\n")
     with pytest.raises(SceneError, match="land"):
-        scene_from_text(base + 'lat = [70, 71]\nspacing = 1000.0\nland = "gshhg"\n')
+        scene_from_text(base + 'lat = [70, 71]\nspacing = 1000.0\nland = "gshhs"\n')
     with pytest.raises(SceneError, match="spacing"):
         scene_from_text(base + "lat = [70, 71]\n")
     sc = scene_from_text(base + 'lat = [70, 70.01]\nspacing = 50000.0\nland = "none"\n'
