@@ -122,6 +122,24 @@ class PackCfg(_ElementCommon):
     right_velocity: Pair = Field(default_factory=lambda: [0.0, 0.0])
 
 
+class CoverCfg(_Strict):
+    """``[elements.mesh.cover]``: initial ice cover from a CF NetCDF file (read by
+    ``siku_io.icecover``): concentration and thickness on a lon/lat grid (1-D or 2-D
+    coordinates), variable and coordinate names mapped as for gridded winds."""
+
+    file: str
+    concentration: str = Field("siconc", description="sea-ice area fraction variable (1 or %)")
+    thickness: str = Field("sithick", description="sea-ice thickness variable [m]; empty: "
+                           "the [elements] thickness")
+    threshold: float = Field(0.15, ge=0.0, le=1.0, description="cells whose concentration is "
+                             "below this are open water (no element)")
+    category: str = Field("", description="thickness-category dimension of both variables "
+                          "(per-category area fraction and thickness); empty: none")
+    lat: str = ""
+    lon: str = ""
+    time: str = ""
+
+
 class MeshCfg(_ElementCommon):
     """``[elements.mesh]``: Voronoi cells of blue-noise seeds over a lon/lat box, land removed,
     coast and landfast cells static (built by ``siku_io.mesh``, cached in ``mesh_file``)."""
@@ -141,6 +159,7 @@ class MeshCfg(_ElementCommon):
     landfast: list[Pair] | str | None = None
     mesh_file: str | None = None
     cache: bool = True
+    cover: CoverCfg | None = None
 
     @model_validator(mode="after")
     def _box(self) -> "MeshCfg":

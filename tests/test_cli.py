@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import h5py
+import numpy as np
 import pytest
 
 from siku_core import __version__
@@ -87,8 +88,10 @@ def test_run_without_a_scene_runs_the_shipped_default_scene(tmp_path, monkeypatc
         assert f["plugins"].attrs["siku"] == __version__
         n = f.attrs["n_elements"]
         assert f["states/q"].shape[1:] == (n, 4)
-        steps = -(-1800 // 7)  # ceil(30 min / 7 s)
+        dt = f.attrs["dt_requested"]
+        steps = int(np.ceil(1800 / dt))  # the fitted step ends the run exactly at 30 min
         assert f["states/step"][0] == 0 and f["states/step"][-1] == steps
+        assert f["states/time"][-1] == pytest.approx(1800.0, abs=1e-9)
         assert f["states/step"].shape[0] == f["states/q"].shape[0]  # every snapshot complete
     assert not list(tmp_path.glob("*.png"))  # --no-plots
 
@@ -147,3 +150,38 @@ def test_plugins_lists_an_installed_third_party_plugin(siku_fake_install, capsys
     assert "  sea_surface_tilt  (siku-example-plugin 0.1)" in out
     assert "  euler  (siku-example-plugin 0.1)" in out
     assert "slope_east = 0.0  [m/m]  eastward sea-surface slope" in out
+
+
+def test_warm_builds_a_scene_and_takes_two_steps_without_output(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    scene = tmp_path / "s.toml"
+    scene.write_text(scene_text(elements=[(-150.0, 75.0)], duration=3600, dt=60),
+                     encoding="utf-8")
+    assert main(["warm", str(scene)]) == 0
+    err = capsys.readouterr().err
+    assert "siku warm:" in err and "1 element " in err and "kernels" in err
+    assert list(tmp_path.iterdir()) == [scene]  # nothing written
+
+
+def test_a_slow_first_step_is_announced_with_its_duration(monkeypatch):
+    """The compile notice appears only when the first step takes longer than NOTICE_AFTER."""
+    import io
+    import time as _time
+
+    from siku_core import progress
+
+    monkeypatch.setattr(progress, "NOTICE_AFTER", 0.05)
+    out = io.StringIO()
+    with progress.CompileNotice(stream=out) as n:
+        _time.sleep(0.3)
+    text = out.getvalue().splitlines()
+    assert text[0].startswith("compiling kernels") and n.printed
+    assert text[1].startswith("kernels compiled in ") and n.seconds >= 0.3
+    quiet = io.StringIO()
+    with progress.CompileNotice(stream=quiet):
+        pass
+    assert quiet.getvalue() == ""
+    off = io.StringIO()
+    with progress.CompileNotice(enabled=False, stream=off):
+        _time.sleep(0.1)
+    assert off.getvalue() == ""

@@ -1,0 +1,172 @@
+"""Initial ice cover from gridded data: ``[elements.mesh.cover]`` (the report's "automatic
+import of initial ice coverage").
+
+A CF NetCDF file gives the sea-ice concentration (area fraction, ``1`` or ``%``) and thickness
+[m] on a lon/lat grid: 1-D ``lat``/``lon`` coordinates (a regular or Gaussian grid, sampled
+bilinearly) or 2-D ones (a curvilinear grid such as a polar stereographic product, sampled at
+the nearest grid point on the sphere). Names are mapped as for gridded winds (``concentration``,
+``thickness``, ``lat``, ``lon``, ``time``); a variable with a time dimension is read at the
+record nearest to ``[time] start``. Each ice cell of the mesh is sampled at its seed:
+
+* concentration below ``threshold`` (or missing: land, fill values): open water, no element;
+* otherwise an element of the field's thickness ``h`` (mass ``rho h A``).
+
+Thickness categories (``category = "ncat"``, the report's thickness distribution ``g(h)``):
+both variables carry a category dimension, the per-category area fraction ``a_k`` and thickness
+``h_k``. The element's concentration is ``sum a_k``, its distribution ``g_k = a_k / sum a_k``
+and its thickness the mean ``sum g_k h_k``; mass ``rho A sum g_k h_k`` and the in-plane contact
+stiffness, which adds over parallel layers (``E sum g_k h_k``), both follow from that mean.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from siku_core import DataError
+
+_LAT = ("lat", "latitude", "nav_lat", "tlat", "ulat", "y_lat")
+_LON = ("lon", "longitude", "nav_lon", "tlon", "ulon", "x_lon")
+
+
+@dataclass
+class Cover:
+    """The cover at a set of points: concentration [1], thickness [m] (NaN where the file has
+    no thickness variable), and with categories the distribution ``g (n, K)`` and category
+    thicknesses ``h (n, K)``."""
+
+    concentration: np.ndarray
+    thickness: np.ndarray
+    g: np.ndarray | None = None
+    h: np.ndarray | None = None
+
+
+def _coord(ds, da, given: str, names: tuple[str, ...], role: str, where: str):
+    if given:
+        if given not in ds.variables:
+            raise DataError(f"{where}: no coordinate '{given}' ({role}) in the file")
+        return ds[given]
+    for k, v in ds.variables.items():
+        sn = str(v.attrs.get("standard_name", "")).lower()
+        un = str(v.attrs.get("units", "")).lower().replace("_", "")
+        if sn == role or (role == "latitude" and un in ("degreesnorth", "degreen")) or \
+                (role == "longitude" and un in ("degreeseast", "degreee")):
+            if set(v.dims) <= set(da.dims):
+                return v
+    for k in ds.variables:
+        if str(k).lower() in names and set(ds[k].dims) <= set(da.dims):
+            return ds[k]
+    raise DataError(f"{where}: cannot tell the {role} of the variable '{da.name}'; set "
+                    f"{role[:3]} = \"...\" in [elements.mesh.cover]")
+
+
+def _pick_time(da, tname: str, start, where: str):
+    tdims = [d for d in da.dims if d == tname or (not tname and (
+        np.issubdtype(da[d].dtype, np.datetime64) if d in da.coords else False))]
+    if not tdims:
+        return da
+    d = tdims[0]
+    if da.sizes[d] == 1:
+        return da.isel({d: 0})
+    if start is None:
+        raise DataError(f"{where}: '{da.name}' has {da.sizes[d]} time records; give [time] "
+                        "start to pick the one nearest to it")
+    t = da[d].values.astype("datetime64[s]")
+    t0 = np.datetime64(start.replace(tzinfo=None).isoformat(), "s")
+    return da.isel({d: int(np.argmin(np.abs(t - t0)))})
+
+
+def _sample(values: np.ndarray, lat, lon, plat: np.ndarray, plon: np.ndarray) -> np.ndarray:
+    """``values (..., ny, nx)`` on the grid at the points (bilinear on 1-D coordinates, nearest
+    on 2-D ones); points outside the grid get NaN."""
+    lead = values.shape[:-2]
+    flat = values.reshape(-1, *values.shape[-2:])
+    if lat.ndim == 1:
+        from scipy.interpolate import RegularGridInterpolator
+
+        order = np.argsort(lat)
+        la = lat[order]
+        lo_ref = float(np.mean(plon)) if len(plon) else 0.0
+        lo = (lon - lo_ref + 180.0) % 360.0 - 180.0 + lo_ref  # unwrap around the points
+        lorder = np.argsort(lo)
+        lo = lo[lorder]
+        px = (plon - lo_ref + 180.0) % 360.0 - 180.0 + lo_ref
+        out = np.empty((len(flat), len(plat)))
+        for k, v in enumerate(flat):
+            f = RegularGridInterpolator((la, lo), v[np.ix_(order, lorder)],
+                                        bounds_error=False, fill_value=np.nan)
+            out[k] = f(np.column_stack([plat, px]))
+    else:
+        from scipy.spatial import cKDTree
+
+        from .mesh import lonlat_to_xyz
+
+        ok = np.isfinite(lat) & np.isfinite(lon)
+        tree = cKDTree(lonlat_to_xyz(lon[ok], lat[ok]))
+        _, nearest = tree.query(lonlat_to_xyz(plon, plat))
+        out = np.stack([v[ok][nearest] for v in flat])
+    return out.reshape(*lead, len(plat))
+
+
+def read_cover(cfg, base_dir: Path, start, plon: np.ndarray, plat: np.ndarray,
+               where: str) -> Cover:
+    """The cover of ``[elements.mesh.cover]`` ``cfg`` at points ``plon, plat`` [deg]."""
+    import xarray as xr
+
+    path = base_dir / cfg.file
+    if not path.is_file():
+        raise DataError(f"{where}: ice cover file {path} not found")
+    try:
+        ds = xr.open_dataset(path, engine="netcdf4", decode_timedelta=False)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is a data error
+        raise DataError(f"{where}: cannot read {path} as NetCDF: {exc}") from None
+    with ds:
+        fields = {}
+        for role, var in (("concentration", cfg.concentration), ("thickness", cfg.thickness)):
+            if not var:
+                continue
+            if var not in ds.variables:
+                raise DataError(f"{where}: {path} has no variable '{var}' ({role}); variables "
+                                f"present: {', '.join(sorted(map(str, ds.data_vars)))}")
+            da = _pick_time(ds[var], cfg.time, start, where)
+            lat = _coord(ds, da, cfg.lat, _LAT, "latitude", where)
+            lon = _coord(ds, da, cfg.lon, _LON, "longitude", where)
+            cat = cfg.category
+            if cat and cat not in da.dims:
+                raise DataError(f"{where}: '{var}' has no category dimension '{cat}' (its "
+                                f"dimensions: {', '.join(map(str, da.dims))})")
+            spatial = [d for d in da.dims if d in lat.dims or d in lon.dims]
+            if lat.ndim == 1:
+                spatial = [lat.dims[0], lon.dims[0]]
+            extra = [d for d in da.dims if d not in spatial and d != cat]
+            if extra:
+                raise DataError(f"{where}: '{var}' has dimensions {', '.join(extra)} besides "
+                                "the grid" + ("" if cat else
+                                              " (thickness categories? set category = "
+                                              f"\"{extra[0]}\")"))
+            da = da.transpose(*([cat] if cat else []), *spatial)
+            units = str(da.attrs.get("units", "1")).strip()
+            vals = np.asarray(da.values, dtype=float)
+            if role == "concentration" and units in ("%", "percent"):
+                vals = vals / 100.0
+            if role == "thickness" and units not in ("m", "meters", "metre", "metres", "meter"):
+                raise DataError(f"{where}: '{var}' has units '{units}'; expected metres (m)")
+            la = np.asarray(lat.values, dtype=float)
+            lo = np.asarray(lon.values, dtype=float)
+            if la.ndim == 2 and lat.dims != tuple(spatial):
+                la, lo = la.T, lo.T
+            fields[role] = _sample(vals, la, lo, plat, plon)
+    conc = fields["concentration"]
+    thick = fields.get("thickness")
+    if not cfg.category:
+        h = thick if thick is not None else np.full(len(plat), np.nan)
+        return Cover(np.where(np.isfinite(conc), conc, 0.0), h)
+    a = np.where(np.isfinite(conc), np.clip(conc, 0.0, 1.0), 0.0)  # (K, n)
+    if thick is None:
+        raise DataError(f"{where}: thickness categories need a thickness variable")
+    total = a.sum(axis=0)
+    g = np.divide(a, total, out=np.zeros_like(a), where=total > 0)
+    hk = np.where(np.isfinite(thick), thick, 0.0)
+    mean = np.sum(g * hk, axis=0)
+    return Cover(total, np.where(total > 0, mean, np.nan), g.T, hk.T)
