@@ -1,6 +1,6 @@
 """Contacts: frozen joints, collision candidates, and the engine's loops over them.
 
-PHYSICS.md section 4. The engine owns the loops; a contact law supplies small ``@njit``
+docs/explanation/physics.md section 4. The engine owns the loops; a contact law supplies small ``@njit``
 evaluators of *one* contact (HOOMD's "template evaluator"), passed to the loops as arguments.
 
 Sign conventions (both evaluators)

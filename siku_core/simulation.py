@@ -1,6 +1,6 @@
 """The run loop: builds components from a scene and advances the time step.
 
-One step (``ARCHITECTURE.md``)::
+One step (``docs/explanation/design.md``)::
 
     forcing sources  -> add F, T per element
     (contacts: broad phase, narrow phase, contact laws -> add F, T per pair)

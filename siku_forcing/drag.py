@@ -6,7 +6,7 @@ With ``U`` the ice velocity, ``k`` the local vertical and ``S`` the element area
 * water: ``tau_w = rho_w C_w |U_w - U| ((U_w - U) cos th_w + k × (U_w - U) sin th_w)`` (eq. 20)
 * Coriolis: ``-m f k × U``, ``f = 2 Omega_E sin(lat)`` on the sphere.
 
-``F = S (tau_a + tau_w) - m f k × U`` (eq. 18). Defaults are eq. 21 and PHYSICS.md §3.
+``F = S (tau_a + tau_w) - m f k × U`` (eq. 18). Defaults are eq. 21 and docs/explanation/physics.md §3.
 """
 from __future__ import annotations
 

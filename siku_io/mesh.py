@@ -1,4 +1,4 @@
-"""Voronoi meshes of sea ice on the sphere (PHYSICS.md §6; report "Ice Generation").
+"""Voronoi meshes of sea ice on the sphere (docs/explanation/physics.md §6; report "Ice Generation").
 
 A mesh is built in four stages, each reproducible from its parameters alone:
 
@@ -77,7 +77,7 @@ __all__ = [
 
 # ---------------------------------------------------------------------------- sphere helpers
 def lonlat_to_xyz(lon, lat) -> np.ndarray:
-    """Unit vectors ``(n, 3)`` of longitudes and latitudes in degrees (PHYSICS.md eq. 1)."""
+    """Unit vectors ``(n, 3)`` of longitudes and latitudes in degrees (docs/explanation/physics.md eq. 1)."""
     lo = np.radians(np.asarray(lon, dtype=float))
     la = np.radians(np.asarray(lat, dtype=float))
     cl = np.cos(la)

@@ -1,7 +1,7 @@
 """Built-in contact laws (rheologies): collision, distributed_spring, mohr_coulomb,
 bonded_particle.
 
-PHYSICS.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's loops in
+docs/explanation/physics.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's loops in
 :mod:`siku_core.contacts` call it (layouts of ``g`` and sign conventions are documented there:
 forces and couples returned act on element ``j``, in ``i``'s frame). Every law collides
 overlapping elements with the collision evaluator; joint laws add their joint evaluator for

@@ -1,4 +1,4 @@
-"""Voronoi meshes (PHYSICS.md §6; ``siku_io.mesh``, ``[elements.mesh]``).
+"""Voronoi meshes (docs/explanation/physics.md §6; ``siku_io.mesh``, ``[elements.mesh]``).
 
 Tolerances and why:
 

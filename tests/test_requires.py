@@ -1,4 +1,4 @@
-"""Only what a scene requires is built (ARCHITECTURE.md, "Scene file").
+"""Only what a scene requires is built (docs/explanation/design.md, "Scene file").
 
 * A free-drift scene (no ``[contact]`` table) has no contact model and allocates no contact
   arrays: traced memory stays well below that of the same pack with joints.

@@ -1,6 +1,6 @@
 """Narrow-phase contact geometry: convex polygon clipping (numba, ``cache=True``).
 
-PHYSICS.md section 4.1. The partner's vertices are projected into the element's tangent plane
+docs/explanation/physics.md section 4.1. The partner's vertices are projected into the element's tangent plane
 (``project_partner``), the two convex polygons are intersected with Sutherland–Hodgman clipping
 (``overlap`` / ``overlap_scratch``), and the overlap area, the overlap centroid, the points where
 the two boundaries cross and the contact normal of eq. (10) come back.

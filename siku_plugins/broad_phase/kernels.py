@@ -1,6 +1,6 @@
 """Broad-phase contact candidate kernels on unit vectors (numba, ``cache=True``).
 
-PHYSICS.md section 4.1. Every element has a bounding circle on the unit sphere; a pair of
+docs/explanation/physics.md section 4.1. Every element has a bounding circle on the unit sphere; a pair of
 elements is a candidate for the narrow phase when their bounding circles, grown by a skin, meet.
 
 Inputs (common to all kernels)

@@ -1,4 +1,4 @@
-"""Broad-phase plugins through a Simulation (PHYSICS.md §4.1, §4.4).
+"""Broad-phase plugins through a Simulation (docs/explanation/physics.md §4.1, §4.4).
 
 * The three registered broad phases (brute force, the reference; sweep and prune; cell grid)
   give the same candidate pairs as an independent reference (great-circle angles by

@@ -1,4 +1,4 @@
-"""Contact state in the HDF5 output and bit-for-bit restart (PHYSICS.md §7).
+"""Contact state in the HDF5 output and bit-for-bit restart (docs/explanation/physics.md §7).
 
 A 5 × 2 jittered jointed pack at 72°N, its west column static and its east column a steady
 handle pulled north-east at 1 m/s: the handle's joints break within a few steps, the others

@@ -1,4 +1,4 @@
-"""Stability at the extremes of the parameter ranges (PHYSICS.md §5).
+"""Stability at the extremes of the parameter ranges (docs/explanation/physics.md §5).
 
 Ranges: E 0.25–4 GPa, thickness h 0.05–10 m, cells 10 m–100 km, wind 0–50 m/s.
 

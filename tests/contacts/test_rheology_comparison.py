@@ -1,4 +1,4 @@
-"""Rheology comparison: one wind-driven scene, three contact laws (PHYSICS.md §4.3).
+"""Rheology comparison: one wind-driven scene, three contact laws (docs/explanation/physics.md §4.3).
 
 The scene is ``examples/rheology_comparison.toml``: a 4 × 12 pack of 0.5° (about 56 km) square
 floes, 1 m thick, on the equator, with a static west column (a coast), driven by an anticyclone

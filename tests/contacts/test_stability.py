@@ -1,4 +1,4 @@
-"""Time-step stability of contacts (PHYSICS.md §5).
+"""Time-step stability of contacts (docs/explanation/physics.md §5).
 
 A 4 × 3 jittered jointed pack of 2 km cells of 1 m ice at 70°N (distributed_spring, no damping,
 joints that do not break unless said), every cell spinning at 1e-4 rad/s and nothing driving it.

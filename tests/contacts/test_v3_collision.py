@@ -1,4 +1,4 @@
-"""V3 binary collision (PHYSICS.md §8, §4.3 "collision").
+"""V3 binary collision (docs/explanation/physics.md §8, §4.3 "collision").
 
 Two free 2 km squares of 1 m ice (E = 1 GPa, rho = 910 kg/m³) collide under law "collision".
 

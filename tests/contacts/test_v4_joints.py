@@ -1,11 +1,11 @@
-"""V4 frozen joints under law "distributed_spring" (PHYSICS.md §4.2, §4.3, §8).
+"""V4 frozen joints under law "distributed_spring" (docs/explanation/physics.md §4.2, §4.3, §8).
 
 A 2 × 1 pack of 2 km cells of 1 m ice (E = 1 GPa) at 60°N: one joint along the shared
 meridian edge, of length ``w`` ≈ 2 km, between centres ``L0`` ≈ 2 km apart. The spring has
 stiffness ``K`` per unit length (eq. 9, ``K = h1 E1 h2 E2 / (h1 E1 r2 + h2 E2 r1)`` with ``r``
 the distances from the centres to the joint midpoint). Integrating a displacement that varies
 linearly along the joint gives the force ``K w (s1 + s2)/2`` and the couple
-``K (w × (s2 - s1))/12`` (PHYSICS.md §4.3), so
+``K (w × (s2 - s1))/12`` (docs/explanation/physics.md §4.3), so
 
 * pulling ``j`` straight away by ``s`` (``s1 = s2 = s``): force ``K w s``, no couple;
 * turning ``j`` by ``theta`` about the joint midpoint (``s2 - s1 = theta × w``): couple

@@ -1,4 +1,4 @@
-"""V5 Mohr–Coulomb joints (PHYSICS.md §4.3 "mohr_coulomb", §8, Table 1).
+"""V5 Mohr–Coulomb joints (docs/explanation/physics.md §4.3 "mohr_coulomb", §8, Table 1).
 
 The joint evaluator is called directly on hand-built geometry vectors (layout ``J_*`` of
 :mod:`siku_core.contacts`): a joint from ``a = (1000, -1000)`` to ``b = (1000, 1000)`` m in
