@@ -17,7 +17,7 @@ from importlib import resources
 from pathlib import Path
 
 from . import __version__
-from .errors import SceneError, SikuError
+from .errors import SceneError, SikuError, shown
 
 DEFAULT_SCENE = "default_scene.toml"
 _KIND_TITLES = {
@@ -76,7 +76,8 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
           f"of {sim.dt:.6g} s{fitted}", file=sys.stderr)
     sim.run()
     wall = time.perf_counter() - t0
-    print(f"done in {wall:.1f} s; output: {sim.output_path}", file=sys.stderr)
+    out = shown(sim.output_path) if sim.output_path is not None else "none"
+    print(f"done in {wall:.1f} s; output: {out}", file=sys.stderr)
     if args.profile:
         print(profile_table(sim, wall), file=sys.stderr)
     if sim.output_path is not None and sim.step_index == sim.n_steps:
@@ -85,14 +86,14 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
         made = get_plugin_manager().hook.siku_postprocess(path=sim.output_path, scene=scene,
                                                          overwrite=args.overwrite)
         for f in [f for files in made for f in files or ()]:
-            print(f"derived: {f}", file=sys.stderr)
+            print(f"derived: {shown(f)}", file=sys.stderr)
     if scene.cfg.output.plots and sim.output_path is not None and not args.no_plots:
         from .plugins import get_plugin_manager
 
         drawn = get_plugin_manager().hook.siku_draw(path=sim.output_path,
                                                     field=scene.cfg.output.plot_field)
         for f in [f for files in drawn for f in files or ()]:
-            print(f"picture: {f}", file=sys.stderr)
+            print(f"picture: {shown(f)}", file=sys.stderr)
     return 0
 
 
@@ -152,6 +153,15 @@ def profile_table(sim, wall: float) -> str:
     return "\n".join(lines)
 
 
+def plain(text: str) -> str:
+    """Docstring text for a terminal: RST literals (``x``) and roles (:func:`~a.b`) as plain
+    words."""
+    import re
+
+    text = re.sub(r":[a-z]+:`~?([^`]+)`", lambda m: m.group(1).split(".")[-1], text)
+    return re.sub(r"``(.+?)``", r"\1", text)
+
+
 def _cmd_plugins(args: argparse.Namespace) -> int:
     from .plugins import get_registry
 
@@ -162,10 +172,10 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
         print(f"{_KIND_TITLES.get(kind, kind)}:")
         for name in sorted(table):
             e = table[name]
-            print(f"  {name}  ({e.package} {e.version}) - {e.cls.summary()}")
+            print(f"  {name}  ({e.package} {e.version}) - {plain(e.cls.summary())}")
             for pname, p in e.cls.params.items():
-                print(f"      {pname} = {p.default!r}  [{p.unit or '-'}]  {p.doc}; "
-                      f"allowed: {p.allowed()}")
+                print(f"      {pname} = {p.default!r}  [{p.unit or '-'}]  {plain(p.doc)}; "
+                      f"allowed: {plain(str(p.allowed()))}")
             model = getattr(e.cls, "table_model", None)
             if model is not None:
                 keys = ", ".join(model.model_fields)
@@ -268,6 +278,8 @@ def main(argv: list[str] | None = None) -> int:
             return args.func(args)
     except SikuError as exc:
         msg = " | ".join(str(exc).splitlines())
+        here = str(Path.cwd()).rstrip("/\\") + "/"
+        msg = msg.replace(here, "") if here != "/" else msg  # files named as shown() does
         print(f"siku: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -32,3 +32,17 @@ class NonFiniteError(SikuError):
 
 class DataError(SikuError):
     """A data file (forcing, mesh, restart) is missing, corrupt or does not cover the run."""
+
+
+def shown(path) -> str:
+    """How messages name a file: relative to the working directory when it lies inside it
+    (``run.h5``, ``scenes/a.toml``), else absolute; the same file is always named the same
+    way, whether it was given relative or absolute."""
+    import os
+    from pathlib import Path
+
+    p = Path(os.path.abspath(path))
+    try:
+        return str(p.relative_to(Path.cwd()))
+    except ValueError:
+        return str(p)

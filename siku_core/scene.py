@@ -511,9 +511,11 @@ def scene_from_text(
 def read_input_text(path: str | Path, what: str = "scene file") -> str:
     """The UTF-8 text of an input file; a missing or unreadable one is a :class:`SceneError`
     naming it (``what``: how messages call it)."""
+    from .errors import shown
+
     p = Path(path)
     if not p.is_file():
-        raise SceneError(f"{p}: {what} not found")
+        raise SceneError(f"{shown(p)}: {what} not found")
     try:
         return p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
@@ -522,8 +524,10 @@ def read_input_text(path: str | Path, what: str = "scene file") -> str:
 
 def load_scene(path: str | Path, overrides: dict[str, str] | None = None) -> Scene:
     """Read and validate a scene file (``overrides``: see :func:`scene_from_text`)."""
+    from .errors import shown
+
     p = Path(path)
-    return scene_from_text(read_input_text(p), str(p), p.resolve(), overrides)
+    return scene_from_text(read_input_text(p), shown(p), p.resolve(), overrides)
 
 
 __all__ = ["Scene", "SceneCfg", "load_scene", "scene_from_text", "format_validation_error"]

@@ -100,3 +100,20 @@ def test_a_nul_character_in_a_scene_string(tmp_path, monkeypatch, capsys):
     rc, err = run(tmp_path, monkeypatch, capsys, text)
     assert rc == 2 and "s.toml: key 'title' holds a NUL character" in err, err
     assert not list(tmp_path.glob("*.h5")) and not list(tmp_path.glob(".*.partial"))
+
+
+def test_a_self_crossing_polygon_is_named_as_such(tmp_path, capsys):
+    """A bow tie (vertices out of order) is reported as crossing itself, with the two edges,
+    not as too large."""
+    from siku_core.cli import main
+    from siku_core.testing import scene_text
+
+    text = scene_text(elements=[(-150.0, 75.0)], duration=600, dt=60)
+    text += ("\n[[elements.polygon]]\nvertices = [[-149.0, 75.0], [-148.9, 75.05], "
+             "[-148.9, 75.0], [-149.0, 75.05]]\n")
+    path = tmp_path / "bow.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["run", str(path), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "polygon crosses itself (edge 0-1 crosses edge 2-3)" in err[0]
+    assert "too large" not in err[0] and "bow.toml" in err[0]

@@ -52,6 +52,25 @@ def check_convex(poly: np.ndarray, label: str) -> None:
         raise GeometryError(f"{label}: degenerate polygon (zero area)")
 
 
+def _first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
+    """The first pair ``(i, j)`` of non-adjacent edges ``i -> i+1``, ``j -> j+1`` of a closed
+    polygon that properly cross, or None."""
+    k = len(poly)
+
+    def orient(a, b, c):
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    for i in range(k):
+        a, b = poly[i], poly[(i + 1) % k]
+        for j in range(i + 2, k):
+            if i == 0 and j == k - 1:
+                continue  # adjacent through the closing vertex
+            c, d = poly[j], poly[(j + 1) % k]
+            if (orient(a, b, c) * orient(a, b, d) < 0) and (orient(c, d, a) * orient(c, d, b) < 0):
+                return i, j
+    return None
+
+
 def element_from_lonlat(lonlat_deg: np.ndarray, radius: float, label: str = "element"):
     """Build one element from polygon vertices given as ``(lon, lat)`` in degrees.
 
@@ -74,6 +93,16 @@ def element_from_lonlat(lonlat_deg: np.ndarray, radius: float, label: str = "ele
     if nc < 1e-12:
         raise GeometryError(f"{label}: polygon spans a hemisphere; elements must be small")
     c /= nc
+    if np.all(pts @ c > 0.05):  # small enough to look at in the tangent plane of the mean
+        la, lo = xyz_to_latlon(c)
+        q0 = q_from_latlon(la, lo)
+        loc0 = np.array([to_tangent(q0, p, radius) for p in pts])
+        crossing = _first_crossing(loc0)
+        if crossing is not None:
+            i, j = crossing
+            raise GeometryError(f"{label}: polygon crosses itself (edge {i}-{(i + 1) % len(pts)} "
+                                f"crosses edge {j}-{(j + 1) % len(pts)}); list the vertices in "
+                                "order around the outline")
     for _ in range(4):
         la, lo = xyz_to_latlon(c)
         q = q_from_latlon(la, lo)
