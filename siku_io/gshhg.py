@@ -16,7 +16,6 @@ Land is level 1 or 3 and not inside a level 2 or 4 polygon (:func:`land_geometry
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from importlib import metadata, util
 from pathlib import Path
@@ -182,12 +181,3 @@ def land_function(lon, lat, resolution: str = "low"):
 
     return fn
 
-
-def window_for(lon0: float, width: float, lat0: float, lat1: float, margin_deg: float = 0.0):
-    """``(lon, lat)`` window pairs of a box widened by ``margin_deg`` (latitudes clipped)."""
-    lat_far = min(max(abs(lat0), abs(lat1)) + margin_deg, 89.0)
-    dlon = margin_deg / max(math.cos(math.radians(lat_far)), 0.05)
-    if width + 2 * dlon >= 360.0:
-        return (-180.0, 180.0), (max(lat0 - margin_deg, -90.0), min(lat1 + margin_deg, 90.0))
-    return ((lon0 - dlon, lon0 + width + dlon),
-            (max(lat0 - margin_deg, -90.0), min(lat1 + margin_deg, 90.0)))

@@ -124,7 +124,7 @@ def draw_land(ax, proj, box, resolution: str | None = None) -> str | None:
     return resolution
 
 
-def graticule(ax, box=None) -> None:
+def graticule(ax) -> None:
     """Meridians and parallels with degree labels on the frame."""
     gl = ax.gridlines(draw_labels=True, linewidth=0.3, color="0.45", alpha=0.6,
                       linestyle="--", x_inline=False, y_inline=False, zorder=1.5)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from siku_core.cli import main
-from siku_core.testing import make_scene
 from siku_core.simulation import Simulation
+from siku_core.testing import make_scene
 
 matplotlib = pytest.importorskip("matplotlib")
 pytest.importorskip("cartopy")
