@@ -146,15 +146,28 @@ def floe_text(n: int, steps: int = 100) -> str:
 def scene(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -> Scene:
     """A validated benchmark scene: ``kind`` is ``bonded``, ``collision``, ``free_drift`` or
     ``floe``."""
+    return scene_from_text(text(kind, n, law, steps), f"<bench {kind} {n}>")
+
+
+def text(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -> str:
+    """The TOML of a benchmark scene (as :func:`scene` builds it)."""
     if kind == "bonded":
-        text = bonded_text(n, law, steps)
-    elif kind == "free_drift":
-        text = bonded_text(n, steps=steps, contact=False)
-    elif kind == "collision":
-        text = collision_text(n, steps)
-    elif kind == "floe":
-        text = floe_text(n, steps)
-    else:
-        raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, collision, "
-                         "free_drift, floe")
-    return scene_from_text(text, f"<bench {kind} {n}>")
+        return bonded_text(n, law, steps)
+    if kind == "free_drift":
+        return bonded_text(n, steps=steps, contact=False)
+    if kind == "collision":
+        return collision_text(n, steps)
+    if kind == "floe":
+        return floe_text(n, steps)
+    raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, collision, free_drift, "
+                     "floe")
+
+
+if __name__ == "__main__":  # python -m bench.scenes bonded 10000 [law] [steps] > scene.toml
+    import sys
+
+    args = sys.argv[1:]
+    if not 2 <= len(args) <= 4:
+        sys.exit("usage: python -m bench.scenes KIND ELEMENTS [LAW] [STEPS] > scene.toml")
+    sys.stdout.write(text(args[0], int(args[1]), *(args[2:3] or ["distributed_spring"]),
+                          *[int(a) for a in args[3:4]]))

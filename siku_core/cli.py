@@ -149,7 +149,7 @@ def profile_table(sim, wall: float) -> str:
         lines.append(f"  {k:<12} {v:9.3f} {share:6.1f}% {v / steps * 1e6:9.1f} us "
                      f"{v / steps / n * 1e9:14.1f} ns")
     lines.append("  (other: the Python loop, progress bar, opening files and start-up of the "
-                 "first step's compiled code)")
+                 "compiled code of the step and the output)")
     return "\n".join(lines)
 
 

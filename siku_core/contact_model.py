@@ -112,6 +112,7 @@ class ContactModel:
         self._set_pair_index()
         self._ref_centers: np.ndarray | None = None
         self.rm = np.empty((st.n, 3, 3))
+        self._rm_scratch: np.ndarray | None = None
         self.nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
         self.rebuilds = 0
         self.n_overlap = 0
@@ -428,9 +429,11 @@ class ContactModel:
 
         st = self.sim.state
         n = st.n
-        lists = [(self.ji, self.jj, self.jout, self.jon)] if self.n_joints else []
+        lists = ([(self.ji, self.jj, self.jout, self.jon, self.joff, self.jidx, self.jside)]
+                 if self.n_joints else [])
         if len(self.pairs) and len(self.pon) == len(self.pairs):
-            lists.append((self.pairs[:, 0], self.pairs[:, 1], self.pout, self.pon))
+            lists.append((self.pairs[:, 0], self.pairs[:, 1], self.pout, self.pon, self.poff,
+                          self.pidx, self.pside))
         s = element_stress(st.q, self.rm, st.area, self.sim.radius, lists)
         out = {"stress_ee": s[:, 0], "stress_nn": s[:, 1], "stress_en": s[:, 2]}
         if not self.n_joints:
@@ -454,9 +457,12 @@ class ContactModel:
             from .joint_metrics import joint_diagnostics
 
             st = self.sim.state
+            if self._rm_scratch is None:  # the current state's rotations (self.rm: the last
+                self._rm_scratch = np.empty_like(self.rm)  # force evaluation's)
+            rotation_matrices(st.q, self._rm_scratch, chunks(st.n))
             out.update(joint_diagnostics(st.q, self.ji, self.jj, self.ends_i, self.ends_j,
                                          self.L0, self.width, self.intact, self.E, st.area,
-                                         st.flags, self.sim.radius))
+                                         st.flags, self.sim.radius, rm=self._rm_scratch))
         return out
 
 

@@ -6,39 +6,54 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from .geometry.quat import q_center, qrotate
+from .parallel import chunk_bounds, sum_chunks
 
 
-@njit(cache=True)
-def _sums(q, V, w, m, I, radius):  # noqa: E741
-    ke = 0.0
-    p = np.zeros(3)
-    L = np.zeros(3)
-    vmax = 0.0
-    vsum = 0.0
-    v3 = np.zeros(3)
-    for i in range(q.shape[0]):
-        vx, vy = V[i, 0], V[i, 1]
-        s2 = vx * vx + vy * vy
-        ke += 0.5 * m[i] * s2 + 0.5 * I[i] * w[i] * w[i]
-        v3[0] = vx
-        v3[1] = vy
-        v3[2] = 0.0
-        vg = qrotate(q[i], v3)
-        c = q_center(q[i])
-        for k in range(3):
-            p[k] += m[i] * vg[k]
-        # r × m v with r = R c, plus the spin angular momentum I w c
-        L[0] += m[i] * radius * (c[1] * vg[2] - c[2] * vg[1]) + I[i] * w[i] * c[0]
-        L[1] += m[i] * radius * (c[2] * vg[0] - c[0] * vg[2]) + I[i] * w[i] * c[1]
-        L[2] += m[i] * radius * (c[0] * vg[1] - c[1] * vg[0]) + I[i] * w[i] * c[2]
-        s = np.sqrt(s2)
-        vsum += s
-        if s > vmax:
-            vmax = s
-    return ke, p, L, vsum, vmax
+@njit(cache=True, parallel=True)
+def _sums(q, V, w, m, I, radius, nch):  # noqa: E741
+    """Per chunk of elements: kinetic energy, momentum (3), angular momentum (3), sum and
+    largest speed (reduced by :func:`element_diagnostics`)."""
+    n = q.shape[0]
+    part = np.zeros((nch, 9))
+    for c in prange(nch):
+        lo, hi = chunk_bounds(c, nch, n)
+        ke = p0 = p1 = p2 = L0 = L1 = L2 = vsum = vmax = 0.0
+        for i in range(lo, hi):
+            qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+            vx, vy = V[i, 0], V[i, 1]
+            s2 = vx * vx + vy * vy
+            ke += 0.5 * m[i] * s2 + 0.5 * I[i] * w[i] * w[i]
+            # the velocity in the global frame, R(q) (vx, vy, 0), and the centre R(q) e_z
+            g0 = (1 - 2 * (qy * qy + qz * qz)) * vx + 2 * (qx * qy - qw * qz) * vy
+            g1 = 2 * (qx * qy + qw * qz) * vx + (1 - 2 * (qx * qx + qz * qz)) * vy
+            g2 = 2 * (qx * qz - qw * qy) * vx + 2 * (qy * qz + qw * qx) * vy
+            c0 = 2 * (qx * qz + qw * qy)
+            c1 = 2 * (qy * qz - qw * qx)
+            c2 = 1 - 2 * (qx * qx + qy * qy)
+            mi = m[i]
+            p0 += mi * g0
+            p1 += mi * g1
+            p2 += mi * g2
+            # r × m v with r = R c, plus the spin angular momentum I w c
+            sw = I[i] * w[i]
+            L0 += mi * radius * (c1 * g2 - c2 * g1) + sw * c0
+            L1 += mi * radius * (c2 * g0 - c0 * g2) + sw * c1
+            L2 += mi * radius * (c0 * g1 - c1 * g0) + sw * c2
+            sp = math.sqrt(s2)
+            vsum += sp
+            vmax = max(vmax, sp)
+        part[c, 0] = ke
+        part[c, 1] = p0
+        part[c, 2] = p1
+        part[c, 3] = p2
+        part[c, 4] = L0
+        part[c, 5] = L1
+        part[c, 6] = L2
+        part[c, 7] = vsum
+        part[c, 8] = vmax
+    return part
 
 
 def element_diagnostics(q, V, w, m, I, radius) -> dict[str, float]:  # noqa: E741
@@ -46,7 +61,10 @@ def element_diagnostics(q, V, w, m, I, radius) -> dict[str, float]:  # noqa: E74
     planet centre [kg m²/s] (orbital ``R c × m v`` plus spin ``I w c``), mean and max speed [m/s].
     """
     n = q.shape[0]
-    ke, p, L, vsum, vmax = _sums(q, V, w, m, I, float(radius))
+    part = _sums(q, V, w, m, I, float(radius), sum_chunks(n))
+    ke, p, L, vsum = part[:, 0].sum(), part[:, 1:4].sum(axis=0), part[:, 4:7].sum(axis=0), \
+        part[:, 7].sum()
+    vmax = part[:, 8].max() if n else 0.0
     return {
         "kinetic_energy": ke,
         "momentum_x": p[0], "momentum_y": p[1], "momentum_z": p[2],

@@ -30,6 +30,15 @@ def chunks(n: int) -> int:
     return max(1, min(4 * threads, n // CHUNK_MIN))
 
 
+def sum_chunks(n: int) -> int:
+    """Number of chunks for a parallel *reduction* over ``n`` items (partial sums per chunk,
+    added in chunk order): a function of ``n`` alone, so that sums come out the same, bit for
+    bit, on any number of threads."""
+    if n < PARALLEL_MIN:
+        return 1
+    return max(1, min(64, n // CHUNK_MIN))
+
+
 @njit(cache=True, inline="always")
 def chunk_bounds(c, nch, n):
     """Range ``[lo, hi)`` of chunk ``c`` of ``nch`` equal chunks of ``range(n)``."""

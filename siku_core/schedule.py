@@ -49,10 +49,13 @@ class StepInterval:
     every: int
 
     @classmethod
-    def from_seconds(cls, seconds: float | None, dt: float, n_steps: int, default_count: int):
-        """Interval from seconds; ``None`` gives about ``default_count`` events per run."""
+    def from_seconds(cls, seconds: float | None, dt: float, n_steps: int, default_count: int,
+                     min_steps: int = 1):
+        """Interval from seconds; ``None`` gives about ``default_count`` events per run, at
+        least ``min_steps`` steps apart (so that writing stays a small share of a short run:
+        ``docs/explanation/outputs.md``)."""
         if seconds is None:
-            return cls(max(1, math.ceil(n_steps / default_count)))
+            return cls(max(1, min_steps, math.ceil(n_steps / default_count)))
         return cls(max(1, round(seconds / dt)))
 
     def due(self, step: int, last: int) -> bool:

@@ -20,10 +20,11 @@ is not a contact force, so it does not enter: ``sigma`` is the stress the ice ca
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .contacts import C_FIX, C_FIY, C_FJX, C_FJY, C_PX, C_PY, i_to_j, relative_matrix
 from .geometry.quat import east_north_row
+from .parallel import chunk_bounds, chunks
 
 #: the element stress fields: name -> (unit, meaning)
 STRESS_FIELDS = {
@@ -36,27 +37,39 @@ STRESS_FIELDS = {
 }
 
 
-@njit(cache=True)
-def _add(acc, e, rx, ry, fx, fy):
-    acc[e, 0] += rx * fx
-    acc[e, 1] += ry * fy
-    acc[e, 2] += 0.5 * (rx * fy + ry * fx)
-
-
-@njit(cache=True)
-def _moments(rm, ia, ib, out, on, R, acc):
+@njit(cache=True, parallel=True)
+def _moments(rm, ia, ib, out, on, off, idx, side, R, acc, nch):
+    """Add to ``acc[e]`` the moments ``r f`` of element ``e``'s contacts of one list, in
+    ascending contact index (``off, idx, side``: the list's element index,
+    ``siku_core.contacts.element_index``), parallel over elements."""
     inv_r = 1.0 / R
-    for k in range(ia.shape[0]):
-        if on[k] != 1:
-            continue
-        i = ia[k]
-        j = ib[k]
-        px = out[k, C_PX]
-        py = out[k, C_PY]
-        _add(acc, i, px, py, out[k, C_FIX], out[k, C_FIY])
-        M = relative_matrix(rm, i, j)
-        xj, yj = i_to_j(M, px, py, R, inv_r)
-        _add(acc, j, xj, yj, out[k, C_FJX], out[k, C_FJY])
+    n = acc.shape[0]
+    for c in prange(nch):
+        lo, hi = chunk_bounds(c, nch, n)
+        for e in range(lo, hi):
+            sxx = acc[e, 0]
+            syy = acc[e, 1]
+            sxy = acc[e, 2]
+            for a in range(off[e], off[e + 1]):
+                k = idx[a]
+                if on[k] != 1:
+                    continue
+                px = out[k, C_PX]
+                py = out[k, C_PY]
+                if side[a] == 0:
+                    fx = out[k, C_FIX]
+                    fy = out[k, C_FIY]
+                else:
+                    M = relative_matrix(rm, ia[k], ib[k])
+                    px, py = i_to_j(M, px, py, R, inv_r)
+                    fx = out[k, C_FJX]
+                    fy = out[k, C_FJY]
+                sxx += px * fx
+                syy += py * fy
+                sxy += 0.5 * (px * fy + py * fx)
+            acc[e, 0] = sxx
+            acc[e, 1] = syy
+            acc[e, 2] = sxy
 
 
 @njit(cache=True)
@@ -75,16 +88,17 @@ def _to_east_north(q, acc, area, res):
 def element_stress(q, rm, area, R, contacts) -> np.ndarray:
     """``(N, 3)`` mean stress of every element [N/m]: east-east, north-north, east-north.
 
-    ``contacts``: ``(i, j, out, on)`` tuples, one per contact list (joints, collision pairs),
-    with ``out`` the per-contact rows of ``siku_core.contacts`` (``C_*``) of the last force
-    evaluation, ``on[k] == 1`` where contact ``k`` carried force, and ``rm`` the rotation
-    matrices of that evaluation."""
+    ``contacts``: ``(i, j, out, on, off, idx, side)`` tuples, one per contact list (joints,
+    collision pairs), with ``out`` the per-contact rows of ``siku_core.contacts`` (``C_*``) of
+    the last force evaluation, ``on[k] == 1`` where contact ``k`` carried force, ``off, idx,
+    side`` the list's element index (``siku_core.contacts.element_index``), and ``rm`` the
+    rotation matrices of that evaluation."""
     n = q.shape[0]
     acc = np.zeros((n, 3))
-    for ia, ib, out, on in contacts:
+    for ia, ib, out, on, off, idx, side in contacts:
         if len(ia):
-            _moments(rm, np.ascontiguousarray(ia), np.ascontiguousarray(ib), out, on, float(R),
-                     acc)
+            _moments(rm, np.ascontiguousarray(ia), np.ascontiguousarray(ib), out, on, off, idx,
+                     side, float(R), acc, chunks(n))
     res = np.empty((n, 3))
     _to_east_north(q, acc, area, res)
     return res

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 
 @njit(cache=True, inline="always")
@@ -137,16 +137,28 @@ def centers(q):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
+def _latlon_chunks(q, lat, lon, nch):
+    n = q.shape[0]
+    for c in prange(nch):
+        lo_, hi_ = (c * n) // nch, ((c + 1) * n) // nch
+        for i in range(lo_, hi_):
+            w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+            cx = 2 * (x * z + w * y)  # q_center and xyz_to_latlon, without the arrays
+            cy = 2 * (y * z - w * x)
+            cz = 1 - 2 * (x * x + y * y)
+            lat[i] = math.atan2(cz, math.hypot(cx, cy))
+            lon[i] = math.atan2(cy, cx)
+
+
 def latlon_of(q):
     """Latitude and longitude arrays (radians) of the element centres."""
+    from ..parallel import chunks
+
     n = q.shape[0]
     lat = np.empty(n)
     lon = np.empty(n)
-    for i in range(n):
-        la, lo = xyz_to_latlon(q_center(q[i]))
-        lat[i] = la
-        lon[i] = lo
+    _latlon_chunks(q, lat, lon, chunks(n))
     return lat, lon
 
 
