@@ -30,7 +30,7 @@ def pack():
     from siku_core.scene import scene_from_text
     from siku_core.simulation import Simulation
 
-    sim = Simulation(scene_from_text(bonded_text(3000, steps=20), "<pack>"))
+    sim = Simulation(scene_from_text(bonded_text(3000, steps=20), "<pack>"), out=False)
     sim.run(5)
     cm = sim.contacts
     cm.intact[::7] = False
