@@ -48,7 +48,7 @@ from .geometry.clip import (
 )
 from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 from .kernel_cache import specialise
-from .parallel import chunk_bounds
+from .parallel import chunk_bounds, claim, tasks
 
 # collision geometry layout
 G_AREA, G_CX, G_CY, G_NX, G_NY, G_WIDTH, G_K, G_MEFF, G_VX, G_VY, G_AREA_I, G_AREA_J = range(12)
@@ -584,27 +584,33 @@ def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
     that broke (only when ``commit``; their break mode, the evaluator's ``out[3]``, goes to
     ``bmode[k]``)."""
     fn = specialise(_joint_forces, evaluate, (_joint_chunk,))
+    nt = tasks(nch)
     if fn is not None:
         return fn(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff,
-                  intact, bmode, hist, R, dt, commit, out, on, nch)
+                  intact, bmode, hist, R, dt, commit, out, on, nch, nt)
     return _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
-                         jK, jmeff, intact, bmode, hist, R, dt, commit, out, on, nch)
+                         jK, jmeff, intact, bmode, hist, R, dt, commit, out, on, nch, nt)
 
 
 # The parallel loops are thin: each task calls a (serially compiled) chunk function. Numba's
 # parallel compilation of a large loop body takes twice as long as compiling it serially.
 @njit(parallel=True)
 def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                  jmeff, intact, bmode, hist, R, dt, commit, out, on, nch):
+                  jmeff, intact, bmode, hist, R, dt, commit, out, on, nch, nt):
     counts = np.zeros(nch, dtype=np.int64)
-    for c in prange(nch):
-        lo, hi = chunk_bounds(c, nch, ji.shape[0])
+    counter = np.zeros(1, dtype=np.int64)
+    for t in prange(nt):
         g = np.empty(J_SIZE)
         res = np.empty(4)
         scratch = np.empty(hist.shape[1])
-        counts[c] = _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j,
-                                 L0, width, jK, jmeff, intact, bmode, hist, R, dt, commit, out,
-                                 on, lo, hi, g, res, scratch)
+        while True:
+            c = claim(counter)
+            if c >= nch:
+                break
+            lo, hi = chunk_bounds(c, nch, ji.shape[0])
+            counts[c] = _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i,
+                                     ends_j, L0, width, jK, jmeff, intact, bmode, hist, R, dt,
+                                     commit, out, on, lo, hi, g, res, scratch)
     return counts.sum()
 
 
@@ -680,25 +686,32 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     pairs. A pair with ``on[k] = 1`` from the last evaluation skips the test (it almost always
     still overlaps; the clip finds no area where the test would have found the pair apart)."""
     fn = specialise(_collision_forces, evaluate, (_collision_chunk,))
+    nt = tasks(nch)
     if fn is not None:
         return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R, nmax,
-                  pretest, out, on, nch)
+                  pretest, out, on, nch, nt)
     return _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
-                             pairs, R, nmax, pretest, out, on, nch)
+                             pairs, R, nmax, pretest, out, on, nch, nt)
 
 
 @njit(parallel=True)
 def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                      nmax, pretest, out, on, nch):
+                      nmax, pretest, out, on, nch, nt):
     counts = np.zeros(nch, dtype=np.int64)
-    for c in prange(nch):
-        lo, hi = chunk_bounds(c, nch, pairs.shape[0])
+    counter = np.zeros(1, dtype=np.int64)
+    for t in prange(nt):
         xy, tag = make_overlap_scratch(nmax, nmax)
         proj = np.empty((nmax, 2))
         g = np.empty(G_SIZE)
         res = np.empty(4)
-        counts[c] = _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
-                                     pairs, R, pretest, out, on, lo, hi, xy, tag, proj, g, res)
+        while True:
+            c = claim(counter)
+            if c >= nch:
+                break
+            lo, hi = chunk_bounds(c, nch, pairs.shape[0])
+            counts[c] = _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets,
+                                         verts, pairs, R, pretest, out, on, lo, hi, xy, tag,
+                                         proj, g, res)
     return counts.sum()
 
 
@@ -790,34 +803,51 @@ def element_index(a, b, n):
     return off, idx, side
 
 
-@njit(cache=True, parallel=True)
 def gather_forces(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, pon, nch):
     """Add to ``F[e], T[e]`` the contributions of element ``e``'s joints, then of its pairs,
     each in ascending contact index (fixed order: independent of the thread count)."""
+    _gather_forces(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, pon, nch,
+                   tasks(nch))
+
+
+@njit(cache=True, parallel=True)
+def _gather_forces(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, pon, nch, nt):
     n = F.shape[0]
-    for c in prange(nch):
-        lo, hi = chunk_bounds(c, nch, n)
-        for e in range(lo, hi):
-            fx = F[e, 0]
-            fy = F[e, 1]
-            t = T[e]
-            for a in range(joff[e], joff[e + 1]):
-                k = jidx[a]
-                if jon[k]:
-                    s = 3 * jside[a]
-                    fx += jout[k, s]
-                    fy += jout[k, s + 1]
-                    t += jout[k, s + 2]
-            for a in range(poff[e], poff[e + 1]):
-                k = pidx[a]
-                if pon[k] == 1:
-                    s = 3 * pside[a]
-                    fx += pout[k, s]
-                    fy += pout[k, s + 1]
-                    t += pout[k, s + 2]
-            F[e, 0] = fx
-            F[e, 1] = fy
-            T[e] = t
+    counter = np.zeros(1, dtype=np.int64)
+    for t in prange(nt):
+        while True:
+            c = claim(counter)
+            if c >= nch:
+                break
+            lo, hi = chunk_bounds(c, nch, n)
+            _gather_chunk(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, pon, lo,
+                          hi)
+
+
+@njit(cache=True)
+def _gather_chunk(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, pon, lo, hi):
+    """Elements ``lo <= e < hi`` of :func:`gather_forces`."""
+    for e in range(lo, hi):
+        fx = F[e, 0]
+        fy = F[e, 1]
+        t = T[e]
+        for a in range(joff[e], joff[e + 1]):
+            k = jidx[a]
+            if jon[k]:
+                s = 3 * jside[a]
+                fx += jout[k, s]
+                fy += jout[k, s + 1]
+                t += jout[k, s + 2]
+        for a in range(poff[e], poff[e + 1]):
+            k = pidx[a]
+            if pon[k] == 1:
+                s = 3 * pside[a]
+                fx += pout[k, s]
+                fy += pout[k, s + 1]
+                t += pout[k, s + 2]
+        F[e, 0] = fx
+        F[e, 1] = fy
+        T[e] = t
 
 
 @njit(cache=True)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
+from numba import njit, prange
 
 import siku_core.parallel as parallel
 from siku_core.contact_model import ContactModel
@@ -231,3 +232,23 @@ def test_kernels_match_the_serial_reference_loops(law):
     tscale = np.abs(Tr).max()
     assert np.allclose(F, Fr, rtol=0, atol=1e-6 * fscale), np.abs(F - Fr).max() / fscale
     assert np.allclose(T, Tr, rtol=0, atol=1e-6 * tscale), np.abs(T - Tr).max() / tscale
+
+
+@njit(parallel=True)
+def _claim_all(nch, nt, seen):
+    counter = np.zeros(1, dtype=np.int64)
+    for t in prange(nt):
+        while True:
+            c = parallel.claim(counter)
+            if c >= nch:
+                break
+            seen[c] += 1
+
+
+@pytest.mark.parametrize("nch, nt", [(1, 1), (7, 2), (64, 2), (64, 5)])
+def test_claimed_chunks_are_each_run_exactly_once(nch, nt):
+    """The contact loops' dynamic schedule: whatever the tasks and threads, every chunk is
+    claimed by exactly one task."""
+    seen = np.zeros(nch, dtype=np.int64)
+    _claim_all(nch, nt, seen)
+    assert np.array_equal(seen, np.ones(nch, dtype=np.int64))
