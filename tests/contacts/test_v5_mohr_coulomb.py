@@ -360,3 +360,71 @@ def test_engine_pulled_pair_fails_at_sigma_t(engine_pair):
     # broken: no joint force any more, and apart there is no collision either
     F, T = contact_forces(sim, pull_apart(sim.state.q, 0, 1, 0.5 * d, R))
     assert not F.any() and not T.any()
+
+
+def _segment_loop(g, pars, hist):
+    """Eqs. 14–16 segment by segment, as written in the evaluator's docstring: the reference
+    for the evaluator's closed form of an intact joint."""
+    nseg = int(pars[3])
+    L0_, w = g[J_L0], g[J_W]
+    hi, hj, ei, ej = g[J_HI], g[J_HJ], g[J_EI], g[J_EJ]
+    a, b = hi * ei, hj * ej
+    mx2, my2 = g[J_AX] + g[J_BX], g[J_AY] + g[J_BY]
+    lam = min(max(0.5 * np.hypot(mx2, my2) / L0_, 0.0), 1.0)
+    he = a * b / (lam * b + (1 - lam) * a)
+    h = min(hi, hj)
+    e = he / h
+    gs = e / (2 * (1 + g[J_NU]))
+    sigc = pars[0] if pars[0] > 0 else 1285e3 * h ** (2 / 3)
+    sigt = pars[1] * sigc
+    ax, ay, bx, by = g[J_AX], g[J_AY], g[J_BX], g[J_BY]
+    t = np.array([bx - ax, by - ay]) / w
+    n = np.array([t[1], -t[0]])
+    s1, s2 = np.array([g[J_S1X], g[J_S1Y]]), np.array([g[J_S2X], g[J_S2Y]])
+    f, c, failed = np.zeros(2), 0.0, 0
+    for k in range(nseg):
+        z = (k + 0.5) / nseg
+        d = s1 + z * (s2 - s1)
+        sn, ss = e * d @ n / L0_, gs * d @ t / L0_
+        if hist[k] == 0 and (sn > sigt or sn < -sigc or abs(ss) > pars[2] * (sigt - sn)):
+            hist[k] = 1.0
+        if hist[k]:
+            failed += 1
+            continue
+        sf = h * (w / nseg) * (sn * n + ss * t)
+        p = (z - 0.5) * w * t
+        f += sf
+        c += p[0] * sf[1] - p[1] * sf[0]
+    return f, c, failed
+
+
+def test_the_closed_form_of_an_intact_joint_is_the_segment_sum():
+    """An intact joint far enough from failure is evaluated from its end segments in closed
+    form (the stresses are linear along the joint): the same force and couple as the segment
+    loop to 1e-12 relative, on random displacements of every kind (uniform, linear, bending,
+    near and beyond the strengths), and the same segments fail."""
+    rng = np.random.default_rng(11)
+    closed = 0
+    for _ in range(3000):
+        nseg = int(rng.integers(1, 17))
+        pars = law_pars(sigma_c=float(10 ** rng.uniform(5, 7)), n_segments=nseg,
+                        joint_damping_ratio=0.0)
+        h = tuple(rng.uniform(0.2, 3.0, 2))
+        e = tuple(rng.uniform(0.5, 4.0, 2) * E)
+        scale = 10 ** rng.uniform(-4, 0) * float(pars[0]) * L0 / E
+        s1, s2 = rng.normal(0, scale, 2), rng.normal(0, scale, 2)
+        g = geometry(s1, s2, h, e, float(rng.uniform(600, 1400)))
+        hist_ref = np.zeros(nseg)
+        f, c, failed = _segment_loop(g, pars, hist_ref)
+        hist = np.zeros(nseg)
+        out = np.zeros(4)
+        mohr_coulomb_evaluator(g, pars, hist, out)
+        assert np.array_equal(hist, hist_ref)
+        if out[3] != 0.0:
+            assert failed >= nseg - 1e-9
+            continue
+        closed += failed == 0
+        fs = max(np.abs(f).max(), 1e-300)
+        np.testing.assert_allclose(-out[:2], f, rtol=0, atol=1e-12 * fs)
+        assert abs(-out[2] - c) <= 1e-12 * fs * W
+    assert closed > 1000  # the closed form was exercised, not only the loop
