@@ -4,8 +4,10 @@ Prints markdown tables of element-steps/s (and joints/s) for the bonded Siku-lik
 each contact law, for the collision-dominated broken pack and for free drift, on each thread
 count asked for, with the first step (compilation or loading of the compiled kernels, and the
 first candidate list) reported apart from the steady steps; the cost per element-step across
-sizes; the time per phase of the step; and "only what a scene requires" (a free-drift scene has
-no contact arrays, costs a fraction of a bonded one, and imports no NetCDF library).
+sizes; the distance to the planar C floor (``bench/floor.c``: the same joints, pairs and clips
+written plainly in C, one thread); the time per phase of the step; and "only what a scene
+requires" (a free-drift scene has no contact arrays, costs a fraction of a bonded one, and
+imports no NetCDF library).
 
 Every size runs in a fresh Python process (``--repeat`` of them) that builds each scene once and
 times it on every thread count; ratios (against free drift of the same size, against 3 000
@@ -37,7 +39,8 @@ KINDS = ("bonded", "collision", "free_drift", "floe")
 
 
 # ---------------------------------------------------------------------------------- worker
-def _measure(kind: str, n: int, law: str, steps: int, threads: list[int]) -> dict:
+def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
+             floor: bool = True) -> dict:
     import numba
 
     from siku_core.simulation import Simulation
@@ -82,6 +85,10 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int]) -> dic
             run.update(joints=cm.n_intact, pairs=int(len(cm.pairs)), overlapping=int(cm.n_overlap),
                        rebuilds=int(cm.rebuilds), joints_per_s=cm.n_intact / med)
         out["runs"].append(run)
+        if k == 0 and floor and cm is not None:
+            from . import floor as probe
+
+            out["floor"] = probe.measure(sim)
     out["first_step_s"] = first
     out["compile_s"] = max(0.0, first - out["runs"][0]["median_step_s"])
     return out
@@ -139,7 +146,8 @@ def _worker(args: argparse.Namespace) -> None:
         laws = args.laws if kind == "bonded" else ["bonded_particle" if kind == "floe"
                                                    else "collision"]
         for law in laws:
-            results.append(_measure(kind, n, law, args.steps, args.threads))
+            results.append(_measure(kind, n, law, args.steps, args.threads,
+                                    floor=not args.no_floor))
     print(json.dumps(results))
 
 
@@ -184,6 +192,14 @@ def _best(reps: list[list[dict]]) -> list[dict]:
     return out
 
 
+def _floor_cells(r: dict, ns: float) -> str:
+    """The planar C floor of the case (one thread, best of its repetitions) and the ratio."""
+    fl = r.get("floor")
+    if not fl:
+        return " | "
+    return f"{fl['best_ns']:.0f} | {ns / fl['best_ns']:.2f}"
+
+
 def _tables(results: list[dict], threads: list[int], repeat: int) -> str:
     lines: list[str] = []
     free = {r["elements"]: r for r in results if r["kind"] == "free_drift"}
@@ -193,8 +209,8 @@ def _tables(results: list[dict], threads: list[int], repeat: int) -> str:
         lines.append(f"\n### {th} thread{'s' if th > 1 else ''}\n")
         lines.append("| scene | law | elements | joints | pairs (overlapping) | first step [s] | "
                      "step [ms] | element-steps/s | joints/s | ns / element-step | "
-                     f"vs {base} | vs free drift |")
-        lines.append("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+                     f"vs {base} | vs free drift | C floor [ns] | × floor |")
+        lines.append("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
         for kind in KINDS:
             for r in [x for x in results if x["kind"] == kind]:
                 run = next(x for x in r["runs"] if x["threads"] == th)
@@ -218,7 +234,7 @@ def _tables(results: list[dict], threads: list[int], repeat: int) -> str:
                     f"{run.get('pairs', 0)} ({run.get('overlapping', 0)}) | "
                     f"{r['first_step_s']:.2f} | {run['median_step_s'] * 1e3:.2f} | {rate} | "
                     f"{_fmt(run['joints_per_s']) if run.get('joints') else '-'} | {ns:.0f} | "
-                    f"{scale} | {vs_free} |")
+                    f"{scale} | {vs_free} | {_floor_cells(r, ns)} |")
     if len(threads) > 1:
         lines.append(f"\n### speed-up, {threads[-1]} threads against {threads[0]}\n")
         lines.append("| scene | law | elements | speed-up |")
@@ -287,6 +303,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="empty numba and siku kernel caches: first steps include compilation")
     ap.add_argument("--no-requires", action="store_true",
                     help="skip the 'only what a scene requires' check")
+    ap.add_argument("--no-floor", action="store_true",
+                    help="skip the planar C floor (bench/floor.c; needs a C compiler)")
     ap.add_argument("--json", help="also write the raw results to this file")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -316,7 +334,8 @@ def main(argv: list[str] | None = None) -> int:
         env["NUMBA_CACHE_DIR"] = str(Path(tmp.name) / "numba")
         env["SIKU_KERNEL_CACHE"] = str(Path(tmp.name) / "kernels")
     common = ["--steps", str(args.steps), "--threads", ",".join(map(str, args.threads)),
-              "--laws", ",".join(args.laws), "--scenes", ",".join(args.scenes)]
+              "--laws", ",".join(args.laws), "--scenes", ",".join(args.scenes),
+              *(["--no-floor"] if args.no_floor else [])]
     t0 = time.perf_counter()
     results = []
     for n in args.sizes:
