@@ -11,13 +11,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-
-from .errors import GeometryError, SceneError
-from .geometry.polygon import element_from_lonlat
-from .geometry.quat import east_north_local
-from .interfaces import ElementSpec
 from pydantic import ValidationError
 
+from .errors import SceneError
+from .geometry.batch import elements_from_lonlat
+from .geometry.quat import east_north_local
+from .interfaces import ElementSpec
 from .params import format_validation_error, validate_params
 from .scene import Scene
 from .state import FLAG_NAMES, STATIC, ElementState
@@ -123,11 +122,9 @@ def build_elements(scene: Scene, registry: "Registry | None" = None) -> ElementS
     material = np.empty(n, dtype=np.int32)
     floe = np.empty(n, dtype=np.int64)
     polys = []
+    built = elements_from_lonlat([s.lonlat for s in specs], R, [s.label for s in specs])
     for i, s in enumerate(specs):
-        try:
-            qi, loc, a, j = element_from_lonlat(s.lonlat, R, s.label)
-        except GeometryError as exc:
-            raise GeometryError(f"element {i}: {exc}") from None
+        qi, loc, a, j = built[i]
         q[i] = qi
         ex, ey, nx_, ny_ = east_north_local(qi)
         vel = s.velocity
