@@ -224,7 +224,6 @@ def test_the_compiled_builder_agrees_with_the_one_element_builder():
     relative (the centre iteration may stop one round earlier or later when its step sits at
     the 1e-9 threshold; most elements come out bit for bit)."""
     from bench.scenes import scene
-
     from siku_core.elements import collect_specs
     from siku_core.geometry.batch import elements_from_lonlat
     from siku_core.geometry.polygon import element_from_lonlat
