@@ -21,9 +21,11 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from siku_core.cli import main
+from siku_core.contacts import BREAK_SHEAR
 from siku_core.scene import scene_from_text
 from siku_core.simulation import Simulation
 from siku_plugins.lab import affine_moduli, measure, strength_table, virtual_test
@@ -69,12 +71,17 @@ def test_same_pull_scene_three_laws():
       and bonded particles agree within 3 %;
     * strength: at the defaults the Mohr–Coulomb joints (pure-shear strength tan 15° × 128.5
       kPa = 34 kPa) fail in shear at a macro stress of about 50 kPa, where the bonds (1 MPa)
-      and the springs (strain 2e-4, about 200 kPa) all hold.
+      and the springs (strain 2e-4, about 200 kPa) all hold: every joint that breaks up to the
+      peak stress breaks in shear. After the peak the cascade redistributes stress and a joint
+      may open in tension; which ones do depends on round-off (changes of 1e-15 in the joint
+      forces and 1e-13 in the element geometry turned one of 57 into a tension break, after the
+      peak), so only the share is asserted there.
     """
     text = (ROOT / "examples" / "bonded_pull.toml").read_text()
-    res = {}
+    res, sims = {}, {}
     for law in ("bonded_particle", "distributed_spring", "mohr_coulomb"):
-        sim = Simulation(scene_from_text(with_law(text, law)), out=False, progress=False)
+        sim = sims[law] = Simulation(scene_from_text(with_law(text, law)), out=False,
+                                     progress=False)
         if law == "bonded_particle":
             e_bond = affine_moduli(sim)[0]
             e_spring = affine_moduli(sim, shear_ratio=1.0)[0]
@@ -83,7 +90,13 @@ def test_same_pull_scene_three_laws():
     assert ds.modulus / bp.modulus == pytest.approx(e_spring / e_bond, rel=0.05)
     assert mc.modulus == pytest.approx(bp.modulus, rel=0.03)
     assert not bp.broken and not ds.broken
-    assert mc.broken.get("shear", 0) > 0 and set(mc.broken) == {"shear"}
+    cm = sims["mohr_coulomb"].contacts
+    broke = ~cm.intact
+    t_peak = (int(np.argmax(mc.stress)) + 1) * mc.dt  # the peak's force evaluation ends then
+    before = broke & (cm.break_time <= t_peak)
+    assert before.sum() >= 10  # failure began before the peak
+    assert np.all(cm.bmode[before] == BREAK_SHEAR)
+    assert mc.broken.get("shear", 0) >= 0.9 * broke.sum()
 
 
 def test_lab_command_writes_table_and_picture(tmp_path, capsys):
