@@ -56,6 +56,7 @@ def _worker(kind: str, n: int, steps: int, threads: list[int]) -> dict:
                             "element_steps_per_s": sim.state.n / med})
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3  # kB -> MB
     now = _rss_mb()
+    peak = max(peak, now)  # (getrusage and /proc count pages slightly differently)
     out.update(base_mb=base, built_mb=built, peak_mb=peak, running_mb=now,
                pairs=len(sim.contacts.pairs) if sim.contacts else 0,
                bytes_per_element=(now - base) * 1e6 / sim.state.n,
