@@ -42,6 +42,13 @@ def fit_time_step(dt: float, total: float, intervals) -> tuple[float, bool]:
     return step, True
 
 
+#: default output schedules (``[output] every`` / ``diagnostics_every`` unset): about this many
+#: snapshots and diagnostics rows per run, at least this many steps apart (a snapshot of a
+#: 10 000-element scene costs about two steps, a diagnostics row a sixth of one)
+DEFAULT_SNAPSHOTS, DEFAULT_SNAPSHOT_STEPS = 20, 100
+DEFAULT_DIAGNOSTICS, DEFAULT_DIAGNOSTICS_STEPS = 200, 10
+
+
 @dataclass(frozen=True)
 class StepInterval:
     """Due at step 0, every ``every`` steps, and at the last step of a run."""
@@ -57,6 +64,17 @@ class StepInterval:
         if seconds is None:
             return cls(max(1, min_steps, math.ceil(n_steps / default_count)))
         return cls(max(1, round(seconds / dt)))
+
+    @classmethod
+    def snapshots(cls, seconds: float | None, dt: float, n_steps: int) -> "StepInterval":
+        """The state snapshots' schedule: every ``seconds``, else the default."""
+        return cls.from_seconds(seconds, dt, n_steps, DEFAULT_SNAPSHOTS, DEFAULT_SNAPSHOT_STEPS)
+
+    @classmethod
+    def diagnostics(cls, seconds: float | None, dt: float, n_steps: int) -> "StepInterval":
+        """The diagnostics rows' schedule: every ``seconds``, else the default."""
+        return cls.from_seconds(seconds, dt, n_steps, DEFAULT_DIAGNOSTICS,
+                                DEFAULT_DIAGNOSTICS_STEPS)
 
     def due(self, step: int, last: int) -> bool:
         return step % self.every == 0 or step == last

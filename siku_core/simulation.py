@@ -51,12 +51,6 @@ _GUARDED = ("F", "T", "V", "w", "q")
 PHASES = ("forcing", "joints", "broad_phase", "collisions", "contact_sum", "integrator",
           "guard", "output")
 
-#: default output schedules (``[output] every`` / ``diagnostics_every`` unset): about this many
-#: snapshots and diagnostics rows per run, at least this many steps apart (a snapshot of a
-#: 10 000-element scene costs about two steps, a diagnostics row a sixth of one)
-DEFAULT_SNAPSHOTS, DEFAULT_SNAPSHOT_STEPS = 20, 100
-DEFAULT_DIAGNOSTICS, DEFAULT_DIAGNOSTICS_STEPS = 200, 10
-
 
 class Simulation:
     """A run of one scene.
@@ -160,11 +154,9 @@ class Simulation:
             )  # type: ignore[assignment]
             w.path = path  # type: ignore[attr-defined]
             self.writers.append(w)
-        self.state_schedule = StepInterval.from_seconds(
-            cfg.output.every, self.dt, self.n_steps, DEFAULT_SNAPSHOTS, DEFAULT_SNAPSHOT_STEPS)
-        self.diag_schedule = StepInterval.from_seconds(
-            cfg.output.diagnostics_every, self.dt, self.n_steps, DEFAULT_DIAGNOSTICS,
-            DEFAULT_DIAGNOSTICS_STEPS)
+        self.state_schedule = StepInterval.snapshots(cfg.output.every, self.dt, self.n_steps)
+        self.diag_schedule = StepInterval.diagnostics(cfg.output.diagnostics_every, self.dt,
+                                                      self.n_steps)
         for comp in self.components():
             comp.setup(self)
         if self.contacts is not None:

@@ -13,12 +13,12 @@ from siku_core.contacts import frame_point
 from siku_core.diagnostics import element_diagnostics
 from siku_core.geometry.quat import latlon_of, q_center, qrotate, xyz_to_latlon
 from siku_core.joint_metrics import joint_diagnostics, joint_strain_opening
-from siku_core.schedule import StepInterval
-from siku_core.simulation import (
+from siku_core.schedule import (
     DEFAULT_DIAGNOSTICS,
     DEFAULT_DIAGNOSTICS_STEPS,
     DEFAULT_SNAPSHOT_STEPS,
     DEFAULT_SNAPSHOTS,
+    StepInterval,
 )
 
 
@@ -129,6 +129,8 @@ def test_default_schedules_are_about_the_stated_counts_and_never_closer_than_sta
     for count, least in ((DEFAULT_SNAPSHOTS, DEFAULT_SNAPSHOT_STEPS),
                          (DEFAULT_DIAGNOSTICS, DEFAULT_DIAGNOSTICS_STEPS)):
         s = StepInterval.from_seconds(None, 1.0, n_steps, count, least)
+        make = StepInterval.snapshots if count == DEFAULT_SNAPSHOTS else StepInterval.diagnostics
+        assert make(None, 1.0, n_steps) == s
         assert s.every >= least
         due = [k for k in range(n_steps + 1) if s.due(k, n_steps)]
         assert due[0] == 0 and due[-1] == n_steps

@@ -20,6 +20,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..parallel import chunk_bounds, chunks
+
 
 @njit(cache=True, inline="always")
 def qmul(a, b):
@@ -141,7 +143,7 @@ def centers(q):
 def _latlon_chunks(q, lat, lon, nch):
     n = q.shape[0]
     for c in prange(nch):
-        lo_, hi_ = (c * n) // nch, ((c + 1) * n) // nch
+        lo_, hi_ = chunk_bounds(c, nch, n)
         for i in range(lo_, hi_):
             w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
             cx = 2 * (x * z + w * y)  # q_center and xyz_to_latlon, without the arrays
@@ -153,8 +155,6 @@ def _latlon_chunks(q, lat, lon, nch):
 
 def latlon_of(q):
     """Latitude and longitude arrays (radians) of the element centres."""
-    from ..parallel import chunks
-
     n = q.shape[0]
     lat = np.empty(n)
     lon = np.empty(n)
