@@ -35,7 +35,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-KINDS = ("bonded", "collision", "free_drift", "floe")
+KINDS = ("bonded", "bonded_ignore", "collision", "free_drift", "floe")
+#: scenes run for every law of ``--laws``
+LAW_KINDS = ("bonded", "bonded_ignore")
 
 
 # ---------------------------------------------------------------------------------- worker
@@ -54,7 +56,7 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
     t2 = time.perf_counter()
     cm = sim.contacts
     out: dict = {
-        "kind": kind, "law": {"bonded": law, "collision": "collision",
+        "kind": kind, "law": {"bonded": law, "bonded_ignore": law, "collision": "collision",
                               "floe": "bonded_particle"}.get(kind, "-"),
         "elements": sim.state.n, "scene_s": t1 - t0, "setup_s": t2 - t1, "runs": [],
     }
@@ -143,7 +145,7 @@ def _worker(args: argparse.Namespace) -> None:
     results = []
     n = args.sizes[0]
     for kind in args.scenes:
-        laws = args.laws if kind == "bonded" else ["bonded_particle" if kind == "floe"
+        laws = args.laws if kind in LAW_KINDS else ["bonded_particle" if kind == "floe"
                                                    else "collision"]
         for law in laws:
             results.append(_measure(kind, n, law, args.steps, args.threads,
@@ -292,7 +294,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--laws", default="collision,distributed_spring,mohr_coulomb",
                     help="contact laws of the bonded pack (default: all three)")
     ap.add_argument("--scenes", default=",".join(KINDS),
-                    help="scenes: bonded, collision, free_drift, floe (default: all)")
+                    help="scenes: bonded, bonded_ignore (contact.touching = ignore), collision, "
+                         "free_drift, floe (default: all)")
     ap.add_argument("--steps", type=int, default=50, help="timed steps per case (default 50)")
     ap.add_argument("--threads", default="1,2", help="numba thread counts (default 1,2)")
     ap.add_argument("--repeat", type=int, default=1,

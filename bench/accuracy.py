@@ -239,8 +239,9 @@ def spinup(integrator: str, dt: float) -> Point:
 
 # --------------------------------------------------------------------------------- V6
 def pack_scene(nx: int, ny: int, integrator: str, dt: float, duration: float,
-               params: dict | None = None) -> str:
-    """The V6 pack between a static strip (west) and a handle strip pulled east, as TOML."""
+               params: dict | None = None, touching: str = "contact") -> str:
+    """The V6 pack between a static strip (west) and a handle strip pulled east, as TOML
+    (``touching``: the ``contact.touching`` option)."""
     lat = [-LAT_SPAN / 2, LAT_SPAN / 2]
     packs = [
         {"lon": [-CLAMP, 0.0], "lat": lat, "nx": 1, "ny": ny, "flag": "static"},
@@ -251,7 +252,7 @@ def pack_scene(nx: int, ny: int, integrator: str, dt: float, duration: float,
     return contact_scene_text(
         "distributed_spring", V6_PARAMS if params is None else params, packs=packs, dt=dt,
         duration=duration, thickness=V6_H, youngs_modulus=V6_E, integrator=integrator,
-        title=f"V6 {nx}x{ny} {integrator}",
+        title=f"V6 {nx}x{ny} {integrator}", touching=touching,
         run={"nan_check_every": NAN_EVERY, "allow_unstable_dt": True},
     )
 
@@ -283,13 +284,13 @@ class Pull:
 
 
 def pull(nx: int, ny: int, integrator: str, factor: float, dt_c: float,
-         params: dict | None = None, duration: float = V6_T) -> Pull:
+         params: dict | None = None, duration: float = V6_T, touching: str = "contact") -> Pull:
     """Pull the V6 pack with ``dt = dt0 × factor``; ``dt0 = T/steps0 ≤ 0.45 dt_c``, ``steps0`` a
     multiple of 4 (so that every ``dt0 × 2^k`` divides ``T`` and their times coincide)."""
     steps0 = 4 * math.ceil(duration / (V6_SAFETY * dt_c) / 4)
     steps = round(steps0 / factor)
     dt = duration / steps
-    text = pack_scene(nx, ny, integrator, dt, duration, params)
+    text = pack_scene(nx, ny, integrator, dt, duration, params, touching)
 
     def build() -> Simulation:
         with warnings.catch_warnings():

@@ -10,6 +10,9 @@
   the cell, so that every candidate pair (edge and diagonal neighbours) overlaps and is clipped
   and evaluated every step. A short ``dt`` keeps the overlaps (and so the work) the same over a
   benchmark.
+* ``bonded_ignore``: the bonded pack with ``contact.touching = "ignore"``: jointed neighbours
+  whose overlap stays within the clip's tolerance exert no contact force and are settled by the
+  separating-axis test instead of the clip (docs/explanation/contacts.md, "Touching").
 * ``free_drift``: the bonded pack without a ``[contact]`` table: forcing and integrator only.
 * ``floe``: one bonded floe (seed 004) of about ``n`` Voronoi elements of mean size 5 km (element
   source ``floe``, a 2 : 1 rectangle on the equator), law ``bonded_particle`` with strengths
@@ -100,8 +103,9 @@ WIND = ('[[forcing]]\nsource = "air_drag"\n'
 
 
 def bonded_text(n: int, law: str = "distributed_spring", steps: int = 100,
-                contact: bool = True, wind: bool = True) -> str:
-    """The Siku-like bonded pack of about ``n`` elements (``contact=False``: free drift)."""
+                contact: bool = True, wind: bool = True, touching: str = "contact") -> str:
+    """The Siku-like bonded pack of about ``n`` elements (``contact=False``: free drift;
+    ``touching``: the ``contact.touching`` option)."""
     nx, ny = grid(n)
     lon, lat = _pack_box(nx, ny)
     title = f"bench {'bonded ' + law if contact else 'free drift'} {nx}x{ny}"
@@ -115,6 +119,7 @@ def bonded_text(n: int, law: str = "distributed_spring", steps: int = 100,
         parts.append(
             f'[contact]\nlaw = {toml_value(law)}\njoints = "auto"\n'
             f"params = {toml_value(LAW_PARAMS[law])}" + _broad(nx, ny)
+            + ("" if touching == "contact" else f"\ntouching = {toml_value(touching)}")
         )
     if wind:
         parts.append(WIND)
@@ -168,8 +173,8 @@ def floe_text(n: int, steps: int = 100) -> str:
 
 
 def scene(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -> Scene:
-    """A validated benchmark scene: ``kind`` is ``bonded``, ``collision``, ``free_drift`` or
-    ``floe``."""
+    """A validated benchmark scene: ``kind`` is ``bonded``, ``bonded_ignore``, ``collision``,
+    ``free_drift`` or ``floe``."""
     return scene_from_text(text(kind, n, law, steps), f"<bench {kind} {n}>")
 
 
@@ -177,14 +182,16 @@ def text(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -
     """The TOML of a benchmark scene (as :func:`scene` builds it)."""
     if kind == "bonded":
         return bonded_text(n, law, steps)
+    if kind == "bonded_ignore":
+        return bonded_text(n, law, steps, touching="ignore")
     if kind == "free_drift":
         return bonded_text(n, steps=steps, contact=False)
     if kind == "collision":
         return collision_text(n, steps)
     if kind == "floe":
         return floe_text(n, steps)
-    raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, collision, free_drift, "
-                     "floe")
+    raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, bonded_ignore, collision, "
+                     "free_drift, floe")
 
 
 if __name__ == "__main__":  # python -m bench.scenes bonded 10000 [law] [steps] > scene.toml

@@ -16,6 +16,7 @@ from .contacts import (
     joint_constants, joint_forces, max_moved2, rotation_matrices,
 )
 from .errors import PluginError, SceneError
+from .geometry.clip import REL_TOL
 from .geometry.quat import centers, east_north_row, from_tangent, xyz_to_latlon
 from .interfaces import BroadPhase, ContactLaw
 from .parallel import chunks
@@ -114,6 +115,13 @@ class ContactModel:
         self.rm = np.empty((st.n, 3, 3))
         self._rm_scratch: np.ndarray | None = None
         self.nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
+        # contact.touching = "ignore": overlaps within the clip's tolerance carry no force, and
+        # the separating-axis test gets the margin that settles them (clip.apart_within)
+        self.drop_touching = cfg.touching == "ignore"
+        self.margin = np.zeros(st.n)
+        if self.drop_touching and st.n:
+            ext = np.maximum.reduceat(np.abs(st.verts).max(axis=1), st.vert_offsets[:-1])
+            self.margin = ext * (REL_TOL / 3.0)
         self.rebuilds = 0
         self.n_overlap = 0
         self.n_broken_total = 0
@@ -203,6 +211,7 @@ class ContactModel:
         p = self.pairs
         self.pout = np.zeros((len(p), C_SIZE))
         self.pon = np.zeros(len(p), dtype=np.int8)
+        self.phint = np.zeros(len(p), dtype=np.int16)
         self.poff, self.pidx, self.pside = element_index(
             np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
 
@@ -245,7 +254,8 @@ class ContactModel:
             n = collision_forces(
                 self._cev, self._cpars, self.rm, V, w, self.minv, st.thickness,
                 self.E, st.area, st.vert_offsets, st.verts, pairs, sim.radius, self.nmax,
-                self.pretest, self.pout, self.pon, chunks(len(pairs)),
+                self.pretest, self.pout, self.pon, chunks(len(pairs)), self.margin,
+                self.phint, self.drop_touching,
             )
             if commit:
                 self.n_overlap = n

@@ -45,6 +45,7 @@ from .geometry.clip import (
     overlap_elements,
     overlap_inline,
     project_partner,
+    separating_edge,
 )
 from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 from .kernel_cache import specialise
@@ -416,10 +417,11 @@ def find_shared_edges(q, offsets, verts, pairs, tol, R):
 # 1. ``rotation_matrices``: ``R(q)`` of every element, once (the loops below never rotate by a
 #    quaternion and never allocate per contact);
 # 2. ``_joint_forces``: every intact joint (parallel over joints);
-# 3. ``_collision_forces``: every candidate pair: the separating-axis test (``apart``: an edge
-#    line of either polygon separates or touches them), else the clip and, when the polygons
-#    overlap, the law (parallel over pairs). Jointed neighbours of a pack touch or stand apart
-#    most of the time, so most of them are never clipped;
+# 3. ``_collision_forces``: every candidate pair: the separating-axis test (``separating_edge``:
+#    an edge line of either polygon separates or touches them, the edge that did so last time
+#    tried first; with ``contact.touching = "ignore"`` within a margin that settles overlaps the
+#    clip would call touching), else the clip and, when the polygons overlap, the law (parallel
+#    over pairs). Pairs that overlapped at the last evaluation go straight to the clip;
 # 4. ``gather_forces``: each element adds its own contacts' contributions, joints then pairs,
 #    each in ascending contact index (parallel over elements).
 #
@@ -679,24 +681,35 @@ def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
 
 
 def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                     nmax, pretest, out, on, nch):
-    """Clip every candidate pair (unless, with ``pretest``, :func:`~siku_core.geometry.clip.apart`
-    finds an edge line that separates or touches them) and evaluate the overlapping ones into
-    ``out[k]`` with ``on[k] = 1`` (``0`` for the others); returns the number of overlapping
-    pairs. A pair with ``on[k] = 1`` from the last evaluation skips the test (it almost always
-    still overlaps; the clip finds no area where the test would have found the pair apart)."""
+                     nmax, pretest, out, on, nch, margin=None, hint=None, drop=False):
+    """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
+    :func:`~siku_core.geometry.clip.separating_edge` finds an edge line that separates or touches
+    them) and evaluate the overlapping ones into ``out[k]`` with ``on[k] = 1`` (``0`` for the
+    others); returns the number of overlapping pairs. A pair with ``on[k] = 1`` from the last
+    evaluation skips the test (it almost always still overlaps; the clip finds no area where
+    the test would have found the pair apart).
+
+    ``margin`` (per element ``i``, m; zeros by default): the test's margin; ``hint`` (per pair,
+    int16, updated): the edge that separated the pair last, tried first; ``drop``: touching
+    overlaps (area at most the clip's tolerance) carry no force (``contact.touching =
+    "ignore"``, with ``margin = REL_TOL L_i / 3``, so that the test settles such pairs).
+    """
+    if margin is None:
+        margin = np.zeros(offsets.shape[0] - 1)
+    if hint is None:
+        hint = np.zeros(pairs.shape[0], dtype=np.int16)
     fn = specialise(_collision_forces, evaluate, (_collision_chunk,))
     nt = tasks(nch)
     if fn is not None:
         return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R, nmax,
-                  pretest, out, on, nch, nt)
+                  pretest, out, on, nch, nt, margin, hint, drop)
     return _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
-                             pairs, R, nmax, pretest, out, on, nch, nt)
+                             pairs, R, nmax, pretest, out, on, nch, nt, margin, hint, drop)
 
 
 @njit(parallel=True)
 def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                      nmax, pretest, out, on, nch, nt):
+                      nmax, pretest, out, on, nch, nt, margin, hint, drop):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -711,13 +724,13 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
             lo, hi = chunk_bounds(c, nch, pairs.shape[0])
             counts[c] = _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, on, lo, hi, xy, tag,
-                                         proj, g, res)
+                                         proj, g, res, margin, hint, drop)
     return counts.sum()
 
 
 @njit
 def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                     pretest, out, on, lo, hi, xy, tag, proj, g, res):
+                     pretest, out, on, lo, hi, xy, tag, proj, g, res, margin, hint, drop):
     """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap. ``xy``,
     ``tag``, ``proj``, ``g``, ``res``: the task's buffers (clipping, partner vertices, geometry,
     result)."""
@@ -739,10 +752,14 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
             proj[v, 1] = py
         pj = proj[:nj]
         pi = verts[offsets[i]:offsets[i + 1]]
-        if test and apart(pi, pj):
-            continue
+        if test:
+            e = separating_edge(pi, pj, margin[i], hint[k])
+            if e >= 0:
+                hint[k] = e
+                continue
         c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
-        a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x, c2y)
+        a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x, c2y,
+                                                                       drop)
         if a <= 0.0:
             continue
         no += 1

@@ -232,6 +232,9 @@ class ContactCfg(_Strict):
     tolerance: float | None = Field(None, gt=0, lt=1, description="joint vertex mismatch [1]")
     broad_phase: str = "sweep_and_prune"
     skin: float | None = Field(None, ge=0, description="candidate-list skin distance [m]")
+    touching: Literal["contact", "ignore"] = Field(
+        "contact", description="overlaps within the clip's tolerance (area <= 1e-9 L^2): "
+        "'contact' (any positive area is a contact) or 'ignore' (no force; faster packs)")
 
     @model_validator(mode="after")
     def _pairs(self) -> "ContactCfg":

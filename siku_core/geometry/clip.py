@@ -181,11 +181,11 @@ def overlap_scratch(poly1, poly2, xy, tag, lazy=False):
     cap = xy.shape[1]
     if cap < overlap_scratch_size(n1, n2) or tag.shape[1] < cap:
         raise ValueError("overlap_scratch: scratch buffers are too small")
-    return _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, False, 0.0, 0.0)
+    return _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, False, 0.0, 0.0, False)
 
 
 @njit(cache=True)
-def overlap_elements(poly1, poly2, xy, tag, c2x, c2y):
+def overlap_elements(poly1, poly2, xy, tag, c2x, c2y, drop_touching=False):
     """Overlap of two *elements*, as the engine's contact loops compute it.
 
     ``poly1``: element 1's polygon in its own tangent plane (counter-clockwise, centre at the
@@ -200,13 +200,17 @@ def overlap_elements(poly1, poly2, xy, tag, c2x, c2y):
     20 km elements), so the two normals agree to that. Knowing the centres and the orientation
     saves the two centroid and the orientation computations (about a fifth of a clip). No size
     check of the scratch buffers (see :func:`overlap_inline`).
+
+    ``drop_touching``: a touching overlap (area at most ``REL_TOL * L**2``) comes back as no
+    overlap (area 0) instead of with its small area (the scene option ``contact.touching =
+    "ignore"``).
     """
     return _overlap_core(poly1, poly2, xy, tag, True, poly1.shape[0], poly2.shape[0], True,
-                         c2x, c2y)
+                         c2x, c2y, drop_touching)
 
 
 @njit(cache=True, inline="always")
-def overlap_inline(poly1, poly2, xy, tag, c2x, c2y):
+def overlap_inline(poly1, poly2, xy, tag, c2x, c2y, drop_touching=False):
     """:func:`overlap_elements` for the engine's contact loop: two quadrilaterals (packs) are
     clipped by a copy compiled into the loop with the sizes known to the compiler (unrolled,
     no call, no result tuple through memory: about a third faster), other polygons by a call.
@@ -215,18 +219,19 @@ def overlap_inline(poly1, poly2, xy, tag, c2x, c2y):
     n1 = poly1.shape[0]
     n2 = poly2.shape[0]
     if n1 == 4 and n2 == 4:
-        return _overlap_core(poly1, poly2, xy, tag, True, 4, 4, True, c2x, c2y)
-    return overlap_elements(poly1, poly2, xy, tag, c2x, c2y)
+        return _overlap_core(poly1, poly2, xy, tag, True, 4, 4, True, c2x, c2y, drop_touching)
+    return overlap_elements(poly1, poly2, xy, tag, c2x, c2y, drop_touching)
 
 
 @njit(cache=True, inline="always")
-def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in):
+def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop):
     """Body of :func:`overlap_scratch` for polygons of ``n1`` and ``n2`` vertices (inlined, so
     that constant sizes compile to unrolled loops; the arithmetic is the same for any).
 
     ``cen`` (with ``lazy``): the polygons are elements, both counter-clockwise, polygon 1
     centred at the origin and polygon 2 at ``(c2x_in, c2y_in)``: the fallback normal runs
-    between those centres (:func:`overlap_elements`)."""
+    between those centres (:func:`overlap_elements`). ``drop``: a touching overlap comes back
+    as none (area 0, centroid and crossings zero)."""
     cap = xy.shape[1]
 
     # ---- scale, tolerance, centroids of the two polygons
@@ -347,6 +352,8 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in):
     area = abs(0.5 * _area2_n(xy[cur], m))
     if area <= area_tol:
         # touching (zero-area overlap): no crossing points; centroid = mean of the vertices
+        if drop:
+            return 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, fnx, fny
         sxm = 0.0
         sym = 0.0
         for i in range(m):
@@ -438,25 +445,54 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in):
     return area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny
 
 
-@njit(cache=True)
-def _edge_lines_apart(a, b):
-    """Some edge line of CCW polygon ``a`` has no vertex of ``b`` strictly inside it."""
+@njit(cache=True, inline="always")
+def _line_separates(a, k, b, m2):
+    """No vertex of ``b`` lies strictly inside the line of CCW polygon ``a``'s edge ``k`` by more
+    than ``sqrt(m2)`` [m] (``f = e × (p - a) > 0`` is inside, as the clipping computes it;
+    ``m2 = 0``: no vertex strictly inside at all)."""
     n = a.shape[0]
-    m = b.shape[0]
-    for k in range(n):
-        k1 = k + 1 if k + 1 < n else 0
-        ax = a[k, 0]
-        ay = a[k, 1]
-        ex = a[k1, 0] - ax
-        ey = a[k1, 1] - ay
-        inside = False
-        for v in range(m):
-            if ex * (b[v, 1] - ay) - ey * (b[v, 0] - ax) > 0.0:
-                inside = True
-                break
-        if not inside:
-            return True
-    return False
+    k1 = k + 1 if k + 1 < n else 0
+    ax = a[k, 0]
+    ay = a[k, 1]
+    ex = a[k1, 0] - ax
+    ey = a[k1, 1] - ay
+    lim = m2 * (ex * ex + ey * ey)
+    for v in range(b.shape[0]):
+        f = ex * (b[v, 1] - ay) - ey * (b[v, 0] - ax)
+        if f > 0.0 and (lim == 0.0 or f * f > lim):
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def separating_edge(poly1, poly2, margin, hint):
+    """Index of an edge line of either convex CCW polygon that has every vertex of the other
+    outside it, on it or at most ``margin`` [m] inside; ``-1`` when there is none.
+
+    Edges ``0 … n1-1`` are ``poly1``'s (edge ``k`` from vertex ``k`` to ``k+1``), ``n1 …
+    n1+n2-1`` are ``poly2``'s. Edge ``hint`` is tried first: the edge that separated a pair at
+    the last step almost always still does, so a pair that stays apart costs one line (about
+    ``n2`` evaluations) instead of a search. Whether an edge is found does not depend on
+    ``hint``; only which one and how fast.
+    """
+    n1 = poly1.shape[0]
+    n2 = poly2.shape[0]
+    if n1 < 3 or n2 < 3:
+        return -1
+    m2 = margin * margin
+    if 0 <= hint < n1:
+        if _line_separates(poly1, hint, poly2, m2):
+            return hint
+    elif n1 <= hint < n1 + n2:
+        if _line_separates(poly2, hint - n1, poly1, m2):
+            return hint
+    for k in range(n1):
+        if k != hint and _line_separates(poly1, k, poly2, m2):
+            return k
+    for k in range(n2):
+        if k + n1 != hint and _line_separates(poly2, k, poly1, m2):
+            return k + n1
+    return -1
 
 
 @njit(cache=True)
@@ -472,11 +508,21 @@ def apart(poly1, poly2):
     Cost: one pass over the edges of each polygon, each stopping at the first vertex inside
     (about ``n1 + n2`` evaluations for overlapping polygons).
     """
-    if poly1.shape[0] < 3 or poly2.shape[0] < 3:
-        return False
-    if _edge_lines_apart(poly1, poly2):
-        return True
-    return _edge_lines_apart(poly2, poly1)
+    return separating_edge(poly1, poly2, 0.0, -1) >= 0
+
+
+@njit(cache=True)
+def apart_within(poly1, poly2, margin):
+    """:func:`apart` with a margin: an edge line of either polygon has every vertex of the other
+    outside it, on it or at most ``margin`` [m] inside.
+
+    With ``margin <= REL_TOL * s / 3`` and ``s`` at most the largest absolute vertex coordinate
+    of the two polygons (the clip's ``L``), polygons found apart overlap by less than the clip's
+    touching area ``REL_TOL * L**2``: their overlap lies in a strip of width ``margin`` along
+    the separating line inside one polygon, whose chord is at most its diameter ``2 sqrt(2) L``,
+    so the area is at most ``2 sqrt(2) / 3 REL_TOL L**2 < REL_TOL L**2``.
+    """
+    return separating_edge(poly1, poly2, margin, -1) >= 0
 
 
 @njit(cache=True)

@@ -23,12 +23,15 @@ import siku_core.parallel as parallel
 from siku_core.contact_model import ContactModel
 from siku_core.contacts import collision_loop, joint_loop
 from siku_core.geometry.clip import (
+    REL_TOL,
     apart,
+    apart_within,
     make_overlap_scratch,
     overlap,
     overlap_elements,
     overlap_scratch,
     polygon_area_centroid,
+    separating_edge,
 )
 from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, square_pack
@@ -36,7 +39,8 @@ from siku_core.testing.contact_conformance import contact_scene, square_pack
 DYN = ("q", "V", "w")
 
 
-def pulled_pack(law="distributed_spring", steps=30, nx=12, ny=8, jitter=0.2, gap=0.0):
+def pulled_pack(law="distributed_spring", steps=30, nx=12, ny=8, jitter=0.2, gap=0.0,
+                touching=None):
     """A jittered jointed pack at 70°N, west column static, east column pulled north-east at
     2 m/s: joints stretch and (distributed_spring) break near the handle, and broken and
     compressed neighbours collide."""
@@ -45,7 +49,7 @@ def pulled_pack(law="distributed_spring", steps=30, nx=12, ny=8, jitter=0.2, gap
     pack = square_pack(10.0, 70.0, nx, ny, 2000.0, jitter=jitter, gap=gap, seed=3,
                        left="static", right="steady", right_velocity=[2.0, 0.7])
     return contact_scene(law, params, packs=[pack], dt=0.05, steps=steps,
-                         joints="none" if law == "collision" else None)
+                         joints="none" if law == "collision" else None, touching=touching)
 
 
 @pytest.fixture
@@ -153,6 +157,47 @@ def test_apart_is_the_separating_axis_test_of_the_clip():
     assert n_apart > 2000
 
 
+def test_the_hint_changes_which_edge_not_whether():
+    """``separating_edge`` finds an edge for exactly the pairs ``apart`` finds apart, whatever
+    edge it tries first; the edge it returns separates (the test with it alone passes)."""
+    n_found = 0
+    for p1, p2 in _cases(seed=5, n=1500):
+        n = len(p1) + len(p2)
+        exact = apart(p1, p2)
+        for hint in (-1, 0, n - 1, n // 2, n + 3):
+            e = separating_edge(p1, p2, 0.0, hint)
+            assert (e >= 0) == exact
+            if e >= 0:
+                n_found += 1
+                assert separating_edge(p1, p2, 0.0, e) == e
+    assert n_found > 1000
+
+
+def test_apart_within_the_margin_means_touching_for_the_clip():
+    """``contact.touching = "ignore"``: with the margin ``REL_TOL s / 3`` (``s`` the largest
+    coordinate of polygon 1) a pair found apart overlaps by at most ``2 sqrt(2)/3 REL_TOL
+    big²`` (a strip of that width inside one polygon, at most its diameter long), below the
+    clip's touching area ``REL_TOL big²``, so the engine's clip would drop it too; and every
+    pair the exact test finds apart is found apart with a margin."""
+    xy, tag = make_overlap_scratch(8, 8)
+    n_margin = 0
+    for p1, p2 in _cases(seed=6, n=6000):
+        big = max(np.abs(p1).max(), np.abs(p2).max())
+        margin = REL_TOL * np.abs(p1).max() / 3.0
+        within = apart_within(p1, p2, margin)
+        if apart(p1, p2):
+            assert within
+        elif within:
+            n_margin += 1
+            a = overlap(p1, p2)[0]
+            assert a <= 2 * np.sqrt(2) / 3 * REL_TOL * big * big * (1 + 1e-6)
+            _, c1x, c1y = polygon_area_centroid(p1)
+            q1 = np.ascontiguousarray(p1 - [c1x, c1y])
+            q2 = np.ascontiguousarray(p2 - [c1x, c1y])
+            assert overlap_elements(q1, q2, xy, tag, 1.0, 0.0, True)[0] == 0.0
+    assert n_margin > 200  # round-off slivers; overlaps of 1e-12 ... 3e-10 of the size
+
+
 def test_lazy_clip_gives_the_same_overlap():
     xy, tag = make_overlap_scratch(8, 8)
     for p1, p2 in _cases(seed=1, n=2000):
@@ -196,9 +241,10 @@ def test_element_clip_is_the_lazy_clip_with_the_centre_line_normal():
     assert n_chord > 300 and n_fallback > 100
 
 
-def test_runs_with_and_without_the_separation_test_are_identical(monkeypatch):
+@pytest.mark.parametrize("touching", ["contact", "ignore"])
+def test_runs_with_and_without_the_separation_test_are_identical(monkeypatch, touching):
     # a gapped, jittered broken pack: many candidate pairs are apart, some collide
-    sc = pulled_pack("distributed_spring", gap=0.002, jitter=0.25)
+    sc = pulled_pack("distributed_spring", gap=0.002, jitter=0.25, touching=touching)
     with_test = Simulation(sc, out=False, progress=False).run(30)
     monkeypatch.setattr(ContactModel, "pretest", False)
     without = Simulation(sc, out=False, progress=False).run(30)
