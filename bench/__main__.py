@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-KINDS = ("bonded", "bonded_ignore", "collision", "free_drift", "floe")
+KINDS = ("bonded", "bonded_ignore", "collision", "free_drift", "floe", "floe_ignore")
 #: scenes run for every law of ``--laws``
 LAW_KINDS = ("bonded", "bonded_ignore")
 
@@ -57,7 +57,8 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
     cm = sim.contacts
     out: dict = {
         "kind": kind, "law": {"bonded": law, "bonded_ignore": law, "collision": "collision",
-                              "floe": "bonded_particle"}.get(kind, "-"),
+                              "floe": "bonded_particle",
+                              "floe_ignore": "bonded_particle"}.get(kind, "-"),
         "elements": sim.state.n, "scene_s": t1 - t0, "setup_s": t2 - t1, "runs": [],
     }
     first = None
@@ -145,7 +146,7 @@ def _worker(args: argparse.Namespace) -> None:
     results = []
     n = args.sizes[0]
     for kind in args.scenes:
-        laws = args.laws if kind in LAW_KINDS else ["bonded_particle" if kind == "floe"
+        laws = args.laws if kind in LAW_KINDS else ["bonded_particle" if kind.startswith("floe")
                                                    else "collision"]
         for law in laws:
             results.append(_measure(kind, n, law, args.steps, args.threads,
@@ -295,7 +296,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="contact laws of the bonded pack (default: all three)")
     ap.add_argument("--scenes", default=",".join(KINDS),
                     help="scenes: bonded, bonded_ignore (contact.touching = ignore), collision, "
-                         "free_drift, floe (default: all)")
+                         "free_drift, floe, floe_ignore (default: all)")
     ap.add_argument("--steps", type=int, default=50, help="timed steps per case (default 50)")
     ap.add_argument("--threads", default="1,2", help="numba thread counts (default 1,2)")
     ap.add_argument("--repeat", type=int, default=1,

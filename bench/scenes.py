@@ -18,6 +18,7 @@
   source ``floe``, a 2 : 1 rectangle on the equator), law ``bonded_particle`` with strengths
   that nothing reaches, a uniform 10 m/s wind; about three bonds per element (a Voronoi packing
   has six neighbours per cell) against the square pack's two.
+* ``floe_ignore``: the floe with ``contact.touching = "ignore"``.
 
 Sizes are given as element counts; :func:`grid` picks the columns and rows.
 """
@@ -158,15 +159,17 @@ FLOE_D = 5000.0
 DT_FLOE = 0.5
 
 
-def floe_text(n: int, steps: int = 100) -> str:
-    """One bonded floe of about ``n`` elements (``element_size`` 5 km, 2 : 1 rectangle)."""
+def floe_text(n: int, steps: int = 100, touching: str = "contact") -> str:
+    """One bonded floe of about ``n`` elements (``element_size`` 5 km, 2 : 1 rectangle;
+    ``touching``: the ``contact.touching`` option)."""
     width = math.sqrt(n / 2.0) * FLOE_D
     params = dict(outline="rectangle", center=[10.0, 0.0], length=2 * width, width=width,
                   element_size=FLOE_D, seed=1)
     parts = _head(f"bench floe {n}", DT_FLOE, steps)
     parts.append(f'[[elements.source]]\nname = "floe"\nparams = {toml_value(params)}')
     parts.append('[contact]\nlaw = "bonded_particle"\njoints = "auto"\n'
-                 "params = { sigma_crit = 1e12, tau_crit = 1e12 }")
+                 "params = { sigma_crit = 1e12, tau_crit = 1e12 }"
+                 + ("" if touching == "contact" else f"\ntouching = {toml_value(touching)}"))
     parts.append(WIND)
     parts.append("[run]\nprogress = false")
     return "\n\n".join(parts) + "\n"
@@ -174,7 +177,7 @@ def floe_text(n: int, steps: int = 100) -> str:
 
 def scene(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -> Scene:
     """A validated benchmark scene: ``kind`` is ``bonded``, ``bonded_ignore``, ``collision``,
-    ``free_drift`` or ``floe``."""
+    ``free_drift``, ``floe`` or ``floe_ignore``."""
     return scene_from_text(text(kind, n, law, steps), f"<bench {kind} {n}>")
 
 
@@ -190,8 +193,10 @@ def text(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -
         return collision_text(n, steps)
     if kind == "floe":
         return floe_text(n, steps)
+    if kind == "floe_ignore":
+        return floe_text(n, steps, touching="ignore")
     raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, bonded_ignore, collision, "
-                     "free_drift, floe")
+                     "free_drift, floe, floe_ignore")
 
 
 if __name__ == "__main__":  # python -m bench.scenes bonded 10000 [law] [steps] > scene.toml
