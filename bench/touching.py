@@ -13,6 +13,8 @@
   ``tests/test_default_scene.py`` reduced to leads (``siku_io.leads``): the cells shared, the
   number and total length of the leads. A third run, the exact rule at a time step of 1.5 s
   instead of 1.75 s, shows how much the pattern moves with the discretisation alone;
+* **virtual ice tests** (``siku_plugins.lab.virtual_test``: tension, compression, flexure of
+  the bonded block, law ``bonded_particle``): Young's modulus and strength under both rules;
 * **bench pack** (``bench.scenes`` bonded, 10 000 elements, 100 steps): the largest distance
   between the element centres of the two runs, against the handle's displacement.
 
@@ -122,6 +124,19 @@ def pack(n: int, steps: int) -> list[str]:
             f"{dv:.2e} |"]
 
 
+def lab() -> list[str]:
+    from siku_plugins.lab import TESTS, virtual_test
+
+    rows = []
+    for test in TESTS:
+        res = {rule: virtual_test(test, touching=rule) for rule in RULES}
+        a, b = res["contact"], res["ignore"]
+        rows.append(f"| {test} | {a.modulus / 1e9:.6f} | {b.modulus / 1e9:.6f} | "
+                    f"{b.modulus / a.modulus - 1:+.1e} | {a.strength / 1e6:.6f} | "
+                    f"{b.strength / 1e6:.6f} | {b.strength / a.strength - 1:+.1e} |")
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.touching",
                                  description=__doc__.split("\n")[0])
@@ -142,6 +157,11 @@ def main(argv: list[str] | None = None) -> int:
           "longest [km] | broken joints shared | lead cells shared |")
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     print("\n".join(leads(hours)), flush=True)
+    print("\n### virtual ice tests (bonded_particle)\n")
+    print("| test | E, contact [GPa] | E, ignore [GPa] | change | strength, contact [MPa] | "
+          "strength, ignore [MPa] | change |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    print("\n".join(lab()), flush=True)
     print("\n### bench pack: positions\n")
     print("| elements | steps | run, contact [s] | run, ignore [s] | max centre distance [m] | "
           "handle moved [m] | rms ΔV / rms V |")

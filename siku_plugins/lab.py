@@ -161,7 +161,7 @@ class LabResult:
 
 
 def _scene_text(test, length, width, D, speed, dt, duration, thickness, E, nu, density, law,
-                params, seed) -> str:
+                params, seed, touching="contact") -> str:
     from siku_core.testing.scenes import toml_value
 
     block = {"test": test, "length": length, "width": width, "element_size": D, "speed": speed}
@@ -181,6 +181,7 @@ params = {toml_value(block)}
 [contact]
 law = "{law}"
 params = {toml_value(params)}
+touching = "{touching}"
 [run]
 seed = {seed}
 progress = false
@@ -233,13 +234,14 @@ def virtual_test(test: str = "tension", sigma_crit: float = 1e6, tau_crit: float
                  width: float | None = None, thickness: float = 1.0, E: float = 1e9,
                  nu: float = 0.3, density: float = 910.0, strain_rate: float | None = None,
                  law: str = "bonded_particle", params: dict | None = None, seed: int = 0,
-                 max_strain: float | None = None, dt_share: float = 0.4) -> LabResult:
+                 max_strain: float | None = None, dt_share: float = 0.4,
+                 touching: str = "contact") -> LabResult:
     """Run one virtual test of a bonded block (module docstring) and return its curve and
     numbers. ``sigma_crit``, ``tau_crit`` (default ``sigma_crit``) [Pa] are the bond strengths
     of law ``bonded_particle`` (another law gets ``params`` only); ``length``, ``width`` [m]
     default to 24 D × 12 D (tension, compression) or 30 D × 8 D (flexure); ``strain_rate``
     [1/s] defaults to reaching ``sigma_crit / E`` in 30 crossing times; ``dt`` is ``dt_share``
-    of the critical step."""
+    of the critical step; ``touching``: the ``contact.touching`` option."""
     from siku_core.scene import scene_from_text
     from siku_core.simulation import Simulation
     from siku_core.state import STEADY
@@ -284,7 +286,7 @@ def virtual_test(test: str = "tension", sigma_crit: float = 1e6, tau_crit: float
     else:
         to_peak = max_strain * gauge / speed
     text = _scene_text(test, length, width, D, speed, dt, to_peak, thickness, E, nu, density,
-                       law, pars, seed)
+                       law, pars, seed, touching)
     sim = Simulation(scene_from_text(text, f"<virtual {test} test>"), out=False, progress=False)
     return measure(sim, sigma_crit, tau_crit, E)
 
