@@ -41,6 +41,16 @@ LAW_KINDS = ("bonded", "bonded_ignore")
 
 
 # ---------------------------------------------------------------------------------- worker
+def step_times(sim, steps: int) -> list[float]:
+    """Wall time [s] of each of ``steps`` calls of ``sim.step()``."""
+    per = []
+    for _ in range(steps):
+        ta = time.perf_counter()
+        sim.step()
+        per.append(time.perf_counter() - ta)
+    return per
+
+
 def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
              floor: bool = True) -> dict:
     import numba
@@ -72,11 +82,7 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
             sim.step()
         for key in sim.timings:  # (Simulation.reset_timings, also on older versions)
             sim.timings[key] = 0.0
-        per = []
-        for _ in range(steps):
-            ta = time.perf_counter()
-            sim.step()
-            per.append(time.perf_counter() - ta)
+        per = step_times(sim, steps)
         med = statistics.median(per)
         run = {
             "threads": th, "steps": steps, "median_step_s": med, "min_step_s": min(per),

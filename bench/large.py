@@ -31,6 +31,7 @@ def _worker(kind: str, n: int, steps: int, threads: list[int]) -> dict:
 
     from siku_core.simulation import Simulation
 
+    from .__main__ import step_times
     from .scenes import scene
 
     base = _rss_mb()
@@ -46,12 +47,7 @@ def _worker(kind: str, n: int, steps: int, threads: list[int]) -> dict:
         ta = time.perf_counter()
         sim.step()
         first = time.perf_counter() - ta
-        per = []
-        for _ in range(steps):
-            ta = time.perf_counter()
-            sim.step()
-            per.append(time.perf_counter() - ta)
-        med = statistics.median(per)
+        med = statistics.median(step_times(sim, steps))
         out["runs"].append({"threads": th, "first_step_s": first, "median_step_s": med,
                             "element_steps_per_s": sim.state.n / med})
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3  # kB -> MB
