@@ -148,6 +148,15 @@ def _edge_on_boundary(px, py, qx, qy, poly, tol2):
 
 
 @njit(cache=True, inline="always")
+def _unit_or_x(dx, dy, tol):
+    """``(dx, dy)`` made a unit vector; ``(1, 0)`` when it is no longer than ``tol``."""
+    dn = math.sqrt(dx * dx + dy * dy)
+    if dn > tol and dn > 0.0:
+        return dx / dn, dy / dn
+    return 1.0, 0.0
+
+
+@njit(cache=True, inline="always")
 def _orientation(poly):
     """``+1.0`` or ``-1.0``: the sign ``overlap_scratch`` gives ``poly``'s signed area."""
     return 1.0 if 0.5 * _area2_n(poly, poly.shape[0]) >= 0.0 else -1.0
@@ -330,27 +339,42 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
 
     if m == 0:
         return 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, fnx, fny
-    if lazy:  # the centroid-line normal, exactly as above (or the centre line)
+    if lazy:  # the centroid-line (or centre-line) normal is computed below when needed
         if cen:
-            c1x = 0.0
-            c1y = 0.0
-            c2x = c2x_in
-            c2y = c2y_in
+            dx = c2x_in
+            dy = c2y_in
         else:
             _, c1x, c1y = _area_centroid_n(poly1, n1)
             _, c2x, c2y = _area_centroid_n(poly2, n2)
-        dx = c2x - c1x
-        dy = c2y - c1y
-        dn = math.sqrt(dx * dx + dy * dy)
-        if dn > tol and dn > 0.0:
-            fnx = dx / dn
-            fny = dy / dn
-        else:
-            fnx = 1.0
-            fny = 0.0
+            dx = c2x - c1x
+            dy = c2y - c1y
 
-    area = abs(0.5 * _area2_n(xy[cur], m))
+    # area and centroid in one pass (the sums of _area_centroid_n, in its order)
+    x0 = xy[cur, 0, 0]
+    y0 = xy[cur, 0, 1]
+    a2 = 0.0
+    sx = 0.0
+    sy = 0.0
+    ext2 = 0.0
+    mx = 0.0
+    my = 0.0
+    for i in range(m):
+        j = i + 1 if i + 1 < m else 0
+        xi = xy[cur, i, 0] - x0
+        yi = xy[cur, i, 1] - y0
+        xj = xy[cur, j, 0] - x0
+        yj = xy[cur, j, 1] - y0
+        cr = xi * yj - xj * yi
+        a2 += cr
+        sx += (xi + xj) * cr
+        sy += (yi + yj) * cr
+        ext2 = max(ext2, xi * xi + yi * yi)
+        mx += xi
+        my += yi
+    area = abs(0.5 * a2)
     if area <= area_tol:
+        if lazy:
+            fnx, fny = _unit_or_x(dx, dy, tol)
         # touching (zero-area overlap): no crossing points; centroid = mean of the vertices
         if drop:
             return 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, fnx, fny
@@ -360,31 +384,53 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
             sxm += xy[cur, i, 0]
             sym += xy[cur, i, 1]
         return area, sxm / m, sym / m, 0, 0.0, 0.0, 0.0, 0.0, fnx, fny
-    _, cx, cy = _area_centroid_n(xy[cur], m)
+    if abs(a2) <= 1e-13 * ext2 or a2 == 0.0:
+        cx = x0 + mx / m
+        cy = y0 + my / m
+    else:
+        cx = x0 + sx / (3.0 * a2)
+        cy = y0 + sy / (3.0 * a2)
 
-    # ---- merge vertices closer than tol (the dropped zero-length edge's tag is dropped too)
-    cl = 1 - cur
-    mc = 0
+    # ---- merge vertices closer than tol (the dropped zero-length edge's tag is dropped too),
+    # into the other buffer; without any such pair (the rule) the polygon stays where it is
+    merge = False
+    qx = xy[cur, m - 1, 0]
+    qy = xy[cur, m - 1, 1]
     for i in range(m):
         px = xy[cur, i, 0]
         py = xy[cur, i, 1]
-        if mc > 0:
-            ddx = px - xy[cl, mc - 1, 0]
-            ddy = py - xy[cl, mc - 1, 1]
-            if ddx * ddx + ddy * ddy <= tol2:
-                tag[cl, mc - 1] = tag[cur, i]
-                continue
-        xy[cl, mc, 0] = px
-        xy[cl, mc, 1] = py
-        tag[cl, mc] = tag[cur, i]
-        mc += 1
-    while mc > 1:
-        ddx = xy[cl, mc - 1, 0] - xy[cl, 0, 0]
-        ddy = xy[cl, mc - 1, 1] - xy[cl, 0, 1]
+        ddx = px - qx
+        ddy = py - qy
         if ddx * ddx + ddy * ddy <= tol2:
-            mc -= 1
-        else:
+            merge = True
             break
+        qx = px
+        qy = py
+    cl = cur
+    mc = m
+    if merge:
+        cl = 1 - cur
+        mc = 0
+        for i in range(m):
+            px = xy[cur, i, 0]
+            py = xy[cur, i, 1]
+            if mc > 0:
+                ddx = px - xy[cl, mc - 1, 0]
+                ddy = py - xy[cl, mc - 1, 1]
+                if ddx * ddx + ddy * ddy <= tol2:
+                    tag[cl, mc - 1] = tag[cur, i]
+                    continue
+            xy[cl, mc, 0] = px
+            xy[cl, mc, 1] = py
+            tag[cl, mc] = tag[cur, i]
+            mc += 1
+        while mc > 1:
+            ddx = xy[cl, mc - 1, 0] - xy[cl, 0, 0]
+            ddy = xy[cl, mc - 1, 1] - xy[cl, 0, 1]
+            if ddx * ddx + ddy * ddy <= tol2:
+                mc -= 1
+            else:
+                break
 
     ncross = 0
     p1x = 0.0
@@ -392,7 +438,7 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
     p2x = 0.0
     p2y = 0.0
     if mc >= 3:
-        # ---- boundary class of every edge; reuse tag[cur] for the classes
+        # ---- boundary class of every edge, into the free row tag[1 - cl]
         for i in range(mc):
             j = i + 1 if i + 1 < mc else 0
             px = xy[cl, i, 0]
@@ -401,18 +447,18 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
             qy = xy[cl, j, 1]
             if tag[cl, i] >= 0:
                 if _edge_on_boundary(px, py, qx, qy, poly2, tol2):
-                    tag[cur, i] = _CLS_SHARED
+                    tag[1 - cl, i] = _CLS_SHARED
                 else:
-                    tag[cur, i] = _CLS_POLY1
+                    tag[1 - cl, i] = _CLS_POLY1
             else:
                 if _edge_on_boundary(px, py, qx, qy, poly1, tol2):
-                    tag[cur, i] = _CLS_SHARED
+                    tag[1 - cl, i] = _CLS_SHARED
                 else:
-                    tag[cur, i] = _CLS_POLY2
+                    tag[1 - cl, i] = _CLS_POLY2
         # ---- crossing points: vertices where the class changes
-        prev = tag[cur, mc - 1]
+        prev = tag[1 - cl, mc - 1]
         for i in range(mc):
-            c = tag[cur, i]
+            c = tag[1 - cl, i]
             if c != prev:
                 if ncross == 0:
                     p1x = xy[cl, i, 0]
@@ -423,8 +469,8 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
                 ncross += 1
             prev = c
 
-    nx = fnx
-    ny = fny
+    nx = 0.0
+    ny = 0.0
     if ncross == 2:
         ux = p2x - p1x
         uy = p2y - p1y
@@ -438,6 +484,11 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
         else:
             ncross = 1  # the two crossings coincide within tol: one point, no chord
     if ncross != 2:
+        if lazy:
+            nx, ny = _unit_or_x(dx, dy, tol)
+        else:
+            nx = fnx
+            ny = fny
         p1x = 0.0
         p1y = 0.0
         p2x = 0.0
