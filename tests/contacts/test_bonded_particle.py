@@ -31,7 +31,7 @@ from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import (
     contact_forces, contact_scene, rotate_about, square_pack,
 )
-from siku_plugins.contact_laws import bonded_particle_evaluator
+from siku_plugins.contact_laws import bond_rotation, bonded_particle_evaluator
 
 R = 6_371_000.0
 SIZE = 100.0
@@ -91,6 +91,27 @@ def test_evaluator_pull_shear_and_turn_match_eqs_10_to_13():
     assert np.abs(out[:2]).max() < 1e-9 * kn * Ib * theta / w
     # normal stress of the bending: the section modulus I / (w/2)
     assert hist[0] == pytest.approx(half * kn * theta, rel=1e-12)
+
+
+@pytest.mark.parametrize("length", [1.0, 80.0, 5e3])
+def test_bond_rotation_is_atan2_to_round_off(length):
+    """The bond angle: the series of ``atan`` below ``|x| = 1e-2`` and ``atan2`` above agree
+    with ``atan2`` to round-off (two ulps, 4.5e-16 relative: ``atan2`` is good to one, the
+    series' remainder ``x¹¹/11`` is 1e-21 relative and its evaluation good to one), on either
+    side of the switch, in every quadrant of the joint direction, for a stretched or shortened
+    joint."""
+    worst = 0.0
+    for phi in np.linspace(-3.1, 3.1, 13):
+        wx, wy = length * math.cos(phi), length * math.sin(phi)
+        for theta in [0.0, 1e-15, -3e-9, 2e-6, -7e-4, 9.99e-3, -1.001e-2, -0.05, 0.7, -2.9]:
+            for stretch in (0.97, 1.0, 1.04):
+                c, s = math.cos(phi + theta), math.sin(phi + theta)
+                Wx, Wy = stretch * length * c, stretch * length * s
+                exact = math.atan2(wx * Wy - wy * Wx, wx * Wx + wy * Wy)
+                got = bond_rotation(wx, wy, Wx, Wy)
+                assert abs(got - theta) <= 1e-9 * abs(theta) + 1e-15
+                worst = max(worst, abs(got - exact) / max(abs(exact), 1e-300))
+    assert worst <= 4.5e-16
 
 
 def test_evaluator_breaks_on_either_stress_with_its_mode():
