@@ -508,11 +508,11 @@ def _line_separates(a, k, b, m2):
     ex = a[k1, 0] - ax
     ey = a[k1, 1] - ay
     lim = m2 * (ex * ex + ey * ey)
+    inside = False  # every vertex tested, no early exit: no branch to mispredict
     for v in range(b.shape[0]):
         f = ex * (b[v, 1] - ay) - ey * (b[v, 0] - ax)
-        if f > 0.0 and (lim == 0.0 or f * f > lim):
-            return False
-    return True
+        inside |= (f > 0.0) & ((lim == 0.0) | (f * f > lim))
+    return not inside
 
 
 @njit(cache=True, inline="always")
