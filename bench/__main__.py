@@ -38,6 +38,14 @@ ROOT = Path(__file__).resolve().parents[1]
 KINDS = ("bonded", "bonded_ignore", "collision", "free_drift", "floe", "floe_ignore")
 #: scenes run for every law of ``--laws``
 LAW_KINDS = ("bonded", "bonded_ignore")
+#: scenes run with ``bonded_particle`` and every other joint law of ``--laws``
+FLOE_KINDS = ("floe", "floe_ignore")
+
+
+def floe_laws(laws: list[str]) -> list[str]:
+    """The laws a floe scene runs with: ``bonded_particle`` (seed 004's), then the other joint
+    laws asked for, on the same elements and joints."""
+    return ["bonded_particle"] + [x for x in laws if x not in ("collision", "bonded_particle")]
 
 
 # ---------------------------------------------------------------------------------- worker
@@ -66,9 +74,7 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
     t2 = time.perf_counter()
     cm = sim.contacts
     out: dict = {
-        "kind": kind, "law": {"bonded": law, "bonded_ignore": law, "collision": "collision",
-                              "floe": "bonded_particle",
-                              "floe_ignore": "bonded_particle"}.get(kind, "-"),
+        "kind": kind, "law": {"collision": "collision", "free_drift": "-"}.get(kind, law),
         "elements": sim.state.n, "scene_s": t1 - t0, "setup_s": t2 - t1, "runs": [],
     }
     first = None
@@ -152,8 +158,8 @@ def _worker(args: argparse.Namespace) -> None:
     results = []
     n = args.sizes[0]
     for kind in args.scenes:
-        laws = args.laws if kind in LAW_KINDS else ["bonded_particle" if kind.startswith("floe")
-                                                   else "collision"]
+        laws = (args.laws if kind in LAW_KINDS
+                else floe_laws(args.laws) if kind in FLOE_KINDS else ["collision"])
         for law in laws:
             results.append(_measure(kind, n, law, args.steps, args.threads,
                                     floor=not args.no_floor))
@@ -298,8 +304,9 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", default="3000,10000,40000",
                     help="element counts, comma-separated (default: 3000,10000,40000)")
-    ap.add_argument("--laws", default="collision,distributed_spring,mohr_coulomb",
-                    help="contact laws of the bonded pack (default: all three)")
+    ap.add_argument("--laws", default="collision,distributed_spring,mohr_coulomb,bonded_particle",
+                    help="contact laws of the bonded pack (default: all four); the floe runs "
+                         "bonded_particle and the other joint laws of the list")
     ap.add_argument("--scenes", default=",".join(KINDS),
                     help="scenes: bonded, bonded_ignore (contact.touching = ignore), collision, "
                          "free_drift, floe, floe_ignore (default: all)")

@@ -4,7 +4,7 @@
   22 km) centred on the equator, 1 m thick, every shared edge jointed (``joints = "auto"``),
   the west column static, the east column steady at 3 m/s east, a uniform 10 m/s wind through
   ``air_drag``. Joint strengths are high enough that no joint breaks during a benchmark, so the
-  joint count stays fixed (about two joints per element).
+  joint count stays fixed (about two joints per element). Any law of ``LAW_PARAMS``.
 * ``collision``: a broken pack for the ``collision`` law: the same grid, but every element is
   its own polygon, scaled up by 2 % about its centre and its corners jittered by up to 0.4 % of
   the cell, so that every candidate pair (edge and diagonal neighbours) overlaps and is clipped
@@ -17,7 +17,8 @@
 * ``floe``: one bonded floe (seed 004) of about ``n`` Voronoi elements of mean size 5 km (element
   source ``floe``, a 2 : 1 rectangle on the equator), law ``bonded_particle`` with strengths
   that nothing reaches, a uniform 10 m/s wind; about three bonds per element (a Voronoi packing
-  has six neighbours per cell) against the square pack's two.
+  has six neighbours per cell) against the square pack's two. Any other joint law of
+  ``LAW_PARAMS`` runs on the same elements and joints.
 * ``floe_ignore``: the floe with ``contact.touching = "ignore"``.
 
 Sizes are given as element counts; :func:`grid` picks the columns and rows.
@@ -43,6 +44,7 @@ LAW_PARAMS = {
     "collision": {},
     "distributed_spring": {"tensile_strain": 0.05},
     "mohr_coulomb": {"sigma_c": 1e12},
+    "bonded_particle": {"sigma_crit": 1e12, "tau_crit": 1e12},
 }
 LAWS = tuple(LAW_PARAMS)
 
@@ -159,30 +161,37 @@ FLOE_D = 5000.0
 DT_FLOE = 0.5
 
 
-def floe_text(n: int, steps: int = 100, touching: str = "contact") -> str:
+def floe_text(n: int, steps: int = 100, touching: str = "contact",
+              law: str = "bonded_particle") -> str:
     """One bonded floe of about ``n`` elements (``element_size`` 5 km, 2 : 1 rectangle;
-    ``touching``: the ``contact.touching`` option)."""
+    ``touching``: the ``contact.touching`` option; ``law``: its joints, ``bonded_particle``
+    as in seed 004, or another joint law on the same elements and joints)."""
     width = math.sqrt(n / 2.0) * FLOE_D
     params = dict(outline="rectangle", center=[10.0, 0.0], length=2 * width, width=width,
                   element_size=FLOE_D, seed=1)
     parts = _head(f"bench floe {n}", DT_FLOE, steps)
     parts.append(f'[[elements.source]]\nname = "floe"\nparams = {toml_value(params)}')
-    parts.append('[contact]\nlaw = "bonded_particle"\njoints = "auto"\n'
-                 "params = { sigma_crit = 1e12, tau_crit = 1e12 }"
+    parts.append(f'[contact]\nlaw = {toml_value(law)}\njoints = "auto"\n'
+                 f"params = {toml_value(LAW_PARAMS[law])}"
                  + ("" if touching == "contact" else f"\ntouching = {toml_value(touching)}"))
     parts.append(WIND)
     parts.append("[run]\nprogress = false")
     return "\n\n".join(parts) + "\n"
 
 
-def scene(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -> Scene:
+def scene(kind: str, n: int, law: str | None = None, steps: int = 100) -> Scene:
     """A validated benchmark scene: ``kind`` is ``bonded``, ``bonded_ignore``, ``collision``,
-    ``free_drift``, ``floe`` or ``floe_ignore``."""
+    ``free_drift``, ``floe`` or ``floe_ignore``; ``law``: the contact law of a bonded pack or a
+    floe (default: ``distributed_spring`` for a pack, ``bonded_particle`` for a floe)."""
     return scene_from_text(text(kind, n, law, steps), f"<bench {kind} {n}>")
 
 
-def text(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -> str:
+def text(kind: str, n: int, law: str | None = None, steps: int = 100) -> str:
     """The TOML of a benchmark scene (as :func:`scene` builds it)."""
+    if kind in ("floe", "floe_ignore"):
+        return floe_text(n, steps, touching="ignore" if kind == "floe_ignore" else "contact",
+                         law=law or "bonded_particle")
+    law = law or "distributed_spring"
     if kind == "bonded":
         return bonded_text(n, law, steps)
     if kind == "bonded_ignore":
@@ -191,10 +200,6 @@ def text(kind: str, n: int, law: str = "distributed_spring", steps: int = 100) -
         return bonded_text(n, steps=steps, contact=False)
     if kind == "collision":
         return collision_text(n, steps)
-    if kind == "floe":
-        return floe_text(n, steps)
-    if kind == "floe_ignore":
-        return floe_text(n, steps, touching="ignore")
     raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, bonded_ignore, collision, "
                      "free_drift, floe, floe_ignore")
 
@@ -205,5 +210,5 @@ if __name__ == "__main__":  # python -m bench.scenes bonded 10000 [law] [steps] 
     args = sys.argv[1:]
     if not 2 <= len(args) <= 4:
         sys.exit("usage: python -m bench.scenes KIND ELEMENTS [LAW] [STEPS] > scene.toml")
-    sys.stdout.write(text(args[0], int(args[1]), *(args[2:3] or ["distributed_spring"]),
+    sys.stdout.write(text(args[0], int(args[1]), *(args[2:3] or [None]),
                           *[int(a) for a in args[3:4]]))
