@@ -508,11 +508,13 @@ def _line_separates(a, k, b, m2):
     ex = a[k1, 0] - ax
     ey = a[k1, 1] - ay
     lim = m2 * (ex * ex + ey * ey)
-    inside = False  # every vertex tested, no early exit: no branch to mispredict
+    # the deepest vertex decides (f > 0 and f² > lim grow together): no early exit, no branch
+    # to mispredict
+    fmax = 0.0
     for v in range(b.shape[0]):
         f = ex * (b[v, 1] - ay) - ey * (b[v, 0] - ax)
-        inside |= (f > 0.0) & ((lim == 0.0) | (f * f > lim))
-    return not inside
+        fmax = f if f > fmax else fmax
+    return not (fmax > 0.0 and (lim == 0.0 or fmax * fmax > lim))
 
 
 @njit(cache=True, inline="always")
