@@ -45,7 +45,7 @@ _CLS_POLY1 = 1  # piece of polygon 1's boundary only
 _CLS_POLY2 = 2  # piece of polygon 2's boundary only
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _area_centroid_n(xy, m):
     """Signed area (m², > 0 counter-clockwise) and centroid of the first ``m`` rows of ``xy``.
 
@@ -349,29 +349,8 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
             dx = c2x - c1x
             dy = c2y - c1y
 
-    # area and centroid in one pass (the sums of _area_centroid_n, in its order)
-    x0 = xy[cur, 0, 0]
-    y0 = xy[cur, 0, 1]
-    a2 = 0.0
-    sx = 0.0
-    sy = 0.0
-    ext2 = 0.0
-    mx = 0.0
-    my = 0.0
-    for i in range(m):
-        j = i + 1 if i + 1 < m else 0
-        xi = xy[cur, i, 0] - x0
-        yi = xy[cur, i, 1] - y0
-        xj = xy[cur, j, 0] - x0
-        yj = xy[cur, j, 1] - y0
-        cr = xi * yj - xj * yi
-        a2 += cr
-        sx += (xi + xj) * cr
-        sy += (yi + yj) * cr
-        ext2 = max(ext2, xi * xi + yi * yi)
-        mx += xi
-        my += yi
-    area = abs(0.5 * a2)
+    half, cx, cy = _area_centroid_n(xy[cur], m)  # area and centroid in one pass
+    area = abs(half)
     if area <= area_tol:
         if lazy:
             fnx, fny = _unit_or_x(dx, dy, tol)
@@ -384,12 +363,6 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
             sxm += xy[cur, i, 0]
             sym += xy[cur, i, 1]
         return area, sxm / m, sym / m, 0, 0.0, 0.0, 0.0, 0.0, fnx, fny
-    if abs(a2) <= 1e-13 * ext2 or a2 == 0.0:
-        cx = x0 + mx / m
-        cy = y0 + my / m
-    else:
-        cx = x0 + sx / (3.0 * a2)
-        cy = y0 + sy / (3.0 * a2)
 
     # ---- merge vertices closer than tol (the dropped zero-length edge's tag is dropped too),
     # into the other buffer; without any such pair (the rule) the polygon stays where it is
