@@ -402,8 +402,8 @@ def bonded_particle_evaluator(g, pars, hist, out):
     """
     w = g[J_W]
     wx, wy = g[J_BX] - g[J_AX], g[J_BY] - g[J_AY]
-    inv_w = 1.0 / w if w > 0.0 else 0.0
     if w > 0.0:
+        inv_w = 1.0 / w
         tx, ty = wx * inv_w, wy * inv_w
     else:  # zero-width joint: no section, no force; any direction
         tx, ty = 1.0, 0.0
