@@ -81,3 +81,43 @@ def test_a_tiny_benchmark_runs():
     for row in ("| floe | bonded_particle |", "| floe | distributed_spring |"):
         assert row in out, row
     assert "I/O libraries imported after building and running both scenes: none" in out
+
+
+def _peers():
+    sys.path.insert(0, str(ROOT))
+    try:
+        from bench import peers
+    finally:
+        sys.path.remove(str(ROOT))
+    return peers
+
+
+@pytest.mark.skipif(not (ROOT / "bench" / "peers.py").is_file(), reason="no bench/")
+def test_peer_table_ratios_are_best_against_best():
+    peers = _peers()
+    lmp = [{"lattice": "sq", "ranks": t, "atoms": 10000, "bonds": 19800, "rate": r}
+           for t, r in ((1, 2.0e6), (1, 2.5e6), (2, 4.0e6))]
+    siku = [{"lattice": "sq", "kind": "bonded", "law": "distributed_spring", "threads": t,
+             "elements": 10000, "joints": 19800, "rate": r}
+            for t, r in ((1, 3.0e6), (1, 3.75e6), (2, 2.0e6))]
+    rows = peers.table(lmp, siku, [1, 2]).splitlines()
+    row = next(x for x in rows if "siku `bonded`" in x)
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    # best 3.75e6 over LAMMPS's best 2.5e6; median of (3.0, 3.75)e6 in brackets
+    assert cells[4] == "3.75e6 (3.38e6)"
+    assert cells[-2:] == ["1.50", "0.50"]
+    assert cells[3] == "1.98"
+
+
+@pytest.mark.skipif(not (ROOT / "bench" / "peers.py").is_file(), reason="no bench/")
+def test_peer_lattices_have_the_packs_topology(tmp_path):
+    peers = _peers()
+    exe = peers.find_lammps()
+    if exe is None:
+        pytest.skip("LAMMPS not installed (optional extra [peers])")
+    # 100 × 100 square lattice: 2 · 100 · 99 nearest-neighbour bonds; 100 rows of 100 on the
+    # triangular one: 100 · 99 along the rows and 2 · 100 − 1 between each of the 99 row pairs
+    for lattice, bonds in (("sq", 19800), ("hex", 100 * 99 + 99 * 199)):
+        r = peers.run_lammps(*exe, lattice, 1, 5, tmp_path)
+        assert (r["atoms"], r["bonds"], r["steps"]) == (10000, bonds, 5)
+        assert r["rate"] > 0.0
