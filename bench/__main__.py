@@ -10,9 +10,13 @@ requires" (a free-drift scene has no contact arrays, costs a fraction of a bonde
 imports no NetCDF library).
 
 Every size runs in a fresh Python process (``--repeat`` of them) that builds each scene once and
-times it on every thread count; ratios (against free drift of the same size, against 3 000
-elements) are computed from numbers measured in the same process. The steady rate uses the
-median step time of ``--steps`` steps after two warm-up steps.
+times it on every thread count, the thread counts taking turns in blocks of ten steps (each
+sees the same stretch of the run: a pack's cost per step drifts as it deforms); ratios (against
+free drift of the same size, against 3 000 elements) are computed from numbers measured in the
+same process.
+The steady rate uses the median step time of ``--steps`` steps per thread count after the
+first step and two warm-up steps per thread count; ``--spinup N`` runs ``N`` steps before any
+of it (a later stretch of the run).
 
 Examples::
 
@@ -40,6 +44,8 @@ KINDS = ("bonded", "bonded_ignore", "collision", "free_drift", "floe", "floe_ign
 LAW_KINDS = ("bonded", "bonded_ignore")
 #: scenes run with ``bonded_particle`` and every other joint law of ``--laws``
 FLOE_KINDS = ("floe", "floe_ignore")
+#: steps per turn of a thread count (switching every step costs the 2-thread run about 2 %)
+BLOCK = 10
 
 
 def floe_laws(laws: list[str]) -> list[str]:
@@ -60,7 +66,7 @@ def step_times(sim, steps: int) -> list[float]:
 
 
 def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
-             floor: bool = True) -> dict:
+             floor: bool = True, spinup: int = 0) -> dict:
     import numba
 
     from siku_core.simulation import Simulation
@@ -68,7 +74,7 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
     from .scenes import scene
 
     t0 = time.perf_counter()
-    sc = scene(kind, n, law, steps=steps + 10)
+    sc = scene(kind, n, law, steps=spinup + (steps + 3) * len(threads) + 10)
     t1 = time.perf_counter()
     sim = Simulation(sc, out=False, progress=False)
     t2 = time.perf_counter()
@@ -76,34 +82,49 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
     out: dict = {
         "kind": kind, "law": {"collision": "collision", "free_drift": "-"}.get(kind, law),
         "elements": sim.state.n, "scene_s": t1 - t0, "setup_s": t2 - t1, "runs": [],
+        "spinup": spinup,
     }
-    first = None
-    for k, th in enumerate(threads):
+    numba.set_num_threads(threads[0])
+    ta = time.perf_counter()
+    sim.step()
+    first = time.perf_counter() - ta
+    for _ in range(spinup):
+        sim.step()
+    for th in threads:  # warm-up: every thread count's kernels loaded and run once
         numba.set_num_threads(th)
-        if k == 0:
-            ta = time.perf_counter()
-            sim.step()
-            first = time.perf_counter() - ta
         for _ in range(2):
             sim.step()
-        for key in sim.timings:  # (Simulation.reset_timings, also on older versions)
-            sim.timings[key] = 0.0
-        per = step_times(sim, steps)
-        med = statistics.median(per)
+    # the thread counts take turns in blocks of BLOCK steps, so that each sees the same stretch
+    # of the run (a scene's cost per step drifts as its pack deforms: bench/RESULTS.md)
+    per: dict = {th: [] for th in threads}
+    phases: dict = {th: dict.fromkeys(sim.timings, 0.0) for th in threads}
+    for b in range(0, steps, BLOCK):
+        for th in threads:
+            numba.set_num_threads(th)
+            for _ in range(min(BLOCK, steps - b)):
+                before = dict(sim.timings)
+                ta = time.perf_counter()
+                sim.step()
+                per[th].append(time.perf_counter() - ta)
+                for key, v in sim.timings.items():
+                    phases[th][key] = phases[th].get(key, 0.0) + v - before.get(key, 0.0)
+    for th in threads:
+        med = statistics.median(per[th])
         run = {
-            "threads": th, "steps": steps, "median_step_s": med, "min_step_s": min(per),
-            "mean_step_s": sum(per) / len(per),
+            "threads": th, "steps": steps, "median_step_s": med, "min_step_s": min(per[th]),
+            "mean_step_s": sum(per[th]) / len(per[th]),
             "element_steps_per_s": sim.state.n / med,
-            "phases_s_per_step": {p: v / steps for p, v in sim.timings.items()},
+            "phases_s_per_step": {p: v / steps for p, v in phases[th].items()},
         }
         if cm is not None:
             run.update(joints=cm.n_intact, pairs=int(len(cm.pairs)), overlapping=int(cm.n_overlap),
                        rebuilds=int(cm.rebuilds), joints_per_s=cm.n_intact / med)
         out["runs"].append(run)
-        if k == 0 and floor and cm is not None:
-            from . import floor as probe
+    if floor and cm is not None:
+        from . import floor as probe
 
-            out["floor"] = probe.measure(sim)
+        numba.set_num_threads(threads[0])
+        out["floor"] = probe.measure(sim)
     out["first_step_s"] = first
     out["compile_s"] = max(0.0, first - out["runs"][0]["median_step_s"])
     return out
@@ -162,7 +183,7 @@ def _worker(args: argparse.Namespace) -> None:
                 else floe_laws(args.laws) if kind in FLOE_KINDS else ["collision"])
         for law in laws:
             results.append(_measure(kind, n, law, args.steps, args.threads,
-                                    floor=not args.no_floor))
+                                    floor=not args.no_floor, spinup=args.spinup))
     print(json.dumps(results))
 
 
@@ -310,7 +331,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenes", default=",".join(KINDS),
                     help="scenes: bonded, bonded_ignore (contact.touching = ignore), collision, "
                          "free_drift, floe, floe_ignore (default: all)")
-    ap.add_argument("--steps", type=int, default=50, help="timed steps per case (default 50)")
+    ap.add_argument("--steps", type=int, default=50,
+                    help="timed steps per case and thread count (default 50)")
+    ap.add_argument("--spinup", type=int, default=0,
+                    help="steps run before the timed ones (default 0: the run's first steps)")
     ap.add_argument("--threads", default="1,2", help="numba thread counts (default 1,2)")
     ap.add_argument("--repeat", type=int, default=1,
                     help="fresh processes per size; the best is shown, the median in brackets")
@@ -350,7 +374,8 @@ def main(argv: list[str] | None = None) -> int:
         tmp = tempfile.TemporaryDirectory(prefix="siku-bench-")
         env["NUMBA_CACHE_DIR"] = str(Path(tmp.name) / "numba")
         env["SIKU_KERNEL_CACHE"] = str(Path(tmp.name) / "kernels")
-    common = ["--steps", str(args.steps), "--threads", ",".join(map(str, args.threads)),
+    common = ["--steps", str(args.steps), "--spinup", str(args.spinup),
+              "--threads", ",".join(map(str, args.threads)),
               "--laws", ",".join(args.laws), "--scenes", ",".join(args.scenes),
               *(["--no-floor"] if args.no_floor else [])]
     t0 = time.perf_counter()
@@ -376,7 +401,10 @@ def main(argv: list[str] | None = None) -> int:
     cmd = "python -m bench " + " ".join(a for a in (argv if argv is not None else sys.argv[1:]))
     print(f"## {cmd.strip()}\n")
     print(f"machine: {_machine()}; {'cold' if args.cold else 'warm'} kernel caches; "
-          f"{args.steps} timed steps per case; rate from the median step"
+          f"{args.steps} timed steps per case and thread count, the thread counts taking turns"
+          f" every {BLOCK} steps"
+          + (f", after {args.spinup} steps of spin-up" if args.spinup else "")
+          + "; rate from the median step"
           + (f"; best of {args.repeat} processes (median in brackets)" if args.repeat > 1 else ""))
     print(_tables(results, args.threads, args.repeat))
     if req is not None:
