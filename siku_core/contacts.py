@@ -685,9 +685,11 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
     :func:`~siku_core.geometry.clip.separating_edge` finds an edge line that separates or touches
     them) and evaluate the overlapping ones into ``out[k]`` with ``on[k] = 1`` (``0`` for the
-    others); returns the number of overlapping pairs. A pair with ``on[k] = 1`` from the last
-    evaluation skips the test (it almost always still overlaps; the clip finds no area where
-    the test would have found the pair apart).
+    others, ``2`` for a touching overlap dropped under ``drop``: no force either); returns the
+    number of overlapping pairs. A pair with ``on[k] = 1`` or ``2`` from the last evaluation
+    skips the test (it almost always still overlaps or touches; the clip finds no area where
+    the test would have found the pair apart, and no more than the touching area where the
+    test with the margin would have).
 
     ``margin`` (per element ``i``, m; zeros by default): the test's margin; ``hint`` (per pair,
     int16, updated): the edge that separated the pair last, tried first; ``drop``: touching
@@ -737,9 +739,11 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     inv_r = 1.0 / R
     no = 0
     for k in range(lo, hi):
-        # a pair that overlapped at the last evaluation almost always still does: straight to
-        # the clip (which finds no area for any pair ``apart`` would have settled)
-        test = pretest and on[k] != 1
+        # a pair that overlapped at the last evaluation almost always still does, and one the
+        # clip found touching (``on = 2``, ``drop`` only) mostly still touches: straight to the
+        # clip (which finds no area for any pair ``apart`` would have settled, and at most the
+        # touching area for any the test with the margin would have settled)
+        test = pretest and on[k] == 0
         on[k] = 0
         i = pairs[k, 0]
         j = pairs[k, 1]
@@ -761,6 +765,8 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
         a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x, c2y,
                                                                        drop)
         if a <= 0.0:
+            if ncross < 0:
+                on[k] = 2  # touching, dropped: no force; no separating-axis test next time
             continue
         no += 1
         ri = math.sqrt(cx * cx + cy * cy)

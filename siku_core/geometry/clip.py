@@ -211,8 +211,8 @@ def overlap_elements(poly1, poly2, xy, tag, c2x, c2y, drop_touching=False):
     check of the scratch buffers (see :func:`overlap_inline`).
 
     ``drop_touching``: a touching overlap (area at most ``REL_TOL * L**2``) comes back as no
-    overlap (area 0) instead of with its small area (the scene option ``contact.touching =
-    "ignore"``).
+    overlap (area 0, centroid and crossing points zero) with ``ncross = -1`` instead of with
+    its small area (the scene option ``contact.touching = "ignore"``).
     """
     return _overlap_core(poly1, poly2, xy, tag, True, poly1.shape[0], poly2.shape[0], True,
                          c2x, c2y, drop_touching)
@@ -240,7 +240,7 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
     ``cen`` (with ``lazy``): the polygons are elements, both counter-clockwise, polygon 1
     centred at the origin and polygon 2 at ``(c2x_in, c2y_in)``: the fallback normal runs
     between those centres (:func:`overlap_elements`). ``drop``: a touching overlap comes back
-    as none (area 0, centroid and crossings zero)."""
+    as none (area 0, centroid and crossings zero, ``ncross = -1``)."""
     cap = xy.shape[1]
 
     # ---- scale, tolerance, centroids of the two polygons
@@ -355,8 +355,8 @@ def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop
         if lazy:
             fnx, fny = _unit_or_x(dx, dy, tol)
         # touching (zero-area overlap): no crossing points; centroid = mean of the vertices
-        if drop:
-            return 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, fnx, fny
+        if drop:  # ncross -1 tells the caller "touching, dropped" from "apart"
+            return 0.0, 0.0, 0.0, -1, 0.0, 0.0, 0.0, 0.0, fnx, fny
         sxm = 0.0
         sym = 0.0
         for i in range(m):
