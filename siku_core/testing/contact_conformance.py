@@ -127,6 +127,7 @@ def contact_scene_text(
     broad_phase: str | None = None,
     skin: float | None = None,
     touching: str | None = None,
+    jointed: str | None = None,
     dt: float = 0.01,
     duration: float | None = None,
     steps: int = 100,
@@ -146,7 +147,8 @@ def contact_scene_text(
     if params:
         contact["params"] = dict(params)
     for k, v in (("joints", joints), ("pairs", pairs), ("tolerance", tolerance),
-                 ("broad_phase", broad_phase), ("skin", skin), ("touching", touching)):
+                 ("broad_phase", broad_phase), ("skin", skin), ("touching", touching),
+                 ("jointed", jointed)):
         if v is not None:
             contact[k] = [list(map(int, p)) for p in v] if k == "pairs" else v
     table = "[contact]\n" + "\n".join(f"{_key(k)} = {toml_value(v)}" for k, v in contact.items())
