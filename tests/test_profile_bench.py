@@ -121,3 +121,22 @@ def test_peer_lattices_have_the_packs_topology(tmp_path):
         r = peers.run_lammps(*exe, lattice, 1, 5, tmp_path)
         assert (r["atoms"], r["bonds"], r["steps"]) == (10000, bonds, 5)
         assert r["rate"] > 0.0
+
+
+def test_every_benchmark_scene_is_a_valid_scene_with_its_options():
+    """The runner's scene list is ``bench.scenes.KINDS``; each kind validates, and the
+    ``_ignore`` / ``_exclude`` kinds set exactly their ``[contact]`` option."""
+    sys.path.insert(0, str(ROOT))
+    try:
+        from bench.__main__ import KINDS as RUNNER_KINDS
+        from bench.scenes import KINDS, scene
+    finally:
+        sys.path.remove(str(ROOT))
+    assert RUNNER_KINDS == KINDS
+    for kind in KINDS:
+        cfg = scene(kind, 200).cfg
+        if kind == "free_drift":
+            assert cfg.contact is None
+            continue
+        assert cfg.contact.touching == ("ignore" if kind.endswith("_ignore") else "contact")
+        assert cfg.contact.jointed == ("exclude" if kind.endswith("_exclude") else "collide")
