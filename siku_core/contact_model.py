@@ -250,9 +250,8 @@ class ContactModel:
         fresh = ~np.isin(nk, keys)
         if not fresh.any():
             return
-        lo = np.minimum(self.ji[k], self.jj[k])[fresh]
-        hi = np.maximum(self.ji[k], self.jj[k])[fresh]
-        every = np.concatenate([self.pairs, np.stack([lo, hi], axis=1)])
+        n = self.sim.state.n
+        every = np.concatenate([self.pairs, np.stack([nk[fresh] // n, nk[fresh] % n], axis=1)])
         order = np.argsort(np.concatenate([keys, nk[fresh]]), kind="stable")
         where = np.empty(len(order), dtype=np.int64)
         where[order] = np.arange(len(order))
