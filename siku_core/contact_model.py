@@ -17,6 +17,7 @@ from .contacts import (
 )
 from .errors import PluginError, SceneError
 from .geometry.clip import REL_TOL
+from .geometry.face import joint_edges
 from .geometry.quat import centers, east_north_row, from_tangent, xyz_to_latlon
 from .interfaces import BroadPhase, ContactLaw
 from .parallel import chunks
@@ -90,6 +91,9 @@ class ContactModel:
     #: skip the clip of pairs that :func:`~siku_core.geometry.clip.apart` finds apart or
     #: touching (their overlap has no area); off only to test that claim
     pretest = True
+    #: find the touching overlap of jointed neighbours from the joint's edges
+    #: (``geometry.face``) instead of clipping it; off only to measure what that changes
+    face_path = True
 
     def __init__(self, sim: "Simulation"):
         cfg = sim.scene.cfg.contact
@@ -119,9 +123,11 @@ class ContactModel:
         # the separating-axis test gets the margin that settles them (clip.apart_within)
         self.drop_touching = cfg.touching == "ignore"
         self.margin = np.zeros(st.n)
+        #: per element: its largest absolute vertex coordinate in its own plane [m]
+        self.scale = (np.maximum.reduceat(np.abs(st.verts).max(axis=1), st.vert_offsets[:-1])
+                      if st.n else np.zeros(0))
         if self.drop_touching and st.n:
-            ext = np.maximum.reduceat(np.abs(st.verts).max(axis=1), st.vert_offsets[:-1])
-            self.margin = ext * (REL_TOL / 3.0)
+            self.margin = self.scale * (REL_TOL / 3.0)
         # contact.jointed = "exclude": pairs with an intact joint are not collision candidates
         # (filtered out at every rebuild of the list; a pair joins it when its joint breaks)
         self.exclude_jointed = cfg.jointed == "exclude"
@@ -196,6 +202,9 @@ class ContactModel:
         self.hist = np.zeros((len(pairs), max(nh, 1)))
         self.jK, self.jmeff = joint_constants(st.thickness, self.E, self.minv, self.ji, self.jj,
                                               self.ends_i, self.ends_j)
+        #: per joint: the edges of ``ji`` and ``jj`` it is frozen along (``face.joint_edges``)
+        self.jedge = joint_edges(st.vert_offsets, st.verts, self.ji, self.jj, self.ends_i,
+                                 self.ends_j)
         self.jout = np.zeros((len(pairs), C_SIZE))
         self.jon = np.zeros(len(pairs), dtype=np.int8)
         self.joff, self.jidx, self.jside = element_index(self.ji, self.jj, st.n)
@@ -217,6 +226,27 @@ class ContactModel:
         self.phint = np.zeros(len(p), dtype=np.int16)
         self.poff, self.pidx, self.pside = element_index(
             np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
+        self.pface = self._faces(p)
+
+    def _faces(self, p: np.ndarray) -> np.ndarray:
+        """Per candidate pair ``(i, j)``: the edges of ``i`` and of ``j`` along which the two
+        are (or were) jointed, ``-1`` for a pair without a joint; int16 ``(len(p), 2)``. The
+        contact loop finds a touching overlap of such a pair from these edges
+        (``geometry.face``)."""
+        face = np.full((len(p), 2), -1, dtype=np.int16)
+        nj = len(getattr(self, "ji", ()))
+        if not self.face_path or not nj or not len(p):
+            return face
+        jk = self._keys(self.ji, self.jj)
+        order = np.argsort(jk, kind="stable")
+        pk = self._keys(p[:, 0], p[:, 1])
+        at = np.minimum(np.searchsorted(jk[order], pk), nj - 1)
+        hit = jk[order][at] == pk
+        n = order[at[hit]]
+        same = self.ji[n] == p[hit, 0]
+        face[hit, 0] = np.where(same, self.jedge[n, 0], self.jedge[n, 1])
+        face[hit, 1] = np.where(same, self.jedge[n, 1], self.jedge[n, 0])
+        return face
 
     def _candidates(self, q) -> np.ndarray:
         if self._ref_centers is not None:
@@ -290,7 +320,7 @@ class ContactModel:
                 self._cev, self._cpars, self.rm, V, w, self.minv, st.thickness,
                 self.E, st.area, st.vert_offsets, st.verts, pairs, sim.radius, self.nmax,
                 self.pretest, self.pout, self.pon, chunks(len(pairs)), self.margin,
-                self.phint, self.drop_touching,
+                self.phint, self.drop_touching, self.pface, self.scale,
             )
             if commit:
                 self.n_overlap = n

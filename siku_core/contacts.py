@@ -40,6 +40,8 @@ import numpy as np
 from numba import njit, prange
 
 from .geometry.clip import (
+    REL_TOL,
+    _unit_or_x,
     apart,
     make_overlap_scratch,
     overlap_elements,
@@ -47,6 +49,7 @@ from .geometry.clip import (
     project_partner,
     separating_edge,
 )
+from .geometry.face import touching_face
 from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 from .kernel_cache import specialise
 from .parallel import chunk_bounds, claim, tasks
@@ -298,23 +301,42 @@ def _span_across(pi, pj, nx, ny):
     return min(hi_i, hi_j) - max(lo_i, lo_j)
 
 
-def collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T):
+@njit(cache=True, inline="always")
+def _width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny):
+    """Contact width of a clipped overlap [m]: the chord between the two boundary crossings,
+    else the common span across the normal (``_span_across``), else ``sqrt(area)``."""
+    if ncross == 2:
+        return math.sqrt((p2x - p1x) ** 2 + (p2y - p1y) ** 2)
+    width = _span_across(pi, pj, nx, ny)
+    if not width > 0.0:
+        width = math.sqrt(a)
+    return width
+
+
+def collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T,
+                   face=None, scale=None):
     """Clip every candidate pair that :func:`~siku_core.geometry.clip.apart` does not find apart
-    and apply the collision evaluator where they overlap.
+    and apply the collision evaluator where they overlap (``face``, ``scale``: as
+    :func:`collision_forces` takes them).
 
     Returns the number of overlapping pairs.
     """
     nmax = int(np.max(np.diff(offsets))) if len(offsets) > 1 else 3
+    if face is None:
+        face = np.full((pairs.shape[0], 2), -1, dtype=np.int16)
+    if scale is None:
+        scale = np.zeros(offsets.shape[0] - 1)
     fn = specialise(_collision_loop, evaluate)
     if fn is not None:
-        return fn(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T, nmax)
+        return fn(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T, nmax, face,
+                  scale)
     return _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                           F, T, nmax)
+                           F, T, nmax, face, scale)
 
 
 @njit
 def _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T,
-                    nmax):
+                    nmax, face, scale):
     xy, tag = make_overlap_scratch(nmax, nmax)
     proj = np.empty((nmax, 2))
     g = np.empty(G_SIZE)
@@ -327,23 +349,29 @@ def _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, p
         nj = offsets[j + 1] - offsets[j]
         pj = proj[:nj]
         project_partner(q[i], q[j], verts[offsets[j]:offsets[j + 1]], R, pj)
-        if apart(pi, pj):
-            continue
         c2x, c2y = frame_point(q[j], q[i], 0.0, 0.0, R)
-        a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_elements(pi, pj, xy, tag, c2x,
-                                                                         c2y)
-        if a <= 0.0:
-            continue
+        a = -1.0
+        fi = face[k, 0]
+        if fi >= 0:  # jointed: a touching face from the joint's edges (geometry.face)
+            fj = face[k, 1]
+            fj1 = fj + 1 if fj + 1 < nj else 0
+            a, cx, cy, width = touching_face(pi, fi, pj[fj, 0], pj[fj, 1], pj[fj1, 0],
+                                             pj[fj1, 1], scale[i])
+            if a == 0.0:
+                continue
+            nx, ny = _unit_or_x(c2x, c2y, REL_TOL * scale[i])
+        if a < 0.0:
+            if apart(pi, pj):
+                continue
+            a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_elements(pi, pj, xy, tag,
+                                                                             c2x, c2y)
+            if a <= 0.0:
+                continue
+            width = _width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny)
         n_overlap += 1
         ri = math.sqrt(cx * cx + cy * cy)
         xj, yj = frame_point(q[i], q[j], cx, cy, R)
         rj = math.sqrt(xj * xj + yj * yj)
-        if ncross == 2:
-            width = math.sqrt((p2x - p1x) ** 2 + (p2y - p1y) ** 2)
-        else:
-            width = _span_across(pi, pj, nx, ny)
-            if not width > 0.0:
-                width = math.sqrt(a)
         g[G_AREA] = a
         g[G_CX] = cx
         g[G_CY] = cy
@@ -681,7 +709,8 @@ def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
 
 
 def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                     nmax, pretest, out, on, nch, margin=None, hint=None, drop=False):
+                     nmax, pretest, out, on, nch, margin=None, hint=None, drop=False, face=None,
+                     scale=None):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
     :func:`~siku_core.geometry.clip.separating_edge` finds an edge line that separates or touches
     them) and evaluate the overlapping ones into ``out[k]`` with ``on[k] = 1`` (``0`` for the
@@ -694,24 +723,32 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     ``margin`` (per element ``i``, m; zeros by default): the test's margin; ``hint`` (per pair,
     int16, updated): the edge that separated the pair last, tried first; ``drop``: touching
     overlaps (area at most the clip's tolerance) carry no force (``contact.touching =
-    "ignore"``, with ``margin = REL_TOL L_i / 3``, so that the test settles such pairs).
+    "ignore"``, with ``margin = REL_TOL L_i / 3``, so that the test settles such pairs);
+    ``face`` (per pair, int16 ``(K, 2)``, ``-1`` for none): the edges of ``i`` and ``j`` the
+    pair is jointed along, whose touching overlap :func:`~siku_core.geometry.face.touching_face`
+    finds without the clip; ``scale`` (per element, m): its largest absolute vertex coordinate.
     """
     if margin is None:
         margin = np.zeros(offsets.shape[0] - 1)
     if hint is None:
         hint = np.zeros(pairs.shape[0], dtype=np.int16)
+    if face is None:
+        face = np.full((pairs.shape[0], 2), -1, dtype=np.int16)
+    if scale is None:
+        scale = np.zeros(offsets.shape[0] - 1)
     fn = specialise(_collision_forces, evaluate, (_collision_chunk,))
     nt = tasks(nch)
     if fn is not None:
         return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R, nmax,
-                  pretest, out, on, nch, nt, margin, hint, drop)
+                  pretest, out, on, nch, nt, margin, hint, drop, face, scale)
     return _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
-                             pairs, R, nmax, pretest, out, on, nch, nt, margin, hint, drop)
+                             pairs, R, nmax, pretest, out, on, nch, nt, margin, hint, drop, face,
+                             scale)
 
 
 @njit(parallel=True)
 def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                      nmax, pretest, out, on, nch, nt, margin, hint, drop):
+                      nmax, pretest, out, on, nch, nt, margin, hint, drop, face, scale):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -726,13 +763,14 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
             lo, hi = chunk_bounds(c, nch, pairs.shape[0])
             counts[c] = _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, on, lo, hi, xy, tag,
-                                         proj, g, res, margin, hint, drop)
+                                         proj, g, res, margin, hint, drop, face, scale)
     return counts.sum()
 
 
 @njit
 def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                     pretest, out, on, lo, hi, xy, tag, proj, g, res, margin, hint, drop):
+                     pretest, out, on, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
+                     scale):
     """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap. ``xy``,
     ``tag``, ``proj``, ``g``, ``res``: the task's buffers (clipping, partner vertices, geometry,
     result)."""
@@ -750,34 +788,55 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
         M = relative_matrix(rm, i, j)
         oj = offsets[j]
         nj = offsets[j + 1] - oj
-        for v in range(nj):
-            px, py = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
-            proj[v, 0] = px
-            proj[v, 1] = py
-        pj = proj[:nj]
         pi = verts[offsets[i]:offsets[i + 1]]
-        if test:
-            e = separating_edge(pi, pj, margin[i], hint[k])
-            if e >= 0:
-                hint[k] = e
+        a = -1.0
+        fi = face[k, 0]
+        fj = fj1 = -1
+        if fi >= 0:
+            # jointed: the ends of j's edge of the joint first; a touching face (the rule for
+            # jointed neighbours) needs nothing else (geometry.face)
+            fj = face[k, 1]
+            fj1 = fj + 1 if fj + 1 < nj else 0
+            bx, by = j_to_i(M, verts[oj + fj, 0], verts[oj + fj, 1], R, inv_r)
+            ex, ey = j_to_i(M, verts[oj + fj1, 0], verts[oj + fj1, 1], R, inv_r)
+            a, cx, cy, width = touching_face(pi, fi, bx, by, ex, ey, scale[i])
+            if a == 0.0:
+                continue  # the faces touch nowhere
+            if a > 0.0:
+                if drop:
+                    on[k] = 2  # touching, dropped: no force
+                    continue
+                c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
+                nx, ny = _unit_or_x(c2x, c2y, REL_TOL * scale[i])
+            else:
+                proj[fj, 0] = bx
+                proj[fj, 1] = by
+                proj[fj1, 0] = ex
+                proj[fj1, 1] = ey
+        if a < 0.0:
+            for v in range(nj):
+                if v != fj and v != fj1:
+                    px, py = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
+                    proj[v, 0] = px
+                    proj[v, 1] = py
+            pj = proj[:nj]
+            if test:
+                e = separating_edge(pi, pj, margin[i], hint[k])
+                if e >= 0:
+                    hint[k] = e
+                    continue
+            c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
+            a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x,
+                                                                           c2y, drop)
+            if a <= 0.0:
+                if ncross < 0:
+                    on[k] = 2  # touching, dropped: no force; no separating-axis test next time
                 continue
-        c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
-        a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x, c2y,
-                                                                       drop)
-        if a <= 0.0:
-            if ncross < 0:
-                on[k] = 2  # touching, dropped: no force; no separating-axis test next time
-            continue
+            width = _width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny)
         no += 1
         ri = math.sqrt(cx * cx + cy * cy)
         xj, yj = i_to_j(M, cx, cy, R, inv_r)
         rj = math.sqrt(xj * xj + yj * yj)
-        if ncross == 2:
-            width = math.sqrt((p2x - p1x) ** 2 + (p2y - p1y) ** 2)
-        else:
-            width = _span_across(pi, pj, nx, ny)
-            if not width > 0.0:
-                width = math.sqrt(a)
         g[G_AREA] = a
         g[G_CX] = cx
         g[G_CY] = cy

@@ -294,8 +294,10 @@ def test_kernels_match_the_serial_reference_loops(law):
                        cm.nu, cm.ji, cm.jj, cm.ends_i, cm.ends_j, cm.L0, cm.width, intact, hist,
                        sim.radius, sim.dt, False, Fr, Tr)
     n = collision_loop(law_.collision_evaluator, cm._cpars, q, V, w, cm.minv, st.thickness,
-                       cm.E, st.area, st.vert_offsets, st.verts, cm.pairs, sim.radius, Fr, Tr)
+                       cm.E, st.area, st.vert_offsets, st.verts, cm.pairs, sim.radius, Fr, Tr,
+                       cm.pface, cm.scale)
     assert broke == 0 and n == int((cm.pon == 1).sum()) > 0
+    assert (cm.pface[:, 0] >= 0).sum() >= len(cm.ji)  # jointed pairs take the face path
     # joint displacements are differences of km-sized coordinates projected from another
     # frame: one ulp of the planet radius (1.4e-9 m) times a joint stiffness K w (~2e9 N/m) is
     # a few N, ~1e-7 of the largest force here; the two implementations round differently
