@@ -445,7 +445,9 @@ def find_shared_edges(q, offsets, verts, pairs, tol, R):
 # 1. ``rotation_matrices``: ``R(q)`` of every element, once (the loops below never rotate by a
 #    quaternion and never allocate per contact);
 # 2. ``_joint_forces``: every intact joint (parallel over joints);
-# 3. ``_collision_forces``: every candidate pair: the separating-axis test (``separating_edge``:
+# 3. ``_collision_forces``: every candidate pair: a jointed pair first along its joint (a
+#    touching face or a gap found from the joint's edges, ``geometry.face``), then the
+#    separating-axis test (``separating_edge``:
 #    an edge line of either polygon separates or touches them, the edge that did so last time
 #    tried first; with ``contact.touching = "ignore"`` within a margin that settles overlaps the
 #    clip would call touching), else the clip and, when the polygons overlap, the law (parallel
