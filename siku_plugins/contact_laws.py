@@ -167,24 +167,25 @@ M_SIGC, M_TRATIO, M_TANPHI, M_NSEG, M_SHARE, M_ZETA = range(6)
 
 
 @njit(cache=True, inline="always")
-def _mc_all_hold(hist, nseg, E, G, L0, s1x, s1y, s2x, s2y, nx, ny, tx, ty, sigt, sigc, tanphi):
+def _mc_all_hold(hist, nseg, EL, GL, s1x, s1y, s2x, s2y, nx, ny, tx, ty, sigt, sigc, tanphi):
     """Every segment of a Mohr–Coulomb joint is intact and holds, decided from the two end
-    segments: the displacement, and so ``sigma_n`` and ``sigma_s``, are linear in the position
-    ``z`` along the joint, and each failure function (``sigma_n - sigma_t``, ``-sigma_n -
-    sigma_c``, ``|sigma_s| - tan(phi)(sigma_t - sigma_n)``) is convex in ``z``, so its largest
-    value over the segment centres is at the first or the last. A margin of ``1e-9`` of the
-    strength covers the round-off between the segments' own arithmetic and the ends'; a joint
-    within that margin of failing takes the segment loop."""
+    segments: the displacement, and so ``sigma_n = EL d·n`` and ``sigma_s = GL d·t`` (``EL =
+    E_s / L0``, ``GL = G_s / L0``), are linear in the position ``z`` along the joint, and each
+    failure function (``sigma_n - sigma_t``, ``-sigma_n - sigma_c``, ``|sigma_s| -
+    tan(phi)(sigma_t - sigma_n)``) is convex in ``z``, so its largest value over the segment
+    centres is at the first or the last. A margin of ``1e-9`` of the strength covers the
+    round-off between the segments' own arithmetic and the ends'; a joint within that margin
+    of failing takes the segment loop."""
     for k in range(nseg):
         if hist[k] != 0.0:
             return False
     tol = 1e-9 * (sigt + sigc)
     for e in range(2):
-        z = (0.5 if e == 0 else nseg - 0.5) / nseg
+        z = 0.5 / nseg if e == 0 else 1.0 - 0.5 / nseg
         dx = s1x + z * (s2x - s1x)
         dy = s1y + z * (s2y - s1y)
-        sn = E * (dx * nx + dy * ny) / L0
-        ss = G * (dx * tx + dy * ty) / L0
+        sn = EL * (dx * nx + dy * ny)
+        ss = GL * (dx * tx + dy * ty)
         if not (sn <= sigt - tol and sn >= -sigc + tol and abs(ss) <= tanphi * (sigt - sn) - tol):
             return False
     return True
@@ -218,30 +219,37 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     The traction is the same on both sides, so the stress is largest on the thinner one:
     ``h_s = min(h_i, h_j)`` and ``E_s = (h E)_eff / h_s`` (``G_s`` from ``E_s``, so shear is
     softened the same way); the default ``sigma_c`` is Table 1's at ``h_s`` as well. For
-    identical cells (same ``h`` and ``E``) ``E_s = E`` and ``h_s = h`` bit for bit (the factor
-    is ``b / b``), so uniform ice is unchanged. The damping uses the same stiffness,
-    ``(h E)_eff w / L0``.
+    cells of equal ``h E`` (``a == b``, uniform ice) the factor is 1 whatever ``lam``: ``E_s``
+    is the thinner side's ``E`` exactly, and neither ``lam`` nor the factor is computed. The
+    damping uses the same stiffness, ``(h E)_eff w / L0``.
     """
     nseg = int(pars[M_NSEG])
     L0 = g[J_L0]
     hi, hj = g[J_HI], g[J_HJ]
     a = hi * g[J_EI]
     b = hj * g[J_EJ]
-    # i's share of the centre distance: the joint midpoint's distance from i's centre
-    mx2, my2 = g[J_AX] + g[J_BX], g[J_AY] + g[J_BY]
-    lam = 0.5 * math.sqrt(mx2 * mx2 + my2 * my2) / L0 if L0 > 0.0 else 0.5
-    lam = min(max(lam, 0.0), 1.0)
-    # h, E: the thinner side's thickness and its modulus scaled so that h E = (h E)_eff;
-    # den = lam b + (1 - lam) a, written so that it is exactly b (a) when a == b: factor 1
-    if hi <= hj:
-        h = hi
-        den = b + (1.0 - lam) * (a - b)
-        E = g[J_EI] * (b / den) if den > 0.0 else 0.0
+    inv_l0 = 1.0 / L0 if L0 > 0.0 else 0.0
+    if a == b and a > 0.0:
+        # identical cells: the series factor b / den is exactly 1 (den = b), whatever lam
+        h = min(hi, hj)
+        E = g[J_EI] if hi <= hj else g[J_EJ]
     else:
-        h = hj
-        den = a + lam * (b - a)
-        E = g[J_EJ] * (a / den) if den > 0.0 else 0.0
-    G = E / (2.0 * (1.0 + g[J_NU]))
+        # i's share of the centre distance: the joint midpoint's distance from i's centre
+        mx2, my2 = g[J_AX] + g[J_BX], g[J_AY] + g[J_BY]
+        lam = 0.5 * math.sqrt(mx2 * mx2 + my2 * my2) * inv_l0 if L0 > 0.0 else 0.5
+        lam = min(max(lam, 0.0), 1.0)
+        # h, E: the thinner side's thickness and its modulus scaled so that h E = (h E)_eff;
+        # den = lam b + (1 - lam) a
+        if hi <= hj:
+            h = hi
+            den = b + (1.0 - lam) * (a - b)
+            E = g[J_EI] * (b / den) if den > 0.0 else 0.0
+        else:
+            h = hj
+            den = a + lam * (b - a)
+            E = g[J_EJ] * (a / den) if den > 0.0 else 0.0
+    EL = E * inv_l0  # sigma_n per metre of normal displacement [Pa/m]
+    GL = EL * (0.5 / (1.0 + g[J_NU]))
     sigc = pars[M_SIGC]
     if sigc <= 0.0:
         sigc = 1285e3 * h ** (2.0 / 3.0)
@@ -250,7 +258,8 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     ax, ay, bx, by = g[J_AX], g[J_AY], g[J_BX], g[J_BY]
     w = g[J_W]
     if w > 0.0:
-        tx, ty = (bx - ax) / w, (by - ay) / w
+        inv_w = 1.0 / w
+        tx, ty = (bx - ax) * inv_w, (by - ay) * inv_w
     else:  # zero-width joint (coincident ends): no segment carries traction; any direction
         tx, ty = 1.0, 0.0
     nx, ny = ty, -tx
@@ -262,19 +271,19 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     ci = 0.0
     nfailed = 0
     mode = BREAK_STRAIN
-    if _mc_all_hold(hist, nseg, E, G, L0, s1x, s1y, s2x, s2y, nx, ny, tx, ty, sigt, sigc,
+    if _mc_all_hold(hist, nseg, EL, GL, s1x, s1y, s2x, s2y, nx, ny, tx, ty, sigt, sigc,
                     tanphi):
         # every segment intact and safely inside the criterion: the sums over the segments
         # in closed form (the stresses are linear along the joint; see _mc_all_hold)
         dn1 = s1x * nx + s1y * ny
         dn2 = s2x * nx + s2y * ny
-        sn = E * (0.5 * (dn1 + dn2)) / L0  # mean over the segment centres
-        ss = G * (0.5 * ((s1x * tx + s1y * ty) + (s2x * tx + s2y * ty))) / L0
+        sn = EL * (0.5 * (dn1 + dn2))  # mean over the segment centres
+        ss = GL * (0.5 * ((s1x * tx + s1y * ty) + (s2x * tx + s2y * ty)))
         fx = h * w * (sn * nx + ss * tx)
         fy = h * w * (sn * ny + ss * ty)
         # sum_k (z_k - 1/2) sigma_n(z_k) over centres z_k = (k + 1/2)/n: (n² - 1)/(12 n) times
         # the slope; the lever (z - 1/2)(b - a) is along t, so only sigma_n turns the joint
-        ci = -h * seg * w * (E * (dn2 - dn1) / L0) * (nseg * nseg - 1.0) / (12.0 * nseg)
+        ci = -h * seg * w * (EL * (dn2 - dn1)) * (nseg * nseg - 1.0) / (12.0 * nseg)
         nseg_loop = 0
     else:
         nseg_loop = nseg
@@ -282,8 +291,8 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
         z = (k + 0.5) / nseg
         dx = s1x + z * (s2x - s1x)
         dy = s1y + z * (s2y - s1y)
-        sn = E * (dx * nx + dy * ny) / L0
-        ss = G * (dx * tx + dy * ty) / L0
+        sn = EL * (dx * nx + dy * ny)
+        ss = GL * (dx * tx + dy * ty)
         if hist[k] == 0.0:
             if sn > sigt:
                 hist[k] = 1.0
@@ -308,12 +317,14 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
         out[3] = mode  # the criterion of the segment whose failure broke the joint
         return
     # damping: share of critical for the normal stiffness (h E)_eff w / L0 on the reduced mass
-    c = 2.0 * pars[M_ZETA] * math.sqrt(h * E * w / L0 * g[J_MEFF]) * (nseg - nfailed) / nseg
+    c = 2.0 * pars[M_ZETA] * math.sqrt(h * EL * w * g[J_MEFF])
+    if nfailed:
+        c *= (nseg - nfailed) / nseg
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
     fx += c * 0.5 * (vax + vbx)
     fy += c * 0.5 * (vay + vby)
     wx, wy = bx - ax, by - ay
-    ci += c * (wx * (vby - vay) - wy * (vbx - vax)) / 12.0
+    ci += c * (wx * (vby - vay) - wy * (vbx - vax)) * (1.0 / 12.0)
     out[0] = -fx
     out[1] = -fy
     out[2] = -ci
