@@ -472,10 +472,10 @@ def find_shared_edges(q, offsets, verts, pairs, tol, R):
 # contacts to ``F, T`` in exactly that order.
 #
 # Relative frames: with ``Ri = R(q_i)`` the matrix ``M = Ri^T Rj`` maps directions of ``j``'s
-# local frame to ``i``'s, so a point ``(x, y)`` of ``j``'s tangent plane is ``R g_xy / g_z``
+# local frame to ``i``'s, so a point ``(x, y)`` of ``j``'s tangent plane is ``g_xy (R / g_z)``
 # with ``g = M (x/R, y/R, 1)`` in ``i``'s plane (the gnomonic normalisation cancels), and
-# ``M^T`` goes back. ``M`` is computed exactly as ``project_partner`` does, so the narrow phase
-# sees the same partner vertices as before, bit for bit.
+# ``M^T`` goes back. ``M`` and the projection are computed exactly as ``project_partner``
+# does, so the narrow phase sees the same partner vertices as the reference loops, bit for bit.
 
 #: per-contact contribution layout: generalised force and torque on ``i``, then on ``j``, then
 #: the contact point in ``i``'s frame [m] (what the element stress of ``siku_core.stress`` needs)
@@ -527,7 +527,22 @@ def j_to_i(M, x, y, R, inv_r):
     gx = m00 * u + m01 * v + m02
     gy = m10 * u + m11 * v + m12
     gz = m20 * u + m21 * v + m22
-    return R * gx / gz, R * gy / gz
+    f = R / gz
+    return gx * f, gy * f
+
+
+@njit(cache=True)
+def centre_normal(M, R, tol):
+    """Unit vector from ``i``'s centre towards ``j``'s in ``i``'s plane, ``(1, 0)`` when the
+    centres lie within ``tol`` [m] (``_unit_or_x`` of ``j_to_i(M, 0, 0)``, without its
+    divisions: ``j``'s centre projects to ``R (m02, m12) / m22``)."""
+    m02 = M[2]
+    m12 = M[5]
+    dn = math.sqrt(m02 * m02 + m12 * m12)
+    if R * dn > tol * M[8] and dn > 0.0:
+        inv = 1.0 / dn
+        return m02 * inv, m12 * inv
+    return 1.0, 0.0
 
 
 @njit(cache=True)
@@ -539,7 +554,8 @@ def i_to_j(M, x, y, R, inv_r):
     gx = m00 * u + m10 * v + m20
     gy = m01 * u + m11 * v + m21
     gz = m02 * u + m12 * v + m22
-    return R * gx / gz, R * gy / gz
+    f = R / gz
+    return gx * f, gy * f
 
 
 @njit(cache=True)
@@ -808,8 +824,7 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
                 if drop:
                     on[k] = 2  # touching, dropped: no force
                     continue
-                c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
-                nx, ny = _unit_or_x(c2x, c2y, REL_TOL * scale[i])
+                nx, ny = centre_normal(M, R, REL_TOL * scale[i])
             else:
                 proj[fj, 0] = bx
                 proj[fj, 1] = by

@@ -614,6 +614,7 @@ def project_partner(q1, q2, verts2, radius, out):
         gx = m[0, 0] * u + m[0, 1] * v + m[0, 2]
         gy = m[1, 0] * u + m[1, 1] * v + m[1, 2]
         gz = m[2, 0] * u + m[2, 1] * v + m[2, 2]
-        out[i, 0] = radius * gx / gz
-        out[i, 1] = radius * gy / gz
+        f = radius / gz
+        out[i, 0] = gx * f
+        out[i, 1] = gy * f
     return out

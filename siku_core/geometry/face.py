@@ -107,8 +107,9 @@ def touching_face(poly1, s, bx, by, cx, cy, scale):
     if gb * gb > lim or gc * gc > lim:
         return -1.0, 0.0, 0.0, 0.0  # not face to face within the tolerance
     # the common stretch, as fractions of poly1's edge, and the penetration profile along it
-    x0 = max(0.0, (cx * ux + cy * uy) / u2)
-    x1 = min(1.0, (bx * ux + by * uy) / u2)
+    inv_u2 = 1.0 / u2
+    x0 = max(0.0, (cx * ux + cy * uy) * inv_u2)
+    x1 = min(1.0, (bx * ux + by * uy) * inv_u2)
     if not x1 > x0:
         return 0.0, 0.0, 0.0, 0.0
     f0 = fa + (fb - fa) * x0
