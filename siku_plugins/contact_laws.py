@@ -181,7 +181,7 @@ def _mc_all_hold(hist, nseg, EL, GL, s1x, s1y, s2x, s2y, nx, ny, tx, ty, sigt, s
             return False
     tol = 1e-9 * (sigt + sigc)
     for e in range(2):
-        z = 0.5 / nseg if e == 0 else 1.0 - 0.5 / nseg
+        z = (0.5 if e == 0 else nseg - 0.5) / nseg
         dx = s1x + z * (s2x - s1x)
         dy = s1y + z * (s2y - s1y)
         sn = EL * (dx * nx + dy * ny)
@@ -230,7 +230,7 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     b = hj * g[J_EJ]
     inv_l0 = 1.0 / L0 if L0 > 0.0 else 0.0
     if a == b and a > 0.0:
-        # identical cells: the series factor b / den is exactly 1 (den = b), whatever lam
+        # equal h E (uniform ice): the series factor b / den is exactly 1, whatever lam
         h = min(hi, hj)
         E = g[J_EI] if hi <= hj else g[J_EJ]
     else:

@@ -150,7 +150,9 @@ def test_pure_compression_fails_at_sigma_c():
     ((2.0, 0.5), (0.25 * E, 4 * E), 1000.0),
     ((1.0, 3.0), (E, 2 * E), 500.0),
     ((1.0, 3.0), (E, 2 * E), 1500.0),
-], ids=["same", "thick-j", "thick-i", "5cm-10m", "stiff-j", "thin-stiff-j", "near-i", "far-i"])
+    ((2.0, 1.0), (E, 2 * E), 700.0),
+], ids=["same", "thick-j", "thick-i", "5cm-10m", "stiff-j", "thin-stiff-j", "near-i", "far-i",
+        "equal-hE"])
 def test_intact_joint_force_is_segment_sum(h, e, ri):
     """Below failure: force on ``j`` ``-(h E)_eff (d_n n + (G/E) d_t t) w / L0`` (uniform
     displacement), no couple. ``(h E)_eff`` is the series combination of the two sides,
@@ -174,7 +176,8 @@ def test_intact_joint_force_is_segment_sum(h, e, ri):
     ((0.05, 10.0), (E, E), 1000.0),
     ((3.0, 1.0), (E, 2 * E), 1000.0),
     ((1.0, 3.0), (4 * E, E), 1500.0),
-], ids=["5cm-10m", "thin-j", "far-i"])
+    ((2.0, 1.0), (E, 2 * E), 700.0),
+], ids=["5cm-10m", "thin-j", "far-i", "equal-hE"])
 def test_mixed_joint_fails_at_the_thinner_sides_stress(h, e, ri):
     """The traction ``(h E)_eff d / L0`` is the same on both sides; the stress is largest on
     the thinner, ``sigma = (h E)_eff d / (h_min L0)``, and the joint fails in tension when that
