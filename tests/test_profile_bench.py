@@ -83,6 +83,30 @@ def test_a_tiny_benchmark_runs():
     assert "I/O libraries imported after building and running both scenes: none" in out
 
 
+@pytest.mark.skipif(not (ROOT / "bench" / "phase.py").is_file(), reason="no bench/")
+def test_the_phase_probe_times_the_pack_it_builds():
+    """``bench.phase``: on a bonded pack of nx x ny squares every shared edge is a joint,
+    ``(nx - 1) ny + nx (ny - 1)``, except the ``ny - 1`` inside the static west column and
+    the ``ny - 1`` inside the steady east one (elements that are not free never interact with
+    each other), and the candidate pairs are the joints' and the diagonal neighbours,
+    ``2 (nx - 1)(ny - 1)`` more; a scene without contacts is bad input (2)."""
+    sys.path.insert(0, str(ROOT))
+    try:
+        from bench import phase
+        from bench.scenes import grid
+    finally:
+        sys.path.remove(str(ROOT))
+    nx, ny = grid(120)
+    r = phase.measure("bonded", 120, "distributed_spring", 2, 1)
+    assert r["elements"] == nx * ny
+    assert r["joints"] == (nx - 1) * ny + nx * (ny - 1) - 2 * (ny - 1)
+    assert r["pairs"] == r["joints"] + 2 * (nx - 1) * (ny - 1)
+    assert 0 <= r["overlapping"] <= r["pairs"]
+    assert r["collisions_s"] > 0 and r["joints_s"] > 0
+    assert "ns/pair" in phase.report("bonded", "distributed_spring", r)
+    assert phase.main(["free_drift", "--elements", "120", "--reps", "1"]) == 2
+
+
 def _peers():
     sys.path.insert(0, str(ROOT))
     try:
