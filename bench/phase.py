@@ -103,7 +103,9 @@ def main(argv: list[str] | None = None) -> int:
         if a.law:
             args += ["--law", a.law]
         for _ in range(a.processes):
-            subprocess.run(args, check=True)
+            rc = subprocess.run(args).returncode
+            if rc:
+                return rc
         return 0
     numba.set_num_threads(min(a.threads, numba.config.NUMBA_NUM_THREADS))
     try:
