@@ -57,6 +57,13 @@ from .parallel import chunk_bounds, claim, tasks
 # collision geometry layout
 G_AREA, G_CX, G_CY, G_NX, G_NY, G_WIDTH, G_K, G_MEFF, G_VX, G_VY, G_AREA_I, G_AREA_J = range(12)
 G_SIZE = 12
+
+#: overlapping pairs per block of the collision loop (its geometry first, then the evaluations:
+#: ``_collision_block``); a block's row: the pair, the overlap (area, point, normal, width) and
+#: the relative rotation ``M`` of :func:`relative_matrix`
+CBLOCK = 32
+B_K, B_AREA, B_CX, B_CY, B_NX, B_NY, B_WIDTH, B_M = range(8)
+B_SIZE = B_M + 9
 # joint geometry layout
 (J_S1X, J_S1Y, J_S2X, J_S2Y, J_AX, J_AY, J_BX, J_BY, J_L0, J_W, J_K, J_MEFF, J_VAX, J_VAY,
  J_VBX, J_VBY, J_HI, J_HJ, J_EI, J_EJ, J_NU, J_DT) = range(22)
@@ -754,7 +761,7 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
         face = np.full((pairs.shape[0], 2), -1, dtype=np.int16)
     if scale is None:
         scale = np.zeros(offsets.shape[0] - 1)
-    fn = specialise(_collision_forces, evaluate, (_collision_chunk,))
+    fn = specialise(_collision_forces, evaluate, (_collision_block, _collision_chunk))
     nt = tasks(nch)
     if fn is not None:
         return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R, nmax,
@@ -774,6 +781,7 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
         proj = np.empty((nmax, 2))
         g = np.empty(G_SIZE)
         res = np.empty(4)
+        blk = np.empty(CBLOCK * B_SIZE)
         while True:
             c = claim(counter)
             if c >= nch:
@@ -781,19 +789,62 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
             lo, hi = chunk_bounds(c, nch, pairs.shape[0])
             counts[c] = _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, on, lo, hi, xy, tag,
-                                         proj, g, res, margin, hint, drop, face, scale)
+                                         proj, g, res, margin, hint, drop, face, scale, blk)
     return counts.sum()
+
+
+@njit
+def _collision_block(evaluate, pars, V, w, minv, h, E, area, pairs, R, out, on, g, res, blk, nb):
+    """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
+    ``blk``, ``B_*``) into ``out`` and ``on``. Apart from the geometry that finds them, a
+    contact's evaluation is a chain of dependent square roots and divisions (lever arms,
+    stiffness, damping); evaluated in a loop of their own, the chains of consecutive contacts
+    overlap in the processor instead of waiting for the next pair's clip."""
+    inv_r = 1.0 / R
+    for n in range(nb):
+        b = n * B_SIZE
+        k = int(blk[b + B_K])
+        a = blk[b + B_AREA]
+        cx = blk[b + B_CX]
+        cy = blk[b + B_CY]
+        M = (blk[b + B_M], blk[b + B_M + 1], blk[b + B_M + 2], blk[b + B_M + 3],
+             blk[b + B_M + 4], blk[b + B_M + 5], blk[b + B_M + 6], blk[b + B_M + 7],
+             blk[b + B_M + 8])
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        ri = math.sqrt(cx * cx + cy * cy)
+        xj, yj = i_to_j(M, cx, cy, R, inv_r)
+        rj = math.sqrt(xj * xj + yj * yj)
+        g[G_AREA] = a
+        g[G_CX] = cx
+        g[G_CY] = cy
+        g[G_NX] = blk[b + B_NX]
+        g[G_NY] = blk[b + B_NY]
+        g[G_WIDTH] = blk[b + B_WIDTH]
+        g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
+        g[G_MEFF] = 1.0 / (minv[i] + minv[j])
+        g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
+        g[G_AREA_I] = area[i]
+        g[G_AREA_J] = area[j]
+        res[0] = 0.0
+        res[1] = 0.0
+        res[2] = 0.0
+        res[3] = 0.0
+        evaluate(g, pars, res)
+        pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
+        on[k] = 1
 
 
 @njit
 def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      pretest, out, on, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
-                     scale):
+                     scale, blk):
     """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap. ``xy``,
     ``tag``, ``proj``, ``g``, ``res``: the task's buffers (clipping, partner vertices, geometry,
     result)."""
     inv_r = 1.0 / R
     no = 0
+    nb = 0
     for k in range(lo, hi):
         # a pair that overlapped at the last evaluation almost always still does, and one the
         # clip found touching (``on = 2``, ``drop`` only) mostly still touches: straight to the
@@ -850,28 +901,27 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
                     on[k] = 2  # touching, dropped: no force; no separating-axis test next time
                 continue
             width = _width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny)
-        no += 1
-        ri = math.sqrt(cx * cx + cy * cy)
-        xj, yj = i_to_j(M, cx, cy, R, inv_r)
-        rj = math.sqrt(xj * xj + yj * yj)
-        g[G_AREA] = a
-        g[G_CX] = cx
-        g[G_CY] = cy
-        g[G_NX] = nx
-        g[G_NY] = ny
-        g[G_WIDTH] = width
-        g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
-        g[G_MEFF] = 1.0 / (minv[i] + minv[j])
-        g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
-        g[G_AREA_I] = area[i]
-        g[G_AREA_J] = area[j]
-        res[0] = 0.0
-        res[1] = 0.0
-        res[2] = 0.0
-        res[3] = 0.0
-        evaluate(g, pars, res)
-        pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
-        on[k] = 1
+        # the contact's evaluation waits for the block (_collision_block)
+        b = nb * B_SIZE
+        blk[b + B_K] = k
+        blk[b + B_AREA] = a
+        blk[b + B_CX] = cx
+        blk[b + B_CY] = cy
+        blk[b + B_NX] = nx
+        blk[b + B_NY] = ny
+        blk[b + B_WIDTH] = width
+        for m in range(9):
+            blk[b + B_M + m] = M[m]
+        nb += 1
+        if nb == CBLOCK:
+            _collision_block(evaluate, pars, V, w, minv, h, E, area, pairs, R, out, on, g, res,
+                             blk, nb)
+            no += nb
+            nb = 0
+    if nb:
+        _collision_block(evaluate, pars, V, w, minv, h, E, area, pairs, R, out, on, g, res, blk,
+                         nb)
+        no += nb
     return no
 
 
