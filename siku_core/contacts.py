@@ -638,7 +638,7 @@ def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
     """Evaluate every intact joint into ``out[k]`` (``C_*``) and ``on[k]``; returns the number
     that broke (only when ``commit``; their break mode, the evaluator's ``out[3]``, goes to
     ``bmode[k]``)."""
-    fn = specialise(_joint_forces, evaluate, (_joint_chunk,))
+    fn = specialise(_joint_forces, evaluate, JOINT_HELPERS)
     nt = tasks(nch)
     if fn is not None:
         return fn(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff,
@@ -761,7 +761,7 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
         face = np.full((pairs.shape[0], 2), -1, dtype=np.int16)
     if scale is None:
         scale = np.zeros(offsets.shape[0] - 1)
-    fn = specialise(_collision_forces, evaluate, (_collision_block, _collision_chunk))
+    fn = specialise(_collision_forces, evaluate, COLLISION_HELPERS)
     nt = tasks(nch)
     if fn is not None:
         return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R, nmax,
@@ -923,6 +923,11 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
                          nb)
         no += nb
     return no
+
+
+#: the functions the parallel loops call with the evaluator (``kernel_cache.specialise``)
+JOINT_HELPERS = (_joint_chunk,)
+COLLISION_HELPERS = (_collision_block, _collision_chunk)
 
 
 @njit(cache=True)

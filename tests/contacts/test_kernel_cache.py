@@ -16,7 +16,7 @@ from siku_core import kernel_cache
 from siku_core.contacts import (
     G_AREA, G_AREA_I, G_AREA_J, G_K, G_MEFF, G_NX, G_NY, G_SIZE, G_WIDTH, J_DT, J_EI, J_EJ,
     J_HI, J_HJ, J_K, J_L0, J_MEFF, J_NU, J_S1X, J_S1Y, J_S2X, J_S2Y, J_SIZE, J_VAX, J_VAY,
-    J_VBX, J_VBY, J_W, _collision_chunk, _collision_forces, _joint_chunk, _joint_forces,
+    J_VBX, J_VBY, J_W, COLLISION_HELPERS, JOINT_HELPERS, _collision_forces, _joint_forces,
 )
 from siku_plugins.contact_laws import (
     collision_evaluator, mohr_coulomb_evaluator, spring_evaluator,
@@ -69,13 +69,13 @@ def _mc_case(rng):
     return _joint_g(rng), pars, (rng.random(nseg) < 0.2).astype(float)
 
 
-@pytest.mark.parametrize("ev, template, chunk, case", [
-    (collision_evaluator, _collision_forces, _collision_chunk, _collision_case),
-    (spring_evaluator, _joint_forces, _joint_chunk, _spring_case),
-    (mohr_coulomb_evaluator, _joint_forces, _joint_chunk, _mc_case),
+@pytest.mark.parametrize("ev, template, helpers, case", [
+    (collision_evaluator, _collision_forces, COLLISION_HELPERS, _collision_case),
+    (spring_evaluator, _joint_forces, JOINT_HELPERS, _spring_case),
+    (mohr_coulomb_evaluator, _joint_forces, JOINT_HELPERS, _mc_case),
 ])
-def test_loops_call_a_copy_without_reference_counting(fresh_cache, ev, template, chunk, case):
-    loop = kernel_cache.specialise(template, ev, (chunk,))
+def test_loops_call_a_copy_without_reference_counting(fresh_cache, ev, template, helpers, case):
+    loop = kernel_cache.specialise(template, ev, helpers)
     free = _loop_evaluator(loop)
     assert free is not ev
     assert free.py_func.__module__.startswith(f"siku_eval_{ev.__name__}_")
@@ -113,7 +113,7 @@ def test_an_allocating_evaluator_is_used_as_it_is(fresh_cache, alloc_law):
     (an ``_nrt=False`` loop cannot call it) and calls the evaluator itself."""
     ev = alloc_law.allocating_spring
     assert kernel_cache._nrt_free(ev, "", fresh_cache) is None
-    loop = kernel_cache.specialise(_joint_forces, ev, (_joint_chunk,))
+    loop = kernel_cache.specialise(_joint_forces, ev, JOINT_HELPERS)
     assert _loop_evaluator(loop) is ev
     chunk = sys.modules[loop.py_func.__module__]._joint_chunk
     assert chunk.targetoptions.get("_nrt") is not False
