@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 from . import parallel
-from .diagnostics import all_finite, element_diagnostics, fastest, held_forces
+from .diagnostics import all_finite, element_diagnostics, fastest, held_forces, speeds_within
 from .elements import build_elements
 from . import __version__
 from .errors import NonFiniteError, SceneError, StabilityError
@@ -310,6 +310,8 @@ class Simulation:
                 bad = np.argwhere(~np.isfinite(arr.reshape(st.n, -1)))[0]
                 self._fail(f"non-finite {name} of element {int(bad[0])}")
         vmax = self.scene.cfg.run.max_speed
+        if speeds_within(st.V, vmax * vmax):
+            return
         i, speed2 = fastest(st.V)
         if st.n and speed2 > vmax * vmax:
             self._fail(
