@@ -840,8 +840,8 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
                      pretest, out, on, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
                      scale, blk):
     """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap. ``xy``,
-    ``tag``, ``proj``, ``g``, ``res``: the task's buffers (clipping, partner vertices, geometry,
-    result)."""
+    ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers (clipping, partner vertices,
+    geometry, result, a block of overlaps waiting for :func:`_collision_block`)."""
     inv_r = 1.0 / R
     no = 0
     nb = 0
