@@ -26,7 +26,7 @@ import time
 import numba
 
 from bench.scenes import KINDS, LAWS, scene
-from siku_core.contacts import collision_forces, joint_forces, rotation_matrices
+from siku_core.contacts import collision_forces, joint_forces
 from siku_core.parallel import chunks
 from siku_core.simulation import Simulation
 
@@ -48,8 +48,7 @@ def measure(kind: str, n: int, law: str | None, spinup: int, reps: int) -> dict:
     cm, st = sim.contacts, sim.state
     if cm is None:
         raise ValueError(f"bench.phase: scene {kind!r} has no contacts")
-    rotation_matrices(st.q, cm.rm, chunks(st.n))
-    pairs = cm._candidates(st.q)
+    pairs = cm._candidates(st.q, cm._rotations(st.q))
 
     def collisions():
         return collision_forces(

@@ -13,7 +13,7 @@ from numba import njit
 
 from .contacts import (
     BREAK_MODES, C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces,
-    joint_constants, joint_forces, max_moved2, rotation_matrices,
+    joint_constants, joint_forces, rotation_matrices, rotations_within,
 )
 from .errors import PluginError, SceneError
 from .geometry.clip import REL_TOL
@@ -248,11 +248,20 @@ class ContactModel:
         face[hit, 1] = np.where(same, self.jedge[n, 1], self.jedge[n, 0])
         return face
 
-    def _candidates(self, q) -> np.ndarray:
-        if self._ref_centers is not None:
-            # rebuild when some element moved more than half the skin (chord ~ angle here)
-            if max_moved2(q, self._ref_centers) <= (0.5 * self.skin) ** 2:
-                return self.pairs
+    def _rotations(self, q) -> bool:
+        """``self.rm`` for state ``q``, and whether every element is still within half the
+        skin of where it was at the last rebuild of the candidate list (one pass for both)."""
+        if self._ref_centers is None:
+            rotation_matrices(q, self.rm, chunks(q.shape[0]))
+            return False
+        return bool(rotations_within(q, self.rm, chunks(q.shape[0]), self._ref_centers,
+                                     (0.5 * self.skin) ** 2))
+
+    def _candidates(self, q, within: bool) -> np.ndarray:
+        """The candidate pairs for state ``q``: the list of the last rebuild while every element
+        is ``within`` half the skin of where it was then (chord ~ angle here), else a new one."""
+        if self._ref_centers is not None and within:
+            return self.pairs
         c = centers(q)
         pairs = np.asarray(self.broad.pairs(c, self.radii, self.skip), dtype=np.int64)
         if self.exclude_jointed and self.n_joints and len(pairs):
@@ -299,7 +308,7 @@ class ContactModel:
         law = self.law
         tm = sim.timings
         t0 = time.perf_counter()
-        rotation_matrices(q, self.rm, chunks(st.n))
+        within = self._rotations(q)
         t1 = time.perf_counter()
         joints = self.n_joints and law.uses_joints
         if joints:
@@ -313,7 +322,7 @@ class ContactModel:
                 self.n_broken_total += broke
                 self._record_breaks(t)
         t2 = time.perf_counter()
-        pairs = self._candidates(q)
+        pairs = self._candidates(q, within)
         t3 = time.perf_counter()
         if len(pairs):
             n = collision_forces(

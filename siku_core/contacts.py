@@ -490,6 +490,25 @@ C_FIX, C_FIY, C_TI, C_FJX, C_FJY, C_TJ, C_PX, C_PY = range(8)
 C_SIZE = 8
 
 
+@njit(cache=True, inline="always")
+def _rotation_row(q, rm, i):
+    """``rm[i] = R(q_i)``; returns the element's centre, ``R(q_i) e_z`` (its last column)."""
+    w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+    rm[i, 0, 0] = 1 - 2 * (y * y + z * z)
+    rm[i, 0, 1] = 2 * (x * y - w * z)
+    cx = 2 * (x * z + w * y)
+    rm[i, 0, 2] = cx
+    rm[i, 1, 0] = 2 * (x * y + w * z)
+    rm[i, 1, 1] = 1 - 2 * (x * x + z * z)
+    cy = 2 * (y * z - w * x)
+    rm[i, 1, 2] = cy
+    rm[i, 2, 0] = 2 * (x * z - w * y)
+    rm[i, 2, 1] = 2 * (y * z + w * x)
+    cz = 1 - 2 * (x * x + y * y)
+    rm[i, 2, 2] = cz
+    return cx, cy, cz
+
+
 @njit(cache=True, parallel=True)
 def rotation_matrices(q, rm, nch):
     """``rm[i] = R(q_i)`` (as :func:`~siku_core.geometry.quat.qmatrix`, bit for bit)."""
@@ -497,16 +516,28 @@ def rotation_matrices(q, rm, nch):
     for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         for i in range(lo, hi):
-            w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-            rm[i, 0, 0] = 1 - 2 * (y * y + z * z)
-            rm[i, 0, 1] = 2 * (x * y - w * z)
-            rm[i, 0, 2] = 2 * (x * z + w * y)
-            rm[i, 1, 0] = 2 * (x * y + w * z)
-            rm[i, 1, 1] = 1 - 2 * (x * x + z * z)
-            rm[i, 1, 2] = 2 * (y * z - w * x)
-            rm[i, 2, 0] = 2 * (x * z - w * y)
-            rm[i, 2, 1] = 2 * (y * z + w * x)
-            rm[i, 2, 2] = 1 - 2 * (x * x + y * y)
+            _rotation_row(q, rm, i)
+
+
+@njit(cache=True, parallel=True)
+def rotations_within(q, rm, nch, ref, lim2):
+    """:func:`rotation_matrices`, and whether every element centre ``R(q_i) e_z`` lies within
+    a squared chord ``lim2`` of its ``ref[i]`` (unit vectors, ``(N, 3)``; ``False`` for a NaN):
+    the candidate list's check (``contact.skin``) in the same pass over the elements, where
+    the centres are at hand, instead of a pass of its own on one thread."""
+    n = q.shape[0]
+    ok = np.ones(nch, dtype=np.bool_)
+    for c in prange(nch):
+        lo, hi = chunk_bounds(c, nch, n)
+        good = True
+        for i in range(lo, hi):
+            cx, cy, cz = _rotation_row(q, rm, i)
+            dx = cx - ref[i, 0]
+            dy = cy - ref[i, 1]
+            dz = cz - ref[i, 2]
+            good &= dx * dx + dy * dy + dz * dz <= lim2
+        ok[c] = good
+    return ok.all()
 
 
 @njit(cache=True)
@@ -1002,18 +1033,3 @@ def _gather_chunk(F, T, joff, jidx, jside, jout, jon, poff, pidx, pside, pout, p
         F[e, 0] = fx
         F[e, 1] = fy
         T[e] = t
-
-
-@njit(cache=True)
-def max_moved2(q, ref):
-    """Largest squared chord between element centres ``R(q) e_z`` and ``ref (N, 3)``."""
-    best = 0.0
-    for i in range(q.shape[0]):
-        w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-        dx = 2 * (x * z + w * y) - ref[i, 0]
-        dy = 2 * (y * z - w * x) - ref[i, 1]
-        dz = 1 - 2 * (x * x + y * y) - ref[i, 2]
-        d = dx * dx + dy * dy + dz * dz
-        if d > best:
-            best = d
-    return best

@@ -161,6 +161,35 @@ def speeds_within(V, lim2):
 
 
 @njit(cache=True)
+def _rows_sound(F, T, V, w, q, lim2, lo, hi):
+    """:func:`state_sound` for elements ``lo <= i < hi``."""
+    return (all_finite(F[lo:hi].reshape(-1)) and all_finite(T[lo:hi])
+            and all_finite(V[lo:hi].reshape(-1)) and all_finite(w[lo:hi])
+            and all_finite(q[lo:hi].reshape(-1)) and speeds_within(V[lo:hi], lim2))
+
+
+@njit(cache=True, parallel=True)
+def _sound_chunks(F, T, V, w, q, lim2, nch):
+    n = w.shape[0]
+    ok = np.ones(nch, dtype=np.bool_)
+    for c in prange(nch):
+        lo, hi = chunk_bounds(c, nch, n)
+        ok[c] = _rows_sound(F, T, V, w, q, lim2, lo, hi)
+    return ok.all()
+
+
+def state_sound(F, T, V, w, q, lim2, nch):
+    """The NaN guard's common case: whether every value of ``F`` (N, 2), ``T`` (N), ``V``
+    (N, 2), ``w`` (N) and ``q`` (N, 4) is finite and every element's ``Vx² + Vy²`` is at most
+    ``lim2`` [m²/s²]. With ``nch > 1`` chunks of elements, in parallel: each chunk is checked
+    by the thread that ran the same chunk of the integrator (its values are still in that
+    core's cache). :func:`all_finite` and :func:`fastest` name what failed."""
+    if nch > 1:
+        return bool(_sound_chunks(F, T, V, w, q, lim2, nch))
+    return bool(_rows_sound(F, T, V, w, q, lim2, 0, w.shape[0]))
+
+
+@njit(cache=True)
 def fastest(V):
     """``(i, |V_i|²)`` of the element with the largest ``Vx² + Vy²`` (first on ties); ``(-1, 0)``
     without elements."""

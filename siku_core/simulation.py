@@ -21,7 +21,9 @@ import numba
 import numpy as np
 
 from . import parallel
-from .diagnostics import all_finite, element_diagnostics, fastest, held_forces, speeds_within
+from .diagnostics import (
+    all_finite, element_diagnostics, fastest, held_forces, speeds_within, state_sound,
+)
 from .elements import build_elements
 from . import __version__
 from .errors import NonFiniteError, SceneError, StabilityError
@@ -45,8 +47,9 @@ RESTART_MAY_CHANGE = ("scene.time.duration", "scene.time.end", "scene.output", "
 _GUARDED = ("F", "T", "V", "w", "q")
 
 #: phases of a step timed in ``Simulation.timings`` [s], in step order: forcing sources; the
-#: contact joints; the broad phase (candidate-list checks and rebuilds); narrow phase and
-#: collision law; the per-element sums of contact forces (with the rotation matrices they use);
+#: contact joints; the broad phase (candidate-list rebuilds); narrow phase and collision law;
+#: the per-element sums of contact forces (with the rotation matrices they use, and the check
+#: whether the candidate list is due for a rebuild, done in the same pass);
 #: the integrator (its own work, without the force evaluations); the NaN guard; writers
 PHASES = ("forcing", "joints", "broad_phase", "collisions", "contact_sum", "integrator",
           "guard", "output")
@@ -304,12 +307,14 @@ class Simulation:
         """
         st = self.state
         self._guarded = self.step_index
+        vmax = self.scene.cfg.run.max_speed
+        if state_sound(st.F, st.T, st.V, st.w, st.q, vmax * vmax, parallel.chunks(st.n)):
+            return
         for name in _GUARDED:
             arr = getattr(st, name)
             if not all_finite(arr.reshape(-1)):
                 bad = np.argwhere(~np.isfinite(arr.reshape(st.n, -1)))[0]
                 self._fail(f"non-finite {name} of element {int(bad[0])}")
-        vmax = self.scene.cfg.run.max_speed
         if speeds_within(st.V, vmax * vmax):
             return
         i, speed2 = fastest(st.V)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from siku_core.diagnostics import all_finite, fastest, speeds_within
+from siku_core.diagnostics import all_finite, fastest, speeds_within, state_sound
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
@@ -33,3 +33,27 @@ def test_speeds_within_agrees_with_the_fastest_element(n):
     W[n - 1, 1] = math.nan
     assert not speeds_within(W, math.inf)
     assert speeds_within(np.empty((0, 2)), 0.0)
+
+
+def _state(n, seed):
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    return (rng.normal(0, 1e6, (n, 2)), rng.normal(0, 1e8, n), rng.normal(0, 2.0, (n, 2)),
+            rng.normal(0, 1e-4, n), q)
+
+
+@pytest.mark.parametrize("nch", [1, 3, 16])
+@pytest.mark.parametrize("n", [1, 40, 5000])
+def test_state_sound_finds_a_bad_value_in_any_array_and_chunk(n, nch):
+    nch = min(nch, n)
+    arrays = _state(n, n)
+    i, s2 = fastest(arrays[2])
+    assert state_sound(*arrays, s2, nch)
+    assert not state_sound(*arrays, np.nextafter(s2, 0.0), nch)  # the speed limit, exactly
+    for a in range(5):
+        for k in sorted({0, n // 2, n - 1}):
+            for bad in (math.nan, math.inf):
+                b = [x.copy() for x in arrays]
+                b[a].reshape(n, -1)[k, -1] = bad
+                assert not state_sound(*b, math.inf, nch)

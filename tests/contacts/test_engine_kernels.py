@@ -21,7 +21,7 @@ from numba import njit, prange
 
 import siku_core.parallel as parallel
 from siku_core.contact_model import ContactModel
-from siku_core.contacts import collision_loop, joint_loop
+from siku_core.contacts import collision_loop, joint_loop, rotation_matrices, rotations_within
 from siku_core.geometry.clip import (
     REL_TOL,
     apart,
@@ -325,3 +325,24 @@ def test_claimed_chunks_are_each_run_exactly_once(nch, nt):
     seen = np.zeros(nch, dtype=np.int64)
     _claim_all(nch, nt, seen)
     assert np.array_equal(seen, np.ones(nch, dtype=np.int64))
+
+
+@pytest.mark.parametrize("nch", [1, 4])
+def test_rotations_within_is_rotation_matrices_and_the_skin_check(nch):
+    rng = np.random.default_rng(nch)
+    n = 300
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    ref = rng.normal(size=(n, 3))
+    ref /= np.linalg.norm(ref, axis=1)[:, None]
+    rm = np.empty((n, 3, 3))
+    rotation_matrices(q, rm, nch)
+    d2 = ((rm[:, :, 2] - ref) ** 2).sum(axis=1)  # squared chords between the centres
+    lim2 = d2.max()
+    rm2 = np.full((n, 3, 3), np.nan)
+    assert rotations_within(q, rm2, nch, ref, lim2)
+    assert np.array_equal(rm2, rm)  # the same matrices, bit for bit
+    assert not rotations_within(q, rm2, nch, ref, np.nextafter(lim2, 0.0))
+    ref2 = ref.copy()
+    ref2[n - 1, 2] = np.nan
+    assert not rotations_within(q, rm2, nch, ref2, np.inf)
