@@ -52,7 +52,7 @@ def measure(kind: str, n: int, law: str | None, spinup: int, reps: int) -> dict:
 
     def collisions():
         return collision_forces(
-            cm._cev, cm._cpars, cm.rm, st.V, st.w, cm.minv, st.thickness, cm.E, st.area,
+            cm._cev, cm._cpars, cm.rm, st.V, st.w, cm.pmeff, st.thickness, cm.E, st.area,
             st.vert_offsets, st.verts, pairs, sim.radius, cm.nmax, cm.pretest, cm.pout, cm.pon,
             chunks(len(pairs)), cm.margin, cm.phint, cm.drop_touching, cm.pface, cm.scale)
 

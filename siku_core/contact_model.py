@@ -13,7 +13,7 @@ from numba import njit
 
 from .contacts import (
     BREAK_MODES, C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces,
-    joint_constants, joint_forces, rotation_matrices, rotations_within,
+    joint_constants, joint_forces, pair_masses, rotation_matrices, rotations_within,
 )
 from .errors import PluginError, SceneError
 from .geometry.clip import REL_TOL
@@ -227,6 +227,8 @@ class ContactModel:
         self.poff, self.pidx, self.pside = element_index(
             np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
         self.pface = self._faces(p)
+        #: per candidate pair: its reduced mass [kg]
+        self.pmeff = pair_masses(self.minv, p)
 
     def _faces(self, p: np.ndarray) -> np.ndarray:
         """Per candidate pair ``(i, j)``: the edges of ``i`` and of ``j`` along which the two
@@ -326,7 +328,7 @@ class ContactModel:
         t3 = time.perf_counter()
         if len(pairs):
             n = collision_forces(
-                self._cev, self._cpars, self.rm, V, w, self.minv, st.thickness,
+                self._cev, self._cpars, self.rm, V, w, self.pmeff, st.thickness,
                 self.E, st.area, st.vert_offsets, st.verts, pairs, sim.radius, self.nmax,
                 self.pretest, self.pout, self.pon, chunks(len(pairs)), self.margin,
                 self.phint, self.drop_touching, self.pface, self.scale,

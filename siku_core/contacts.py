@@ -764,7 +764,16 @@ def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
     return nb
 
 
-def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
+def pair_masses(minv, pairs):
+    """Reduced mass ``1 / (1/m_i + 1/m_j)`` [kg] of every pair ``(i, j)`` of ``pairs``, from the
+    elements' inverse masses ``minv`` [1/kg] (zero for a static or steady element): a constant
+    of the candidate list, as :func:`joint_constants` is of the joints (the same division, so
+    the same value bit for bit as computed per contact)."""
+    with np.errstate(divide="ignore"):  # two held elements are never candidates
+        return 1.0 / (minv[pairs[:, 0]] + minv[pairs[:, 1]])
+
+
+def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, on, nch, margin=None, hint=None, drop=False, face=None,
                      scale=None):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
@@ -776,8 +785,9 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     the test would have found the pair apart, and no more than the touching area where the
     test with the margin would have).
 
-    ``margin`` (per element ``i``, m; zeros by default): the test's margin; ``hint`` (per pair,
-    int16, updated): the edge that separated the pair last, tried first; ``drop``: touching
+    ``meff`` (per pair, kg): the pair's reduced mass (:func:`pair_masses`); ``margin`` (per
+    element ``i``, m; zeros by default): the test's margin; ``hint`` (per pair, int16,
+    updated): the edge that separated the pair last, tried first; ``drop``: touching
     overlaps (area at most the clip's tolerance) carry no force (``contact.touching =
     "ignore"``, with ``margin = REL_TOL L_i / 3``, so that the test settles such pairs);
     ``face`` (per pair, int16 ``(K, 2)``, ``-1`` for none): the edges of ``i`` and ``j`` the
@@ -795,15 +805,15 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     fn = specialise(_collision_forces, evaluate, COLLISION_HELPERS)
     nt = tasks(nch)
     if fn is not None:
-        return fn(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R, nmax,
+        return fn(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R, nmax,
                   pretest, out, on, nch, nt, margin, hint, drop, face, scale)
-    return _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
+    return _collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
                              pairs, R, nmax, pretest, out, on, nch, nt, margin, hint, drop, face,
                              scale)
 
 
 @njit(parallel=True)
-def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
+def _collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                       nmax, pretest, out, on, nch, nt, margin, hint, drop, face, scale):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
@@ -818,14 +828,14 @@ def _collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts
             if c >= nch:
                 break
             lo, hi = chunk_bounds(c, nch, pairs.shape[0])
-            counts[c] = _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets,
+            counts[c] = _collision_chunk(evaluate, pars, rm, V, w, meff, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, on, lo, hi, xy, tag,
                                          proj, g, res, margin, hint, drop, face, scale, blk)
     return counts.sum()
 
 
 @njit
-def _collision_block(evaluate, pars, V, w, minv, h, E, area, pairs, R, out, on, g, res, blk, nb):
+def _collision_block(evaluate, pars, V, w, meff, h, E, area, pairs, R, out, on, g, res, blk, nb):
     """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
     ``blk``, ``B_*``) into ``out`` and ``on``. Apart from the geometry that finds them, a
     contact's evaluation is a chain of dependent square roots and divisions (lever arms,
@@ -853,7 +863,7 @@ def _collision_block(evaluate, pars, V, w, minv, h, E, area, pairs, R, out, on, 
         g[G_NY] = blk[b + B_NY]
         g[G_WIDTH] = blk[b + B_WIDTH]
         g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
-        g[G_MEFF] = 1.0 / (minv[i] + minv[j])
+        g[G_MEFF] = meff[k]
         g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
         g[G_AREA_I] = area[i]
         g[G_AREA_J] = area[j]
@@ -867,7 +877,7 @@ def _collision_block(evaluate, pars, V, w, minv, h, E, area, pairs, R, out, on, 
 
 
 @njit
-def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
+def _collision_chunk(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                      pretest, out, on, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
                      scale, blk):
     """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap. ``xy``,
@@ -945,12 +955,12 @@ def _collision_chunk(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
             blk[b + B_M + m] = M[m]
         nb += 1
         if nb == CBLOCK:
-            _collision_block(evaluate, pars, V, w, minv, h, E, area, pairs, R, out, on, g, res,
+            _collision_block(evaluate, pars, V, w, meff, h, E, area, pairs, R, out, on, g, res,
                              blk, nb)
             no += nb
             nb = 0
     if nb:
-        _collision_block(evaluate, pars, V, w, minv, h, E, area, pairs, R, out, on, g, res, blk,
+        _collision_block(evaluate, pars, V, w, meff, h, E, area, pairs, R, out, on, g, res, blk,
                          nb)
         no += nb
     return no
