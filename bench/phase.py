@@ -54,7 +54,8 @@ def measure(kind: str, n: int, law: str | None, spinup: int, reps: int) -> dict:
         return collision_forces(
             cm._cev, cm._cpars, cm.rm, st.V, st.w, cm.pmeff, st.thickness, cm.E, st.area,
             st.vert_offsets, st.verts, pairs, sim.radius, cm.nmax, cm.pretest, cm.pout, cm.pon,
-            chunks(len(pairs)), cm.margin, cm.phint, cm.drop_touching, cm.pface, cm.scale)
+            chunks(len(pairs)), cm.margin, cm.phint, cm.drop_touching, cm.pface, cm.scale,
+            cm.edges)
 
     def joints():
         return joint_forces(

@@ -17,7 +17,7 @@ from .contacts import (
 )
 from .errors import PluginError, SceneError
 from .geometry.clip import REL_TOL
-from .geometry.face import joint_edges
+from .geometry.face import edge_table, joint_edges
 from .geometry.quat import centers, east_north_row, from_tangent, xyz_to_latlon
 from .interfaces import BroadPhase, ContactLaw
 from .parallel import chunks
@@ -128,6 +128,8 @@ class ContactModel:
                       if st.n else np.zeros(0))
         if self.drop_touching and st.n:
             self.margin = self.scale * (REL_TOL / 3.0)
+        #: per vertex row: the constants of the element's edge from it (geometry.face)
+        self.edges = edge_table(st.vert_offsets, st.verts)
         # contact.jointed = "exclude": pairs with an intact joint are not collision candidates
         # (filtered out at every rebuild of the list; a pair joins it when its joint breaks)
         self.exclude_jointed = cfg.jointed == "exclude"
@@ -331,7 +333,7 @@ class ContactModel:
                 self._cev, self._cpars, self.rm, V, w, self.pmeff, st.thickness,
                 self.E, st.area, st.vert_offsets, st.verts, pairs, sim.radius, self.nmax,
                 self.pretest, self.pout, self.pon, chunks(len(pairs)), self.margin,
-                self.phint, self.drop_touching, self.pface, self.scale,
+                self.phint, self.drop_touching, self.pface, self.scale, self.edges,
             )
             if commit:
                 self.n_overlap = n

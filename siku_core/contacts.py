@@ -49,7 +49,7 @@ from .geometry.clip import (
     project_partner,
     separating_edge,
 )
-from .geometry.face import touching_face
+from .geometry.face import edge_table, touching_face, touching_face_u
 from .geometry.quat import from_tangent, qrotate, qrotate_inv, to_tangent
 from .kernel_cache import specialise
 from .parallel import chunk_bounds, claim, tasks
@@ -775,7 +775,7 @@ def pair_masses(minv, pairs):
 
 def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, on, nch, margin=None, hint=None, drop=False, face=None,
-                     scale=None):
+                     scale=None, edges=None):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
     :func:`~siku_core.geometry.clip.separating_edge` finds an edge line that separates or touches
     them) and evaluate the overlapping ones into ``out[k]`` with ``on[k] = 1`` (``0`` for the
@@ -802,19 +802,21 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
         face = np.full((pairs.shape[0], 2), -1, dtype=np.int16)
     if scale is None:
         scale = np.zeros(offsets.shape[0] - 1)
+    if edges is None:
+        edges = edge_table(offsets, verts)
     fn = specialise(_collision_forces, evaluate, COLLISION_HELPERS)
     nt = tasks(nch)
     if fn is not None:
         return fn(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R, nmax,
-                  pretest, out, on, nch, nt, margin, hint, drop, face, scale)
+                  pretest, out, on, nch, nt, margin, hint, drop, face, scale, edges)
     return _collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
                              pairs, R, nmax, pretest, out, on, nch, nt, margin, hint, drop, face,
-                             scale)
+                             scale, edges)
 
 
 @njit(parallel=True)
 def _collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
-                      nmax, pretest, out, on, nch, nt, margin, hint, drop, face, scale):
+                      nmax, pretest, out, on, nch, nt, margin, hint, drop, face, scale, edges):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -830,7 +832,8 @@ def _collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts
             lo, hi = chunk_bounds(c, nch, pairs.shape[0])
             counts[c] = _collision_chunk(evaluate, pars, rm, V, w, meff, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, on, lo, hi, xy, tag,
-                                         proj, g, res, margin, hint, drop, face, scale, blk)
+                                         proj, g, res, margin, hint, drop, face, scale, blk,
+                                         edges)
     return counts.sum()
 
 
@@ -879,7 +882,7 @@ def _collision_block(evaluate, pars, V, w, meff, h, E, area, pairs, R, out, on, 
 @njit
 def _collision_chunk(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                      pretest, out, on, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
-                     scale, blk):
+                     scale, blk, edges):
     """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap. ``xy``,
     ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers (clipping, partner vertices,
     geometry, result, a block of overlaps waiting for :func:`_collision_block`)."""
@@ -909,7 +912,9 @@ def _collision_chunk(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
             fj1 = fj + 1 if fj + 1 < nj else 0
             bx, by = j_to_i(M, verts[oj + fj, 0], verts[oj + fj, 1], R, inv_r)
             ex, ey = j_to_i(M, verts[oj + fj1, 0], verts[oj + fj1, 1], R, inv_r)
-            a, cx, cy, width = touching_face(pi, fi, bx, by, ex, ey, scale[i])
+            eu = offsets[i] + fi
+            a, cx, cy, width = touching_face_u(pi, fi, bx, by, ex, ey, scale[i], edges[eu, 0],
+                                               edges[eu, 1], edges[eu, 2])
             if a == 0.0:
                 continue  # the faces touch nowhere
             if a > 0.0:

@@ -51,6 +51,34 @@ from siku_core.geometry.clip import REL_TOL
 
 
 @njit(cache=True, inline="always")
+def edge_constants(poly1, s):
+    """``|u|²``, ``1 / |u|²`` and ``|u|`` of ``poly1``'s edge ``s`` (from vertex ``s`` to
+    ``s + 1``, ``u`` in m) as :func:`touching_face` computes them: constants of a rigid
+    element, which the engine computes once (:func:`edge_table`)."""
+    n1 = poly1.shape[0]
+    s1 = s + 1 if s + 1 < n1 else 0
+    ux = poly1[s1, 0] - poly1[s, 0]
+    uy = poly1[s1, 1] - poly1[s, 1]
+    u2 = ux * ux + uy * uy
+    return u2, 1.0 / u2 if u2 > 0.0 else 0.0, math.sqrt(u2)
+
+
+@njit(cache=True)
+def edge_table(offsets, verts):
+    """:func:`edge_constants` of every edge of every element: ``(n_vertices, 3)``, row
+    ``offsets[e] + s`` for edge ``s`` of element ``e``."""
+    out = np.empty((verts.shape[0], 3))
+    for e in range(offsets.shape[0] - 1):
+        poly = verts[offsets[e]:offsets[e + 1]]
+        for s in range(poly.shape[0]):
+            u2, inv_u2, ul = edge_constants(poly, s)
+            out[offsets[e] + s, 0] = u2
+            out[offsets[e] + s, 1] = inv_u2
+            out[offsets[e] + s, 2] = ul
+    return out
+
+
+@njit(cache=True, inline="always")
 def touching_face(poly1, s, bx, by, cx, cy, scale):
     """Overlap of two jointed polygons that only touch along the joint, from the joint's edges.
 
@@ -67,6 +95,15 @@ def touching_face(poly1, s, bx, by, cx, cy, scale):
     (m², at most ``REL_TOL scale²``), the contact point, the middle of the two edges' common
     stretch [m], and the stretch's length [m] (module docstring).
     """
+    u2, inv_u2, ul = edge_constants(poly1, s)
+    return touching_face_u(poly1, s, bx, by, cx, cy, scale, u2, inv_u2, ul)
+
+
+@njit(cache=True, inline="always")
+def touching_face_u(poly1, s, bx, by, cx, cy, scale, u2, inv_u2, ul):
+    """:func:`touching_face` with its edge's constants given: ``u2 = |u|²`` [m²], ``inv_u2 =
+    1 / |u|²`` [1/m²] and ``ul = |u|`` [m] of ``poly1``'s edge ``s`` (:func:`edge_constants`,
+    a row of :func:`edge_table`)."""
     n1 = poly1.shape[0]
     ex = cx - bx
     ey = cy - by
@@ -94,7 +131,6 @@ def touching_face(poly1, s, bx, by, cx, cy, scale):
     py = poly1[s, 1]
     ux = poly1[s1, 0] - px
     uy = poly1[s1, 1] - py
-    u2 = ux * ux + uy * uy
     if not u2 > 0.0:
         return -1.0, 0.0, 0.0, 0.0
     bx -= px
@@ -107,7 +143,6 @@ def touching_face(poly1, s, bx, by, cx, cy, scale):
     if gb * gb > lim or gc * gc > lim:
         return -1.0, 0.0, 0.0, 0.0  # not face to face within the tolerance
     # the common stretch, as fractions of poly1's edge, and the penetration profile along it
-    inv_u2 = 1.0 / u2
     x0 = max(0.0, (cx * ux + cy * uy) * inv_u2)
     x1 = min(1.0, (bx * ux + by * uy) * inv_u2)
     if not x1 > x0:
@@ -122,7 +157,6 @@ def touching_face(poly1, s, bx, by, cx, cy, scale):
         fint = 0.5 * f1 * f1 / (f1 - f0)
     else:
         return 0.0, 0.0, 0.0, 0.0
-    ul = math.sqrt(u2)
     width = (x1 - x0) * ul
     # depth f / |e| integrated over the stretch
     area = fint * width / math.sqrt(e2)

@@ -26,7 +26,7 @@ from siku_core.geometry.clip import (
     project_partner,
 )
 from siku_core.geometry.clip import polygon_area_centroid as centroid
-from siku_core.geometry.face import joint_edges, touching_face
+from siku_core.geometry.face import edge_table, joint_edges, touching_face, touching_face_u
 from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 
@@ -99,6 +99,27 @@ def test_an_accepted_face_is_the_clips_touching_overlap(angles, lg_radius, edge,
         mid = P[s] + 0.5 * (x0 + x1) * (P[s1] - P[s])
         assert math.hypot(px - mid[0], py - mid[1]) <= 4.0 * EPS * scale
         assert abs(width - (x1 - x0) * L) <= 4.0 * EPS * scale
+
+
+@settings(max_examples=100, deadline=None)
+@given(polys=st.lists(polygons, min_size=2, max_size=4), lg_radius=st.floats(2.0, 4.5),
+       pick=st.integers(0, 3), edge=st.integers(0, 7), lg_depth=st.floats(-14.0, -10.0))
+def test_the_engines_edge_table_gives_the_faces_of_its_own_edges(polys, lg_radius, pick, edge,
+                                                                 lg_depth):
+    # the engine takes |u|², 1/|u|² and |u| of the joint's edge from a table of every
+    # element's edges (row offsets[e] + s); irregular polygons, so that a wrong row shows
+    P = [_mirror_pair(a, 10.0 ** lg_radius, 0)[0] for a in polys]
+    offsets = np.r_[0, np.cumsum([len(p) for p in P])]
+    table = edge_table(offsets, np.concatenate(P))
+    e = pick % len(P)
+    s = edge % len(P[e])
+    _, Q, k, u, nrm = _mirror_pair(polys[e], 10.0 ** lg_radius, s)
+    Q = Q + 10.0 ** lg_depth * np.abs(P[e]).max() * nrm  # pressed in by a hair: a face
+    k1 = (k + 1) % len(Q)
+    args = (P[e], s, Q[k, 0], Q[k, 1], Q[k1, 0], Q[k1, 1], np.abs(P[e]).max())
+    ref = touching_face(*args)
+    assert ref[0] > 0.0
+    assert touching_face_u(*args, *table[offsets[e] + s]) == ref
 
 
 def test_a_real_overlap_and_a_gap_are_not_taken_for_a_face():
