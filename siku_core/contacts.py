@@ -792,7 +792,9 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
     "ignore"``, with ``margin = REL_TOL L_i / 3``, so that the test settles such pairs);
     ``face`` (per pair, int16 ``(K, 2)``, ``-1`` for none): the edges of ``i`` and ``j`` the
     pair is jointed along, whose touching overlap :func:`~siku_core.geometry.face.touching_face`
-    finds without the clip; ``scale`` (per element, m): its largest absolute vertex coordinate.
+    finds without the clip; ``scale`` (per element, m): its largest absolute vertex coordinate;
+    ``edges`` (per vertex row): :func:`~siku_core.geometry.face.edge_table` of ``offsets,
+    verts``, the constants of the edge a jointed pair touches along (built here when not given).
     """
     if margin is None:
         margin = np.zeros(offsets.shape[0] - 1)
