@@ -36,7 +36,12 @@ import numpy as np
 from numba import njit
 
 from siku_core.contacts import j_to_i, relative_matrix
-from siku_core.geometry.clip import REL_TOL, make_overlap_scratch, overlap_inline
+from siku_core.geometry.clip import (
+    REL_TOL,
+    _unit_or_x,
+    make_overlap_scratch,
+    overlap_inline,
+)
 
 #: a vertex, piece end or edge counts as clear of the tolerance rules beyond FAST_K tol
 FAST_K = 4.0
@@ -183,13 +188,7 @@ def boundary_quads(A, B, xy, w, c2x, c2y):
             nx = -nx
             ny = -ny
     else:
-        dn = math.sqrt(c2x * c2x + c2y * c2y)
-        nx = ny = 0.0
-        if dn > tol:
-            nx = c2x / dn
-            ny = c2y / dn
-        else:
-            nx = 1.0
+        nx, ny = _unit_or_x(c2x, c2y, tol)  # the clip's fallback: towards j's centre
         p1x = p1y = p2x = p2y = 0.0
     cx = ox + mx / (3.0 * a2)
     cy = oy + my / (3.0 * a2)
