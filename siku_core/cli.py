@@ -1,7 +1,7 @@
 """Command line: ``siku run``, ``siku plugins``, and the commands plugins add.
 
 The engine's own commands are ``run``, ``warm`` and ``plugins``; every other command (``plot``,
-``ensemble`` and ``bench`` from ``siku_io``, ``lab`` from ``siku_plugins``, a third party's) is
+``ensemble``, ``grid``, ``lab``, a third party's) is
 added by the package that owns it through the ``siku_register_commands`` hook, as datasette
 plugins add commands. A command whose parser sets the default ``raw_args=True`` gets the rest
 of the command line as it is (``func(argv)``: a runner with its own options). Bad input exits

@@ -4,7 +4,7 @@ Every element comes from an element source (a plugin kind, :class:`~siku_core.in
 ElementSource`): the ``[[elements.polygon]]``, ``[[elements.pack]]`` and ``[elements.mesh]``
 tables feed the built-in ``polygon``, ``pack`` and ``mesh`` sources, and each
 ``[[elements.source]]`` table names any registered source. The engine knows only the interface;
-the sources live in the packages that own them (``siku_plugins``, ``siku_io``).
+the sources live in the packages that own them and register through the hooks.
 """
 from __future__ import annotations
 

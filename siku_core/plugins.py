@@ -1,15 +1,17 @@
 """Hook specifications, the plugin manager and the component registries.
 
-Every component, the built-in ones included, enters through the same ``pluggy`` hooks. Built-in
-modules are registered by name (like pytest's default plugins); third-party packages declare
+Every component, the built-in ones included, enters through the same ``pluggy`` hooks and the
+same entry points: a package, siku's own distribution as much as a third party's, declares
 
 .. code-block:: toml
 
     [project.entry-points.siku]
     my_plugin = "my_package.siku_plugin"
 
-and implement hooks with :data:`siku_core.hookimpl`. ``SIKU_DISABLE_PLUGIN_AUTOLOAD=1`` skips
-entry-point loading. A broken third-party plugin becomes a warning naming its package, and an
+and implements hooks with :data:`siku_core.hookimpl`. The engine holds no list of plugin
+modules. ``SIKU_DISABLE_PLUGIN_AUTOLOAD=1`` skips the entry points of every other
+distribution; those of the distribution that installed ``siku_core`` (the built-in components)
+still load. A broken third-party plugin becomes a warning naming its package, and an
 error only when a scene asks for a name it would have provided. The same holds for a component
 that fails the checks made when it registers (its interface, its parameter declarations, a
 contact law's evaluators: :func:`check_component`) and for a name two packages register: a
@@ -36,26 +38,6 @@ from .params import Param
 
 hookspec = pluggy.HookspecMarker("siku")
 hookimpl = pluggy.HookimplMarker("siku")
-
-#: built-in plugin modules, imported lazily (never by ``import siku_core``)
-DEFAULT_PLUGINS: tuple[str, ...] = (
-    "siku_plugins.integrators",
-    "siku_plugins.broad_phases",
-    "siku_plugins.contact_laws",
-    "siku_forcing.fields",
-    "siku_forcing.gridded",
-    "siku_forcing.drag",
-    "siku_forcing.waves",
-    "siku_io.hdf5",
-    "siku_io.netcdf",
-    "siku_io.coupling",
-    "siku_plugins.sources",
-    "siku_plugins.floes",
-    "siku_io.sources",
-    "siku_io.commands",
-    "siku_plugins.lab",
-)
-
 
 class SikuHookspecs:
     """Hooks a plugin may implement."""
@@ -273,8 +255,9 @@ def _check_contact_law(cls: Any, package: str) -> None:
             continue
         ev = getattr(cls, attr, None)
         if ev is None:
-            hint = (" (reuse the built-in one by subclassing "
-                    "siku_plugins.contact_laws.Collision)" if attr == "collision_evaluator"
+            hint = (" (reuse the built-in one by subclassing the law registered as "
+                    "'collision': siku_core.plugins.get_registry().get('contact_law', 'collision'))"
+                    if attr == "collision_evaluator"
                     else " (uses_joints = True asks for one)")
             raise PluginError(f"{head}: no {attr}{hint}")
         fn = getattr(ev, "py_func", None)
@@ -333,8 +316,28 @@ def check_component(kind: str, cls: Any, package: str) -> None:
 
 
 
-#: the import packages of the siku distribution (a third-party "siku_tides" is not one of them)
-_OWN_PACKAGES = frozenset({"siku_core", "siku_plugins", "siku_forcing", "siku_io"})
+def own_distribution() -> str | None:
+    """The name of the distribution that installed ``siku_core`` (``"siku"``), ``None`` when
+    it runs from a source tree without installed metadata."""
+    top = __name__.split(".")[0]
+    try:
+        dists = md.packages_distributions().get(top, [])
+    except Exception:  # pragma: no cover - metadata quirks
+        return None
+    return dists[0] if dists else None
+
+
+def _own_modules() -> frozenset[str]:
+    """Top-level import names of siku's own distribution: ``siku_core`` and the packages its
+    entry points name (read from the installed metadata, never listed here)."""
+    top = __name__.split(".")[0]
+    names = {top}
+    dist = own_distribution()
+    if dist is not None:
+        for ep in md.distribution(dist).entry_points:
+            if ep.group == "siku":
+                names.add(ep.value.split(".")[0].split(":")[0])
+    return frozenset(names)
 
 
 def package_of(cls: type) -> tuple[str, str]:
@@ -352,7 +355,7 @@ def _dist_of(module_name: str, top_map: dict[str, list[str]] | None = None) -> t
             return dists[0], md.version(dists[0])
     except Exception:  # pragma: no cover - metadata quirks
         pass
-    if top in _OWN_PACKAGES:  # siku itself, e.g. run from a source tree without metadata
+    if top in _own_modules():  # siku itself, e.g. run from a source tree without metadata
         from . import __version__
 
         return "siku", __version__
@@ -367,25 +370,36 @@ def make_plugin_manager(autoload: bool | None = None, extra: tuple[Any, ...] = (
     pm = pluggy.PluginManager("siku")
     pm.add_hookspecs(SikuHookspecs)
     reg = Registry()
-    for name in DEFAULT_PLUGINS:
-        pm.register(importlib.import_module(name), name=name)
     if autoload is None:
         autoload = os.environ.get("SIKU_DISABLE_PLUGIN_AUTOLOAD", "") not in ("1", "true", "yes")
-    if autoload:
-        for ep in md.entry_points(group="siku"):
-            if pm.get_plugin(ep.name) is not None or pm.is_blocked(ep.name):
-                continue
-            dist = ep.dist.name if ep.dist else ep.value
-            try:
-                mod = ep.load()
-            except Exception as exc:  # a broken plugin must not break every run
-                reg.broken[dist] = f"{type(exc).__name__}: {exc}"
-                warnings.warn(
-                    f"siku plugin '{ep.name}' from package '{dist}' failed to load: {exc}",
-                    stacklevel=2,
-                )
-                continue
-            pm.register(mod, name=ep.name)
+    own = own_distribution()
+    builtin = 0
+    for ep in md.entry_points(group="siku"):
+        dist = ep.dist.name if ep.dist else ep.value
+        mine = own is not None and dist == own
+        if not (mine or autoload):
+            continue
+        if pm.get_plugin(ep.value) is not None or pm.is_blocked(ep.value):
+            continue  # the same module named twice (two copies of one distribution)
+        try:
+            mod = ep.load()
+        except Exception as exc:
+            if mine:  # siku's own module: a fault of this installation, never hidden
+                raise PluginError(f"siku's own plugin module '{ep.value}' failed to load: "
+                                  f"{type(exc).__name__}: {exc}") from exc
+            reg.broken[dist] = f"{type(exc).__name__}: {exc}"  # must not break every run
+            warnings.warn(
+                f"siku plugin '{ep.name}' from package '{dist}' failed to load: {exc}",
+                stacklevel=2,
+            )
+            continue
+        pm.register(mod, name=ep.value)
+        builtin += mine
+    if not builtin:
+        raise PluginError(
+            "siku's built-in components are not registered: the package's entry points are "
+            "missing (run from a source tree?); install it with pip install -e ."
+        )
     for mod in extra:
         pm.register(mod)
     try:

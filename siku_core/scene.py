@@ -124,7 +124,7 @@ class PackCfg(_ElementCommon):
 
 class CoverCfg(_Strict):
     """``[elements.mesh.cover]``: initial ice cover from a CF NetCDF file (read by
-    ``siku_io.icecover``): concentration and thickness on a lon/lat grid (1-D or 2-D
+    the ``mesh`` element source): concentration and thickness on a lon/lat grid (1-D or 2-D
     coordinates), variable and coordinate names mapped as for gridded winds."""
 
     file: str
@@ -142,7 +142,7 @@ class CoverCfg(_Strict):
 
 class MeshCfg(_ElementCommon):
     """``[elements.mesh]``: Voronoi cells of blue-noise seeds over a lon/lat box, land removed,
-    coast and landfast cells static (built by ``siku_io.mesh``, cached in ``mesh_file``)."""
+    coast and landfast cells static (built by the ``mesh`` element source, cached in ``mesh_file``)."""
 
     lon: Pair
     lat: Pair
@@ -259,7 +259,7 @@ class OutputCfg(_Strict):
     plots: bool = Field(False, description="after the run, draw maps and an animation")
     plot_field: str | None = Field(None, description="per-element field to colour maps by")
     grid: dict[str, Any] | None = Field(None, description="gridded fields and leads written "
-                                        "after the run (siku_io.grid; keys: output.grid)")
+                                        "after the run (keys: output.grid)")
     params: dict[str, Any] = Field(default_factory=dict)
 
 
@@ -290,7 +290,7 @@ class SceneCfg(_Strict):
     output: OutputCfg = Field(default_factory=OutputCfg)
     run: RunCfg = Field(default_factory=RunCfg)
     coupling: dict[str, Any] | None = Field(None, description="exchange grid of a coupled run "
-                                            "(siku_io.coupling; keys: grid, write_output)")
+                                            "(keys: grid, write_output)")
 
     @model_validator(mode="after")
     def _materials(self) -> "SceneCfg":

@@ -80,7 +80,7 @@ def siku_register_contact_laws():
     return [Bare]
 ''', "bare_law", "contact_law",
         ["contact law 'bare_law' from package 'faulty-ice'", "no collision_evaluator",
-         "subclassing siku_plugins.contact_laws.Collision"]),
+         "subclassing the law registered as 'collision'"]),
     "not_jitted": ('''
 def plain(g, pars, hist, out):
     out[0] = 1.0

@@ -20,7 +20,7 @@ every test suite in an environment where siku is installed has these fixtures:
     entry-point path is exercised without ``pip``; everything is undone after the test.
 ``siku_dask_scheduler``
     the address of a local Dask cluster of two single-threaded worker processes, started once
-    per test session, for ``siku_io.ensemble.run(sweep, scheduler=...)``.
+    per test session, for ensemble runs on a Dask scheduler (``scheduler=...``).
 """
 from __future__ import annotations
 
