@@ -5,6 +5,14 @@ A component class declares a ``name`` (what a scene writes), a ``params`` mappin
 kind. The engine instantiates it with validated parameters: ``Comp(**params)`` is not used;
 ``Comp(params_dict)`` is, and the values are available as ``self.p``.
 
+Components see the run through a :class:`~siku_core.context.Context` (``ctx``: state, clock
+and ``dt``, scene, registry look-ups, joints, diagnostics), never the run loop itself. Every
+optional capability is declared here with its default, so the engine calls it on every
+component without looking for it: ``setup(ctx)``, ``stability_limit(ctx)`` (no limit),
+``history()`` / ``set_history(arrays)`` (no history), ``diagnostics(ctx)`` (none declared in
+``diagnostic_units``), ``scene_tables`` and ``required_one_of``; per kind: a forcing source's
+``field``, ``field_required`` and ``py_add``; a writer's ``path`` and ``read_restart``.
+
 Kinds and their entry points:
 
 ==================  ================================================================
@@ -22,6 +30,7 @@ from __future__ import annotations
 import inspect
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping
 
 import numpy as np
@@ -29,6 +38,7 @@ import numpy as np
 from .params import Param
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .context import Context
     from .simulation import Simulation
     from .state import ElementState
 
@@ -46,9 +56,14 @@ class Component(ABC):
     #: per-kind reference methods checked at registration: {method: [parameter names]}
     required: ClassVar[Mapping[str, tuple[str, ...]]] = {}
     #: diagnostics this component reports, name -> unit: a component that declares some
-    #: defines ``diagnostics(sim) -> {name: float}``, called on the diagnostics schedule; the
+    #: defines ``diagnostics(ctx) -> {name: float}``, called on the diagnostics schedule; the
     #: values go to the output file's ``/diagnostics`` and to ensemble summaries
     diagnostic_units: ClassVar[Mapping[str, str]] = {}
+    #: scene tables the component reads besides its parameters (e.g. ``"coupling.grid"``)
+    scene_tables: ClassVar[tuple[str, ...]] = ()
+    #: groups of parameters of which one must be given (e.g. ``(("file",), ("u_file",
+    #: "v_file"))``); the conformance suite reads them
+    required_one_of: ClassVar[tuple[tuple[str, ...], ...]] = ()
 
     def __init__(self, params: Mapping[str, Any] | None = None):
         full = {k: p.default for k, p in self.params.items()}
@@ -61,8 +76,27 @@ class Component(ABC):
         doc = inspect.getdoc(cls) or ""
         return doc.splitlines()[0] if doc else ""
 
-    def setup(self, sim: "Simulation") -> None:  # noqa: B027 - optional hook
-        """Called once when the simulation is built (allocate arrays, cache references)."""
+    def setup(self, ctx: "Context") -> None:  # noqa: B027 - optional hook
+        """Called once when the run is built (allocate arrays, keep ``ctx`` if the step needs
+        it)."""
+
+    def stability_limit(self, ctx: "Context") -> tuple[float, str] | None:
+        """``(dt_max [s], reason)``: the largest stable step this component allows, checked
+        against the scene's ``dt`` before the run (``None``: no limit)."""
+        return None
+
+    def diagnostics(self, ctx: "Context") -> Mapping[str, float]:
+        """Values of the diagnostics declared in :attr:`diagnostic_units`, by name."""
+        return {}
+
+    def history(self) -> dict[str, np.ndarray] | None:
+        """Arrays the component needs to restart exactly (joint damage, contact lists...),
+        written with every snapshot; ``None``: it keeps no history."""
+        return None
+
+    def set_history(self, arrays: Mapping[str, np.ndarray]) -> None:
+        """Restore what :meth:`history` returned (a restart)."""
+        raise NotImplementedError(f"{self.kind} '{self.name}' keeps no history to restore")
 
     def describe(self) -> dict[str, Any]:
         """Name and parameter values, recorded in output files."""
@@ -114,6 +148,12 @@ class ForcingSource(Component):
     required = {"add": ("t", "q", "V", "w", "F", "T")}
     #: whether the scene table may carry a ``field`` sub-table
     uses_field: ClassVar[bool] = False
+    #: whether a source that uses a field needs one (``False``: it runs without, e.g. calm)
+    field_required: ClassVar[bool] = True
+    #: a pure-Python ``py_add(t, q, V, w, F, T)`` the conformance suite compares ``add`` with
+    py_add: ClassVar[Callable[..., None] | None] = None
+    #: the velocity or wave field the engine built from the table's ``field`` (or ``None``)
+    field: "Field | None" = None
 
     @classmethod
     def accepts_field(cls, field_cls: type) -> bool:
@@ -187,22 +227,38 @@ class Writer(Component):
     """Writes element states and diagnostics on a schedule; may read restarts."""
 
     kind = "writer"
-    required = {"open": ("sim",), "write_state": ("sim",), "close": ("sim",)}
+    required = {"open": ("ctx",), "write_state": ("ctx",), "close": ("ctx",)}
+    #: the file to write, set by the engine before :meth:`open` (``[output] file`` or
+    #: ``--out``); the writer never chooses another path
+    path: "Path | None" = None
 
     @abstractmethod
-    def open(self, sim: "Simulation") -> None:
-        """Create or reopen the output."""
+    def open(self, ctx: "Context") -> None:
+        """Create the output at :attr:`path`, or reopen it to continue a restarted run."""
 
     @abstractmethod
-    def write_state(self, sim: "Simulation") -> None:
+    def write_state(self, ctx: "Context") -> None:
         """Write one snapshot of the state (enough to restart)."""
 
-    def write_diagnostics(self, sim: "Simulation", diag: Mapping[str, Any]) -> None:  # noqa: B027
+    def write_diagnostics(self, ctx: "Context", diag: Mapping[str, Any]) -> None:  # noqa: B027
         """Append one row of diagnostics."""
 
     @abstractmethod
-    def close(self, sim: "Simulation") -> None:
+    def close(self, ctx: "Context") -> None:
         """Flush and close."""
+
+    @classmethod
+    def read_restart(cls, path: "Path", ctx: "Context") -> dict[str, Any]:
+        """The last complete snapshot of ``path`` for a restart: ``step``, ``q``, ``V``,
+        ``w`` (arrays of the state's shapes), ``history`` (``{component key: {name:
+        array}}``, as :meth:`Context.history` gave when it was written), and, where the file
+        has them, ``record`` (the run record it was written with) and ``n_steps``. The engine
+        checks them against the scene and puts them into the run. The default refuses: a
+        writer whose files cannot be restarted says so."""
+        from .errors import DataError
+
+        raise DataError(f"{path}: outputs of the '{cls.name}' writer cannot be restarted; "
+                        "restart from an HDF5 output ([output] writer = \"hdf5\")")
 
 
 @dataclass

@@ -22,6 +22,7 @@ import numpy as np
 
 from . import parallel
 from .diagnostics import all_finite, element_diagnostics, fastest, held_forces, state_sound
+from .context import Context
 from .elements import build_elements
 from . import __version__
 from .errors import NonFiniteError, SceneError, StabilityError
@@ -109,6 +110,8 @@ class Simulation:
         self.rng = np.random.default_rng(self.seed)
         self.state = build_elements(scene, self.registry)
         self.step_index = 0
+        #: what components see of the run (siku_core.context): handed to their setup and hooks
+        self.context = Context(self)
         self.progress = cfg.run.progress if progress is None else progress
 
         self.integrator: Integrator = self._component(
@@ -133,7 +136,7 @@ class Simulation:
                         f"{scene.where(f'forcing[{k}].field')}: forcing source '{f.source}' "
                         f"cannot use a field of type '{f.field.type}'"
                     )
-            elif src.uses_field and getattr(src, "field_required", True):
+            elif src.uses_field and src.field_required:
                 raise SceneError(
                     f"{scene.where(f'forcing[{k}]')}: forcing source '{f.source}' needs a "
                     "'field' table, e.g. field = {type = \"uniform\", params = {u = 10.0}}"
@@ -159,7 +162,7 @@ class Simulation:
         self.diag_schedule = StepInterval.diagnostics(cfg.output.diagnostics_every, self.dt,
                                                       self.n_steps)
         for comp in self.components():
-            comp.setup(self)
+            comp.setup(self.context)
         if self.contacts is not None:
             self.contacts.setup()
         self.check_time_step()
@@ -189,7 +192,7 @@ class Simulation:
         out: list[Component] = []
         for f in self.forcing:
             out.append(f)
-            if getattr(f, "field", None) is not None:
+            if f.field is not None:
                 out.append(f.field)
         if self.contacts is not None:
             out.extend([self.contacts.broad, self.contacts.law])
@@ -200,16 +203,15 @@ class Simulation:
     def check_time_step(self) -> None:
         """Refuse (or warn on) a dt above ``dt_safety`` times the smallest component limit.
 
-        Components may define ``stability_limit(sim) -> (dt_max [s], reason) | None``.
+        Every component may declare ``stability_limit(ctx) -> (dt_max [s], reason) | None``
+        (:meth:`~siku_core.interfaces.Component.stability_limit`; the default is no limit).
         """
         run = self.scene.cfg.run
         limits = []
         for comp in [*self.components(), *([self.contacts] if self.contacts else [])]:
-            fn = getattr(comp, "stability_limit", None)
-            if fn is not None:
-                lim = fn(self)
-                if lim is not None:
-                    limits.append((lim[0], comp.name, lim[1]))
+            lim = comp.stability_limit(self.context)
+            if lim is not None:
+                limits.append((lim[0], comp.name, lim[1]))
         if not limits:
             self.critical_dt = math.inf
             return
@@ -365,7 +367,7 @@ class Simulation:
             d.update(self.contacts.diagnostics())
         for comp in self.components():
             if comp.diagnostic_units:
-                got = comp.diagnostics(self)  # type: ignore[attr-defined]
+                got = comp.diagnostics(self.context)
                 for name in comp.diagnostic_units:
                     d[name] = float(got[name])
         return d
@@ -398,7 +400,8 @@ class Simulation:
         writer_cls = type(self.writers[0]) if self.writers else self.registry.get(
             "writer", self.scene.cfg.output.writer
         )
-        data = writer_cls.read_restart(path, self)  # type: ignore[attr-defined]
+        data = writer_cls.read_restart(path, self.context)
+        self._restore(path, data)
         self.restarted_from = data["step"]
         record = data.get("record")
         if record is not None:
@@ -431,11 +434,26 @@ class Simulation:
                 f"{self.n_steps}, t = {self.time:g} s); to run longer, add --extend DURATION "
                 "(e.g. --extend 6h)")
 
+    def _restore(self, path: Path, data: dict[str, Any]) -> None:
+        """Put a writer's restart data (:meth:`~siku_core.interfaces.Writer.read_restart`) into
+        the run: the state ``q``, ``V``, ``w``, the step and every component's history."""
+        st = self.state
+        for k in ("q", "V", "w"):
+            arr = np.asarray(data[k])
+            if arr.shape != getattr(st, k).shape:
+                raise SceneError(f"{path}: restart holds {k} of shape {arr.shape}, the scene "
+                                 f"builds {getattr(st, k).shape}; restart with the scene that "
+                                 "wrote the file")
+            getattr(st, k)[...] = arr
+        self.step_index = int(data["step"])
+        self.restart_path = path
+        self.set_history_arrays(data.get("history", {}))
+
     def open_outputs(self) -> None:
         if self._opened:
             return
         for w in self.writers:
-            w.open(self)
+            w.open(self.context)
         self._opened = True
         if self.writers:  # load the output's compiled kernels now (start-up, like the step's)
             self.diagnostics()
@@ -458,10 +476,10 @@ class Simulation:
             if diagnostics and (force or self.diag_schedule.due(k, last)):
                 d = self.diagnostics()
                 for w in self.writers:
-                    w.write_diagnostics(self, d)
+                    w.write_diagnostics(self.context, d)
             if snapshot:
                 for w in self.writers:
-                    w.write_state(self)
+                    w.write_state(self.context)
         if snapshot:
             self._save_good()
         self.timings["output"] += time.perf_counter() - t0
@@ -508,12 +526,11 @@ class Simulation:
     def close(self) -> None:
         if self._opened:
             for w in self.writers:
-                w.close(self)
+                w.close(self.context)
             self._opened = False
         for f in self.forcing:
-            fld = getattr(f, "field", None)
-            if isinstance(fld, Field):
-                fld.close()
+            if isinstance(f.field, Field):
+                f.field.close()
         if self.pm is not None:
             self.pm.hook.siku_finished(simulation=self)
 
@@ -526,20 +543,21 @@ class Simulation:
     def history_arrays(self) -> dict[str, dict[str, np.ndarray]]:
         """Per-component history (joint damage, contact lists...) needed to restart exactly.
 
-        Components that keep history define ``history() -> {name: array}`` and
-        ``set_history({name: array})``.
+        Components that keep history declare it with ``history() -> {name: array}`` and
+        ``set_history({name: array})`` (:class:`~siku_core.interfaces.Component`; by default a
+        component keeps none).
         """
         out = {}
         for key, c in self._keyed_components().items():
-            fn = getattr(c, "history", None)
-            if fn is not None:
-                out[key] = fn()
+            arrays = c.history()
+            if arrays is not None:
+                out[key] = arrays
         return out
 
     def set_history_arrays(self, hist: dict[str, dict[str, np.ndarray]]) -> None:
         comps = self._keyed_components()
         for key, arrays in hist.items():
-            if key not in comps or not hasattr(comps[key], "set_history"):
+            if key not in comps or comps[key].history() is None:
                 raise SceneError(
                     f"{self.scene.label}: restart holds history for '{key}', which this scene "
                     "does not have; restart with the scene that wrote the file"

@@ -144,7 +144,7 @@ class HDF5Writer(Writer):
     }
 
     # -------------------------------------------------------------- opening
-    def open(self, sim) -> None:
+    def open(self, ctx) -> None:
         import h5py
 
         self.target = Path(self.path)
@@ -165,12 +165,12 @@ class HDF5Writer(Writer):
             self.target.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise DataError(f"{self.target}: cannot create its folder: {exc}") from None
-        self._check_space(sim)
+        self._check_space(ctx)
         swmr = False
         try:
             self.f = h5py.File(self.partial, "w", libver="latest")
-            self._layout(sim)
-            self._copied = self._copy_restart(sim)
+            self._layout(ctx)
+            self._copied = self._copy_restart(ctx)
             swmr = True
             self.f.swmr_mode = True
             self.lock = RunLock(self.partial)
@@ -185,22 +185,22 @@ class HDF5Writer(Writer):
             self._publish()
         self._ino = os.stat(self.partial if not self.published else self.target).st_ino
 
-    def _check_space(self, sim) -> None:
+    def _check_space(self, ctx) -> None:
         """Refuse to start when the disk (or the file-size limit) cannot hold the file with its
         first snapshot, and warn when it cannot hold the whole run."""
         import resource
         import shutil
         import warnings
 
-        rows = self._state_rows(sim)
+        rows = self._state_rows(ctx)
         row = sum(np.asarray(v).nbytes for v in rows.values()) + 8
-        n_diag = len(sim.diagnostics())
-        geometry = sum(np.asarray(getattr(sim.state, k)).nbytes for k in _GEOMETRY)
+        n_diag = len(ctx.diagnostics())
+        geometry = sum(np.asarray(getattr(ctx.state, k)).nbytes for k in _GEOMETRY)
         series = n_diag + 8 + sum(np.ndim(v) == 0 for v in rows.values())  # 2 KiB chunks
         first = 32768 + 2560 * series + 512 * (len(rows) + len(_GEOMETRY)) + geometry + row + len(
-            sim.scene.text)
-        snaps = sim.n_steps // max(sim.state_schedule.every, 1) + 2
-        diags = sim.n_steps // max(sim.diag_schedule.every, 1) + 2
+            ctx.scene.text)
+        snaps = ctx.n_steps // max(ctx.snapshot_every, 1) + 2
+        diags = ctx.n_steps // max(ctx.diagnostics_every, 1) + 2
         whole = first + snaps * row + diags * 8 * n_diag
         free = shutil.disk_usage(self.target.parent).free
         limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
@@ -215,47 +215,47 @@ class HDF5Writer(Writer):
                           f"{free / 1e6:.3g} MB are free; it stops with a message naming the last "
                           "snapshot on disk if the disk fills", stacklevel=2)
 
-    def _layout(self, sim) -> None:
+    def _layout(self, ctx) -> None:
         f = self.f
-        st = sim.state
+        st = ctx.state
         f.attrs["siku_version"] = __version__
         f.attrs["layout"] = LAYOUT
-        f.attrs["title"] = sim.scene.cfg.title
-        f.attrs["scene_file"] = str(sim.scene.path or "")
-        f.attrs["scene_sha256"] = hashlib.sha256(sim.scene.text.encode()).hexdigest()
-        f.attrs["dt"] = sim.dt
-        f.attrs["dt_requested"] = getattr(sim, "dt_requested", sim.dt)
-        f.attrs["start"] = sim.start.isoformat() if sim.start else ""
-        f.attrs["n_steps"] = sim.n_steps
-        f.attrs["seed"] = sim.seed
+        f.attrs["title"] = ctx.scene.cfg.title
+        f.attrs["scene_file"] = str(ctx.scene.path or "")
+        f.attrs["scene_sha256"] = hashlib.sha256(ctx.scene.text.encode()).hexdigest()
+        f.attrs["dt"] = ctx.dt
+        f.attrs["dt_requested"] = ctx.dt_requested
+        f.attrs["start"] = ctx.start.isoformat() if ctx.start else ""
+        f.attrs["n_steps"] = ctx.n_steps
+        f.attrs["seed"] = ctx.seed
         f.attrs["n_elements"] = st.n
-        f.attrs["radius"] = sim.radius
-        f.create_dataset("scene", data=sim.scene.text)
-        f.create_dataset("run_record", data=json.dumps(sim.run_record(), default=str))
+        f.attrs["radius"] = ctx.radius
+        f.create_dataset("scene", data=ctx.scene.text)
+        f.create_dataset("run_record", data=json.dumps(ctx.run_record(), default=str))
         g = f.create_group("plugins")
-        for pkg, ver in sim.plugin_versions().items():
+        for pkg, ver in ctx.plugin_versions().items():
             g.attrs[pkg] = ver
         f.create_dataset("components", data=json.dumps(
-            [dict(kind=c.kind, **c.describe()) for c in sim.components()], default=str))
+            ctx.component_descriptions(), default=str))
         geo = f.create_group("geometry")
         for k in _GEOMETRY:
             geo.create_dataset(k, data=getattr(st, k))
         s = f.create_group("states")
         self.rows = {}
-        for name, row in self._state_rows(sim, fields=True).items():
+        for name, row in self._state_rows(ctx, fields=True).items():
             self.rows[name] = _create(s, name, row, self.comp)
         self.step_ds = _create(s, "step", np.int64(0), None)
         self.diag = {}
         dg = f.create_group("diagnostics")
         from siku_core.diagnostics import catalogue
 
-        known = catalogue(sim.registry)
-        for k, v in sim.diagnostics().items():
+        known = catalogue(ctx.registry)
+        for k, v in ctx.diagnostics().items():
             self.diag[k] = _create(dg, k, np.asarray(v), None)
             if k in known:
                 self.diag[k].attrs["units"], self.diag[k].attrs["long_name"] = known[k]
         self.breaks = None
-        if sim.contacts is not None and sim.contacts.n_joints:
+        if ctx.contacts is not None and ctx.contacts.n_joints:
             from siku_core.contacts import BREAK_MODES
 
             b = f.create_group("breaks")
@@ -266,9 +266,9 @@ class HDF5Writer(Writer):
                     "mode": np.int8(0)}
             self.breaks = {k: b.create_dataset(k, shape=(0,), maxshape=(None,), dtype=v.dtype,
                                                chunks=(256,)) for k, v in cols.items()}
-        self._describe(sim, known)
+        self._describe(ctx, known)
 
-    def _describe(self, sim, diagnostics) -> None:
+    def _describe(self, ctx, diagnostics) -> None:
         """``units`` and ``long_name`` on every dataset (``siku_io.layout``), CF flag meanings
         on the coded ones, and the epoch of the time axes when the scene has a start."""
         from siku_core.contacts import BREAK_MODES
@@ -276,7 +276,7 @@ class HDF5Writer(Writer):
 
         from .layout import describe, flag_attrs
 
-        epoch = sim.start.strftime("%Y-%m-%d %H:%M:%S") if sim.start else None
+        epoch = ctx.start.strftime("%Y-%m-%d %H:%M:%S") if ctx.start else None
         for path in _leaves(self.f):
             ds = self.f[path]
             units, long_name = describe(path, diagnostics)
@@ -289,31 +289,31 @@ class HDF5Writer(Writer):
         if self.breaks is not None:
             self.breaks["mode"].attrs.update(flag_attrs(BREAK_MODES, np.int8))
 
-    def _state_rows(self, sim, fields: bool = True) -> dict[str, np.ndarray]:
+    def _state_rows(self, ctx, fields: bool = True) -> dict[str, np.ndarray]:
         """Every per-snapshot dataset's row for the current state, by path in ``/states``."""
-        st = sim.state
+        st = ctx.state
         lat, lon = latlon_of(st.q)
-        rows = {"time": np.float64(sim.time), "q": st.q, "V": st.V, "w": st.w,
+        rows = {"time": np.float64(ctx.time), "q": st.q, "V": st.V, "w": st.w,
                 "lat": np.degrees(lat), "lon": np.degrees(lon)}
-        for name, val in sim.element_fields().items():
+        for name, val in ctx.element_fields().items():
             rows[f"fields/{name}"] = np.asarray(val)
-        for key, arrays in sim.history_arrays().items():
+        for key, arrays in ctx.history().items():
             for name, arr in arrays.items():
                 rows[f"history/{key}/{name}"] = np.asarray(arr)
         return rows
 
-    def _copy_restart(self, sim) -> bool:
+    def _copy_restart(self, ctx) -> bool:
         """Continuing the file a restart read: copy its complete snapshots, the diagnostics up
         to the restart step and the breaks before it. ``False`` when writing another file."""
         if self._again:
-            src, step = self.target, sim.step_index
+            src, step = self.target, ctx.step_index
         else:
-            src = getattr(sim, "restart_path", None)
-            if sim.restarted_from is None or src is None or not self.target.exists():
+            src = ctx.restart_path
+            if ctx.restarted_from is None or src is None or not self.target.exists():
                 return False
             if not os.path.samefile(src, self.target):
                 return False
-            step = sim.restarted_from
+            step = ctx.restarted_from
         with open_results(src) as g:
             n = n_snapshots(g)
             s = g["states"]
@@ -338,32 +338,32 @@ class HDF5Writer(Writer):
             if self.breaks is not None and "breaks" in g:
                 b = g["breaks"]
                 t = b["time"][:b["time"].shape[0]]
-                keep = int(np.count_nonzero(t < step * sim.dt))
+                keep = int(np.count_nonzero(t < step * ctx.dt))
                 for k, ds in self.breaks.items():
                     _extend(ds, b[k][:keep])
-        self._last_state = (step, step * sim.dt)
+        self._last_state = (step, step * ctx.dt)
         return True
 
     # -------------------------------------------------------------- writing
-    def write_state(self, sim) -> None:
-        if self._last_state is not None and self._last_state[0] == sim.step_index:
+    def write_state(self, ctx) -> None:
+        if self._last_state is not None and self._last_state[0] == ctx.step_index:
             return
-        data = [(self.rows[k], v) for k, v in self._state_rows(sim).items() if k in self.rows]
-        markers = [(self.step_ds, np.int64(sim.step_index))]
-        ddata, dmarkers = self._diagnostics_upto(sim.step_index)
+        data = [(self.rows[k], v) for k, v in self._state_rows(ctx).items() if k in self.rows]
+        markers = [(self.step_ds, np.int64(ctx.step_index))]
+        ddata, dmarkers = self._diagnostics_upto(ctx.step_index)
         data += ddata
         markers = dmarkers + markers
-        cm = sim.contacts
+        cm = ctx.contacts
         if self.breaks is not None and cm is not None:
             rows = cm.take_breaks()
             data += [(self.breaks[k], v) for k, v in rows.items() if k != "time"]
             markers.insert(0, (self.breaks["time"], rows["time"]))
-        self._commit(data, markers, f"the snapshot at step {sim.step_index}")
-        self._last_state = (sim.step_index, sim.time)
+        self._commit(data, markers, f"the snapshot at step {ctx.step_index}")
+        self._last_state = (ctx.step_index, ctx.time)
         if not self.published:
             self._publish()
 
-    def write_diagnostics(self, sim, diag: Mapping[str, Any]) -> None:
+    def write_diagnostics(self, ctx, diag: Mapping[str, Any]) -> None:
         """Keep one row of diagnostics; the rows go to the file with the next snapshot (one
         write per series instead of one per row), so the file's diagnostics end where its
         snapshots end."""
@@ -452,7 +452,7 @@ class HDF5Writer(Writer):
         except OSError:
             pass
 
-    def close(self, sim) -> None:
+    def close(self, ctx) -> None:
         f = getattr(self, "f", None)
         if f is not None and f.id.valid:
             try:
@@ -464,9 +464,10 @@ class HDF5Writer(Writer):
 
     # -------------------------------------------------------------- restart
     @classmethod
-    def read_restart(cls, path, sim) -> dict:
-        """Load the last complete snapshot of ``path`` into ``sim`` (state and every
-        component's history); returns ``step`` and the file's ``record`` and ``n_steps``."""
+    def read_restart(cls, path, ctx) -> dict:
+        """The last complete snapshot of ``path``: ``step``, ``q``, ``V``, ``w``, every
+        component's ``history``, and the file's ``record`` and ``n_steps`` (the engine puts
+        them into the run: :meth:`siku_core.interfaces.Writer.read_restart`)."""
         path = Path(path)
         if not path.is_file():
             raise DataError(f"{path}: restart file not found")
@@ -475,14 +476,9 @@ class HDF5Writer(Writer):
         except OSError as exc:
             raise DataError(f"{path}: cannot read restart file: {exc}") from None
         N = last["q"].shape[0]
-        if N != sim.state.n:
-            raise DataError(f"{path}: restart has {N} elements but the scene builds {sim.state.n}")
-        for k in ("q", "V", "w"):
-            getattr(sim.state, k)[...] = last[k]
-        sim.step_index = last["step"]
-        sim.restart_path = path
-        sim.set_history_arrays(last["history"])
-        return {k: last[k] for k in ("step", "record", "n_steps")}
+        if N != ctx.state.n:
+            raise DataError(f"{path}: restart has {N} elements but the scene builds {ctx.state.n}")
+        return {k: last[k] for k in ("step", "q", "V", "w", "history", "record", "n_steps")}
 
 
 def _leaves(group, prefix: str = "") -> list[str]:

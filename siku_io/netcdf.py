@@ -181,7 +181,7 @@ class NetCDFWriter(Writer):
                           "(node_lon_t, node_lat_t)", type=bool),
     }
 
-    def open(self, sim) -> None:
+    def open(self, ctx) -> None:
         import netCDF4
 
         from siku_core.outputs import RunLock, partial_path
@@ -198,7 +198,7 @@ class NetCDFWriter(Writer):
             self.target.parent.mkdir(parents=True, exist_ok=True)
             self.nc = netCDF4.Dataset(self.partial, "ws", format="NETCDF3_64BIT_OFFSET")
             self.nc.set_fill_on()
-            self._define(sim)
+            self._define(ctx)
             self.nc.sync()
             self.lock = RunLock(self.partial)
         except (OSError, RuntimeError, ValueError) as exc:
@@ -206,24 +206,24 @@ class NetCDFWriter(Writer):
             raise DataError(f"{self.target}: cannot create the output file: {exc}; nothing "
                             "written (an existing file is untouched)") from None
 
-    def _define(self, sim) -> None:
+    def _define(self, ctx) -> None:
         from siku_core.state import FLAG_NAMES
 
         from .layout import FIELDS, describe
         from .plot import polygons_lonlat
 
-        nc, st = self.nc, sim.state
-        start = sim.start.isoformat() if sim.start else ""
+        nc, st = self.nc, ctx.state
+        start = ctx.start.isoformat() if ctx.start else ""
         from siku_core import __version__
 
-        attrs = {"siku_version": __version__, "title": sim.scene.cfg.title, "start": start,
-                 "dt": sim.dt,
-                 "dt_requested": getattr(sim, "dt_requested", sim.dt), "seed": sim.seed, "radius": sim.radius, "n_elements": st.n,
-                 "n_steps": sim.n_steps}
-        attrs["source"] = f"siku {__version__} run of {sim.scene.path or 'a scene'}"
+        attrs = {"siku_version": __version__, "title": ctx.scene.cfg.title, "start": start,
+                 "dt": ctx.dt,
+                 "dt_requested": ctx.dt_requested, "seed": ctx.seed, "radius": ctx.radius, "n_elements": st.n,
+                 "n_steps": ctx.n_steps}
+        attrs["source"] = f"siku {__version__} run of {ctx.scene.path or 'a scene'}"
         g = global_attrs(attrs)
-        g["siku_scene"] = sim.scene.text
-        g["siku_plugins"] = json.dumps(sim.plugin_versions())
+        g["siku_scene"] = ctx.scene.text
+        g["siku_plugins"] = json.dumps(ctx.plugin_versions())
         nc.setncatts(g)
         N = st.n
         nodes = len(st.verts)
@@ -241,7 +241,7 @@ class NetCDFWriter(Writer):
         v = nc.createVariable("element", "i4", ("element",))
         v.setncatts({"cf_role": "trajectory_id", "long_name": "element index"})
         v[:] = np.arange(N, dtype=np.int32)
-        self.fields = list(sim.element_fields())
+        self.fields = list(ctx.element_fields())
         per = {"lon": ("degrees_east", "longitude", "longitude of the element centroid"),
                "lat": ("degrees_north", "latitude", "latitude of the element centroid"),
                "u": ("m s-1", "eastward_sea_ice_velocity", "eastward velocity of the centroid"),
@@ -285,7 +285,7 @@ class NetCDFWriter(Writer):
         v = nc.createVariable("node_count", "i4", ("element",))
         v.long_name = "number of vertices of each element's polygon"
         v[:] = np.diff(st.vert_offsets).astype(np.int32)
-        ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, sim.radius)
+        ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, ctx.radius)
         flat = np.concatenate(ll) if ll else np.zeros((0, 2))
         for k, col, u, std, ax in (("node_lon", 0, "degrees_east", "longitude", "X"),
                                    ("node_lat", 1, "degrees_north", "latitude", "Y")):
@@ -299,48 +299,48 @@ class NetCDFWriter(Writer):
                 v = nc.createVariable(k, "f8", ("time", "node"), fill_value=np.nan)
                 v.setncatts({"units": u, "long_name": f"{ln} of the polygon vertices"})
 
-    def write_state(self, sim) -> None:
+    def write_state(self, ctx) -> None:
         from siku_core.geometry.quat import latlon_of
 
         from .plot import polygons_lonlat
         from .xr import east_north
 
-        if self._last == sim.step_index or self.nc is None:
+        if self._last == ctx.step_index or self.nc is None:
             return
-        st = sim.state
+        st = ctx.state
         t = self.t
         lat, lon = latlon_of(st.q)
         u, v = east_north(st.q, st.V)
         rows = {"lon": np.degrees(lon), "lat": np.degrees(lat), "u": u, "v": v, "spin": st.w}
-        rows.update({k: np.asarray(a, float) for k, a in sim.element_fields().items()
+        rows.update({k: np.asarray(a, float) for k, a in ctx.element_fields().items()
                      if k in self.fields})
         if self.p["outlines"]:
-            ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, sim.radius)
+            ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, ctx.radius)
             flat = np.concatenate(ll) if ll else np.zeros((0, 2))
             rows["node_lon_t"], rows["node_lat_t"] = flat[:, 0], flat[:, 1]
         try:
             # time first (it grows the record: the other variables get missing values), step
             # last: a kill in between leaves a record with its time and missing values
-            self.nc["time"][t] = sim.time
+            self.nc["time"][t] = ctx.time
             for k, a in rows.items():
                 self.nc[k][t] = a
             self.nc.sync()
-            self.nc["step"][t] = np.int32(sim.step_index)
+            self.nc["step"][t] = np.int32(ctx.step_index)
             self.nc.sync()
         except (OSError, RuntimeError) as exc:
-            self._fail(exc, sim)
+            self._fail(exc, ctx)
         self.t += 1
-        self._last = sim.step_index
+        self._last = ctx.step_index
         if not self.published:
             from siku_core.outputs import publish
 
             publish(self.partial, self.target, replace=self.replace)
             self.published = True
 
-    def write_diagnostics(self, sim, diag) -> None:
+    def write_diagnostics(self, ctx, diag) -> None:
         """Diagnostics are not part of this layout (the HDF5 writer keeps them)."""
 
-    def _fail(self, exc, sim):
+    def _fail(self, exc, ctx):
         from siku_core.outputs import is_disk_full
 
         why = "disk full" if is_disk_full(exc) else f"write failed ({exc})"
@@ -353,7 +353,7 @@ class NetCDFWriter(Writer):
             self._discard()
             raise DataError(f"{self.target}: {why}; nothing written (an existing file is "
                             "untouched)") from None
-        raise DataError(f"{self.target}: {why} at step {sim.step_index}; the file holds "
+        raise DataError(f"{self.target}: {why} at step {ctx.step_index}; the file holds "
                         f"{self.t} complete snapshots") from None
 
     def _discard(self) -> None:
@@ -368,7 +368,7 @@ class NetCDFWriter(Writer):
         except OSError:
             pass
 
-    def close(self, sim) -> None:
+    def close(self, ctx) -> None:
         from siku_core.outputs import settle
 
         if getattr(self, "nc", None) is not None:
@@ -380,7 +380,7 @@ class NetCDFWriter(Writer):
         settle(self)
 
     @classmethod
-    def read_restart(cls, path, sim) -> dict:
+    def read_restart(cls, path, ctx) -> dict:
         raise DataError(f"{path}: a restart reads an HDF5 output ([output] writer = \"hdf5\"); "
                         "the NetCDF writer keeps no component history")
 

@@ -91,9 +91,9 @@ def _missing(cls: type, given: Mapping[str, Any], prefix: str = "") -> tuple[str
         f"{prefix}{k}" for k, p in cls.params.items() if p.default is None and k not in given
     )
     # scene tables the component reads besides its parameters (the exchange grid of a coupling)
-    out += tuple(f"{prefix}[{t}] table" for t in getattr(cls, "scene_tables", ()))
+    out += tuple(f"{prefix}[{t}] table" for t in cls.scene_tables)
     # a component may need one of several parameter groups (a gridded field: its data files)
-    groups = getattr(cls, "required_one_of", ())
+    groups = cls.required_one_of
     if groups and not any(all(k in given for k in g) for g in groups):
         out += (prefix + " or ".join(" and ".join(g) for g in groups),)
     return out
@@ -120,11 +120,11 @@ def forcing_cases(
         cls = reg.get("forcing", name)
         sp = dict(source_params.get(name, {}))
         common = {"source": name, "params": sp, "uses_field": bool(cls.uses_field),
-                  "has_py_add": callable(getattr(cls, "py_add", None))}
+                  "has_py_add": callable(cls.py_add)}
         if not cls.uses_field:
             cases.append(ForcingCase(**common, missing=_missing(cls, sp)))
             continue
-        if not getattr(cls, "field_required", True):
+        if not cls.field_required:
             cases.append(ForcingCase(**common, missing=_missing(cls, sp)))
         for fname in field_names:
             fcls = reg.get("field", fname)
@@ -209,7 +209,7 @@ def check_forcing_zero_field(
     if not src.uses_field:
         raise ValueError(f"{case.id}: not a drag (takes no field)")
     zero = src.zero_field() or ZeroField({})
-    zero.setup(sim)
+    zero.setup(sim.context)
     src.field = zero  # type: ignore[attr-defined]
     st = sim.state
     rest = (st.q.copy(), np.zeros_like(st.V), np.zeros_like(st.w))
@@ -256,7 +256,7 @@ def check_forcing_matches_python(
 ) -> None:
     """The compiled ``add`` agrees with the source's pure-Python reference ``py_add``."""
     sim, src = build_forcing(case, registry)
-    ref = getattr(src, "py_add", None)
+    ref = src.py_add
     if ref is None:
         raise ValueError(f"{case.id}: the source has no py_add reference")
     st = sim.state
@@ -300,7 +300,7 @@ def check_field_finite(
     fld = cls(validate_params(name, cls.params, params or {}, f"<conformance field {name}>"))
     sim = Simulation(make_scene(**conformance_scene_kwargs()), out=False, progress=False,
                      registry=registry)
-    fld.setup(sim)
+    fld.setup(sim.context)
     lat = np.radians([90.0, -90.0, 0.0, 0.0, 70.0, -60.0, 75.0, 89.999])
     lon = np.radians([0.0, 0.0, 180.0, -180.0, 179.999, 30.0, -150.0, 45.0])
     try:

@@ -1,0 +1,205 @@
+"""What a component sees of the run: the narrow context passed to every plugin.
+
+A component (integrator, forcing source, field, broad phase, contact law, writer) is handed a
+:class:`Context` in ``setup(ctx)``, ``stability_limit(ctx)``, ``diagnostics(ctx)`` and, for
+writers, ``open``/``write_state``/``write_diagnostics``/``close``/``read_restart``; it keeps
+the reference if it needs it during the step. The context is the whole contract between a
+component and the engine: nothing else of the run loop is reachable from it, so the loop can
+change without breaking plugins. Drivers that own a run (the BMI, ensembles, the virtual ice
+tests) hold the :class:`~siku_core.simulation.Simulation` itself, not a context.
+
+What it offers, by purpose:
+
+========================  =============================================================
+state and planet          ``state`` (:class:`~siku_core.state.ElementState`, arrays in SI
+                          units), ``radius`` [m], ``rotation_rate`` [rad/s]
+clock                     ``dt`` [s], ``time`` [s since start], ``step_index``,
+                          ``n_steps``, ``start`` (``datetime`` or ``None``),
+                          ``datetime_at(t)``, ``committing`` (the first force
+                          evaluation of a step: the one whose joint changes count)
+scene                     ``scene`` (the loaded :class:`~siku_core.scene.Scene`, read
+                          only), ``seed``, ``where(table)`` (a message prefix naming the
+                          file and table)
+registry                  ``registry`` (look-ups by kind and name),
+                          ``component(kind, name, params, table)`` (build a validated
+                          component, e.g. a field a source makes itself)
+joints and contacts       ``contacts``: the run's contact model or ``None`` (joint lines,
+                          floes, ``break_joints``)
+diagnostics and fields    ``diagnostics()``, ``element_fields()``, ``timings``
+                          (seconds per phase, :data:`~siku_core.simulation.PHASES`)
+what writers record       ``run_record()``, ``history()``, ``component_descriptions()``,
+                          ``plugin_versions()``, ``snapshot_every``, ``diagnostics_every``
+                          (steps), ``restarted_from``, ``restart_path`` (where a restart
+                          continued from), ``dt_requested``
+========================  =============================================================
+"""
+from __future__ import annotations
+
+import datetime as _dt
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pathlib import Path
+
+    import numpy as np
+
+    from .interfaces import Component
+    from .plugins import Registry
+    from .scene import Scene
+    from .simulation import Simulation
+    from .state import ElementState
+
+
+class Context:
+    """The run as a component sees it (see the module docstring for the members)."""
+
+    __slots__ = ("_sim",)
+
+    def __init__(self, sim: "Simulation"):
+        self._sim = sim
+
+    def __repr__(self) -> str:
+        s = self._sim
+        return (f"<siku Context: {s.state.n} elements, step {s.step_index} of {s.n_steps}, "
+                f"dt = {s.dt:g} s>")
+
+    # ------------------------------------------------------------------ state and planet
+    @property
+    def state(self) -> "ElementState":
+        """The element state (arrays are updated in place by the integrator)."""
+        return self._sim.state
+
+    @property
+    def radius(self) -> float:
+        """Planet radius [m]."""
+        return self._sim.radius
+
+    @property
+    def rotation_rate(self) -> float:
+        """Planet rotation rate [rad/s]."""
+        return self._sim.rotation_rate
+
+    # ------------------------------------------------------------------ clock
+    @property
+    def dt(self) -> float:
+        """The time step [s] (as fitted to the output times)."""
+        return self._sim.dt
+
+    @property
+    def time(self) -> float:
+        """Model time since the start [s]."""
+        return self._sim.time
+
+    @property
+    def step_index(self) -> int:
+        """Steps taken since the start of the run (a restart continues the count)."""
+        return self._sim.step_index
+
+    @property
+    def n_steps(self) -> int:
+        """Steps of the whole run."""
+        return self._sim.n_steps
+
+    @property
+    def start(self) -> _dt.datetime | None:
+        """The scene's start date (UTC), ``None`` for a run in model time only."""
+        return self._sim.start
+
+    def datetime_at(self, t: float) -> _dt.datetime | None:
+        """The date at model time ``t`` [s], ``None`` without a start date."""
+        return self._sim.datetime_at(t)
+
+    @property
+    def committing(self) -> bool:
+        """True during the first force evaluation of a step, the one whose joint history and
+        breaks count (a component that changes joints acts only then)."""
+        return self._sim.committing
+
+    # ------------------------------------------------------------------ scene
+    @property
+    def scene(self) -> "Scene":
+        """The scene of the run (validated configuration ``scene.cfg``, text, path)."""
+        return self._sim.scene
+
+    @property
+    def seed(self) -> int:
+        """The run's seed (``[run] seed``)."""
+        return self._sim.seed
+
+    def where(self, table: str) -> str:
+        """``"FILE [table]"``: the prefix of a message about a scene table."""
+        return self._sim.scene.where(table)
+
+    # ------------------------------------------------------------------ registry
+    @property
+    def registry(self) -> "Registry":
+        """The component registry of the run."""
+        return self._sim.registry
+
+    def component(self, kind: str, name: str, params: dict, table: str) -> "Component":
+        """A component of ``kind`` registered as ``name`` (or ``package.module:Class``), with
+        ``params`` validated as for the scene table ``table`` (messages name it)."""
+        return self._sim._component(kind, name, params, table)
+
+    # ------------------------------------------------------------------ joints and contacts
+    @property
+    def contacts(self) -> Any:
+        """The run's contact model (joints, candidate pairs, the law), ``None`` without a
+        ``[contact]`` table."""
+        return self._sim.contacts
+
+    # ------------------------------------------------------------------ diagnostics, fields
+    def diagnostics(self) -> dict[str, Any]:
+        """The diagnostics of the current state (``siku_core.diagnostics.DIAGNOSTICS``)."""
+        return self._sim.diagnostics()
+
+    def element_fields(self) -> dict[str, "np.ndarray"]:
+        """Per-element fields for maps and outputs (speed, damage, stress)."""
+        return self._sim.element_fields()
+
+    @property
+    def timings(self) -> dict[str, float]:
+        """Wall time [s] spent in each phase of the step since the last reset."""
+        return self._sim.timings
+
+    # ------------------------------------------------------------------ what writers record
+    def run_record(self) -> dict[str, Any]:
+        """What the results depend on: effective scene, components, versions, seed, dt."""
+        return self._sim.run_record()
+
+    def history(self) -> dict[str, dict[str, "np.ndarray"]]:
+        """Every component's history needed to restart exactly, by component key."""
+        return self._sim.history_arrays()
+
+    def component_descriptions(self) -> list[dict[str, Any]]:
+        """Kind, name and parameters of every component of the run, in step order."""
+        return [dict(kind=c.kind, **c.describe()) for c in self._sim.components()]
+
+    def plugin_versions(self) -> dict[str, str]:
+        """Packages that provided the run's components, with versions."""
+        return self._sim.plugin_versions()
+
+    @property
+    def snapshot_every(self) -> int:
+        """Steps between state snapshots."""
+        return self._sim.state_schedule.every
+
+    @property
+    def diagnostics_every(self) -> int:
+        """Steps between rows of diagnostics."""
+        return self._sim.diag_schedule.every
+
+    @property
+    def restarted_from(self) -> int | None:
+        """The step a restarted run continued from, ``None`` for a fresh run."""
+        return self._sim.restarted_from
+
+    @property
+    def restart_path(self) -> "Path | None":
+        """The file a restarted run continued from, ``None`` for a fresh run."""
+        return self._sim.restart_path
+
+    @property
+    def dt_requested(self) -> float:
+        """The scene's ``dt`` [s] before it was fitted to the output times (:attr:`dt`)."""
+        return self._sim.dt_requested
