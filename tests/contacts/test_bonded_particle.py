@@ -372,7 +372,7 @@ def test_joint_broken_from_outside_the_law_carries_no_force_and_is_recorded(tmp_
     assert cm.break_joints(np.array([0]), BREAK_EXTERNAL, sim.time) == 0  # already broken
     F, _ = contact_forces(sim)
     assert not F.any()
-    assert cm.bmode[0] == BREAK_EXTERNAL and cm.break_time[0] == pytest.approx(0.5)
+    assert cm.break_mode[0] == BREAK_EXTERNAL and cm.break_time[0] == pytest.approx(0.5)
     sim.run()
     with h5py.File(tmp_path / "x.h5", "r") as f:
         b = f["breaks"]
