@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from siku_core.cli import main
-from siku_core.contacts import BREAK_SHEAR
+from siku_core.contact_law import BREAK_SHEAR
 from siku_core.scene import scene_from_text
 from siku_core.simulation import Simulation
 from siku_plugins.lab import affine_moduli, measure, strength_table, virtual_test

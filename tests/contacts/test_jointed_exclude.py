@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from siku_core.contacts import BREAK_EXTERNAL
+from siku_core.contact_law import BREAK_EXTERNAL
 from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, rotate_about, square_pack
 

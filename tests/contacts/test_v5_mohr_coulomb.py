@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from siku_core.contacts import (
+from siku_core.contact_law import (
     BREAK_COMPRESSION, BREAK_SHEAR, BREAK_TENSION,
     J_AX,
     J_AY,
