@@ -4,18 +4,28 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 from numba import njit
 
 from .contact_frames import (
-    ROW_SIZE, element_index, find_shared_edges, joint_constants, pair_masses, rotation_matrices,
+    ROW_SIZE,
+    element_index,
+    find_shared_edges,
+    joint_constants,
+    pair_masses,
+    rotation_matrices,
     rotations_within,
 )
 from .contact_law import (
-    BREAK_MODES, BREAK_STRAIN, BreakMode, ContactLaw, compile_evaluators, evaluator_of,
+    BREAK_MODES,
+    BREAK_STRAIN,
+    BreakMode,
+    ContactLaw,
+    compile_evaluators,
+    evaluator_of,
     parameter_vector,
 )
 from .contacts import collision_forces, gather_forces, joint_forces
