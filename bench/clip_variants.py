@@ -290,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
             sim.step()
         cm, st = sim.contacts, sim.state
         quad = np.diff(st.vert_offsets) == 4
-        sel = np.flatnonzero((cm.pface[:, 0] < 0) & (cm.pon == 1) & quad[cm.pairs[:, 0]]
+        sel = np.flatnonzero((cm.pface[:, 0] < 0) & (cm.pair_active == 1) & quad[cm.pairs[:, 0]]
                              & quad[cm.pairs[:, 1]])
         Q = np.empty((len(sel), 2, 4, 2))
         C = np.empty((len(sel), 2))

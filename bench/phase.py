@@ -29,6 +29,7 @@ from bench.scenes import KINDS, LAWS, scene
 from siku_core.contacts import collision_forces, joint_forces
 from siku_core.parallel import chunks
 from siku_core.simulation import Simulation
+from siku_core.testing import switches
 
 
 def _best(fn, reps: int) -> tuple[float, object]:
@@ -53,15 +54,16 @@ def measure(kind: str, n: int, law: str | None, spinup: int, reps: int) -> dict:
     def collisions():
         return collision_forces(
             cm._cev, cm._cpars, cm.rm, st.V, st.w, cm.pmeff, st.thickness, cm.E, st.area,
-            st.vert_offsets, st.verts, pairs, sim.radius, cm.nmax, cm.pretest, cm.pout, cm.pon,
-            chunks(len(pairs)), cm.margin, cm.phint, cm.drop_touching, cm.pface, cm.scale,
-            cm.edges)
+            st.vert_offsets, st.verts, pairs, sim.radius, cm.nmax, switches.pretest, cm.pair_rows,
+            cm.pair_active, chunks(len(pairs)), cm.margin, cm.separating_hint, cm.drop_touching,
+            cm.pface, cm.scale, cm.edges)
 
     def joints():
         return joint_forces(
             cm._jev, cm._jpars, cm.rm, st.V, st.w, st.thickness, cm.E, cm.nu, cm.ji, cm.jj,
-            cm.ends_i, cm.ends_j, cm.L0, cm.width, cm.jK, cm.jmeff, cm.intact, cm.bmode,
-            cm.hist, sim.radius, sim.dt, False, cm.jout, cm.jon, chunks(cm.n_joints))
+            cm.ends_i, cm.ends_j, cm.L0, cm.width, cm.jK, cm.jmeff, cm.intact, cm.break_mode,
+            cm.hist, sim.radius, sim.dt, False, cm.joint_rows, cm.joint_active,
+            chunks(cm.n_joints))
 
     out = {"elements": st.n, "pairs": len(pairs)}
     out["collisions_s"], out["overlapping"] = _best(collisions, reps)

@@ -3,7 +3,7 @@
 ``python -m bench.touching`` (from the repository root; ``--quick``: a smaller subset) runs the
 cases below with ``touching = "contact"`` and ``"ignore"``; ``--compare face`` runs them under
 the default rule with the touching faces of jointed neighbours found by the clip (``clip``:
-``ContactModel.face_path`` off, the contact at the mean of the sliver's vertices, the width the
+``siku_core.testing.switches.face_path`` off, the contact at the mean of the sliver's vertices, the width the
 common span across the normal) and from the joint's edges (``face``, the engine's default:
 ``siku_core.geometry.face``):
 
@@ -35,12 +35,12 @@ import numba
 import numpy as np
 
 from siku_core.cli import default_scene_path
-from siku_core.contact_model import ContactModel
 from siku_core.geometry.quat import centers
 from siku_core.scene import load_scene
 from siku_core.simulation import Simulation
+from siku_core.testing import switches
 
-#: the compared variants: label -> (``contact.touching``, ``ContactModel.face_path``)
+#: the compared variants: label -> (``contact.touching``, ``switches.face_path``)
 COMPARE = {
     "touching": {"contact": ("contact", True), "ignore": ("ignore", True)},
     "face": {"clip": ("contact", False), "face": ("contact", True)},
@@ -51,7 +51,7 @@ VARIANTS = COMPARE["touching"]
 def _variant(name: str) -> str:
     """Set the face path for variant ``name``; return its ``contact.touching``."""
     rule, face = VARIANTS[name]
-    ContactModel.face_path = face
+    switches.face_path = face
     return rule
 
 

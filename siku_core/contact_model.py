@@ -1,80 +1,43 @@
 """The engine's contact phase: broad phase, narrow phase, joints and the chosen law."""
 from __future__ import annotations
 
-import inspect
 import math
-import re
 import time
 import warnings
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numba import njit
 
-from .contacts import (
-    BREAK_MODES, C_SIZE, collision_forces, element_index, find_shared_edges, gather_forces,
-    joint_constants, joint_forces, pair_masses, rotation_matrices, rotations_within,
+from .contact_frames import (
+    ROW_SIZE,
+    element_index,
+    find_shared_edges,
+    joint_constants,
+    pair_masses,
+    rotation_matrices,
+    rotations_within,
 )
-from .errors import PluginError, SceneError
+from .contact_law import (
+    BREAK_MODES,
+    BREAK_STRAIN,
+    BreakMode,
+    ContactLaw,
+    compile_evaluators,
+    evaluator_of,
+    parameter_vector,
+)
+from .contacts import collision_forces, gather_forces, joint_forces
+from .errors import SceneError
 from .geometry.clip import REL_TOL
 from .geometry.face import edge_table, joint_edges
 from .geometry.quat import centers, east_north_row, from_tangent, xyz_to_latlon
-from .interfaces import BroadPhase, ContactLaw
+from .interfaces import BroadPhase
 from .parallel import chunks
-from .plugins import EVALUATORS, package_of
-from .state import FREE
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .simulation import Simulation
-
-
-def _law_head(cls: type) -> str:
-    return f"contact law '{cls.name}' from package '{package_of(cls)[0]}'"
-
-
-def _numba_reason(exc: BaseException) -> str:
-    """The lines of a numba error that say what is wrong and where (its messages span dozens
-    of lines with source excerpts and colour codes), as one line."""
-    lines = [re.sub(r"\x1b\[[0-9;]*m", "", ln).strip() for ln in str(exc).splitlines()]
-    skip = ("Failed in ", "During:", "File ", "^", "- Resolution failure", "Resolution failure")
-    useful = [ln for ln in lines if ln and not ln.startswith(skip) and set(ln) != {"^"}]
-    text = useful[0] if useful else (lines[0] if lines else type(exc).__name__)
-    if text.endswith(":") and len(useful) > 1:
-        text = f"{text} {useful[1]}"
-    where = next((ln for ln in lines if ln.startswith("File ")), "")
-    if where:
-        text = f"{text} ({where.rstrip(':')})"
-    return text if len(text) <= 300 else text[:297] + "..."
-
-
-def evaluator_of(law: ContactLaw, attr: str):
-    """The law's evaluator ``attr`` as the jitted function itself: an ``@njit`` function held
-    as a class attribute binds like a method when read from an instance (``law.attr`` is a
-    bound method), so it is looked up without binding."""
-    ev = inspect.getattr_static(law, attr)
-    return getattr(ev, "__func__", ev)  # a staticmethod wrapper
-
-
-def compile_evaluators(law: ContactLaw) -> None:
-    """Compile the law's evaluators for the arguments the engine passes (1-D C-contiguous
-    float64 arrays); a law whose evaluator does not compile is refused with a one-line
-    :class:`PluginError` naming the package, the law, the evaluator and numba's reason."""
-    from numba import types
-
-    law_cls = type(law)
-    for attr, names in EVALUATORS.items():
-        if attr == "joint_evaluator" and not law.uses_joints:
-            continue
-        ev = evaluator_of(law, attr)
-        if not getattr(ev, "_can_compile", True):  # explicit signatures: numba checks those
-            continue
-        try:
-            ev.compile((types.float64[::1],) * len(names))
-        except Exception as exc:  # noqa: BLE001 - numba raises many kinds
-            raise PluginError(
-                f"{_law_head(law_cls)}: {attr} {ev.__name__}({', '.join(names)}) does not "
-                f"compile for float64 arrays: {_numba_reason(exc)}"
-            ) from None
+from .plugins import package_of
+from .state import FREE, ElementState
+from .testing import switches
 
 
 class ContactModel:
@@ -84,28 +47,37 @@ class ContactModel:
     force evaluation (:meth:`add`): rotation matrices of all elements, the joint loop, the
     candidate list (rebuilt by the broad phase only when an element moved more than half the
     skin), the collision loop, and the per-element sum of the contacts' contributions; each
-    phase's time goes to ``Simulation.timings``.
+    phase's time goes to ``timings``.
+
+    Built from what it needs: ``cfg`` the scene's ``[contact]`` table, ``state`` the elements,
+    ``radius`` the planet radius [m], ``materials`` the scene's materials in the order of
+    ``state.material``, ``law`` and ``broad`` the built components, ``time_step`` a callable
+    giving the run's time step [s] (read at every evaluation), ``where`` how messages name the
+    ``[contact]`` table, ``label`` how they name the scene, ``timings`` the run's dict of phase
+    times [s] (added to).
     """
 
     kind = "contacts"
-    #: skip the clip of pairs that :func:`~siku_core.geometry.clip.apart` finds apart or
-    #: touching (their overlap has no area); off only to test that claim
-    pretest = True
-    #: find the touching overlap of jointed neighbours from the joint's edges
-    #: (``geometry.face``) instead of clipping it; off only to measure what that changes
-    face_path = True
 
-    def __init__(self, sim: "Simulation"):
-        cfg = sim.scene.cfg.contact
-        assert cfg is not None
+    def __init__(self, cfg: Any, state: ElementState, radius: float,
+                 materials: Sequence[Any], law: ContactLaw, broad: BroadPhase,
+                 time_step: Callable[[], float], where: str = "[contact]", label: str = "",
+                 timings: dict[str, float] | None = None):
         self.cfg = cfg
-        self.sim = sim
-        self.law: ContactLaw = sim._component("contact_law", cfg.law, cfg.params, "contact")
-        self.broad: BroadPhase = sim._component("broad_phase", cfg.broad_phase, {}, "contact")
+        self.state = state
+        self.radius = radius
+        self.law = law
+        self.broad = broad
+        self.time_step = time_step
+        self.where = where
+        self.label = label
+        self.timings = timings if timings is not None else {}
+        for k in ("joints", "broad_phase", "collisions", "contact_sum"):
+            self.timings.setdefault(k, 0.0)
         self.name = self.law.name
-        st = sim.state
-        R = sim.radius
-        mats = list(sim.scene.cfg.materials.values())
+        st = state
+        R = radius
+        mats = list(materials)
         self.E = np.array([mats[k].youngs_modulus for k in st.material], dtype=float)
         self.nu = np.array([mats[k].poisson_ratio for k in st.material], dtype=float)
         self.minv = np.where(st.flags == FREE, 1.0 / st.m, 0.0)
@@ -141,12 +113,12 @@ class ContactModel:
 
     # ------------------------------------------------------------------ joints
     def _build_joints(self) -> None:
-        st, R, cfg = self.sim.state, self.sim.radius, self.cfg
+        st, R, cfg = self.state, self.radius, self.cfg
         nh = len(self.law.history_names)
         if not self.law.uses_joints or cfg.joints == "none":
             if cfg.joints == "pairs":
                 raise SceneError(
-                    f"{self.sim.scene.where('contact')}: law '{self.law.name}' has no joints; "
+                    f"{self.where}: law '{self.law.name}' has no joints; "
                     "remove 'pairs' or choose a joint law (distributed_spring, mohr_coulomb)"
                 )
             self._set_joints(np.zeros((0, 2), np.int64), np.zeros((0, 2, 2)), np.zeros((0, 2, 2)),
@@ -157,7 +129,7 @@ class ContactModel:
             bad = cand[(cand[:, 0] < 0) | (cand[:, 1] >= st.n) | (cand[:, 0] == cand[:, 1])]
             if len(bad):
                 raise SceneError(
-                    f"{self.sim.scene.where('contact')}: pair {bad[0].tolist()} does not name two "
+                    f"{self.where}: pair {bad[0].tolist()} does not name two "
                     f"distinct elements among 0..{st.n - 1}"
                 )
             tol = cfg.tolerance if cfg.tolerance is not None else 0.01
@@ -172,7 +144,7 @@ class ContactModel:
         if cfg.joints == "pairs" and not found.all():
             self.rejected = [tuple(map(int, p)) for p in cand[~found]]
             warnings.warn(
-                f"{self.sim.scene.where('contact')}: {len(self.rejected)} listed pair(s) share no "
+                f"{self.where}: {len(self.rejected)} listed pair(s) share no "
                 f"edge within tolerance {tol:g} and were not jointed: "
                 + ", ".join(str(list(p)) for p in self.rejected[:10])
                 + (" ..." if len(self.rejected) > 10 else ""),
@@ -181,7 +153,7 @@ class ContactModel:
         self._set_joints(cand[keep], ends_i[keep], ends_j[keep], nh)
 
     def _set_joints(self, pairs, ends_i, ends_j, nh) -> None:
-        st, R = self.sim.state, self.sim.radius
+        st, R = self.state, self.radius
         self.ji = np.ascontiguousarray(pairs[:, 0])
         self.jj = np.ascontiguousarray(pairs[:, 1])
         self.ends_i = np.ascontiguousarray(ends_i)
@@ -195,9 +167,9 @@ class ContactModel:
         else:
             self.L0 = np.zeros(0)
         self.intact = np.ones(len(pairs), dtype=np.bool_)
-        #: per joint: break mode code (``contacts.BREAK_MODES``; 0 while intact) and the model
-        #: time of the break [s] (NaN while intact)
-        self.bmode = np.zeros(len(pairs))
+        #: per joint: break mode (int8 code of ``contact_law.BreakMode``; 0 while intact) and
+        #: the model time of the break [s] (NaN while intact)
+        self.break_mode = np.zeros(len(pairs), dtype=np.int8)
         self.break_time = np.full(len(pairs), np.nan)
         #: breaks not yet taken by a writer (:meth:`take_breaks`)
         self._pending: list[int] = []
@@ -207,8 +179,8 @@ class ContactModel:
         #: per joint: the edges of ``ji`` and ``jj`` it is frozen along (``face.joint_edges``)
         self.jedge = joint_edges(st.vert_offsets, st.verts, self.ji, self.jj, self.ends_i,
                                  self.ends_j)
-        self.jout = np.zeros((len(pairs), C_SIZE))
-        self.jon = np.zeros(len(pairs), dtype=np.int8)
+        self.joint_rows = np.zeros((len(pairs), ROW_SIZE))
+        self.joint_active = np.zeros(len(pairs), dtype=np.int8)
         self.joff, self.jidx, self.jside = element_index(self.ji, self.jj, st.n)
 
     @property
@@ -221,11 +193,11 @@ class ContactModel:
 
     # ------------------------------------------------------------------ step
     def _set_pair_index(self) -> None:
-        n = self.sim.state.n
+        n = self.state.n
         p = self.pairs
-        self.pout = np.zeros((len(p), C_SIZE))
-        self.pon = np.zeros(len(p), dtype=np.int8)
-        self.phint = np.zeros(len(p), dtype=np.int16)
+        self.pair_rows = np.zeros((len(p), ROW_SIZE))
+        self.pair_active = np.zeros(len(p), dtype=np.int8)
+        self.separating_hint = np.zeros(len(p), dtype=np.int16)
         self.poff, self.pidx, self.pside = element_index(
             np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
         self.pface = self._faces(p)
@@ -239,7 +211,7 @@ class ContactModel:
         (``geometry.face``)."""
         face = np.full((len(p), 2), -1, dtype=np.int16)
         nj = len(getattr(self, "ji", ()))
-        if not self.face_path or not nj or not len(p):
+        if not switches.face_path or not nj or not len(p):
             return face
         jk = self._keys(self.ji, self.jj)
         order = np.argsort(jk, kind="stable")
@@ -279,7 +251,7 @@ class ContactModel:
 
     def _keys(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """One integer per unordered element pair ``(a[k], b[k])``."""
-        n = self.sim.state.n
+        n = self.state.n
         return np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
 
     def _admit(self, k: np.ndarray) -> None:
@@ -293,24 +265,24 @@ class ContactModel:
         fresh = ~np.isin(nk, keys)
         if not fresh.any():
             return
-        n = self.sim.state.n
+        n = self.state.n
         every = np.concatenate([self.pairs, np.stack([nk[fresh] // n, nk[fresh] % n], axis=1)])
         order = np.argsort(np.concatenate([keys, nk[fresh]]), kind="stable")
         where = np.empty(len(order), dtype=np.int64)
         where[order] = np.arange(len(order))
         old = where[:len(keys)]
-        pout, pon, phint = self.pout, self.pon, self.phint
+        rows, active, hint = self.pair_rows, self.pair_active, self.separating_hint
         self.pairs = np.ascontiguousarray(every[order])
         self._set_pair_index()
-        self.pout[old] = pout
-        self.pon[old] = pon
-        self.phint[old] = phint
+        self.pair_rows[old] = rows
+        self.pair_active[old] = active
+        self.separating_hint[old] = hint
 
     def add(self, t, q, V, w, F, T, commit: bool) -> None:
         """Add contact forces for state ``q, V, w``; joint history changes only if ``commit``."""
-        st, sim = self.sim.state, self.sim
+        st, R = self.state, self.radius
         law = self.law
-        tm = sim.timings
+        tm = self.timings
         t0 = time.perf_counter()
         within = self._rotations(q)
         t1 = time.perf_counter()
@@ -319,8 +291,8 @@ class ContactModel:
             broke = joint_forces(
                 self._jev, self._jpars, self.rm, V, w, st.thickness, self.E,
                 self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
-                self.jK, self.jmeff, self.intact, self.bmode, self.hist, sim.radius, sim.dt,
-                commit, self.jout, self.jon, chunks(self.n_joints),
+                self.jK, self.jmeff, self.intact, self.break_mode, self.hist, R, self.time_step(),
+                commit, self.joint_rows, self.joint_active, chunks(self.n_joints),
             )
             if commit and broke:
                 self.n_broken_total += broke
@@ -331,9 +303,9 @@ class ContactModel:
         if len(pairs):
             n = collision_forces(
                 self._cev, self._cpars, self.rm, V, w, self.pmeff, st.thickness,
-                self.E, st.area, st.vert_offsets, st.verts, pairs, sim.radius, self.nmax,
-                self.pretest, self.pout, self.pon, chunks(len(pairs)), self.margin,
-                self.phint, self.drop_touching, self.pface, self.scale, self.edges,
+                self.E, st.area, st.vert_offsets, st.verts, pairs, R, self.nmax,
+                switches.pretest, self.pair_rows, self.pair_active, chunks(len(pairs)), self.margin,
+                self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
             )
             if commit:
                 self.n_overlap = n
@@ -343,8 +315,8 @@ class ContactModel:
                 self.n_overlap = 0
         t4 = time.perf_counter()
         if joints or n:
-            gather_forces(F, T, self.joff, self.jidx, self.jside, self.jout, self.jon,
-                          self.poff, self.pidx, self.pside, self.pout, self.pon, chunks(st.n))
+            gather_forces(F, T, self.joff, self.jidx, self.jside, self.joint_rows, self.joint_active,
+                          self.poff, self.pidx, self.pside, self.pair_rows, self.pair_active, chunks(st.n))
         t5 = time.perf_counter()
         tm["joints"] += t2 - t1
         tm["broad_phase"] += t3 - t2
@@ -355,18 +327,20 @@ class ContactModel:
         """Stamp joints that broke in this evaluation (state at model time ``t`` [s])."""
         new = np.flatnonzero(~self.intact & np.isnan(self.break_time))
         self.break_time[new] = t
-        self.bmode[new[self.bmode[new] == 0.0]] = 1.0  # a break without a mode: "strain"
+        # a break without a mode: "strain"
+        self.break_mode[new[self.break_mode[new] == 0]] = BREAK_STRAIN
         self._pending.extend(new.tolist())
         self._admit(new)
 
-    def break_joints(self, k: np.ndarray, mode: float, t: float) -> int:
+    def break_joints(self, k: np.ndarray, mode: BreakMode | int, t: float) -> int:
         """Break intact joints ``k`` from outside the law (a forcing source, a coupled model):
         they carry no force from the next evaluation on and are recorded with ``mode``
-        (a ``contacts.BREAK_*`` code) at model time ``t`` [s]. Returns how many broke."""
+        (a :class:`~siku_core.contact_law.BreakMode`, or its int code) at model time ``t``
+        [s]. Returns how many broke."""
         k = np.asarray(k, dtype=np.int64)
         k = k[self.intact[k]]
         self.intact[k] = False
-        self.bmode[k] = mode
+        self.break_mode[k] = int(mode)
         self.n_broken_total += len(k)
         self._record_breaks(t)
         return len(k)
@@ -375,12 +349,12 @@ class ContactModel:
         """Latitude and longitude [deg] ``(len(k), 2)`` of the midpoints of joints ``k``."""
         from .geometry.quat import from_tangent, xyz_to_latlon
 
-        st = self.sim.state
+        st = self.state
         q = st.q if q is None else q
         out = np.empty((len(k), 2))
         for a, kk in enumerate(np.asarray(k, dtype=np.int64)):
             m = 0.5 * (self.ends_i[kk, 0] + self.ends_i[kk, 1])
-            lat, lon = xyz_to_latlon(from_tangent(q[self.ji[kk]], m[0], m[1], self.sim.radius))
+            lat, lon = xyz_to_latlon(from_tangent(q[self.ji[kk]], m[0], m[1], self.radius))
             out[a] = np.degrees(lat), np.degrees(lon)
         return out
 
@@ -389,8 +363,8 @@ class ContactModel:
         and longitude [rad], and the unit direction of the joint edge ``(east, north)`` at the
         midpoint, as five arrays of ``n_joints``. For components that act on joints (forcing
         that breaks them, coupled models) without reading a law's arrays."""
-        st = self.sim.state
-        return _joint_lines(st.q if q is None else q, self.ji, self.ends_i, self.sim.radius)
+        st = self.state
+        return _joint_lines(st.q if q is None else q, self.ji, self.ends_i, self.radius)
 
     def floe_labels(self) -> tuple[int, np.ndarray]:
         """Floes as the connected groups of elements over intact joints: ``(count, label)``,
@@ -398,7 +372,7 @@ class ContactModel:
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
 
-        n = self.sim.state.n
+        n = self.state.n
         k = self.intact
         g = coo_matrix((np.ones(int(k.sum())), (self.ji[k], self.jj[k])), shape=(n, n))
         count, label = connected_components(g, directed=False)
@@ -407,36 +381,23 @@ class ContactModel:
     def take_breaks(self) -> dict[str, np.ndarray]:
         """Breaks since the last call, in the order they happened: ``time`` [s], ``joint``,
         ``i``, ``j`` (element indices), ``lat``, ``lon`` [deg] of the joint midpoint at the
-        time of writing, ``mode`` (code of ``contacts.BREAK_MODES``)."""
+        time of writing, ``mode`` (code of ``contact_law.BREAK_MODES``)."""
         k = np.array(self._pending, dtype=np.int64)
         self._pending = []
         k = k[np.argsort(self.break_time[k], kind="stable")]
         ll = self.joint_midpoints(k) if len(k) else np.zeros((0, 2))
         return {"time": self.break_time[k], "joint": k, "i": self.ji[k], "j": self.jj[k],
-                "lat": ll[:, 0], "lon": ll[:, 1], "mode": self.bmode[k].astype(np.int8)}
+                "lat": ll[:, 0], "lon": ll[:, 1], "mode": self.break_mode[k].astype(np.int8)}
 
     def setup(self) -> None:
         """The law's parameter vectors, and its evaluators compiled once for the engine's
         argument types (before step 1): a fault is a one-line :class:`PluginError`."""
-        self._cpars = self._parameter_vector("collision_parameters")
-        self._jpars = self._parameter_vector("joint_parameters")
-        compile_evaluators(self.law)
+        package = package_of(type(self.law))[0]
+        self._cpars = parameter_vector(self.law, "collision", package)
+        self._jpars = parameter_vector(self.law, "joint", package)
+        compile_evaluators(self.law, package)
         self._jev = evaluator_of(self.law, "joint_evaluator") if self.law.uses_joints else None
         self._cev = evaluator_of(self.law, "collision_evaluator")
-
-    def _parameter_vector(self, method: str) -> np.ndarray:
-        law = self.law
-        try:
-            vec = np.ascontiguousarray(getattr(law, method)(self.sim), dtype=float)
-            ok = vec.ndim == 1 and bool(np.isfinite(vec).all())
-        except (TypeError, ValueError) as exc:
-            vec, ok = None, exc
-        if ok is not True:
-            raise PluginError(
-                f"{_law_head(type(law))}: {method}(sim) must return a 1-D vector of finite "
-                f"numbers; got {vec if vec is not None else ok!r}"
-            )
-        return vec
 
     # ------------------------------------------------------------------ stability, history
     def stiffness_bound(self) -> tuple[float, int]:
@@ -446,7 +407,7 @@ class ContactModel:
         edges without a joint a collision budget of ``h E`` each. ``omega² <= 2 k_sum / m`` and
         ``2 k_rot / I``. Returns ``(omega_max, element)``.
         """
-        st = self.sim.state
+        st = self.state
         n = st.n
         ktr = np.zeros(n)
         krot = np.zeros(n)
@@ -487,22 +448,22 @@ class ContactModel:
     def history(self) -> dict[str, np.ndarray]:
         return {"intact": self.intact.astype(np.int8), "hist": self.hist.copy(),
                 "n_broken_total": np.array(self.n_broken_total),
-                "break_mode": self.bmode.astype(np.int8), "break_time": self.break_time.copy()}
+                "break_mode": self.break_mode.astype(np.int8), "break_time": self.break_time.copy()}
 
     def set_history(self, d: dict[str, np.ndarray]) -> None:
         if d["intact"].shape != self.intact.shape:
             raise SceneError(
-                f"{self.sim.scene.label}: restart holds {d['intact'].shape[0]} joints but the scene "
+                f"{self.label}: restart holds {d['intact'].shape[0]} joints but the scene "
                 f"builds {self.intact.shape[0]}"
             )
         self.intact[:] = d["intact"].astype(bool)
         self.hist[...] = d["hist"]
         self.n_broken_total = int(d["n_broken_total"])
         if "break_mode" in d:
-            self.bmode[:] = d["break_mode"]
+            self.break_mode[:] = d["break_mode"]
             self.break_time[:] = d["break_time"]
         else:  # a file from before break modes were recorded
-            self.bmode[:] = np.where(self.intact, 0.0, 1.0)
+            self.break_mode[:] = np.where(self.intact, 0, BREAK_STRAIN)
             self.break_time[:] = np.where(self.intact, np.nan, -np.inf)
         self._pending = []
         if self.exclude_jointed:  # the candidates follow the joints restored: rebuild them
@@ -518,14 +479,14 @@ class ContactModel:
         forces of the last evaluation [N/m] (``siku_core.stress``)."""
         from .stress import element_stress
 
-        st = self.sim.state
+        st = self.state
         n = st.n
-        lists = ([(self.ji, self.jj, self.jout, self.jon, self.joff, self.jidx, self.jside)]
+        lists = ([(self.ji, self.jj, self.joint_rows, self.joint_active, self.joff, self.jidx, self.jside)]
                  if self.n_joints else [])
-        if len(self.pairs) and len(self.pon) == len(self.pairs):
-            lists.append((self.pairs[:, 0], self.pairs[:, 1], self.pout, self.pon, self.poff,
+        if len(self.pairs) and len(self.pair_active) == len(self.pairs):
+            lists.append((self.pairs[:, 0], self.pairs[:, 1], self.pair_rows, self.pair_active, self.poff,
                           self.pidx, self.pside))
-        s = element_stress(st.q, self.rm, st.area, self.sim.radius, lists)
+        s = element_stress(st.q, self.rm, st.area, self.radius, lists)
         out = {"stress_ee": s[:, 0], "stress_nn": s[:, 1], "stress_en": s[:, 2]}
         if not self.n_joints:
             return {"damage": np.zeros(n), **out}
@@ -540,20 +501,20 @@ class ContactModel:
         out = {"joints_intact": self.n_intact, "joints_broken": self.n_joints - self.n_intact,
                "contacts_overlapping": self.n_overlap}
         if self.n_joints:
-            codes = np.bincount(self.bmode.astype(np.int64), minlength=len(BREAK_MODES))
+            codes = np.bincount(self.break_mode.astype(np.int64), minlength=len(BREAK_MODES))
             for c, name in BREAK_MODES.items():
                 if c:
                     out[f"joints_broken_{name}"] = int(codes[c])
         if self.n_joints:
             from .joint_metrics import joint_diagnostics
 
-            st = self.sim.state
+            st = self.state
             if self._rm_scratch is None:  # the current state's rotations (self.rm: the last
                 self._rm_scratch = np.empty_like(self.rm)  # force evaluation's)
             rotation_matrices(st.q, self._rm_scratch, chunks(st.n))
             out.update(joint_diagnostics(st.q, self.ji, self.jj, self.ends_i, self.ends_j,
                                          self.L0, self.width, self.intact, self.E, st.area,
-                                         st.flags, self.sim.radius, rm=self._rm_scratch))
+                                         st.flags, self.radius, rm=self._rm_scratch))
         return out
 
 

@@ -184,43 +184,8 @@ class BroadPhase(Component):
         """Candidate pairs ``(K, 2)`` int64, ``i < j``, lexicographically sorted."""
 
 
-class ContactLaw(Component):
-    """Pair interaction: forces and torques between two elements, with per-joint history.
-
-    A law supplies ``@njit`` evaluators of one contact (layouts in :mod:`siku_core.contacts`):
-
-    * ``collision_evaluator(g, pars, out)``: overlapping pairs (every law has one: a broken or
-      absent joint continues as a collision contact);
-    * ``joint_evaluator(g, pars, hist, out)``: intact frozen joints (laws with
-      ``uses_joints = True``), updating the joint's ``hist`` row (``history_names`` columns).
-
-    ``collision_parameters(sim)`` / ``joint_parameters(sim)`` return the float64 ``pars`` vectors
-    passed to them (parameters are arguments, never compiled-in globals). The evaluators are
-    read from the class without binding (an ``@njit`` function held as a class attribute binds
-    like a method on an instance). ``history_update`` says how the history changes: ``"state"``
-    (a function of the geometry the joint has seen: maxima, failure flags, damage) or
-    ``"rate"`` (integrated over the time step). A law may declare ``joint_energy(g, pars,
-    hist)`` [J], the joint's stored elastic energy, which the conformance suite checks the force
-    against. Guide: ``docs/howto/contact_laws.md``.
-    """
-
-    kind = "contact_law"
-    uses_joints: ClassVar[bool] = False
-    history_names: ClassVar[tuple[str, ...]] = ()
-    history_update: ClassVar[str] = "state"
-    required = {"collision_parameters": ("sim",)}
-
-    @abstractmethod
-    def collision_parameters(self, sim: "Simulation") -> np.ndarray:
-        """Parameter vector of the collision evaluator."""
-
-    def joint_parameters(self, sim: "Simulation") -> np.ndarray:
-        """Parameter vector of the joint evaluator."""
-        return np.zeros(0)
-
-    def stiffness_factor(self) -> float:
-        """Joint stiffness per unit length relative to ``K`` of eq. 9 (for the dt estimate)."""
-        return 1.0
+# the contact law's contract lives in its own module; listed among the kinds here
+from .contact_law import ContactLaw
 
 
 class Writer(Component):

@@ -239,47 +239,6 @@ def _check_params(kind: str, cls: Any, package: str) -> None:
             )
 
 
-#: evaluator attributes of a contact law and their reference parameters
-EVALUATORS = {
-    "collision_evaluator": ("g", "pars", "out"),
-    "joint_evaluator": ("g", "pars", "hist", "out"),
-}
-
-
-def _check_contact_law(cls: Any, package: str) -> None:
-    """A contact law's evaluators are present, jitted, and take the reference parameters; its
-    ``history_names`` are strings."""
-    head = f"contact law '{cls.name}' from package '{package}'"
-    for attr, expected in EVALUATORS.items():
-        if attr == "joint_evaluator" and not cls.uses_joints:
-            continue
-        ev = getattr(cls, attr, None)
-        if ev is None:
-            hint = (" (reuse the built-in one by subclassing the law registered as "
-                    "'collision': siku_core.plugins.get_registry().get('contact_law', 'collision'))"
-                    if attr == "collision_evaluator"
-                    else " (uses_joints = True asks for one)")
-            raise PluginError(f"{head}: no {attr}{hint}")
-        fn = getattr(ev, "py_func", None)
-        if fn is None or not callable(ev) or not hasattr(ev, "compile"):
-            raise PluginError(
-                f"{head}: {attr} is {ev!r}, not a numba @njit function "
-                f"({attr}({', '.join(expected)}) decorated with numba.njit)"
-            )
-        got = tuple(inspect.signature(fn).parameters)
-        if len(got) != len(expected):
-            raise PluginError(
-                f"{head}: {attr} {fn.__name__}({', '.join(got)}) takes {len(got)} "
-                f"parameters, expected {len(expected)}: ({', '.join(expected)})"
-            )
-    names = cls.history_names
-    if not (isinstance(names, tuple) and all(isinstance(n, str) for n in names)):
-        raise PluginError(f"{head}: history_names is {names!r}, not a tuple of strings")
-    if getattr(cls, "history_update", "state") not in ("state", "rate"):
-        raise PluginError(f"{head}: history_update is {cls.history_update!r}; allowed: "
-                          "'state', 'rate'")
-
-
 def check_component(kind: str, cls: Any, package: str) -> None:
     """Check a component class against its kind's interface (methods and their reference
     signatures), its parameter declarations and, for contact laws, its evaluators; errors are
@@ -312,7 +271,9 @@ def check_component(kind: str, cls: Any, package: str) -> None:
             )
     _check_params(kind, cls, package)
     if kind == "contact_law":
-        _check_contact_law(cls, package)
+        from .contact_law import check_contact_law  # imported by .interfaces, after it
+
+        check_contact_law(cls, package)
 
 
 

@@ -143,11 +143,18 @@ class Simulation:
                 )
             self.forcing.append(src)
 
+        self.timings: dict[str, float] = dict.fromkeys(PHASES, 0.0)
         self.contacts = None
         if cfg.contact is not None:
             from .contact_model import ContactModel
 
-            self.contacts = ContactModel(self)
+            cc = cfg.contact
+            self.contacts = ContactModel(
+                cc, self.state, self.radius, list(cfg.materials.values()),
+                law=self._component("contact_law", cc.law, cc.params, "contact"),
+                broad=self._component("broad_phase", cc.broad_phase, {}, "contact"),
+                time_step=lambda: self.dt, where=scene.where("contact"), label=scene.label,
+                timings=self.timings)
         self._commit = True
 
         self.writers: list[Writer] = []
@@ -175,7 +182,6 @@ class Simulation:
         self._opened = False
         self._guarded = -1
         self._force_time = 0.0
-        self.timings: dict[str, float] = dict.fromkeys(PHASES, 0.0)
         self.timed_steps = 0
         if self.pm is not None:
             self.pm.hook.siku_ready(simulation=self)

@@ -22,7 +22,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .contacts import C_FIX, C_FIY, C_FJX, C_FJY, C_PX, C_PY, i_to_j, relative_matrix
+from .contact_frames import (
+    ROW_FIX, ROW_FIY, ROW_FJX, ROW_FJY, ROW_PX, ROW_PY, i_to_j, relative_matrix,
+)
 from .geometry.quat import east_north_row
 from .parallel import chunk_bounds, chunks
 
@@ -54,16 +56,16 @@ def _moments(rm, ia, ib, out, on, off, idx, side, R, acc, nch):
                 k = idx[a]
                 if on[k] != 1:
                     continue
-                px = out[k, C_PX]
-                py = out[k, C_PY]
+                px = out[k, ROW_PX]
+                py = out[k, ROW_PY]
                 if side[a] == 0:
-                    fx = out[k, C_FIX]
-                    fy = out[k, C_FIY]
+                    fx = out[k, ROW_FIX]
+                    fy = out[k, ROW_FIY]
                 else:
                     M = relative_matrix(rm, ia[k], ib[k])
                     px, py = i_to_j(M, px, py, R, inv_r)
-                    fx = out[k, C_FJX]
-                    fy = out[k, C_FJY]
+                    fx = out[k, ROW_FJX]
+                    fy = out[k, ROW_FJY]
                 sxx += px * fx
                 syy += py * fy
                 sxy += 0.5 * (px * fy + py * fx)
@@ -89,7 +91,8 @@ def element_stress(q, rm, area, R, contacts) -> np.ndarray:
     """``(N, 3)`` mean stress of every element [N/m]: east-east, north-north, east-north.
 
     ``contacts``: ``(i, j, out, on, off, idx, side)`` tuples, one per contact list (joints,
-    collision pairs), with ``out`` the per-contact rows of ``siku_core.contacts`` (``C_*``) of
+    collision pairs), with ``out`` the per-contact rows of ``siku_core.contact_frames``
+    (``ROW_*``) of
     the last force evaluation, ``on[k] == 1`` where contact ``k`` carried force, ``off, idx,
     side`` the list's element index (``siku_core.contacts.element_index``), and ``rm`` the
     rotation matrices of that evaluation."""

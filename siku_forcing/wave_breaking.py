@@ -38,7 +38,7 @@ import numpy as np
 from numba import njit
 
 from siku_core import SceneError
-from siku_core.contacts import BREAK_FLEXURE
+from siku_core.contact_law import BREAK_FLEXURE
 from siku_core.geometry.quat import from_tangent, latlon_of, xyz_to_latlon
 
 

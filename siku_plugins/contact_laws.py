@@ -2,8 +2,11 @@
 bonded_particle.
 
 docs/explanation/physics.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's loops in
-:mod:`siku_core.contacts` call it (layouts of ``g`` and sign conventions are documented there:
-forces and couples returned act on element ``j``, in ``i``'s frame). Every law collides
+:mod:`siku_core.contacts` call it (the contract, layouts of ``g`` and sign conventions are in
+:mod:`siku_core.contact_law`: forces and couples returned act on element ``j``, in ``i``'s
+frame). Each law declares the entries of its parameter vectors once, as a
+:class:`~siku_core.contact_law.ParameterRecord`; its evaluator reads them by name through the
+record's index (``pars[CP.damping_ratio]``). Every law collides
 overlapping elements with the collision evaluator; joint laws add their joint evaluator for
 intact frozen joints, and a broken joint continues as a collision contact.
 """
@@ -11,20 +14,56 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 from siku_core import Param, hookimpl
-from siku_core.contacts import (
-    BREAK_COMPRESSION, BREAK_SHEAR, BREAK_STRAIN, BREAK_TENSION,
-    G_AREA, G_AREA_I, G_AREA_J, G_K, G_MEFF, G_NX, G_NY, G_VX, G_VY, G_WIDTH,
-    J_AX, J_AY, J_BX, J_BY, J_EI, J_EJ, J_HI, J_HJ, J_K, J_L0, J_MEFF, J_NU, J_S1X, J_S1Y,
-    J_S2X, J_S2Y, J_VAX, J_VAY, J_VBX, J_VBY, J_W,
+from siku_core.contact_law import (
+    BREAK_COMPRESSION,
+    BREAK_SHEAR,
+    BREAK_STRAIN,
+    BREAK_TENSION,
+    G_AREA,
+    G_AREA_I,
+    G_AREA_J,
+    G_K,
+    G_MEFF,
+    G_NX,
+    G_NY,
+    G_VX,
+    G_VY,
+    G_WIDTH,
+    J_AX,
+    J_AY,
+    J_BX,
+    J_BY,
+    J_EI,
+    J_EJ,
+    J_HI,
+    J_HJ,
+    J_K,
+    J_L0,
+    J_MEFF,
+    J_NU,
+    J_S1X,
+    J_S1Y,
+    J_S2X,
+    J_S2Y,
+    J_VAX,
+    J_VAY,
+    J_VBX,
+    J_VBY,
+    J_W,
+    OUT_BREAK,
+    OUT_COUPLE,
+    OUT_FX,
+    OUT_FY,
+    ContactLaw,
+    ParameterRecord,
 )
-from siku_core.interfaces import ContactLaw
 
-# collision parameter vector
-C_SQRT, C_ZETA, C_ETA, C_MU = range(4)
+#: the collision parameter vector (every law)
+COLLISION_RECORD = ParameterRecord("sqrt_area", "damping_ratio", "viscosity", "friction")
+CP = COLLISION_RECORD.index
 
 
 @njit(cache=True)
@@ -42,7 +81,7 @@ def collision_evaluator(g, pars, out):
     K = g[G_K]
     L = g[G_WIDTH]
     vx, vy = g[G_VX], g[G_VY]
-    if pars[C_SQRT] != 0.0:
+    if pars[CP.sqrt_area] != 0.0:
         ac = math.sqrt(min(g[G_AREA_I], g[G_AREA_J]))
         sa = math.sqrt(A)
         fel = K * sa * ac
@@ -51,21 +90,21 @@ def collision_evaluator(g, pars, out):
     else:
         fel = K * A
         k = K * L
-    c = 2.0 * pars[C_ZETA] * math.sqrt(k * g[G_MEFF])
+    c = 2.0 * pars[CP.damping_ratio] * math.sqrt(k * g[G_MEFF])
     vn = vx * nx + vy * ny
     fn = fel - c * vn
-    fx = fn * nx - pars[C_ETA] * A * vx
-    fy = fn * ny - pars[C_ETA] * A * vy
-    if pars[C_MU] > 0.0:
+    fx = fn * nx - pars[CP.viscosity] * A * vx
+    fy = fn * ny - pars[CP.viscosity] * A * vy
+    if pars[CP.friction] > 0.0:
         tx, ty = vx - vn * nx, vy - vn * ny
         vt = math.hypot(tx, ty)
         if vt > 0.0:
-            ft = min(pars[C_MU] * abs(fn), c * vt)
+            ft = min(pars[CP.friction] * abs(fn), c * vt)
             fx -= ft * tx / vt
             fy -= ft * ty / vt
-    out[0] = fx
-    out[1] = fy
-    out[2] = 0.0
+    out[OUT_FX] = fx
+    out[OUT_FY] = fy
+    out[OUT_COUPLE] = 0.0
 
 
 class Collision(ContactLaw):
@@ -80,15 +119,12 @@ class Collision(ContactLaw):
         "friction": Param(0.0, "1", "Coulomb friction coefficient mu", min=0),
     }
     collision_evaluator = collision_evaluator
-
-    def collision_parameters(self, sim):
-        p = self.p
-        return np.array([float(p["sqrt_area"]), p["damping_ratio"], p["viscosity"],
-                         p["friction"]])
+    collision_record = COLLISION_RECORD
 
 
-# distributed spring parameter vector
-S_EPS, S_ZETA, S_ONSET = range(3)
+#: the distributed spring's joint parameter vector
+SPRING_RECORD = ParameterRecord("tensile_strain", "joint_damping_ratio", "damage_onset")
+SP = SPRING_RECORD.index
 
 
 @njit(cache=True)
@@ -105,35 +141,35 @@ def spring_evaluator(g, pars, hist, out):
     strain = math.sqrt(max(s1x * s1x + s1y * s1y, s2x * s2x + s2y * s2y)) / g[J_L0]
     if strain > hist[0]:
         hist[0] = strain
-    eps_t = pars[S_EPS]
+    eps_t = pars[SP.tensile_strain]
     if hist[0] > eps_t:
-        out[3] = 1.0
+        out[OUT_BREAK] = BREAK_STRAIN
         return
-    onset = pars[S_ONSET] * eps_t
+    onset = pars[SP.damage_onset] * eps_t
     dmg = 0.0
     if hist[0] > onset and eps_t > onset:
         dmg = (hist[0] - onset) / (eps_t - onset)
     K = g[J_K] * (1.0 - dmg)
     w = g[J_W]
     wx, wy = g[J_BX] - g[J_AX], g[J_BY] - g[J_AY]
-    c = 2.0 * pars[S_ZETA] * math.sqrt(g[J_K] * w * g[J_MEFF])
+    c = 2.0 * pars[SP.joint_damping_ratio] * math.sqrt(g[J_K] * w * g[J_MEFF])
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
     # force on i pulls i's copy towards j's copy; j gets the opposite
     fx = K * w * 0.5 * (s1x + s2x) + c * 0.5 * (vax + vbx)
     fy = K * w * 0.5 * (s1y + s2y) + c * 0.5 * (vay + vby)
     ci = (K * w * (wx * (s2y - s1y) - wy * (s2x - s1x))
           + c * (wx * (vby - vay) - wy * (vbx - vax))) / 12.0
-    out[0] = -fx
-    out[1] = -fy
-    out[2] = -ci
+    out[OUT_FX] = -fx
+    out[OUT_FY] = -fy
+    out[OUT_COUPLE] = -ci
 
 
 def spring_energy(g, pars, hist):
     """Elastic energy [J] of a distributed-spring joint: ``K_d w (|s1|² + |s2|² + s1·s2)/6``,
     the integral of ``K_d |d(z)|² / 2`` along the joint (``d`` linear from ``s1`` to ``s2``),
     ``K_d = K (1 - damage)`` with the damage of ``hist``."""
-    eps_t = pars[S_EPS]
-    onset = pars[S_ONSET] * eps_t
+    eps_t = pars[SP.tensile_strain]
+    onset = pars[SP.damage_onset] * eps_t
     dmg = (hist[0] - onset) / (eps_t - onset) if hist[0] > onset and eps_t > onset else 0.0
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
     q = s1x * s1x + s1y * s1y + s2x * s2x + s2y * s2y + s1x * s2x + s1y * s2y
@@ -156,14 +192,13 @@ class DistributedSpring(Collision):
     }
     joint_evaluator = spring_evaluator
     joint_energy = staticmethod(spring_energy)
-
-    def joint_parameters(self, sim):
-        p = self.p
-        return np.array([p["tensile_strain"], p["joint_damping_ratio"], p["damage_onset"]])
+    joint_record = SPRING_RECORD
 
 
-# Mohr–Coulomb parameter vector
-M_SIGC, M_TRATIO, M_TANPHI, M_NSEG, M_SHARE, M_ZETA = range(6)
+#: the Mohr–Coulomb joint parameter vector (``tan_phi``: of ``friction_angle``)
+MOHR_COULOMB_RECORD = ParameterRecord("sigma_c", "tensile_ratio", "tan_phi", "n_segments",
+                                      "break_share", "joint_damping_ratio")
+MC = MOHR_COULOMB_RECORD.index
 
 
 @njit(cache=True, inline="always")
@@ -223,7 +258,7 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     is the thinner side's ``E`` exactly, and neither ``lam`` nor the factor is computed. The
     damping uses the same stiffness, ``(h E)_eff w / L0``.
     """
-    nseg = int(pars[M_NSEG])
+    nseg = int(pars[MC.n_segments])
     L0 = g[J_L0]
     hi, hj = g[J_HI], g[J_HJ]
     a = hi * g[J_EI]
@@ -250,11 +285,11 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
             E = g[J_EJ] * (a / den) if den > 0.0 else 0.0
     EL = E * inv_l0  # sigma_n per metre of normal displacement [Pa/m]
     GL = EL * (0.5 / (1.0 + g[J_NU]))
-    sigc = pars[M_SIGC]
+    sigc = pars[MC.sigma_c]
     if sigc <= 0.0:
         sigc = 1285e3 * h ** (2.0 / 3.0)
-    sigt = pars[M_TRATIO] * sigc
-    tanphi = pars[M_TANPHI]
+    sigt = pars[MC.tensile_ratio] * sigc
+    tanphi = pars[MC.tan_phi]
     ax, ay, bx, by = g[J_AX], g[J_AY], g[J_BX], g[J_BY]
     w = g[J_W]
     if w > 0.0:
@@ -313,11 +348,11 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
         fx += sfx
         fy += sfy
         ci += px * sfy - py * sfx
-    if nfailed >= pars[M_SHARE] * nseg - 1e-9:
-        out[3] = mode  # the criterion of the segment whose failure broke the joint
+    if nfailed >= pars[MC.break_share] * nseg - 1e-9:
+        out[OUT_BREAK] = mode  # the criterion of the segment whose failure broke the joint
         return
     # damping: share of critical for the normal stiffness (h E)_eff w / L0 on the reduced mass
-    c = 2.0 * pars[M_ZETA] * math.sqrt(h * EL * w * g[J_MEFF])
+    c = 2.0 * pars[MC.joint_damping_ratio] * math.sqrt(h * EL * w * g[J_MEFF])
     if nfailed:
         c *= (nseg - nfailed) / nseg
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
@@ -325,9 +360,9 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     fy += c * 0.5 * (vay + vby)
     wx, wy = bx - ax, by - ay
     ci += c * (wx * (vby - vay) - wy * (vbx - vax)) * (1.0 / 12.0)
-    out[0] = -fx
-    out[1] = -fy
-    out[2] = -ci
+    out[OUT_FX] = -fx
+    out[OUT_FY] = -fy
+    out[OUT_COUPLE] = -ci
 
 
 class MohrCoulomb(Collision):
@@ -348,20 +383,19 @@ class MohrCoulomb(Collision):
                                      max=0.99),
     }
     joint_evaluator = mohr_coulomb_evaluator
+    joint_record = MOHR_COULOMB_RECORD
 
     def __init__(self, params=None):
         super().__init__(params)
         self.history_names = tuple(f"failed_{k}" for k in range(int(self.p["n_segments"])))
 
-    def joint_parameters(self, sim):
-        p = self.p
-        return np.array([p["sigma_c"], p["tensile_ratio"],
-                         math.tan(math.radians(p["friction_angle"])), p["n_segments"],
-                         p["break_share"], p["joint_damping_ratio"]])
+    def parameter_values(self):
+        return {**self.p, "tan_phi": math.tan(math.radians(self.p["friction_angle"]))}
 
 
-# bonded-particle parameter vector
-B_SIGC, B_TAUC, B_ZETA = range(3)
+#: the bonded-particle joint parameter vector
+BOND_RECORD = ParameterRecord("sigma_crit", "tau_crit", "joint_damping_ratio")
+BP = BOND_RECORD.index
 
 
 @njit(cache=True, inline="always")
@@ -402,7 +436,7 @@ def bonded_particle_evaluator(g, pars, hist, out):
       |theta|`` (the largest normal stress over the section: the bending moment ``k_n I theta``
       over the section modulus ``I / (w/2)``), ``tau = k_s |d_s|`` (in the plane there is no
       twisting about the bond axis);
-    * the bond breaks for good when ``sigma > sigma_crit`` (``out[3] = BREAK_TENSION``) or
+    * the bond breaks for good when ``sigma > sigma_crit`` (``out[OUT_BREAK] = BREAK_TENSION``) or
       ``tau > tau_crit`` (``BREAK_SHEAR``; the larger ratio to its strength decides when both
       exceed theirs) and carries no force from then on;
     * damping: a share ``zeta`` of critical for each stiffness on the reduced mass, on the
@@ -434,14 +468,14 @@ def bonded_particle_evaluator(g, pars, hist, out):
         hist[0] = sigma
     if tau > hist[1]:
         hist[1] = tau
-    sigc = pars[B_SIGC]
-    tauc = pars[B_TAUC]
+    sigc = pars[BP.sigma_crit]
+    tauc = pars[BP.tau_crit]
     if sigma > sigc or tau > tauc:
-        out[3] = BREAK_TENSION if sigma / sigc >= tau / tauc else BREAK_SHEAR
+        out[OUT_BREAK] = BREAK_TENSION if sigma / sigc >= tau / tauc else BREAK_SHEAR
         return
     # k_n A = K w [N/m] (A = w h_b), k_s A = share K w, k_n I = K w³/12
     kna = g[J_K] * w if hb > 0.0 else 0.0
-    c2 = 2.0 * pars[B_ZETA]
+    c2 = 2.0 * pars[BP.joint_damping_ratio]
     cn = c2 * math.sqrt(kna * g[J_MEFF])
     cs = c2 * math.sqrt(share * kna * g[J_MEFF])
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
@@ -451,9 +485,9 @@ def bonded_particle_evaluator(g, pars, hist, out):
     fs = share * kna * ds + cs * (vx * tx + vy * ty)
     # couple k_n I theta + c_n (w²/12) spin, spin = (w × (v_b - v_a))/w²
     couple = (kna * w * w * theta + cn * (wx * (vby - vay) - wy * (vbx - vax))) / 12.0
-    out[0] = -(fn * nx + fs * tx)
-    out[1] = -(fn * ny + fs * ty)
-    out[2] = -couple
+    out[OUT_FX] = -(fn * nx + fs * tx)
+    out[OUT_FY] = -(fn * ny + fs * ty)
+    out[OUT_COUPLE] = -couple
 
 
 def bonded_particle_energy(g, pars, hist):
@@ -502,10 +536,7 @@ class BondedParticle(Collision):
     }
     joint_evaluator = bonded_particle_evaluator
     joint_energy = staticmethod(bonded_particle_energy)
-
-    def joint_parameters(self, sim):
-        p = self.p
-        return np.array([p["sigma_crit"], p["tau_crit"], p["joint_damping_ratio"]])
+    joint_record = BOND_RECORD
 
     def stiffness_factor(self) -> float:
         """Normal stiffness ``k_n A = K w`` and bending ``k_n I = K w³/12``: the spring's."""

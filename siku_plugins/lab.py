@@ -306,7 +306,7 @@ def measure(sim, sigma_crit: float = math.nan, tau_crit: float = math.nan,
     """Run a ``lab_block`` scene to failure (or to its end) and measure its curve (module
     docstring). ``sigma_crit`` (default: the law's ``sigma_crit`` if it has one) scales the
     stop criterion; ``E`` [Pa] defaults to the block's material."""
-    from siku_core.contacts import BREAK_MODES
+    from siku_core.contact_law import BREAK_MODES
     from siku_core.geometry.quat import centers
     from siku_core.state import STEADY
 
@@ -359,7 +359,7 @@ def measure(sim, sigma_crit: float = math.nan, tau_crit: float = math.nan,
         modulus = float(np.polyfit(x, y, 1)[0])
     else:
         modulus = math.nan
-    codes = np.bincount(cm.bmode.astype(np.int64), minlength=len(BREAK_MODES))
+    codes = np.bincount(cm.break_mode.astype(np.int64), minlength=len(BREAK_MODES))
     broken = {name: int(codes[c]) for c, name in BREAK_MODES.items() if c and codes[c]}
     return LabResult(test, float(sigma_crit), float(tau_crit), D, strain, stress, modulus,
                      float(stress[ip]), float(strain[ip]), broken, st.n, cm.n_joints,

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siku_core import contacts
-from siku_core.contacts import BREAK_TENSION
+from siku_core import contact_law as contacts
+from siku_core.contact_law import BREAK_TENSION
 from siku_core.plugins import register_module, unregister_module
 from siku_core.scene import scene_from_text
 from siku_core.simulation import Simulation
@@ -101,7 +101,7 @@ def test_the_guides_law_runs_its_scene_with_the_predicted_breaks(law_from_the_gu
     expected = 2.0 * 1.0 * 2.0e5 / (cm.jK * 0.01)
     assert np.all(np.abs(cm.break_time - expected) <= sim.dt)
     assert np.all(np.abs(expected - 80.0) < 0.01)  # the number the guide quotes
-    assert set(cm.bmode) == {BREAK_TENSION}
+    assert set(cm.break_mode) == {BREAK_TENSION}
 
 
 def test_the_guides_law_passes_the_conformance_suite(law_from_the_guide):

@@ -124,7 +124,7 @@ def test_floe_field_power_law_sizes_without_overlap():
     assert nf >= 3
     F = np.zeros((st.n, 2))
     sim.contacts.add(0.0, st.q, st.V, st.w, F, np.zeros(st.n), False)
-    on = sim.contacts.pon == 1
+    on = sim.contacts.pair_active == 1
     pairs = sim.contacts.pairs[on]
     assert not np.any(st.floe[pairs[:, 0]] != st.floe[pairs[:, 1]])
     # joints only inside floes

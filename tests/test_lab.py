@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from siku_core.cli import main
-from siku_core.contacts import BREAK_SHEAR
+from siku_core.contact_law import BREAK_SHEAR
 from siku_core.scene import scene_from_text
 from siku_core.simulation import Simulation
 from siku_plugins.lab import affine_moduli, measure, strength_table, virtual_test
@@ -124,7 +124,7 @@ def test_same_pull_scene_three_laws():
     t_peak = (int(np.argmax(mc.stress)) + 1) * mc.dt  # the peak's force evaluation ends then
     before = broke & (cm.break_time <= t_peak)
     assert before.sum() >= 10  # failure began before the peak
-    assert np.all(cm.bmode[before] == BREAK_SHEAR)
+    assert np.all(cm.break_mode[before] == BREAK_SHEAR)
     assert mc.broken.get("shear", 0) >= 0.9 * broke.sum()
 
 

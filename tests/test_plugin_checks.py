@@ -71,7 +71,7 @@ class Bare(ContactLaw):
 
     name = "bare_law"
 
-    def collision_parameters(self, sim):
+    def collision_parameters(self):
         return np.zeros(1)
 
 

@@ -61,7 +61,7 @@ def test_free_drift_allocates_no_contact_arrays():
     # least the per-joint and per-pair rows numpy allocates (tracemalloc does not see the ones
     # compiled code allocates)
     cm = bonded.contacts
-    rows = cm.jout.nbytes + cm.pout.nbytes + cm.rm.nbytes + cm.hist.nbytes
+    rows = cm.joint_rows.nbytes + cm.pair_rows.nbytes + cm.rm.nbytes + cm.hist.nbytes
     assert free_bytes == 0
     assert bonded_bytes >= rows, (bonded_bytes, rows)
     assert set(free.timings) == set(bonded.timings)

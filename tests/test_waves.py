@@ -246,7 +246,7 @@ def test_breaking_critical_length():
     assert cm.intact.all()
     cm, sizes = ex.strip(1.6 * Lc, Lc / 16, a, T, E, eps)
     assert (~cm.intact).sum() >= 1
-    assert set(cm.bmode[~cm.intact]) == {6.0}  # BREAK_FLEXURE
+    assert set(cm.break_mode[~cm.intact]) == {6.0}  # BREAK_FLEXURE
     assert sizes.max() <= Lc * 1.05
 
 

@@ -422,7 +422,7 @@ def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | Non
     law = sim.contacts.law
     coll, joint = _evaluators(law_cls)
     rng = np.random.default_rng(seed)
-    cpars = np.ascontiguousarray(law.collision_parameters(sim), dtype=float)
+    cpars = np.ascontiguousarray(law.collision_parameters(), dtype=float)
     for k in range(n):
         g = random_collision_geometry(rng)
         oc, op = np.zeros(4), np.zeros(4)
@@ -436,7 +436,7 @@ def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | Non
         )
     if joint is None:
         return
-    jpars = np.ascontiguousarray(law.joint_parameters(sim), dtype=float)
+    jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
     nh = max(len(law.history_names), 1)
     for k in range(n):
         g = random_joint_geometry(rng)
@@ -521,7 +521,7 @@ def check_degenerate_finite(law_cls: type, params: Mapping[str, Any] | None = No
     coll, joint = _evaluators(law_cls)
     sim = law_simulation(law_cls, params, **_separated_kwargs())
     law = sim.contacts.law
-    cpars = np.ascontiguousarray(law.collision_parameters(sim), dtype=float)
+    cpars = np.ascontiguousarray(law.collision_parameters(), dtype=float)
     check = "degenerate geometry"
     for name, g in degenerate_collision_geometries():
         out = np.zeros(4)
@@ -529,7 +529,7 @@ def check_degenerate_finite(law_cls: type, params: Mapping[str, Any] | None = No
         assert np.isfinite(out).all(), (
             f"{law_cls.name}: {check}: collision evaluator, {name}: out = {out.tolist()}")
     if joint is not None:
-        jpars = np.ascontiguousarray(law.joint_parameters(sim), dtype=float)
+        jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
         nh = max(len(law.history_names), 1)
         for name, g in degenerate_joint_geometries():
             out, hist = np.zeros(4), np.zeros(nh)
@@ -715,7 +715,7 @@ def check_energy(law_cls: type, params: Mapping[str, Any] | None = None, n: int 
     sim = law_simulation(law_cls, params, **_separated_kwargs())
     law = sim.contacts.law
     joint = law_cls.joint_evaluator
-    jpars = np.ascontiguousarray(law.joint_parameters(sim), dtype=float)
+    jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
     nh = max(len(law.history_names), 1)
     rng = np.random.default_rng(seed)
     tested = 0
@@ -774,7 +774,7 @@ def check_history(law_cls: type, params: Mapping[str, Any] | None = None, n: int
     sim = law_simulation(law_cls, params, **_separated_kwargs())
     law = sim.contacts.law
     joint = law_cls.joint_evaluator
-    jpars = np.ascontiguousarray(law.joint_parameters(sim), dtype=float)
+    jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
     nh = len(law.history_names)
     rate = getattr(law, "history_update", "state") == "rate"
     rng = np.random.default_rng(seed)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from siku_core.contacts import G_AREA
+from siku_core.contact_law import G_AREA
 from siku_plugins.contact_laws import (
     Collision,
     DistributedSpring,

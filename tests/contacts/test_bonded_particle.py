@@ -21,7 +21,7 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core.contacts import (
+from siku_core.contact_law import (
     BREAK_SHEAR, BREAK_TENSION, J_AX, J_AY, J_BX, J_BY, J_EI, J_EJ, J_HI, J_HJ, J_K, J_L0,
     J_MEFF, J_NU, J_S1X, J_S1Y, J_S2X, J_S2Y, J_SIZE, J_W,
 )
@@ -360,7 +360,7 @@ def test_joint_broken_from_outside_the_law_carries_no_force_and_is_recorded(tmp_
     """``ContactModel.break_joints`` (the interface for components other than the law, e.g.
     wave-induced breaking): the pulled bond's force disappears from the next evaluation, the
     break is stamped with mode ``external`` and its time, once, and reaches ``/breaks``."""
-    from siku_core.contacts import BREAK_EXTERNAL
+    from siku_core.contact_law import BREAK_EXTERNAL
 
     sim = Simulation(scene_from_text(break_scene("tension", 0.01)), out=tmp_path / "x.h5",
                      progress=False)
@@ -372,7 +372,7 @@ def test_joint_broken_from_outside_the_law_carries_no_force_and_is_recorded(tmp_
     assert cm.break_joints(np.array([0]), BREAK_EXTERNAL, sim.time) == 0  # already broken
     F, _ = contact_forces(sim)
     assert not F.any()
-    assert cm.bmode[0] == BREAK_EXTERNAL and cm.break_time[0] == pytest.approx(0.5)
+    assert cm.break_mode[0] == BREAK_EXTERNAL and cm.break_time[0] == pytest.approx(0.5)
     sim.run()
     with h5py.File(tmp_path / "x.h5", "r") as f:
         b = f["breaks"]

@@ -9,7 +9,8 @@
   no overlap area beyond round-off, pairs it does not call apart do overlap (random polygons,
   touching squares with and without round-off noise, gaps down to 1e-12 of the size), and a run
   with it gives the same state bit for bit as a run without it.
-* The kernels agree with the serial reference loops (``joint_loop``, ``collision_loop``: the
+* The kernels agree with the serial reference loops (``reference_loops.py``: ``joint_loop``,
+  ``collision_loop``, the
   previous implementation, quaternion rotations per contact) to round-off, contact for contact.
 """
 from __future__ import annotations
@@ -20,8 +21,8 @@ import pytest
 from numba import njit, prange
 
 import siku_core.parallel as parallel
-from siku_core.contact_model import ContactModel
-from siku_core.contacts import collision_loop, joint_loop, rotation_matrices, rotations_within
+from reference_loops import collision_loop, joint_loop
+from siku_core.contacts import rotation_matrices, rotations_within
 from siku_core.geometry.clip import (
     REL_TOL,
     apart,
@@ -34,6 +35,7 @@ from siku_core.geometry.clip import (
     separating_edge,
 )
 from siku_core.simulation import Simulation
+from siku_core.testing import switches
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 
 DYN = ("q", "V", "w")
@@ -253,7 +255,7 @@ def test_runs_with_and_without_the_separation_test_are_identical(monkeypatch, to
     # a gapped, jittered broken pack: many candidate pairs are apart, some collide
     sc = pulled_pack("distributed_spring", gap=0.002, jitter=0.25, touching=touching)
     with_test = Simulation(sc, out=False, progress=False).run(30)
-    monkeypatch.setattr(ContactModel, "pretest", False)
+    monkeypatch.setattr(switches, "pretest", False)
     without = Simulation(sc, out=False, progress=False).run(30)
     assert with_test.contacts.n_overlap == without.contacts.n_overlap
     for k in DYN:
@@ -269,9 +271,9 @@ def test_touching_pairs_skip_the_separation_test_and_change_nothing(monkeypatch)
     seen = 0
     for _ in range(30):
         sim.step()
-        seen = max(seen, int(np.sum(sim.contacts.pon == 2)))
+        seen = max(seen, int(np.sum(sim.contacts.pair_active == 2)))
     assert seen > 10
-    monkeypatch.setattr(ContactModel, "pretest", False)
+    monkeypatch.setattr(switches, "pretest", False)
     without = Simulation(sc, out=False, progress=False).run(30)
     assert sim.contacts.n_overlap == without.contacts.n_overlap
     for k in DYN:
@@ -296,7 +298,7 @@ def test_kernels_match_the_serial_reference_loops(law):
     n = collision_loop(law_.collision_evaluator, cm._cpars, q, V, w, cm.minv, st.thickness,
                        cm.E, st.area, st.vert_offsets, st.verts, cm.pairs, sim.radius, Fr, Tr,
                        cm.pface, cm.scale)
-    assert broke == 0 and n == int((cm.pon == 1).sum()) > 0
+    assert broke == 0 and n == int((cm.pair_active == 1).sum()) > 0
     assert (cm.pface[:, 0] >= 0).sum() >= len(cm.ji)  # jointed pairs take the face path
     # joint displacements are differences of km-sized coordinates projected from another
     # frame: one ulp of the planet radius (1.4e-9 m) times a joint stiffness K w (~2e9 N/m) is

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from siku_core.contacts import BREAK_EXTERNAL
+from siku_core.contact_law import BREAK_EXTERNAL
 from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, rotate_about, square_pack
 
@@ -87,7 +87,7 @@ def test_exclude_leaves_exactly_the_intact_joints_out_of_the_candidates():
     assert {tuple(p) for p in cm.pairs.tolist()} == every - joints
 
     saved = cm.history()
-    before = {tuple(p): (cm.pon[k], cm.phint[k]) for k, p in enumerate(cm.pairs.tolist())}
+    before = {tuple(p): (cm.pair_active[k], cm.separating_hint[k]) for k, p in enumerate(cm.pairs.tolist())}
     k = 5
     cm.break_joints(np.array([k]), BREAK_EXTERNAL, 1.0)
     now = [tuple(p) for p in cm.pairs.tolist()]
@@ -95,7 +95,7 @@ def test_exclude_leaves_exactly_the_intact_joints_out_of_the_candidates():
     assert now == sorted(now)
     for idx, p in enumerate(now):
         if p in before:
-            assert (cm.pon[idx], cm.phint[idx]) == before[p]
+            assert (cm.pair_active[idx], cm.separating_hint[idx]) == before[p]
     assert len(cm.poff) == sims["exclude"].state.n + 1 and cm.poff[-1] == 2 * len(now)
 
     cm.set_history(saved)  # the joint holds again

@@ -28,6 +28,7 @@ from siku_core.geometry.clip import (
 from siku_core.geometry.clip import polygon_area_centroid as centroid
 from siku_core.geometry.face import edge_table, joint_edges, touching_face, touching_face_u
 from siku_core.simulation import Simulation
+from siku_core.testing import switches
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 
 EPS = np.finfo(float).eps
@@ -147,12 +148,15 @@ def test_joint_edges_name_the_edges_of_the_joint():
 
 def _forces(sim, face_path):
     st_, cm = sim.state, sim.contacts
-    cm.face_path = face_path
-    cm.pface = cm._faces(cm.pairs)
-    cm.pon[:] = 0
+    switches.face_path = face_path
+    try:
+        cm.pface = cm._faces(cm.pairs)
+    finally:
+        switches.face_path = True
+    cm.pair_active[:] = 0
     F, T = np.zeros_like(st_.F), np.zeros_like(st_.T)
     cm.add(0.0, st_.q.copy(), st_.V.copy(), st_.w.copy(), F, T, False)
-    return F, T, cm.pon.copy(), cm.pout.copy()
+    return F, T, cm.pair_active.copy(), cm.pair_rows.copy()
 
 
 def test_the_engine_puts_a_touching_face_at_the_middle_of_its_joint():

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from siku_core.contacts import (
+from siku_core.contact_law import (
     BREAK_COMPRESSION, BREAK_SHEAR, BREAK_TENSION,
     J_AX,
     J_AY,
@@ -55,7 +55,7 @@ STEP = 1e-3  # load increment, share of the expected failure stress
 
 def law_pars(**params) -> np.ndarray:
     law = MohrCoulomb({**{k: p.default for k, p in MohrCoulomb.params.items()}, **params})
-    return np.ascontiguousarray(law.joint_parameters(None), dtype=float)
+    return np.ascontiguousarray(law.joint_parameters(), dtype=float)
 
 
 def geometry(s1, s2, h=(1.0, 1.0), e=(E, E), ri=1000.0) -> np.ndarray:

@@ -15,18 +15,19 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 from siku_core import Param
-from siku_core.contacts import (
+from siku_core.contact_law import (
     BREAK_SHEAR, BREAK_TENSION, J_AX, J_AY, J_BX, J_BY, J_HI, J_HJ, J_K, J_MEFF, J_S1X, J_S1Y,
-    J_S2X, J_S2Y, J_VAX, J_VAY, J_VBX, J_VBY, J_W,
+    J_S2X, J_S2Y, J_VAX, J_VAY, J_VBX, J_VBY, J_W, ParameterRecord,
 )
 from siku_plugins.contact_laws import Collision
 
-# the joint parameter vector, in the order joint_parameters() returns it
-P_SIGMA_T, P_TAU_C, P_SCALE, P_ZETA = range(4)
+# the joint parameter vector, declared once: the engine packs it from the law's parameters
+BOND_RECORD = ParameterRecord("tensile_strength", "shear_strength", "stiffness_scale",
+                              "joint_damping_ratio")
+P = BOND_RECORD.index  # pars[P.tensile_strength]: a compile-time constant index
 
 
 @njit(cache=True)
@@ -45,19 +46,19 @@ def brittle_bond_evaluator(g, pars, hist, out):
     if w > 0.0:
         tx, ty = wx / w, wy / w
     nx, ny = ty, -tx  # from i towards j
-    K = pars[P_SCALE] * g[J_K]
+    K = pars[P.stiffness_scale] * g[J_K]
     h = min(g[J_HI], g[J_HJ])
     sigma = K * max(s1x * nx + s1y * ny, s2x * nx + s2y * ny) / h
     tau = K * max(abs(s1x * tx + s1y * ty), abs(s2x * tx + s2y * ty)) / h
     hist[0] = max(hist[0], sigma)
     hist[1] = max(hist[1], tau)
-    if sigma > pars[P_SIGMA_T]:
+    if sigma > pars[P.tensile_strength]:
         out[3] = BREAK_TENSION
         return
-    if tau > pars[P_TAU_C]:
+    if tau > pars[P.shear_strength]:
         out[3] = BREAK_SHEAR
         return
-    c = 2.0 * pars[P_ZETA] * math.sqrt(K * w * g[J_MEFF])
+    c = 2.0 * pars[P.joint_damping_ratio] * math.sqrt(K * w * g[J_MEFF])
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
     out[0] = -(K * w * 0.5 * (s1x + s2x) + c * 0.5 * (vax + vbx))
     out[1] = -(K * w * 0.5 * (s1y + s2y) + c * 0.5 * (vay + vby))
@@ -69,7 +70,7 @@ def brittle_bond_energy(g, pars, hist):
     """Elastic energy [J] of an intact bond: ``K' w (|s1|² + |s2|² + s1·s2) / 6``."""
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
     q = s1x * s1x + s1y * s1y + s2x * s2x + s2y * s2y + s1x * s2x + s1y * s2y
-    return pars[P_SCALE] * g[J_K] * g[J_W] * q / 6.0
+    return pars[P.stiffness_scale] * g[J_K] * g[J_W] * q / 6.0
 
 
 class BrittleBond(Collision):
@@ -90,11 +91,7 @@ class BrittleBond(Collision):
     }
     joint_evaluator = brittle_bond_evaluator
     joint_energy = staticmethod(brittle_bond_energy)
-
-    def joint_parameters(self, sim):
-        p = self.p
-        return np.array([p["tensile_strength"], p["shear_strength"], p["stiffness_scale"],
-                         p["joint_damping_ratio"]])
+    joint_record = BOND_RECORD
 
     def stiffness_factor(self) -> float:
         """The bond is ``stiffness_scale`` times the spring the time-step estimate assumes."""

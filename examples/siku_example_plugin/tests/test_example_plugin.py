@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siku_core.contacts import BREAK_TENSION
+from siku_core.contact_law import BREAK_TENSION
 from siku_core.plugins import get_registry
 from siku_core.testing import conformance
 from siku_core.testing.contact_conformance import check_contact_law
@@ -93,6 +93,6 @@ def test_brittle_bonds_break_in_tension_when_the_stress_reaches_the_strength(
     sigma_t = sim.contacts.law.p["tensile_strength"]
     sim.run()
     assert not cm.intact.any()
-    assert set(cm.bmode) == {BREAK_TENSION}
+    assert set(cm.break_mode) == {BREAK_TENSION}
     expected = 2.0 * h * sigma_t / (K * v)
     assert np.all(np.abs(cm.break_time - expected) <= sim.dt), (cm.break_time, expected)

@@ -1,0 +1,339 @@
+"""A contact law's contract, in one place.
+
+What a law supplies and what the engine hands it:
+
+* :class:`ContactLaw`, the base class: ``collision_evaluator(g, pars, out)`` for every law,
+  ``joint_evaluator(g, pars, hist, out)`` for a law with ``uses_joints = True``, and the
+  parameter records ``collision_record`` / ``joint_record`` (:class:`ParameterRecord`) from
+  which the engine packs the float64 vectors ``pars``;
+* the layouts of the vectors an evaluator reads and writes: the collision geometry ``g``
+  (``G_*``, :data:`COLLISION_LAYOUT`), the joint geometry ``g`` (``J_*``,
+  :data:`JOINT_LAYOUT`), the result ``out`` (``OUT_*``, :data:`OUT_LAYOUT`); the joint's
+  history row ``hist`` has the columns the law names in ``history_names``;
+* the break modes a joint evaluator writes to ``out[OUT_BREAK]`` (:class:`BreakMode`, the
+  ``BREAK_*`` ints, names by code in :data:`BREAK_MODES`);
+* the reference signatures of the evaluators (:data:`EVALUATORS`) and the checks run when a
+  law registers (:func:`check_contact_law`) and when a run compiles it
+  (:func:`compile_evaluators`).
+
+Sign conventions (both evaluators): geometry is expressed in element ``i``'s tangent frame. An
+evaluator returns the force on element ``j`` (``out[OUT_FX]``, ``out[OUT_FY]``, N, in ``i``'s
+frame) and a couple on ``j`` (``out[OUT_COUPLE]``, N m, about the local vertical). The engine
+applies them to ``j`` and the opposite to ``i``, as a 3D force at the contact point on the
+sphere, so each pair's contribution to the angular momentum about the planet centre cancels
+exactly. Guide: ``docs/howto/contact_laws.md``.
+"""
+from __future__ import annotations
+
+import inspect
+import re
+from collections import namedtuple
+from collections.abc import Mapping
+from enum import IntEnum
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .errors import PluginError
+from .interfaces import Component
+
+# ---------------------------------------------------------------------- layouts
+# collision geometry ``g``
+G_AREA, G_CX, G_CY, G_NX, G_NY, G_WIDTH, G_K, G_MEFF, G_VX, G_VY, G_AREA_I, G_AREA_J = range(12)
+G_SIZE = 12
+# joint geometry ``g``
+(J_S1X, J_S1Y, J_S2X, J_S2Y, J_AX, J_AY, J_BX, J_BY, J_L0, J_W, J_K, J_MEFF, J_VAX, J_VAY,
+ J_VBX, J_VBY, J_HI, J_HJ, J_EI, J_EJ, J_NU, J_DT) = range(22)
+J_SIZE = 22
+# what an evaluator writes to ``out``
+OUT_FX, OUT_FY, OUT_COUPLE, OUT_BREAK = range(4)
+OUT_SIZE = 4
+
+#: the collision geometry vector ``g``: ``(index constant, unit, meaning)`` per entry, in order
+#: (rendered for the docs by :func:`layout_table`)
+COLLISION_LAYOUT = (
+    ("G_AREA", "m²", "overlap area `A`"),
+    ("G_CX", "m", "overlap centroid, x (where the force acts)"),
+    ("G_CY", "m", "overlap centroid, y"),
+    ("G_NX", "1", "unit normal from `i` towards `j`, x"),
+    ("G_NY", "1", "unit normal from `i` towards `j`, y"),
+    ("G_WIDTH", "m", ("contact width: `|P1P2|` when the boundaries cross twice, else the common "
+                     "span of both polygons across the normal")),
+    ("G_K", "Pa", "effective stiffness `K` of eq. 9 (0 for coincident centres)"),
+    ("G_MEFF", "kg", ("reduced mass `1/(1/m_i + 1/m_j)` (a static or steady element counts as "
+                     "infinitely heavy)")),
+    ("G_VX", "m/s", "velocity of `j` relative to `i` at the centroid, x"),
+    ("G_VY", "m/s", "velocity of `j` relative to `i` at the centroid, y"),
+    ("G_AREA_I", "m²", "area of `i`"),
+    ("G_AREA_J", "m²", "area of `j`"),
+)
+#: the joint geometry vector ``g``: ``(index constant, unit, meaning)`` per entry, in order
+JOINT_LAYOUT = (
+    ("J_S1X", "m", "displacement of the joint's first end, `s1` (`j`'s copy minus `i`'s), x"),
+    ("J_S1Y", "m", "`s1`, y"),
+    ("J_S2X", "m", "displacement of the second end, `s2`, x"),
+    ("J_S2Y", "m", "`s2`, y"),
+    ("J_AX", "m", "first end `a` of `i`'s copy of the joint, x"),
+    ("J_AY", "m", "`a`, y"),
+    ("J_BX", "m", "second end `b`, x (`a → b` runs counter-clockwise round `i`)"),
+    ("J_BY", "m", "`b`, y"),
+    ("J_L0", "m", "rest distance of the two centres (great circle)"),
+    ("J_W", "m", "joint length `w = |b - a|` (0 for coincident ends)"),
+    ("J_K", "Pa", "effective stiffness `K` of eq. 9: traction per unit length and displacement"),
+    ("J_MEFF", "kg", "reduced mass"),
+    ("J_VAX", "m/s", "velocity of `j` relative to `i` at end `a`, x"),
+    ("J_VAY", "m/s", "same, y"),
+    ("J_VBX", "m/s", "velocity of `j` relative to `i` at end `b`, x"),
+    ("J_VBY", "m/s", "same, y"),
+    ("J_HI", "m", "thickness of `i`"),
+    ("J_HJ", "m", "thickness of `j`"),
+    ("J_EI", "Pa", "Young's modulus of `i`"),
+    ("J_EJ", "Pa", "Young's modulus of `j`"),
+    ("J_NU", "1", "Poisson's ratio (of `i`'s material)"),
+    ("J_DT", "s", "time step"),
+)
+#: what an evaluator writes to ``out`` (zeroed by the engine before every call); the entries
+#: are ``OUT_FX``, ``OUT_FY``, ``OUT_COUPLE``, ``OUT_BREAK``
+OUT_LAYOUT = (
+    ("out[0]", "N", "force on `j`, x (`i`'s frame); `i` gets the opposite"),
+    ("out[1]", "N", "force on `j`, y"),
+    ("out[2]", "N m", ("couple on `j` about the local vertical, counter-clockwise positive; `i` "
+                      "gets the opposite")),
+    ("out[3]", "1", ("joint evaluators: 0 while the joint holds, else its break mode "
+                    "(`BREAK_*`); the joint then carries no force from this step on")),
+)
+
+
+def layout_table(layout: tuple) -> str:
+    """A layout as a Markdown table: index, name, unit, meaning."""
+    if all(name.startswith("out[") for name, _, _ in layout):
+        rows = ["| entry | unit | meaning |", "|---|---|---|"]
+        rows += [f"| `{name}` | {unit} | {meaning} |" for name, unit, meaning in layout]
+    else:
+        rows = ["| index | name | unit | meaning |", "|---|---|---|---|"]
+        rows += [f"| {k} | `{name}` | {unit} | {meaning} |"
+                 for k, (name, unit, meaning) in enumerate(layout)]
+    return "\n".join(rows)
+
+
+# ---------------------------------------------------------------------- break modes
+class BreakMode(IntEnum):
+    """Why a joint broke: what a joint evaluator writes to ``out[OUT_BREAK]`` (any non-zero
+    value breaks it) and what the engine records with the break (int8 codes in outputs)."""
+
+    INTACT = 0  #: not broken
+    STRAIN = 1  #: a strain or displacement threshold without a direction (the spring law)
+    TENSION = 2  #: normal (opening) stress above the tensile strength
+    SHEAR = 3  #: shear stress above the shear strength
+    COMPRESSION = 4  #: normal (closing) stress above the compressive strength
+    EXTERNAL = 5  #: broken by a component outside the law, without a more precise mode
+    FLEXURE = 6  #: flexural (bending) strain above the critical strain (wave-induced)
+
+
+# the same codes as plain ints, for compiled evaluators (numba stores an int in a float array;
+# it cannot store an IntEnum member)
+BREAK_STRAIN = int(BreakMode.STRAIN)
+BREAK_TENSION = int(BreakMode.TENSION)
+BREAK_SHEAR = int(BreakMode.SHEAR)
+BREAK_COMPRESSION = int(BreakMode.COMPRESSION)
+BREAK_EXTERNAL = int(BreakMode.EXTERNAL)
+BREAK_FLEXURE = int(BreakMode.FLEXURE)
+#: names of the break modes by code (code 0: intact), as written in output files
+BREAK_MODES = {int(m): m.name.lower() for m in BreakMode}
+
+
+# ---------------------------------------------------------------------- parameters
+class ParameterRecord:
+    """The parameter vector ``pars`` of one evaluator, declared once by name.
+
+    ``ParameterRecord("sqrt_area", "damping_ratio")`` packs ``[values["sqrt_area"],
+    values["damping_ratio"]]`` as float64 (:meth:`pack`) and gives the evaluator the index of
+    each name as an attribute of :attr:`index`, a namedtuple instance: held in a module global
+    (``P = RECORD.index``), ``pars[P.damping_ratio]`` is indexing with a compile-time constant
+    in numba, as fast as a literal.
+    """
+
+    def __init__(self, *names: str):
+        if len(set(names)) != len(names) or not all(n.isidentifier() for n in names):
+            raise ValueError(f"parameter record names must be distinct identifiers: {names}")
+        self.names: tuple[str, ...] = tuple(names)
+        self.index = namedtuple("ParameterIndex", self.names)(*range(len(self.names)))
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __repr__(self) -> str:
+        return f"ParameterRecord{self.names!r}"
+
+    def pack(self, values: Mapping[str, Any]) -> np.ndarray:
+        """The float64 vector of ``values[name]`` for every name, in order."""
+        return np.array([float(values[n]) for n in self.names], dtype=np.float64)
+
+
+# ---------------------------------------------------------------------- the law
+class ContactLaw(Component):
+    """Pair interaction: forces and torques between two elements, with per-joint history.
+
+    A law supplies ``@njit`` evaluators of one contact (layouts: :mod:`siku_core.contact_law`):
+
+    * ``collision_evaluator(g, pars, out)``: overlapping pairs (every law has one: a broken or
+      absent joint continues as a collision contact);
+    * ``joint_evaluator(g, pars, hist, out)``: intact frozen joints (laws with
+      ``uses_joints = True``), updating the joint's ``hist`` row (``history_names`` columns).
+
+    ``collision_record`` / ``joint_record`` (:class:`ParameterRecord`) name the entries of the
+    float64 ``pars`` vectors passed to them; the engine packs them from
+    :meth:`parameter_values` (the law's parameters ``self.p``, plus any values a law derives
+    from them) through ``collision_parameters()`` / ``joint_parameters()`` (parameters are
+    arguments, never compiled-in globals). The evaluators are read from the class without
+    binding (an ``@njit`` function held as a class attribute binds like a method on an
+    instance). ``history_update`` says how the history changes: ``"state"`` (a function of the
+    geometry the joint has seen: maxima, failure flags, damage) or ``"rate"`` (integrated over
+    the time step). A law may declare ``joint_energy(g, pars, hist)`` [J], the joint's stored
+    elastic energy, which the conformance suite checks the force against. Guide:
+    ``docs/howto/contact_laws.md``.
+    """
+
+    kind = "contact_law"
+    uses_joints: ClassVar[bool] = False
+    history_names: ClassVar[tuple[str, ...]] = ()
+    history_update: ClassVar[str] = "state"
+    #: names of the collision evaluator's ``pars`` entries (``None``: no parameters)
+    collision_record: ClassVar[ParameterRecord | None] = None
+    #: names of the joint evaluator's ``pars`` entries (``None``: no parameters)
+    joint_record: ClassVar[ParameterRecord | None] = None
+    required: ClassVar[Mapping[str, tuple[str, ...]]] = {
+        "collision_parameters": (), "joint_parameters": ()}
+
+    def parameter_values(self) -> Mapping[str, Any]:
+        """The values the records are packed from: the law's parameters; a law whose
+        evaluator takes a value derived from them (``tan(phi)`` of an angle) adds it here."""
+        return self.p
+
+    def collision_parameters(self) -> np.ndarray:
+        """Parameter vector of the collision evaluator (``collision_record`` packed)."""
+        rec = self.collision_record
+        return rec.pack(self.parameter_values()) if rec is not None else np.zeros(0)
+
+    def joint_parameters(self) -> np.ndarray:
+        """Parameter vector of the joint evaluator (``joint_record`` packed)."""
+        rec = self.joint_record
+        return rec.pack(self.parameter_values()) if rec is not None else np.zeros(0)
+
+    def stiffness_factor(self) -> float:
+        """Joint stiffness per unit length relative to ``K`` of eq. 9 (for the dt estimate)."""
+        return 1.0
+
+
+# ---------------------------------------------------------------------- checks
+#: evaluator attributes of a contact law and their reference parameters
+EVALUATORS = {
+    "collision_evaluator": ("g", "pars", "out"),
+    "joint_evaluator": ("g", "pars", "hist", "out"),
+}
+
+
+def law_head(cls: type, package: str) -> str:
+    """How messages name a law: ``contact law 'NAME' from package 'PKG'``."""
+    return f"contact law '{cls.name}' from package '{package}'"
+
+
+def check_contact_law(cls: Any, package: str) -> None:
+    """A contact law's evaluators are present, jitted, and take the reference parameters; its
+    records are :class:`ParameterRecord`; its ``history_names`` are strings (at
+    registration)."""
+    head = law_head(cls, package)
+    for attr, expected in EVALUATORS.items():
+        if attr == "joint_evaluator" and not cls.uses_joints:
+            continue
+        ev = getattr(cls, attr, None)
+        if ev is None:
+            hint = (" (reuse the built-in one by subclassing the law registered as "
+                    "'collision': siku_core.plugins.get_registry().get('contact_law', 'collision'))"
+                    if attr == "collision_evaluator"
+                    else " (uses_joints = True asks for one)")
+            raise PluginError(f"{head}: no {attr}{hint}")
+        fn = getattr(ev, "py_func", None)
+        if fn is None or not callable(ev) or not hasattr(ev, "compile"):
+            raise PluginError(
+                f"{head}: {attr} is {ev!r}, not a numba @njit function "
+                f"({attr}({', '.join(expected)}) decorated with numba.njit)"
+            )
+        got = tuple(inspect.signature(fn).parameters)
+        if len(got) != len(expected):
+            raise PluginError(
+                f"{head}: {attr} {fn.__name__}({', '.join(got)}) takes {len(got)} "
+                f"parameters, expected {len(expected)}: ({', '.join(expected)})"
+            )
+    for attr in ("collision_record", "joint_record"):
+        rec = getattr(cls, attr, None)
+        if rec is not None and not isinstance(rec, ParameterRecord):
+            raise PluginError(f"{head}: {attr} is {rec!r}, not a "
+                              "siku_core.contact_law.ParameterRecord(name, ...)")
+    names = cls.history_names
+    if not (isinstance(names, tuple) and all(isinstance(n, str) for n in names)):
+        raise PluginError(f"{head}: history_names is {names!r}, not a tuple of strings")
+    if getattr(cls, "history_update", "state") not in ("state", "rate"):
+        raise PluginError(f"{head}: history_update is {cls.history_update!r}; allowed: "
+                          "'state', 'rate'")
+
+
+def numba_reason(exc: BaseException) -> str:
+    """The lines of a numba error that say what is wrong and where (its messages span dozens
+    of lines with source excerpts and colour codes), as one line."""
+    lines = [re.sub(r"\x1b\[[0-9;]*m", "", ln).strip() for ln in str(exc).splitlines()]
+    skip = ("Failed in ", "During:", "File ", "^", "- Resolution failure", "Resolution failure")
+    useful = [ln for ln in lines if ln and not ln.startswith(skip) and set(ln) != {"^"}]
+    text = useful[0] if useful else (lines[0] if lines else type(exc).__name__)
+    if text.endswith(":") and len(useful) > 1:
+        text = f"{text} {useful[1]}"
+    where = next((ln for ln in lines if ln.startswith("File ")), "")
+    if where:
+        text = f"{text} ({where.rstrip(':')})"
+    return text if len(text) <= 300 else text[:297] + "..."
+
+
+def evaluator_of(law: ContactLaw, attr: str):
+    """The law's evaluator ``attr`` as the jitted function itself: an ``@njit`` function held
+    as a class attribute binds like a method when read from an instance (``law.attr`` is a
+    bound method), so it is looked up without binding."""
+    ev = inspect.getattr_static(law, attr)
+    return getattr(ev, "__func__", ev)  # a staticmethod wrapper
+
+
+def compile_evaluators(law: ContactLaw, package: str) -> None:
+    """Compile the law's evaluators for the arguments the engine passes (1-D C-contiguous
+    float64 arrays); a law whose evaluator does not compile is refused with a one-line
+    :class:`PluginError` naming the package, the law, the evaluator and numba's reason."""
+    from numba import types
+
+    for attr, names in EVALUATORS.items():
+        if attr == "joint_evaluator" and not law.uses_joints:
+            continue
+        ev = evaluator_of(law, attr)
+        if not getattr(ev, "_can_compile", True):  # explicit signatures: numba checks those
+            continue
+        try:
+            ev.compile((types.float64[::1],) * len(names))
+        except Exception as exc:  # noqa: BLE001 - numba raises many kinds
+            raise PluginError(
+                f"{law_head(type(law), package)}: {attr} {ev.__name__}({', '.join(names)}) "
+                f"does not compile for float64 arrays: {numba_reason(exc)}"
+            ) from None
+
+
+def parameter_vector(law: ContactLaw, which: str, package: str) -> np.ndarray:
+    """``law.collision_parameters()`` (``which = "collision"``) or ``joint_parameters()`` as a
+    C-contiguous float64 vector; anything else is a one-line :class:`PluginError`."""
+    method = f"{which}_parameters"
+    try:
+        vec = np.ascontiguousarray(getattr(law, method)(), dtype=float)
+        ok = vec.ndim == 1 and bool(np.isfinite(vec).all())
+    except (TypeError, ValueError, KeyError) as exc:
+        vec, ok = None, exc
+    if ok is not True:
+        raise PluginError(
+            f"{law_head(type(law), package)}: {method}() must return a 1-D vector of finite "
+            f"numbers; got {vec if vec is not None else ok!r}"
+        )
+    return vec
