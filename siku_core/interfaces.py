@@ -39,7 +39,6 @@ from .params import Param
 
 if TYPE_CHECKING:  # pragma: no cover
     from .context import Context
-    from .simulation import Simulation
     from .state import ElementState
 
 #: signature of the engine's force evaluation, passed to integrators:
