@@ -92,8 +92,8 @@ class Siku2(Integrator):
         _siku2(state.q, state.V, state.w, state.F, state.T, state.m, state.I, state.flags,
                self.radius, dt, chunks(state.n))
 
-    def setup(self, sim):
-        self.radius = float(sim.radius)
+    def setup(self, ctx):
+        self.radius = float(ctx.radius)
 
 
 @njit(cache=True)
@@ -150,9 +150,9 @@ class RK4(Integrator):
     order_with_forces = 4
     force_evaluations = 4
 
-    def setup(self, sim):
-        self.radius = float(sim.radius)
-        n = sim.state.n
+    def setup(self, ctx):
+        self.radius = float(ctx.radius)
+        n = ctx.state.n
         self.k = [(np.empty((n, 4)), np.empty((n, 2)), np.empty(n)) for _ in range(4)]
         self.y = (np.empty((n, 4)), np.empty((n, 2)), np.empty(n))
         self.FT = (np.empty((n, 2)), np.empty(n))

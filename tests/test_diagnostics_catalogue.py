@@ -67,13 +67,13 @@ class Push(ForcingSource):
     name = "constant_push"
     diagnostic_units = {"push_total": "N"}
 
-    def setup(self, sim):
-        self.st = sim.state
+    def setup(self, ctx):
+        self.st = ctx.state
 
     def add(self, t, q, V, w, F, T):
         F[self.st.flags == 0, 0] += 2.5
 
-    def diagnostics(self, sim):
+    def diagnostics(self, ctx):
         return {"push_total": 2.5 * float(np.sum(self.st.flags == 0))}
 
 

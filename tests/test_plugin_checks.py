@@ -243,9 +243,9 @@ class SteadyBreeze(AirDrag):
     name = "steady_breeze"
     uses_field = False
 
-    def setup(self, sim):
+    def setup(self, ctx):
         self.field = Breeze()
-        super().setup(sim)
+        super().setup(ctx)
 
 
 @hookimpl

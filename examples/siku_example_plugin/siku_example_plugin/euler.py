@@ -57,8 +57,8 @@ class Euler(Integrator):
     order = 1
     force_evaluations = 1
 
-    def setup(self, sim) -> None:
-        self.radius = float(sim.radius)
+    def setup(self, ctx) -> None:
+        self.radius = float(ctx.radius)
 
     def step(self, state, t, dt, forces):
         forces(t, state.q, state.V, state.w, state.F, state.T)

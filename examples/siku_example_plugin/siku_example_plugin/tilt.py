@@ -55,8 +55,8 @@ class SeaSurfaceTilt(ForcingSource):
                              max=360.0),
     }
 
-    def setup(self, sim) -> None:
-        self.m = sim.state.m
+    def setup(self, ctx) -> None:
+        self.m = ctx.state.m
 
     def acceleration(self, t: float) -> tuple[float, float]:
         """Eastward and northward acceleration ``-g ∇eta`` [m/s²] at time ``t`` [s]."""
