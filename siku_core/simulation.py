@@ -6,11 +6,14 @@ One step (``docs/explanation/design.md``)::
     (contacts: broad phase, narrow phase, contact laws -> add F, T per pair)
     integrator       -> moves free elements; static never, steady on rails
     NaN guard, diagnostics and writers on their schedules
+
+Over 500 lines for a reason: the run's lifecycle (build, step, guard, write, close) is one
+class read top to bottom; restarting is in :mod:`siku_core.restart`, what components see in
+:mod:`siku_core.context`.
 """
 from __future__ import annotations
 
 import datetime as _dt
-import json
 import math
 import time
 import warnings
@@ -28,19 +31,14 @@ from . import __version__
 from .errors import NonFiniteError, SceneError, StabilityError
 from .interfaces import Component, Field, ForcingSource, Integrator, Writer
 from .limits import check_limits
-from .outputs import check_output_path, input_paths, restart_differences
+from .outputs import check_output_path, input_paths
 from .params import validate_params
 from .plugins import Registry, get_plugin_manager, get_registry, package_of
 from .scene import Scene, load_scene
 from .progress import CompileNotice
+from .restart import restart
 from .schedule import StepInterval, fit_time_step
 from .state import DYNAMIC
-
-#: run-record keys a restart may change: how long, where and how often to write, safety switches
-RESTART_MAY_CHANGE = ("scene.time.duration", "scene.time.end", "scene.output", "scene.title",
-                      "scene.run.progress", "scene.run.nan_check_every", "scene.run.max_speed",
-                      "scene.run.dt_safety", "scene.run.allow_unstable_dt",
-                      "scene.elements.mesh.cache", "scene.elements.mesh.mesh_file")
 
 #: quantities checked by the NaN guard, in the order their failure is reported
 _GUARDED = ("F", "T", "V", "w", "q")
@@ -403,57 +401,8 @@ class Simulation:
                 "seed": self.seed, "dt": self.dt}
 
     def _restart(self, path: Path, force: bool = False, extend: float | None = None) -> None:
-        writer_cls = type(self.writers[0]) if self.writers else self.registry.get(
-            "writer", self.scene.cfg.output.writer
-        )
-        data = writer_cls.read_restart(path, self.context)
-        self._restore(path, data)
-        self.restarted_from = data["step"]
-        record = data.get("record")
-        if record is not None:
-            stored = json.loads(json.dumps(record, default=str))
-            mine = json.loads(json.dumps(self.run_record(), default=str))
-            diffs = restart_differences(stored, mine, RESTART_MAY_CHANGE)
-            if diffs and not force:
-                more = f" and {len(diffs) - 4} more" if len(diffs) > 4 else ""
-                raise SceneError(
-                    f"{path}: restart refused: this scene differs from the run that wrote the "
-                    f"file ({'; '.join(diffs[:4])}{more}); restart with the same scene, or pass "
-                    "--force to continue anyway (results will not match an uninterrupted run)")
-            if diffs:
-                warnings.warn(f"{path}: restarting with a different scene (--force): "
-                              f"{'; '.join(diffs)}", stacklevel=2)
-        if extend is not None:
-            if not (math.isfinite(extend) and extend > 0):
-                raise SceneError(f"--extend {extend!r}: give a positive duration, e.g. 6h")
-            stored_steps = int(data.get("n_steps", self.n_steps))
-            self.n_steps = stored_steps + max(1, round(extend / self.dt))
-            check_limits(self.scene, n_steps=self.n_steps)
-            note = (f"\n# siku run --extend {extend:g} s: continued from step {data['step']} "
-                    f"of {stored_steps} to step {self.n_steps} (t = {self.n_steps * self.dt:g} "
-                    "s)\n")
-            self.scene = Scene(self.scene.cfg, self.scene.text.rstrip("\n") + "\n" + note,
-                               self.scene.path)
-        if self.step_index >= self.n_steps:
-            raise SceneError(
-                f"{path}: the run is already complete (step {self.step_index} of "
-                f"{self.n_steps}, t = {self.time:g} s); to run longer, add --extend DURATION "
-                "(e.g. --extend 6h)")
-
-    def _restore(self, path: Path, data: dict[str, Any]) -> None:
-        """Put a writer's restart data (:meth:`~siku_core.interfaces.Writer.read_restart`) into
-        the run: the state ``q``, ``V``, ``w``, the step and every component's history."""
-        st = self.state
-        for k in ("q", "V", "w"):
-            arr = np.asarray(data[k])
-            if arr.shape != getattr(st, k).shape:
-                raise SceneError(f"{path}: restart holds {k} of shape {arr.shape}, the scene "
-                                 f"builds {getattr(st, k).shape}; restart with the scene that "
-                                 "wrote the file")
-            getattr(st, k)[...] = arr
-        self.step_index = int(data["step"])
-        self.restart_path = path
-        self.set_history_arrays(data.get("history", {}))
+        """Continue from the last snapshot of ``path`` (:func:`siku_core.restart.restart`)."""
+        restart(self, path, force=force, extend=extend)
 
     def open_outputs(self) -> None:
         if self._opened:

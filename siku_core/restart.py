@@ -1,0 +1,92 @@
+"""Restarting a run: the writer's last snapshot checked against the scene and put into the run.
+
+A restart continues a run bit for bit from the last complete snapshot of its output. The
+writer reads the file (:meth:`~siku_core.interfaces.Writer.read_restart`); here the run record
+stored with it is compared with the scene's (only the keys of :data:`RESTART_MAY_CHANGE` may
+differ without ``--force``), ``--extend`` lengthens a finished run, and the state, the step and
+every component's history are restored.
+"""
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .errors import SceneError
+from .limits import check_limits
+from .outputs import restart_differences
+from .scene import Scene
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .simulation import Simulation
+
+#: run-record keys a restart may change: how long, where and how often to write, safety switches
+RESTART_MAY_CHANGE = ("scene.time.duration", "scene.time.end", "scene.output", "scene.title",
+                      "scene.run.progress", "scene.run.nan_check_every", "scene.run.max_speed",
+                      "scene.run.dt_safety", "scene.run.allow_unstable_dt",
+                      "scene.elements.mesh.cache", "scene.elements.mesh.mesh_file")
+
+
+def restart(sim: "Simulation", path: Path, force: bool = False,
+            extend: float | None = None) -> None:
+    """Continue ``sim`` from the last complete snapshot of ``path``: the writer reads it, the
+    run record is compared with the scene's (:data:`RESTART_MAY_CHANGE` may differ; others
+    refuse unless ``force``), ``extend`` [s] lengthens a finished run, and the state, step and
+    every component's history are restored."""
+    writer_cls = type(sim.writers[0]) if sim.writers else sim.registry.get(
+        "writer", sim.scene.cfg.output.writer
+    )
+    data = writer_cls.read_restart(path, sim.context)
+    restore(sim, path, data)
+    sim.restarted_from = data["step"]
+    record = data.get("record")
+    if record is not None:
+        stored = json.loads(json.dumps(record, default=str))
+        mine = json.loads(json.dumps(sim.run_record(), default=str))
+        diffs = restart_differences(stored, mine, RESTART_MAY_CHANGE)
+        if diffs and not force:
+            more = f" and {len(diffs) - 4} more" if len(diffs) > 4 else ""
+            raise SceneError(
+                f"{path}: restart refused: this scene differs from the run that wrote the "
+                f"file ({'; '.join(diffs[:4])}{more}); restart with the same scene, or pass "
+                "--force to continue anyway (results will not match an uninterrupted run)")
+        if diffs:
+            warnings.warn(f"{path}: restarting with a different scene (--force): "
+                          f"{'; '.join(diffs)}", stacklevel=2)
+    if extend is not None:
+        if not (math.isfinite(extend) and extend > 0):
+            raise SceneError(f"--extend {extend!r}: give a positive duration, e.g. 6h")
+        stored_steps = int(data.get("n_steps", sim.n_steps))
+        sim.n_steps = stored_steps + max(1, round(extend / sim.dt))
+        check_limits(sim.scene, n_steps=sim.n_steps)
+        note = (f"\n# siku run --extend {extend:g} s: continued from step {data['step']} "
+                f"of {stored_steps} to step {sim.n_steps} (t = {sim.n_steps * sim.dt:g} "
+                "s)\n")
+        sim.scene = Scene(sim.scene.cfg, sim.scene.text.rstrip("\n") + "\n" + note,
+                           sim.scene.path)
+    if sim.step_index >= sim.n_steps:
+        raise SceneError(
+            f"{path}: the run is already complete (step {sim.step_index} of "
+            f"{sim.n_steps}, t = {sim.time:g} s); to run longer, add --extend DURATION "
+            "(e.g. --extend 6h)")
+
+
+def restore(sim: "Simulation", path: Path, data: dict[str, Any]) -> None:
+    """Put a writer's restart data (:meth:`~siku_core.interfaces.Writer.read_restart`) into
+    the run: the state ``q``, ``V``, ``w``, the step and every component's history."""
+    st = sim.state
+    for k in ("q", "V", "w"):
+        arr = np.asarray(data[k])
+        if arr.shape != getattr(st, k).shape:
+            raise SceneError(f"{path}: restart holds {k} of shape {arr.shape}, the scene "
+                             f"builds {getattr(st, k).shape}; restart with the scene that "
+                             "wrote the file")
+        getattr(st, k)[...] = arr
+    sim.step_index = int(data["step"])
+    sim.restart_path = path
+    sim.set_history_arrays(data.get("history", {}))
+
