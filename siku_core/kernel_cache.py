@@ -34,27 +34,27 @@ Where a directory cannot be written, the temporary one is used as well.
 """
 from __future__ import annotations
 
+import atexit
 import hashlib
 import importlib.util
 import inspect
-import types
 import os
-import atexit
 import shutil
 import sys
 import tempfile
-from string import Template
+import types
 from pathlib import Path
+from string import Template
 from typing import Any
 
 import numba
 
 from . import __version__
 
+#: instances made in this process, by template module name and evaluator
 _MEMO: dict[tuple, Any] = {}
+#: evaluators compiled without reference counting (``None``: cannot be), by evaluator
 _FREE: dict[Any, Any] = {}
-
-
 _TEMP: list[Path] = []
 
 
