@@ -12,20 +12,20 @@ of ``g`` and ``out``, break modes, parameter records, sign conventions) is
   where it does;
 * :func:`gather_forces`: each element's sum of its contacts' rows.
 
-Each loop exists once, with the evaluator as its first argument ``evaluate``;
-:func:`~siku_core.kernel_cache.specialise` makes a cacheable copy of it for one evaluator (the
-copy is what runs; the generic loop is the fallback where no copy can be made). Their
-positional arguments are documented in :func:`joint_forces` and :func:`collision_forces`
-(grouping them into tuples costs nothing in numba's typing but every call unpacks them again:
-they stay positional).
+Each loop exists once, in the template module :mod:`siku_core.contact_loops`, where it calls
+the law's evaluator as the module global ``evaluate``; :func:`~siku_core.kernel_cache.instantiate`
+makes a module of that template for one evaluator (a generated file that numba caches; the
+generic instance, compiled in every process, where no file can serve), and the entry points
+here call its loops. Their positional arguments are documented in :func:`joint_forces` and
+:func:`collision_forces` (grouping them into tuples costs nothing in numba's typing but every
+call unpacks them again: they stay positional).
 """
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from numba import njit, prange
 
+from . import contact_loops
 from .contact_frames import (  # noqa: F401 - the helpers are also read from here
     ROW_SIZE,
     _width,
@@ -88,51 +88,9 @@ from .contact_law import (  # noqa: F401 - BREAK_MODES: read by writers from her
     OUT_FY,
     OUT_SIZE,
 )
-from .geometry.clip import REL_TOL, make_overlap_scratch, overlap_inline, separating_edge
-from .geometry.face import edge_table, touching_face_u
-from .kernel_cache import specialise
+from .geometry.face import edge_table
+from .kernel_cache import instantiate
 from .parallel import chunk_bounds, claim, tasks
-
-#: overlapping pairs per block of the collision loop (its geometry first, then the evaluations:
-#: ``_collision_block``); a block's row (``BLK_*``): the pair, the overlap (area, point,
-#: normal, width) and the relative rotation ``M`` of :func:`relative_matrix` (nine entries)
-CBLOCK = 32
-BLK_K, BLK_AREA, BLK_CX, BLK_CY, BLK_NX, BLK_NY, BLK_WIDTH, BLK_M = range(8)
-BLK_SIZE = BLK_M + 9
-
-
-# ====================================================================== the engine's fast path
-#
-# One force evaluation of the contact phase (``ContactModel.add``) runs, all compiled:
-#
-# 1. ``rotation_matrices``: ``R(q)`` of every element, once (the loops below never rotate by a
-#    quaternion and never allocate per contact);
-# 2. ``_joint_forces``: every intact joint (parallel over joints);
-# 3. ``_collision_forces``: every candidate pair: a jointed pair first along its joint (a
-#    touching face or a gap found from the joint's edges, ``geometry.face``), then the
-#    separating-axis test (``separating_edge``:
-#    an edge line of either polygon separates or touches them, the edge that did so last time
-#    tried first; with ``contact.touching = "ignore"`` within a margin that settles overlaps the
-#    clip would call touching), else the clip and, when the polygons overlap, the law (parallel
-#    over pairs). Pairs that overlapped at the last evaluation go straight to the clip;
-# 4. ``gather_forces``: each element adds its own contacts' contributions, joints then pairs,
-#    each in ascending contact index (parallel over elements).
-#
-# The chunk functions that run steps 2–3 allocate nothing (each task's buffers come from the
-# parallel loop). Their specialised copies (:func:`~siku_core.kernel_cache.specialise`) are
-# compiled without numba's reference counting (``_nrt=False``) together with the law's
-# evaluator, where the evaluator allows it (it allocates nothing either): with it, every array
-# view and every call that passes an array costs a pair of atomic increments and decrements,
-# which numba's pruning leaves in loops with branches like these (about half of the joint
-# loop's time and a third of the collision loop's, measured on the 10 000-element pack). An
-# evaluator that allocates keeps reference counting, in its loop too, and works unchanged.
-#
-# Steps 2–3 write one row of six numbers per contact (the generalised force and torque on ``i``
-# and on ``j``, ``ROW_*``) and a flag saying whether the contact carries force; no two tasks write
-# the same place, so there are no races, and step 4 sums every element's contributions in the
-# same order whatever the number of threads: results are bit-identical for any thread count,
-# and equal (to round-off in the rotations) to the serial reference loops of the tests
-# (``tests/contacts/reference_loops.py``), which add contacts to ``F, T`` in exactly that order.
 
 
 def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
@@ -140,99 +98,10 @@ def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
     """Evaluate every intact joint into ``out[k]`` (``ROW_*``) and ``active[k]``; returns the number
     that broke (only when ``commit``; their break mode, the evaluator's ``out[3]``, goes to
     ``break_mode[k]``)."""
-    fn = specialise(_joint_forces, evaluate, JOINT_HELPERS)
-    nt = tasks(nch)
-    if fn is not None:
-        return fn(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff,
-                  intact, break_mode, hist, R, dt, commit, out, active, nch, nt)
-    return _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
-                         jK, jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, nt)
-
-
-# The parallel loops are thin: each task calls a (serially compiled) chunk function. Numba's
-# parallel compilation of a large loop body takes twice as long as compiling it serially.
-@njit(parallel=True)
-def _joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                  jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, nt):
-    counts = np.zeros(nch, dtype=np.int64)
-    counter = np.zeros(1, dtype=np.int64)
-    for t in prange(nt):
-        g = np.empty(J_SIZE)
-        res = np.empty(4)
-        scratch = np.empty(hist.shape[1])
-        while True:
-            c = claim(counter)
-            if c >= nch:
-                break
-            lo, hi = chunk_bounds(c, nch, ji.shape[0])
-            counts[c] = _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i,
-                                     ends_j, L0, width, jK, jmeff, intact, break_mode, hist, R, dt,
-                                     commit, out, active, lo, hi, g, res, scratch)
-    return counts.sum()
-
-
-@njit
-def _joint_chunk(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                 jmeff, intact, break_mode, hist, R, dt, commit, out, active, lo, hi, g, res, scratch):
-    """Joints ``lo <= k < hi`` of :func:`joint_forces`; returns how many broke. ``g``,
-    ``res``, ``scratch``: the task's buffers (geometry, result, history row)."""
-    nh = hist.shape[1]
-    inv_r = 1.0 / R
-    nb = 0
-    for k in range(lo, hi):
-        active[k] = 0
-        if not intact[k]:
-            continue
-        i = ji[k]
-        j = jj[k]
-        M = relative_matrix(rm, i, j)
-        ax, ay = ends_i[k, 0, 0], ends_i[k, 0, 1]
-        bx, by = ends_i[k, 1, 0], ends_i[k, 1, 1]
-        Ax, Ay = j_to_i(M, ends_j[k, 0, 0], ends_j[k, 0, 1], R, inv_r)
-        Bx, By = j_to_i(M, ends_j[k, 1, 0], ends_j[k, 1, 1], R, inv_r)
-        g[J_S1X] = Ax - ax
-        g[J_S1Y] = Ay - ay
-        g[J_S2X] = Bx - bx
-        g[J_S2Y] = By - by
-        g[J_AX] = ax
-        g[J_AY] = ay
-        g[J_BX] = bx
-        g[J_BY] = by
-        g[J_L0] = L0[k]
-        g[J_W] = width[k]
-        g[J_K] = jK[k]
-        g[J_MEFF] = jmeff[k]
-        # the material points at the ends: i's copy at a (b), j's copy at A (B)
-        xa, ya = i_to_j(M, ax, ay, R, inv_r)
-        xb, yb = i_to_j(M, bx, by, R, inv_r)
-        g[J_VAX], g[J_VAY] = relative_velocity_m(M, V, w, i, j, ax, ay, xa, ya)
-        g[J_VBX], g[J_VBY] = relative_velocity_m(M, V, w, i, j, bx, by, xb, yb)
-        g[J_HI] = h[i]
-        g[J_HJ] = h[j]
-        g[J_EI] = E[i]
-        g[J_EJ] = E[j]
-        g[J_NU] = nu[i]
-        g[J_DT] = dt
-        res[0] = 0.0
-        res[1] = 0.0
-        res[2] = 0.0
-        res[3] = 0.0
-        for a in range(nh):
-            scratch[a] = hist[k, a]
-        evaluate(g, pars, scratch, res)
-        if commit:
-            for a in range(nh):
-                hist[k, a] = scratch[a]
-        if res[3] != 0.0:
-            if commit:
-                intact[k] = False
-                break_mode[k] = res[3]
-                nb += 1
-            continue
-        pair_contribution(M, res[0], res[1], 0.5 * (ax + bx), 0.5 * (ay + by), res[2], inv_r,
-                          R, out, k)
-        active[k] = 1
-    return nb
+    loops = instantiate(contact_loops, evaluate)
+    return loops._joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
+                               jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch,
+                               tasks(nch))
 
 
 def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
@@ -268,187 +137,23 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
         scale = np.zeros(offsets.shape[0] - 1)
     if edges is None:
         edges = edge_table(offsets, verts)
-    fn = specialise(_collision_forces, evaluate, COLLISION_HELPERS)
-    nt = tasks(nch)
-    if fn is not None:
-        return fn(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R, nmax,
-                  pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges)
-    return _collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
-                             pairs, R, nmax, pretest, out, active, nch, nt, margin, hint, drop, face,
-                             scale, edges)
+    loops = instantiate(contact_loops, evaluate)
+    return loops._collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+                                   nmax, pretest, out, active, nch, tasks(nch), margin, hint, drop,
+                                   face, scale, edges)
 
 
-@njit(parallel=True)
-def _collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
-                      nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges):
-    counts = np.zeros(nch, dtype=np.int64)
-    counter = np.zeros(1, dtype=np.int64)
-    for t in prange(nt):
-        xy, tag = make_overlap_scratch(nmax, nmax)
-        proj = np.empty((nmax, 2))
-        g = np.empty(G_SIZE)
-        res = np.empty(4)
-        blk = np.empty(CBLOCK * BLK_SIZE)
-        while True:
-            c = claim(counter)
-            if c >= nch:
-                break
-            lo, hi = chunk_bounds(c, nch, pairs.shape[0])
-            counts[c] = _collision_chunk(evaluate, pars, rm, V, w, meff, h, E, area, offsets,
-                                         verts, pairs, R, pretest, out, active, lo, hi, xy, tag,
-                                         proj, g, res, margin, hint, drop, face, scale, blk,
-                                         edges)
-    return counts.sum()
-
-
-@njit
-def _collision_block(evaluate, pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk, nb):
-    """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
-    ``blk``, ``BLK_*``) into ``out`` and ``on``. Apart from the geometry that finds them, a
-    contact's evaluation is a chain of dependent square roots and divisions (lever arms,
-    stiffness, damping); evaluated in a loop of their own, the chains of consecutive contacts
-    overlap in the processor instead of waiting for the next pair's clip."""
-    inv_r = 1.0 / R
-    for n in range(nb):
-        b = n * BLK_SIZE
-        k = int(blk[b + BLK_K])
-        a = blk[b + BLK_AREA]
-        cx = blk[b + BLK_CX]
-        cy = blk[b + BLK_CY]
-        M = (blk[b + BLK_M], blk[b + BLK_M + 1], blk[b + BLK_M + 2], blk[b + BLK_M + 3],
-             blk[b + BLK_M + 4], blk[b + BLK_M + 5], blk[b + BLK_M + 6], blk[b + BLK_M + 7],
-             blk[b + BLK_M + 8])
-        i = pairs[k, 0]
-        j = pairs[k, 1]
-        ri = math.sqrt(cx * cx + cy * cy)
-        xj, yj = i_to_j(M, cx, cy, R, inv_r)
-        rj = math.sqrt(xj * xj + yj * yj)
-        g[G_AREA] = a
-        g[G_CX] = cx
-        g[G_CY] = cy
-        g[G_NX] = blk[b + BLK_NX]
-        g[G_NY] = blk[b + BLK_NY]
-        g[G_WIDTH] = blk[b + BLK_WIDTH]
-        g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
-        g[G_MEFF] = meff[k]
-        g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
-        g[G_AREA_I] = area[i]
-        g[G_AREA_J] = area[j]
-        res[0] = 0.0
-        res[1] = 0.0
-        res[2] = 0.0
-        res[3] = 0.0
-        evaluate(g, pars, res)
-        pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
-        active[k] = 1
-
-
-@njit
-def _collision_chunk(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
-                     pretest, out, active, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
-                     scale, blk, edges):
-    """Pairs ``lo <= k < hi`` of :func:`collision_forces`; returns how many overlap. ``xy``,
-    ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers (clipping, partner vertices,
-    geometry, result, a block of overlaps waiting for :func:`_collision_block`)."""
-    inv_r = 1.0 / R
-    no = 0
-    nb = 0
-    for k in range(lo, hi):
-        # a pair that overlapped at the last evaluation almost always still does, and one the
-        # clip found touching (``on = 2``, ``drop`` only) mostly still touches: straight to the
-        # clip (which finds no area for any pair ``apart`` would have settled, and at most the
-        # touching area for any the test with the margin would have settled)
-        test = pretest and active[k] == 0
-        active[k] = 0
-        i = pairs[k, 0]
-        j = pairs[k, 1]
-        M = relative_matrix(rm, i, j)
-        oj = offsets[j]
-        nj = offsets[j + 1] - oj
-        pi = verts[offsets[i]:offsets[i + 1]]
-        a = -1.0
-        fi = face[k, 0]
-        fj = fj1 = -1
-        if fi >= 0:
-            # jointed: the ends of j's edge of the joint first; a touching face (the rule for
-            # jointed neighbours) needs nothing else (geometry.face)
-            fj = face[k, 1]
-            fj1 = fj + 1 if fj + 1 < nj else 0
-            bx, by = j_to_i(M, verts[oj + fj, 0], verts[oj + fj, 1], R, inv_r)
-            ex, ey = j_to_i(M, verts[oj + fj1, 0], verts[oj + fj1, 1], R, inv_r)
-            eu = offsets[i] + fi
-            a, cx, cy, width = touching_face_u(pi, fi, bx, by, ex, ey, scale[i], edges[eu, 0],
-                                               edges[eu, 1], edges[eu, 2])
-            if a == 0.0:
-                continue  # the faces touch nowhere
-            if a > 0.0:
-                if drop:
-                    active[k] = 2  # touching, dropped: no force
-                    continue
-                nx, ny = centre_normal(M, R, REL_TOL * scale[i])
-            else:
-                proj[fj, 0] = bx
-                proj[fj, 1] = by
-                proj[fj1, 0] = ex
-                proj[fj1, 1] = ey
-        if a < 0.0:
-            for v in range(nj):
-                if v != fj and v != fj1:
-                    px, py = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
-                    proj[v, 0] = px
-                    proj[v, 1] = py
-            pj = proj[:nj]
-            if test:
-                e = separating_edge(pi, pj, margin[i], hint[k])
-                if e >= 0:
-                    hint[k] = e
-                    continue
-            c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
-            a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x,
-                                                                           c2y, drop)
-            if a <= 0.0:
-                if ncross < 0:
-                    active[k] = 2  # touching, dropped: no force; no separating-axis test next time
-                continue
-            width = _width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny)
-        # the contact's evaluation waits for the block (_collision_block)
-        b = nb * BLK_SIZE
-        blk[b + BLK_K] = k
-        blk[b + BLK_AREA] = a
-        blk[b + BLK_CX] = cx
-        blk[b + BLK_CY] = cy
-        blk[b + BLK_NX] = nx
-        blk[b + BLK_NY] = ny
-        blk[b + BLK_WIDTH] = width
-        for m in range(9):
-            blk[b + BLK_M + m] = M[m]
-        nb += 1
-        if nb == CBLOCK:
-            _collision_block(evaluate, pars, V, w, meff, h, E, area, pairs, R, out, active, g, res,
-                             blk, nb)
-            no += nb
-            nb = 0
-    if nb:
-        _collision_block(evaluate, pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk,
-                         nb)
-        no += nb
-    return no
-
-
-#: the functions the parallel loops call with the evaluator (``kernel_cache.specialise``)
-JOINT_HELPERS = (_joint_chunk,)
-COLLISION_HELPERS = (_collision_block, _collision_chunk)
-
-
-def gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout, pair_active, nch):
+def gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout,
+                  pair_active, nch):
     """Add to ``F[e], T[e]`` the contributions of element ``e``'s joints, then of its pairs,
     each in ascending contact index (fixed order: independent of the thread count)."""
-    _gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout, pair_active, nch,
-                   tasks(nch))
+    _gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout,
+                   pair_active, nch, tasks(nch))
 
 
 @njit(cache=True, parallel=True)
-def _gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout, pair_active, nch, nt):
+def _gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout,
+                   pair_active, nch, nt):
     n = F.shape[0]
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -457,12 +162,13 @@ def _gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, psid
             if c >= nch:
                 break
             lo, hi = chunk_bounds(c, nch, n)
-            _gather_chunk(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout, pair_active, lo,
-                          hi)
+            _gather_chunk(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout,
+                          pair_active, lo, hi)
 
 
 @njit(cache=True)
-def _gather_chunk(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout, pair_active, lo, hi):
+def _gather_chunk(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout,
+                  pair_active, lo, hi):
     """Elements ``lo <= e < hi`` of :func:`gather_forces`."""
     for e in range(lo, hi):
         fx = F[e, 0]

@@ -1,10 +1,14 @@
 """The serial reference loops over contacts (the engine's previous implementation), kept for
 the tests that compare the engine's parallel loops with them: each contact is evaluated with
 quaternion rotations and added straight into ``F, T``, in the order the engine's gather sums
-them."""
-from __future__ import annotations
+them.
 
+The module is a template of :mod:`siku_core.kernel_cache`, like :mod:`siku_core.contact_loops`:
+its loops call the evaluator as the global ``evaluate`` of its binding, and :func:`joint_loop`
+and :func:`collision_loop` run them in its instance for the evaluator they are given.
+"""
 import math
+import sys
 
 import numpy as np
 from numba import njit
@@ -58,7 +62,12 @@ from siku_core.geometry.clip import (
 )
 from siku_core.geometry.face import touching_face
 from siku_core.geometry.quat import from_tangent, qrotate, qrotate_inv
-from siku_core.kernel_cache import specialise
+from siku_core.kernel_cache import instantiate
+
+# ------------------------------------------------------------------------------ the binding
+evaluate = globals().get("evaluate")
+NRT = globals().get("NRT", True)
+CACHE = globals().get("CACHE", False)
 
 
 @njit(cache=True, inline="always")
@@ -104,7 +113,8 @@ def apply_pair(q, i, j, fx, fy, px, py, couple, R, F, T):
 
 @njit(cache=True, inline="always")
 def relative_velocity(q, V, w, i, j, px, py, R):
-    """Velocity of ``j``'s material point at ``i``-frame ``(px, py)`` minus ``i``'s, in ``i``'s frame."""
+    """Velocity of ``j``'s material point at ``i``-frame ``(px, py)`` minus ``i``'s, in
+    ``i``'s frame."""
     vix = V[i, 0] - w[i] * py
     viy = V[i, 1] + w[i] * px
     xj, yj = frame_point(q[i], q[j], px, py, R)
@@ -117,16 +127,13 @@ def relative_velocity(q, V, w, i, j, px, py, R):
 def joint_loop(evaluate, pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
                intact, hist, R, dt, commit, F, T):
     """Evaluate every intact joint; returns the number that broke (only when ``commit``)."""
-    fn = specialise(_joint_loop, evaluate)
-    if fn is not None:
-        return fn(pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width, intact,
-                  hist, R, dt, commit, F, T)
-    return _joint_loop(evaluate, pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
-                       intact, hist, R, dt, commit, F, T)
+    loops = instantiate(sys.modules[__name__], evaluate)
+    return loops._joint_loop(pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
+                             intact, hist, R, dt, commit, F, T)
 
 
-@njit
-def _joint_loop(evaluate, pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
+@njit(cache=CACHE)
+def _joint_loop(pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width,
                 intact, hist, R, dt, commit, F, T):
     g = np.empty(J_SIZE)
     out = np.zeros(4)
@@ -193,16 +200,13 @@ def collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pa
         face = np.full((pairs.shape[0], 2), -1, dtype=np.int16)
     if scale is None:
         scale = np.zeros(offsets.shape[0] - 1)
-    fn = specialise(_collision_loop, evaluate)
-    if fn is not None:
-        return fn(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T, nmax, face,
-                  scale)
-    return _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                           F, T, nmax, face, scale)
+    loops = instantiate(sys.modules[__name__], evaluate)
+    return loops._collision_loop(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T,
+                                 nmax, face, scale)
 
 
-@njit
-def _collision_loop(evaluate, pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T,
+@njit(cache=CACHE)
+def _collision_loop(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F, T,
                     nmax, face, scale):
     xy, tag = make_overlap_scratch(nmax, nmax)
     proj = np.empty((nmax, 2))

@@ -1,22 +1,23 @@
-"""Specialised contact loops (``siku_core.kernel_cache``).
+"""Instances of the contact loops' template (``siku_core.kernel_cache``).
 
-* A law's evaluator is recompiled without numba's reference counting for the specialised
-  loops, and that copy computes exactly what the evaluator computes (same source, same
+* A law's evaluator is recompiled without numba's reference counting for its instance of the
+  loops, and that copy computes exactly what the evaluator computes (same code object, same
   arithmetic: bit for bit on random contacts).
 * An evaluator that allocates cannot be compiled so; the loop then uses it as it is.
+* The generated file is the rendered header and the template's source, unchanged; an
+  evaluator that cannot be imported by name gets the generic instance, with the same results.
+* Nothing in ``kernel_cache`` reads a function's source with regular expressions.
 """
 from __future__ import annotations
-
-import sys
 
 import numpy as np
 import pytest
 
-from siku_core import kernel_cache
-from siku_core.contacts import (
+from siku_core import contact_loops, kernel_cache
+from siku_core.contact_law import (
     G_AREA, G_AREA_I, G_AREA_J, G_K, G_MEFF, G_NX, G_NY, G_SIZE, G_WIDTH, J_DT, J_EI, J_EJ,
     J_HI, J_HJ, J_K, J_L0, J_MEFF, J_NU, J_S1X, J_S1Y, J_S2X, J_S2Y, J_SIZE, J_VAX, J_VAY,
-    J_VBX, J_VBY, J_W, COLLISION_HELPERS, JOINT_HELPERS, _collision_forces, _joint_forces,
+    J_VBX, J_VBY, J_W,
 )
 from siku_plugins.contact_laws import (
     collision_evaluator, mohr_coulomb_evaluator, spring_evaluator,
@@ -28,10 +29,6 @@ def fresh_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("SIKU_KERNEL_CACHE", str(tmp_path))
     monkeypatch.setattr(kernel_cache, "_MEMO", {})
     return tmp_path
-
-
-def _loop_evaluator(loop):
-    return sys.modules[loop.py_func.__module__].evaluate
 
 
 def _collision_case(rng):
@@ -69,17 +66,20 @@ def _mc_case(rng):
     return _joint_g(rng), pars, (rng.random(nseg) < 0.2).astype(float)
 
 
-@pytest.mark.parametrize("ev, template, helpers, case", [
-    (collision_evaluator, _collision_forces, COLLISION_HELPERS, _collision_case),
-    (spring_evaluator, _joint_forces, JOINT_HELPERS, _spring_case),
-    (mohr_coulomb_evaluator, _joint_forces, JOINT_HELPERS, _mc_case),
+@pytest.mark.parametrize("ev, case", [
+    (collision_evaluator, _collision_case),
+    (spring_evaluator, _spring_case),
+    (mohr_coulomb_evaluator, _mc_case),
 ])
-def test_loops_call_a_copy_without_reference_counting(fresh_cache, ev, template, helpers, case):
-    loop = kernel_cache.specialise(template, ev, helpers)
-    free = _loop_evaluator(loop)
+def test_loops_call_a_copy_without_reference_counting(fresh_cache, ev, case):
+    loops = kernel_cache.instantiate(contact_loops, ev)
+    assert loops.__file__.startswith(str(fresh_cache))
+    free = loops.evaluate
     assert free is not ev
-    assert free.py_func.__module__.startswith(f"siku_eval_{ev.__name__}_")
+    assert free.py_func.__code__ is ev.py_func.__code__  # the evaluator's own code
     assert free.targetoptions.get("_nrt") is False
+    for chunk in (loops._joint_chunk, loops._collision_chunk, loops._collision_block):
+        assert chunk.targetoptions.get("_nrt") is False
     rng = np.random.default_rng(5)
     broke = 0
     for _ in range(400):
@@ -112,32 +112,56 @@ def test_an_allocating_evaluator_is_used_as_it_is(fresh_cache, alloc_law):
     """It cannot be compiled without reference counting; its loop keeps reference counting
     (an ``_nrt=False`` loop cannot call it) and calls the evaluator itself."""
     ev = alloc_law.allocating_spring
-    assert kernel_cache._nrt_free(ev, "", fresh_cache) is None
-    loop = kernel_cache.specialise(_joint_forces, ev, JOINT_HELPERS)
-    assert _loop_evaluator(loop) is ev
-    chunk = sys.modules[loop.py_func.__module__]._joint_chunk
-    assert chunk.targetoptions.get("_nrt") is not False
+    assert kernel_cache.without_nrt(ev) is None
+    loops = kernel_cache.instantiate(contact_loops, ev)
+    assert loops.evaluate is ev
+    assert loops._joint_chunk.targetoptions.get("_nrt") is not False
 
 
-@pytest.mark.parametrize("cache", ["dir", "off"])
-def test_a_law_with_an_allocating_evaluator_runs_like_the_law_it_wraps(
-        fresh_cache, alloc_law, monkeypatch, cache):
-    """A pulled, jointed pack: the same states bit for bit as the distributed spring, with the
-    kernel cache in a directory and switched off (generated modules in a temporary one)."""
+def test_the_generated_file_is_the_header_and_the_template(fresh_cache):
+    loops = kernel_cache.instantiate(contact_loops, spring_evaluator)
+    text = open(loops.__file__).read()
+    template = open(contact_loops.__file__).read()
+    assert text.endswith(template)
+    header = text[:-len(template)]
+    assert "from siku_plugins.contact_laws import spring_evaluator as evaluate" in header
+    assert "NRT = False" in header and "CACHE = True" in header
+    assert loops.CACHE is True and contact_loops.CACHE is False
+
+
+def test_no_regular_expressions_over_source():
+    import inspect
+
+    src = inspect.getsource(kernel_cache)
+    assert "import re\n" not in src and "re.sub" not in src
+
+
+def test_an_evaluator_not_importable_by_name_gets_the_generic_instance(fresh_cache):
+    """Not cached, and bit for bit what the cached instance computes: a pulled, jointed pack
+    whose joints and collisions are evaluated by copies of the law's evaluators that no module
+    holds."""
+    import numba
+
     from siku_core.testing import contact_conformance as cc
     from siku_plugins.contact_laws import DistributedSpring
 
-    if cache == "off":
-        monkeypatch.setenv("SIKU_KERNEL_CACHE", "off")
     states = []
-    for law_cls in (DistributedSpring, alloc_law.AllocatingSpring):
-        sim = cc.law_simulation(law_cls, {"tensile_strain": 2e-5},
+    for anonymous in (False, True):
+        sim = cc.law_simulation(DistributedSpring, {"tensile_strain": 2e-5},
                                 packs=[cc.square_pack(10.0, 70.0, 3, 2, right="steady",
                                                       velocity=[0.05, 0.0])],
                                 joints="auto", dt=0.05)
-        assert sim.contacts.n_joints == 6  # none between the two steady cells
+        cm = sim.contacts
+        if anonymous:
+            cm._jev = numba.njit(cm._jev.py_func)
+            cm._cev = numba.njit(cm._cev.py_func)
+            for ev in (cm._jev, cm._cev):
+                assert not kernel_cache._importable(ev)
+                loops = kernel_cache.instantiate(contact_loops, ev)
+                assert loops.CACHE is False and loops.NRT is False
         sim.run(steps=40)
-        states.append((sim.state.q.copy(), sim.state.V.copy(), sim.contacts.intact.copy()))
+        states.append((sim.state.q.copy(), sim.state.V.copy(), cm.intact.copy()))
+    assert not any(f.name.startswith("siku_generic") for f in fresh_cache.iterdir())
     for a, b in zip(*states):
         assert np.array_equal(a, b)
-    assert not states[0][2].all()  # some joints broke: both ways out were taken
+    assert not states[0][2].all()
