@@ -13,9 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
-
-from numba import prange
+from numba import njit, prange
 
 from siku_core import Param, hookimpl
 from siku_core.geometry.quat import east_north_row, latlon_of
@@ -23,13 +21,45 @@ from siku_core.interfaces import ForcingSource
 from siku_core.parallel import chunk_bounds, chunks
 from siku_core.state import STATIC
 
+# ----------------------------------------------------------------- quadratic drag, shared
+# The one drag kernel of the forcing sources (water_drag, air_drag, waves, the exchange grid).
 
+
+@njit(cache=True, inline="always")
+def drag_factor(area, coef, dx, dy):
+    """``area coef |d|`` for the relative velocity ``d = (dx, dy)`` [m/s]: times ``d`` it is
+    the quadratic drag force [N] on ``area`` [m²] with ``coef = rho C`` (or any split of the
+    product: ``area`` may carry ``rho``; the products are taken left to right)."""
+    return area * coef * math.sqrt(dx * dx + dy * dy)
+
+
+@njit(cache=True, inline="always")
+def quadratic_drag(area, coef, dx, dy):
+    """Quadratic drag force ``area coef |d| d`` [N] (components along ``dx``, ``dy``), with
+    ``coef = rho C`` [kg/m³]: :func:`drag_factor` times ``d``."""
+    s = drag_factor(area, coef, dx, dy)
+    return s * dx, s * dy
+
+
+def drag_stability_limit(state, free: np.ndarray, rho: float, C: float, speed: float):
+    """Explicit quadratic drag is stable for ``dt < m / (S rho C |dU|)`` (the drag's own time
+    scale; ``m / S = rho_i h``): that bound for the free elements ``free`` (mask) at the
+    relative speed ``speed`` [m/s], as ``(dt [s], element, m/S [kg/m²])`` of the element that
+    sets it; ``None`` without free elements. The caller rules out ``rho C = 0``."""
+    if not free.any():
+        return None
+    per_area = state.m[free] / state.area[free]
+    i = int(np.argmin(per_area))
+    return per_area[i] / (rho * C * speed), int(np.flatnonzero(free)[i]), per_area[i]
+
+
+# ----------------------------------------------------------------- air and water drag
 @njit(cache=True, inline="always")
 def _stress_one(q, V, i, ui, vi, area, rho, C, ct, st, subtract_ice, F):
     ex, ey, nx, ny = east_north_row(q, i)
     dx = ui * ex + vi * nx - subtract_ice * V[i, 0]
     dy = ui * ey + vi * ny - subtract_ice * V[i, 1]
-    s = area[i] * rho * C * math.sqrt(dx * dx + dy * dy)
+    s = drag_factor(area[i] * rho, C, dx, dy)
     F[i, 0] += s * (dx * ct - dy * st)
     F[i, 1] += s * (dy * ct + dx * st)
 
@@ -147,14 +177,14 @@ class WaterDrag(_Drag):
     def stability_limit(self, sim):
         """Explicit drag is stable for ``dt < m / (S rho_w C_w |dU|) = rho_i h/(rho_w C_w |dU|)``."""
         st = sim.state
-        free = st.flags != STATIC
-        if not free.any() or self.p["C"] == 0 or self.p["rho"] == 0:
+        if self.p["C"] == 0 or self.p["rho"] == 0:
             return None
-        per_area = st.m[free] / st.area[free]
-        i = int(np.argmin(per_area))
-        dt = per_area[i] / (self.p["rho"] * self.p["C"] * self.p["max_relative_speed"])
-        elem = int(np.flatnonzero(free)[i])
-        return dt, (f"water drag on element {elem} (mass per area {per_area[i]:.4g} kg/m², "
+        found = drag_stability_limit(st, st.flags != STATIC, self.p["rho"], self.p["C"],
+                                     self.p["max_relative_speed"])
+        if found is None:
+            return None
+        dt, elem, per_area = found
+        return dt, (f"water drag on element {elem} (mass per area {per_area:.4g} kg/m², "
                     f"|dU| = {self.p['max_relative_speed']:g} m/s)")
 
 

@@ -10,6 +10,7 @@ import numpy as np
 from numba import njit
 
 from siku_core import Param, hookimpl
+from siku_core.geometry.sphere import latlon_to_xyz
 from siku_core.interfaces import Field
 
 
@@ -35,11 +36,10 @@ def _vortex(lat, lon, clat, clon, vmax, rmax, sense, alpha, radius):
     n = lat.shape[0]
     u = np.empty(n)
     v = np.empty(n)
-    c = np.array([math.cos(clat) * math.cos(clon), math.cos(clat) * math.sin(clon), math.sin(clat)])
+    c = latlon_to_xyz(clat, clon)
     ca, sa = math.cos(alpha), math.sin(alpha)
     for i in range(n):
-        cl = math.cos(lat[i])
-        p = np.array([cl * math.cos(lon[i]), cl * math.sin(lon[i]), math.sin(lat[i])])
+        p = latlon_to_xyz(lat[i], lon[i])
         cp = np.cross(c, p)
         s = math.sqrt(cp[0] ** 2 + cp[1] ** 2 + cp[2] ** 2)
         if s < 1e-15:

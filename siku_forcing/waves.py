@@ -37,6 +37,8 @@ from siku_core.geometry.quat import east_north_row
 from siku_core.interfaces import Field, ForcingSource
 from siku_core.state import FREE
 
+from .drag import drag_stability_limit, quadratic_drag
+
 #: von Kármán constant of the log-layer drag coefficient (seed 004 eq. 6)
 KAPPA = 0.41
 #: a separate random stream for wave phases: ``default_rng([seed, PHASE_STREAM])``
@@ -230,9 +232,9 @@ def _wave_forces(t, q, V, m, area, free, lat0, lon0, R, amp, kx, ky, om, ph, uo,
             un = V[i, 0] * nx + V[i, 1] * ny
             de = buf[3] - ue
             dn = buf[4] - un
-            s = area[i] * drag_coef * math.sqrt(de * de + dn * dn)
-            fe += s * de
-            fn += s * dn
+            drag_e, drag_n = quadratic_drag(area[i], drag_coef, de, dn)
+            fe += drag_e
+            fn += drag_n
         F[i, 0] += fe * ex + fn * nx
         F[i, 1] += fe * ey + fn * ny
 
@@ -453,13 +455,12 @@ class Waves(ForcingSource):
         st = sim.state
         limits = [(0.2 * self.field.shortest_period(),
                    f"the shortest wave period {self.field.shortest_period():.4g} s")]
-        free = st.flags == FREE
-        if self.p["drag"] and free.any() and self.C * self.p["rho"] > 0:
+        if self.p["drag"] and self.C * self.p["rho"] > 0:
             du = float(np.sum(self.field.u_orbital)) + 1.0
-            per_area = st.m[free] / st.area[free]
-            i = int(np.argmin(per_area))
-            limits.append((per_area[i] / (self.p["rho"] * self.C * du),
-                           f"wave drag (C_d = {self.C:.4g}, |dU| up to {du:.3g} m/s)"))
+            found = drag_stability_limit(st, st.flags == FREE, self.p["rho"], self.C, du)
+            if found is not None:
+                limits.append((found[0],
+                               f"wave drag (C_d = {self.C:.4g}, |dU| up to {du:.3g} m/s)"))
         return min(limits, key=lambda x: x[0])
 
 

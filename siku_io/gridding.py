@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
+from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.stress import principal
 
 from .grid import Grid, GridCfg
@@ -198,13 +199,7 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
 
 def _midpoints(lon1, lat1, lon2, lat2):
     """Great-circle midpoints [deg] of point pairs [deg]."""
-    def xyz(lon, lat):
-        lo, la = np.radians(lon), np.radians(lat)
-        return np.stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)])
-
-    m = xyz(lon1, lat1) + xyz(lon2, lat2)
-    return (np.degrees(np.arctan2(m[1], m[0])),
-            np.degrees(np.arctan2(m[2], np.hypot(m[0], m[1]))))
+    return xyz_to_lonlat(lonlat_to_xyz(lon1, lat1) + lonlat_to_xyz(lon2, lat2))
 
 
 # ---------------------------------------------------------------------------- from a file
