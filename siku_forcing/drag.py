@@ -11,6 +11,7 @@ With ``U`` the ice velocity, ``k`` the local vertical and ``S`` the element area
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 from numba import njit, prange
@@ -132,7 +133,7 @@ class AirDrag(_Drag):
     """Wind stress on each element (eq. 19) from a wind field; ``relative`` uses ``U_a - U``."""
 
     name = "air_drag"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "C": Param(0.0016, "1", "air–ice drag coefficient C_a (eq. 21)", min=0),
         "rho": Param(1.3, "kg/m^3", "air density rho_a", min=0),
         "turning_angle": Param(0.0, "deg", "turning angle th_a (CCW positive)", min=-90, max=90),
@@ -153,7 +154,7 @@ class WaterDrag(_Drag):
 
     name = "water_drag"
     field_required = False
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "C": Param(0.0045, "1", "water–ice drag coefficient C_w (eq. 21)", min=0),
         "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0),
         "turning_angle": Param(0.0, "deg", "turning angle th_w (CCW positive)", min=-90, max=90),
@@ -205,7 +206,7 @@ class Coriolis(ForcingSource):
     """
 
     name = "coriolis"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "rotation_rate": Param(-1.0, "rad/s", "planet rotation rate; -1: use [planet]", min=-1),
     }
 

@@ -5,6 +5,7 @@ Fields return eastward and northward velocity [m/s] at geographic points; drags 
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 from numba import njit
@@ -18,7 +19,7 @@ class Uniform(Field):
     """The same velocity everywhere and always: ``(u, v)`` east and north [m/s]."""
 
     name = "uniform"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "u": Param(0.0, "m/s", "eastward velocity"),
         "v": Param(0.0, "m/s", "northward velocity"),
     }
@@ -75,7 +76,7 @@ class Cyclone(Field):
     """
 
     name = "cyclone"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "kind": Param("cyclone", "", "cyclone or anticyclone", type=str,
                       choices=("cyclone", "anticyclone")),
         "lat": Param(75.0, "deg", "centre latitude at t = 0", min=-90, max=90),

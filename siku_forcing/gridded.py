@@ -78,7 +78,7 @@ import glob as _glob
 import math
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -106,7 +106,7 @@ class Gridded(Field):
     """
 
     name = "gridded"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "file": Param("", "", "NetCDF file holding both components (relative to the scene; "
                       "glob patterns join files along time)", type=str),
         "u_file": Param("", "", "NetCDF file of the eastward component (with v_file)", type=str),

@@ -28,6 +28,7 @@ The fields also serve any drag as a current: ``sample`` returns the surface orbi
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 from numba import njit
@@ -245,7 +246,7 @@ class WaveField(Field):
     of the module docstring. Subclasses fill the components in :meth:`components`."""
 
     #: common parameters: where phases are measured from, gravity, depth
-    common = {
+    common: ClassVar[dict[str, Param]] = {
         "origin": Param([0.0, 0.0], "deg", "[lon, lat] where x = y = 0 (phase reference)",
                         type=list),
         "depth": Param(-1.0, "m", "water depth h; -1: deep water", min=-1.0),
@@ -326,7 +327,7 @@ class LinearWave(WaveField):
     """A monochromatic linear wave: ``eta = a cos(k·x - omega t + phase)``, finite depth."""
 
     name = "linear_wave"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "amplitude": Param(0.5, "m", "amplitude a (half the height)", min=0.0),
         "period": Param(8.0, "s", "period T = 2 pi / omega", min=1e-3),
         "direction": Param(90.0, "deg", "direction of travel, clockwise from north (90: east)"),
@@ -352,7 +353,7 @@ class Jonswap(WaveField):
     """
 
     name = "jonswap"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "hs": Param(1.0, "m", "significant wave height Hs = 4 sqrt(m0)", min=0.0),
         "tp": Param(8.0, "s", "peak period", min=1e-3),
         "gamma": Param(3.3, "1", "peak enhancement factor", min=1.0),
@@ -404,7 +405,7 @@ class Waves(ForcingSource):
     name = "waves"
     uses_field = True
     field_required = True
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "drag": Param(True, "", "water drag relative to the orbital velocity", type=bool),
         **WATER_DRAG_PARAMS,
         "breaking": Param(False, "", "break joints by wave-induced flexure", type=bool),

@@ -28,7 +28,7 @@ is no ice), mass-weighted mean velocity and acceleration (zero where there is no
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
@@ -165,7 +165,7 @@ class Exchange(ForcingSource):
     name = "exchange"
     #: read besides the parameters (the conformance suite cannot build the source without it)
     scene_tables = ("coupling.grid",)
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "drag": Param(True, "", "water drag relative to the cells' water velocity", type=bool),
         **WATER_DRAG_PARAMS,
         "rho_air": Param(1.3, "kg/m^3", "air density rho_a", min=0.0),

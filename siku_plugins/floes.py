@@ -13,6 +13,7 @@ gnomonic projection, so floes may sit anywhere, the poles and the antimeridian i
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 
@@ -85,7 +86,7 @@ def outline_polygon(kind: str, length: float, width: float, angle: float,
         if kind == "disc":
             b = a
         perim = math.pi * (3 * (a + b) - math.sqrt((3 * a + b) * (a + 3 * b)))
-        n = max(24, int(math.ceil(ARC_POINTS_PER_D * perim / element_size)))
+        n = max(24, math.ceil(ARC_POINTS_PER_D * perim / element_size))
         t = 2 * math.pi * np.arange(n) / n
         p = np.column_stack([a * np.cos(t), b * np.sin(t)])
     c, s = math.cos(math.radians(angle)), math.sin(math.radians(angle))
@@ -191,7 +192,7 @@ class Floe(ElementSource):
     """One floe: an outline filled with bonded Voronoi elements of mean size ``D`` (seed 004)."""
 
     name = "floe"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "outline": Param("rectangle", "", "shape of the floe", type=str,
                          choices=("rectangle", "disc", "ellipse", "polygon")),
         "center": Param([0.0, 0.0], "deg", "[lon, lat] of the floe centre (not for polygon)",
@@ -253,7 +254,7 @@ class FloeField(ElementSource):
     """Many floes over a lon/lat box, sizes from a power law, placed without overlap."""
 
     name = "floe_field"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "lon": Param(None, "deg", "[west, east] of the region", type=list),
         "lat": Param(None, "deg", "[south, north] of the region", type=list),
         "shape": Param("rectangle", "", "floe shape (rectangles turned at random, or discs)",
