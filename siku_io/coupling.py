@@ -45,8 +45,8 @@ from .grid import Grid, GridCfg, grid_error
 #: per-cell input fields of the exchange source: name -> (units, meaning)
 INPUTS: dict[str, tuple[str, str]] = {
     "eta": ("m", "sea surface elevation"),
-    "water_u": ("m s-1", "water velocity along the grid's x axis"),
-    "water_v": ("m s-1", "water velocity along the grid's y axis"),
+    "water_u": ("m s-1", "surface water velocity along the grid's x axis"),
+    "water_v": ("m s-1", "surface water velocity along the grid's y axis"),
     "tau_x": ("N m-2", "force per area on the ice along x"),
     "tau_y": ("N m-2", "force per area on the ice along y"),
     "wind_u": ("m s-1", "wind velocity (10 m) along x"),
