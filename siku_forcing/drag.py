@@ -11,11 +11,10 @@ With ``U`` the ice velocity, ``k`` the local vertical and ``S`` the element area
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
-from numba import njit
-
-from numba import prange
+from numba import njit, prange
 
 from siku_core import Param, hookimpl
 from siku_core.geometry.quat import east_north_row, latlon_of
@@ -23,13 +22,45 @@ from siku_core.interfaces import ForcingSource
 from siku_core.parallel import chunk_bounds, chunks
 from siku_core.state import STATIC
 
+# ----------------------------------------------------------------- quadratic drag, shared
+# The one drag kernel of the forcing sources (water_drag, air_drag, waves, the exchange grid).
 
+
+@njit(cache=True, inline="always")
+def drag_factor(area, coef, dx, dy):
+    """``area coef |d|`` for the relative velocity ``d = (dx, dy)`` [m/s]: times ``d`` it is
+    the quadratic drag force [N] on ``area`` [m²] with ``coef = rho C`` (or any split of the
+    product: ``area`` may carry ``rho``; the products are taken left to right)."""
+    return area * coef * math.sqrt(dx * dx + dy * dy)
+
+
+@njit(cache=True, inline="always")
+def quadratic_drag(area, coef, dx, dy):
+    """Quadratic drag force ``area coef |d| d`` [N] (components along ``dx``, ``dy``), with
+    ``coef = rho C`` [kg/m³]: :func:`drag_factor` times ``d``."""
+    s = drag_factor(area, coef, dx, dy)
+    return s * dx, s * dy
+
+
+def drag_stability_limit(state, free: np.ndarray, rho: float, C: float, speed: float):
+    """Explicit quadratic drag is stable for ``dt < m / (S rho C |dU|)`` (the drag's own time
+    scale; ``m / S = rho_i h``): that bound for the free elements ``free`` (mask) at the
+    relative speed ``speed`` [m/s], as ``(dt [s], element, m/S [kg/m²])`` of the element that
+    sets it; ``None`` without free elements. The caller rules out ``rho C = 0``."""
+    if not free.any():
+        return None
+    per_area = state.m[free] / state.area[free]
+    i = int(np.argmin(per_area))
+    return per_area[i] / (rho * C * speed), int(np.flatnonzero(free)[i]), per_area[i]
+
+
+# ----------------------------------------------------------------- air and water drag
 @njit(cache=True, inline="always")
 def _stress_one(q, V, i, ui, vi, area, rho, C, ct, st, subtract_ice, F):
     ex, ey, nx, ny = east_north_row(q, i)
     dx = ui * ex + vi * nx - subtract_ice * V[i, 0]
     dy = ui * ey + vi * ny - subtract_ice * V[i, 1]
-    s = area[i] * rho * C * math.sqrt(dx * dx + dy * dy)
+    s = drag_factor(area[i] * rho, C, dx, dy)
     F[i, 0] += s * (dx * ct - dy * st)
     F[i, 1] += s * (dy * ct + dx * st)
 
@@ -102,7 +133,7 @@ class AirDrag(_Drag):
     """Wind stress on each element (eq. 19) from a wind field; ``relative`` uses ``U_a - U``."""
 
     name = "air_drag"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "C": Param(0.0016, "1", "air–ice drag coefficient C_a (eq. 21)", min=0),
         "rho": Param(1.3, "kg/m^3", "air density rho_a", min=0),
         "turning_angle": Param(0.0, "deg", "turning angle th_a (CCW positive)", min=-90, max=90),
@@ -123,7 +154,7 @@ class WaterDrag(_Drag):
 
     name = "water_drag"
     field_required = False
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "C": Param(0.0045, "1", "water–ice drag coefficient C_w (eq. 21)", min=0),
         "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0),
         "turning_angle": Param(0.0, "deg", "turning angle th_w (CCW positive)", min=-90, max=90),
@@ -147,14 +178,14 @@ class WaterDrag(_Drag):
     def stability_limit(self, sim):
         """Explicit drag is stable for ``dt < m / (S rho_w C_w |dU|) = rho_i h/(rho_w C_w |dU|)``."""
         st = sim.state
-        free = st.flags != STATIC
-        if not free.any() or self.p["C"] == 0 or self.p["rho"] == 0:
+        if self.p["C"] == 0 or self.p["rho"] == 0:
             return None
-        per_area = st.m[free] / st.area[free]
-        i = int(np.argmin(per_area))
-        dt = per_area[i] / (self.p["rho"] * self.p["C"] * self.p["max_relative_speed"])
-        elem = int(np.flatnonzero(free)[i])
-        return dt, (f"water drag on element {elem} (mass per area {per_area[i]:.4g} kg/m², "
+        found = drag_stability_limit(st, st.flags != STATIC, self.p["rho"], self.p["C"],
+                                     self.p["max_relative_speed"])
+        if found is None:
+            return None
+        dt, elem, per_area = found
+        return dt, (f"water drag on element {elem} (mass per area {per_area:.4g} kg/m², "
                     f"|dU| = {self.p['max_relative_speed']:g} m/s)")
 
 
@@ -175,7 +206,7 @@ class Coriolis(ForcingSource):
     """
 
     name = "coriolis"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "rotation_rate": Param(-1.0, "rad/s", "planet rotation rate; -1: use [planet]", min=-1),
     }
 

@@ -5,11 +5,13 @@ Fields return eastward and northward velocity [m/s] at geographic points; drags 
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 from numba import njit
 
 from siku_core import Param, hookimpl
+from siku_core.geometry.sphere import latlon_to_xyz
 from siku_core.interfaces import Field
 
 
@@ -17,7 +19,7 @@ class Uniform(Field):
     """The same velocity everywhere and always: ``(u, v)`` east and north [m/s]."""
 
     name = "uniform"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "u": Param(0.0, "m/s", "eastward velocity"),
         "v": Param(0.0, "m/s", "northward velocity"),
     }
@@ -35,11 +37,10 @@ def _vortex(lat, lon, clat, clon, vmax, rmax, sense, alpha, radius):
     n = lat.shape[0]
     u = np.empty(n)
     v = np.empty(n)
-    c = np.array([math.cos(clat) * math.cos(clon), math.cos(clat) * math.sin(clon), math.sin(clat)])
+    c = latlon_to_xyz(clat, clon)
     ca, sa = math.cos(alpha), math.sin(alpha)
     for i in range(n):
-        cl = math.cos(lat[i])
-        p = np.array([cl * math.cos(lon[i]), cl * math.sin(lon[i]), math.sin(lat[i])])
+        p = latlon_to_xyz(lat[i], lon[i])
         cp = np.cross(c, p)
         s = math.sqrt(cp[0] ** 2 + cp[1] ** 2 + cp[2] ** 2)
         if s < 1e-15:
@@ -75,7 +76,7 @@ class Cyclone(Field):
     """
 
     name = "cyclone"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "kind": Param("cyclone", "", "cyclone or anticyclone", type=str,
                       choices=("cyclone", "anticyclone")),
         "lat": Param(75.0, "deg", "centre latitude at t = 0", min=-90, max=90),

@@ -39,7 +39,8 @@ from numba import njit
 
 from siku_core import SceneError
 from siku_core.contact_law import BREAK_FLEXURE
-from siku_core.geometry.quat import from_tangent, latlon_of, xyz_to_latlon
+from siku_core.geometry.quat import from_tangent, latlon_of
+from siku_core.geometry.sphere import xyz_to_latlon
 
 
 @njit(cache=True)

@@ -28,6 +28,7 @@ The fields also serve any drag as a current: ``sample`` returns the surface orbi
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 from numba import njit
@@ -36,6 +37,8 @@ from siku_core import Param, SceneError, hookimpl
 from siku_core.geometry.quat import east_north_row
 from siku_core.interfaces import Field, ForcingSource
 from siku_core.state import FREE
+
+from .drag import drag_stability_limit, quadratic_drag
 
 #: von Kármán constant of the log-layer drag coefficient (seed 004 eq. 6)
 KAPPA = 0.41
@@ -230,9 +233,9 @@ def _wave_forces(t, q, V, m, area, free, lat0, lon0, R, amp, kx, ky, om, ph, uo,
             un = V[i, 0] * nx + V[i, 1] * ny
             de = buf[3] - ue
             dn = buf[4] - un
-            s = area[i] * drag_coef * math.sqrt(de * de + dn * dn)
-            fe += s * de
-            fn += s * dn
+            drag_e, drag_n = quadratic_drag(area[i], drag_coef, de, dn)
+            fe += drag_e
+            fn += drag_n
         F[i, 0] += fe * ex + fn * nx
         F[i, 1] += fe * ey + fn * ny
 
@@ -243,7 +246,7 @@ class WaveField(Field):
     of the module docstring. Subclasses fill the components in :meth:`components`."""
 
     #: common parameters: where phases are measured from, gravity, depth
-    common = {
+    common: ClassVar[dict[str, Param]] = {
         "origin": Param([0.0, 0.0], "deg", "[lon, lat] where x = y = 0 (phase reference)",
                         type=list),
         "depth": Param(-1.0, "m", "water depth h; -1: deep water", min=-1.0),
@@ -324,7 +327,7 @@ class LinearWave(WaveField):
     """A monochromatic linear wave: ``eta = a cos(k·x - omega t + phase)``, finite depth."""
 
     name = "linear_wave"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "amplitude": Param(0.5, "m", "amplitude a (half the height)", min=0.0),
         "period": Param(8.0, "s", "period T = 2 pi / omega", min=1e-3),
         "direction": Param(90.0, "deg", "direction of travel, clockwise from north (90: east)"),
@@ -350,7 +353,7 @@ class Jonswap(WaveField):
     """
 
     name = "jonswap"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "hs": Param(1.0, "m", "significant wave height Hs = 4 sqrt(m0)", min=0.0),
         "tp": Param(8.0, "s", "peak period", min=1e-3),
         "gamma": Param(3.3, "1", "peak enhancement factor", min=1.0),
@@ -402,7 +405,7 @@ class Waves(ForcingSource):
     name = "waves"
     uses_field = True
     field_required = True
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "drag": Param(True, "", "water drag relative to the orbital velocity", type=bool),
         **WATER_DRAG_PARAMS,
         "breaking": Param(False, "", "break joints by wave-induced flexure", type=bool),
@@ -453,13 +456,12 @@ class Waves(ForcingSource):
         st = sim.state
         limits = [(0.2 * self.field.shortest_period(),
                    f"the shortest wave period {self.field.shortest_period():.4g} s")]
-        free = st.flags == FREE
-        if self.p["drag"] and free.any() and self.C * self.p["rho"] > 0:
+        if self.p["drag"] and self.C * self.p["rho"] > 0:
             du = float(np.sum(self.field.u_orbital)) + 1.0
-            per_area = st.m[free] / st.area[free]
-            i = int(np.argmin(per_area))
-            limits.append((per_area[i] / (self.p["rho"] * self.C * du),
-                           f"wave drag (C_d = {self.C:.4g}, |dU| up to {du:.3g} m/s)"))
+            found = drag_stability_limit(st, st.flags == FREE, self.p["rho"], self.C, du)
+            if found is not None:
+                limits.append((found[0],
+                               f"wave drag (C_d = {self.C:.4g}, |dU| up to {du:.3g} m/s)"))
         return min(limits, key=lambda x: x[0])
 
 

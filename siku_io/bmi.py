@@ -29,23 +29,25 @@ from typing import Any
 import numpy as np
 from bmipy import Bmi
 
+from .coupling import INPUTS as EXCHANGE_INPUTS
+
+#: BMI standard name -> the ``exchange`` forcing source's input field (its units and meaning
+#: are those of ``siku_io.coupling.INPUTS``, the one table of the exchange inputs)
+_INPUT_FIELDS = {
+    "sea_water_surface__elevation": "eta",
+    "sea_water_flowing__x_component_of_velocity": "water_u",
+    "sea_water_flowing__y_component_of_velocity": "water_v",
+    "sea_ice_bottom_surface__x_component_of_stress": "tau_x",
+    "sea_ice_bottom_surface__y_component_of_stress": "tau_y",
+    "atmosphere_bottom_air_flow__x_component_of_velocity": "wind_u",
+    "atmosphere_bottom_air_flow__y_component_of_velocity": "wind_v",
+}
 #: name -> (exchange key, units, "in"/"out", description). Input keys are fields of the
 #: ``exchange`` forcing source; output keys those of ``siku_io.coupling.ice_fields`` (plus the
 #: per-cell force the ice received).
 VARIABLES: dict[str, tuple[str, str, str, str]] = {
-    "sea_water_surface__elevation": ("eta", "m", "in", "sea surface elevation"),
-    "sea_water_flowing__x_component_of_velocity": (
-        "water_u", "m s-1", "in", "surface water velocity along x"),
-    "sea_water_flowing__y_component_of_velocity": (
-        "water_v", "m s-1", "in", "surface water velocity along y"),
-    "sea_ice_bottom_surface__x_component_of_stress": (
-        "tau_x", "N m-2", "in", "force per area on the ice along x"),
-    "sea_ice_bottom_surface__y_component_of_stress": (
-        "tau_y", "N m-2", "in", "force per area on the ice along y"),
-    "atmosphere_bottom_air_flow__x_component_of_velocity": (
-        "wind_u", "m s-1", "in", "wind velocity (10 m) along x"),
-    "atmosphere_bottom_air_flow__y_component_of_velocity": (
-        "wind_v", "m s-1", "in", "wind velocity (10 m) along y"),
+    **{name: (key, EXCHANGE_INPUTS[key][0], "in", EXCHANGE_INPUTS[key][1])
+       for name, key in _INPUT_FIELDS.items()},
     "sea_ice__area_fraction": ("area_fraction", "1", "out", "ice area over cell area"),
     "sea_ice__volume": ("volume", "m3", "out", "ice volume in the cell"),
     "sea_ice_top_surface__elevation": ("top", "m", "out", "highest ice top in the cell"),
@@ -57,11 +59,11 @@ VARIABLES: dict[str, tuple[str, str, str, str]] = {
     "sea_ice__y_component_of_acceleration": (
         "ay", "m s-2", "out", "mass-weighted ice acceleration over the last update, y"),
     "sea_ice__x_component_of_coupling_force": (
-        "force_x", "N", "out", "force of the exchange fields on the ice in the cell, x "
-        "(mean over the last update)"),
+        "force_x", "N", "out", ("force of the exchange fields on the ice in the cell, x "
+        "(mean over the last update)")),
     "sea_ice__y_component_of_coupling_force": (
-        "force_y", "N", "out", "force of the exchange fields on the ice in the cell, y "
-        "(mean over the last update)"),
+        "force_y", "N", "out", ("force of the exchange fields on the ice in the cell, y "
+        "(mean over the last update)")),
 }
 INPUT_NAMES = tuple(k for k, v in VARIABLES.items() if v[2] == "in")
 OUTPUT_NAMES = tuple(k for k, v in VARIABLES.items() if v[2] == "out")

@@ -28,8 +28,7 @@ is no ice), mass-weighted mean velocity and acceleration (zero where there is no
 """
 from __future__ import annotations
 
-import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
@@ -38,6 +37,7 @@ from siku_core import DataError, Param, SceneError, hookimpl
 from siku_core.geometry.quat import east_north_row
 from siku_core.interfaces import ForcingSource
 from siku_core.state import FREE
+from siku_forcing.drag import drag_stability_limit, quadratic_drag
 from siku_forcing.waves import WATER_DRAG_PARAMS, drag_coefficient
 
 from .grid import Grid, GridCfg, grid_error
@@ -45,8 +45,8 @@ from .grid import Grid, GridCfg, grid_error
 #: per-cell input fields of the exchange source: name -> (units, meaning)
 INPUTS: dict[str, tuple[str, str]] = {
     "eta": ("m", "sea surface elevation"),
-    "water_u": ("m s-1", "water velocity along the grid's x axis"),
-    "water_v": ("m s-1", "water velocity along the grid's y axis"),
+    "water_u": ("m s-1", "surface water velocity along the grid's x axis"),
+    "water_v": ("m s-1", "surface water velocity along the grid's y axis"),
     "tau_x": ("N m-2", "force per area on the ice along x"),
     "tau_y": ("N m-2", "force per area on the ice along y"),
     "wind_u": ("m s-1", "wind velocity (10 m) along x"),
@@ -103,7 +103,7 @@ def cell_gradient(grid: Grid, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Gradient [1] of a cell field ``(ny, nx)`` [m] along the grid's x and y axes over true
     distances (central differences, one-sided at the edges; zero along an axis of one cell)."""
     ny, nx = grid.shape
-    lon, lat = grid.centres_lonlat
+    _, lat = grid.centres_lonlat
     R = grid.radius
     if grid.kind == "lonlat":
         dx = R * np.cos(np.radians(lat)) * np.radians(np.diff(grid.x_edges))[None, :]
@@ -133,9 +133,9 @@ def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx
         fx = -frac[p] * m[e] * g * gx[c] + S * tx[c]
         fy = -frac[p] * m[e] * g * gy[c] + S * ty[c]
         if air_coef > 0.0:
-            s = S * air_coef * math.sqrt(au[c] * au[c] + av[c] * av[c])
-            fx += s * au[c]
-            fy += s * av[c]
+            wind_x, wind_y = quadratic_drag(S, air_coef, au[c], av[c])
+            fx += wind_x
+            fy += wind_y
         ex, ey, nx, ny = east_north_row(q, e)
         if drag_coef > 0.0:
             ue = V[e, 0] * ex + V[e, 1] * ey
@@ -144,9 +144,9 @@ def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx
             uy = -ue * sa[p] + un * ca[p]
             dx = wu[c] - ux
             dy = wv[c] - uy
-            s = S * drag_coef * math.sqrt(dx * dx + dy * dy)
-            fx += s * dx
-            fy += s * dy
+            drag_x, drag_y = quadratic_drag(S, drag_coef, dx, dy)
+            fx += drag_x
+            fy += drag_y
         if free[e]:
             if record:
                 cfx[c] += fx
@@ -165,7 +165,7 @@ class Exchange(ForcingSource):
     name = "exchange"
     #: read besides the parameters (the conformance suite cannot build the source without it)
     scene_tables = ("coupling.grid",)
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "drag": Param(True, "", "water drag relative to the cells' water velocity", type=bool),
         **WATER_DRAG_PARAMS,
         "rho_air": Param(1.3, "kg/m^3", "air density rho_a", min=0.0),
@@ -238,13 +238,14 @@ class Exchange(ForcingSource):
     def stability_limit(self, sim):
         """Explicit drag: ``dt < m / (S rho_w C |dU|)`` (as ``water_drag``)."""
         st = sim.state
-        free = st.flags == FREE
-        if not self.p["drag"] or not free.any() or self.C * self.p["rho"] == 0:
+        if not self.p["drag"] or self.C * self.p["rho"] == 0:
             return None
-        per_area = st.m[free] / st.area[free]
-        i = int(np.argmin(per_area))
-        return (per_area[i] / (self.p["rho"] * self.C * self.p["max_relative_speed"]),
-                f"exchange drag (C = {self.C:.4g}, |dU| = {self.p['max_relative_speed']:g} m/s)")
+        found = drag_stability_limit(st, st.flags == FREE, self.p["rho"], self.C,
+                                     self.p["max_relative_speed"])
+        if found is None:
+            return None
+        why = f"exchange drag (C = {self.C:.4g}, |dU| = {self.p['max_relative_speed']:g} m/s)"
+        return found[0], why
 
 
 def ice_fields(sim, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 1026.0,

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
+from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.stress import principal
 
 from .grid import Grid, GridCfg
@@ -41,16 +42,16 @@ from .grid import Grid, GridCfg
 #: gridded fields: name -> (units, standard name or "", long name)
 FIELDS: dict[str, tuple[str, str, str]] = {
     "concentration": ("1", "sea_ice_area_fraction", "ice area over cell area"),
-    "thickness": ("m", "sea_ice_thickness", "ice volume over cell area (mean thickness of the "
-                  "whole cell)"),
+    "thickness": ("m", "sea_ice_thickness", ("ice volume over cell area (mean thickness of the "
+                                             "whole cell)")),
     "u": ("m s-1", "", "mass-weighted mean ice velocity along x (east on a lonlat grid)"),
     "v": ("m s-1", "", "mass-weighted mean ice velocity along y (north on a lonlat grid)"),
     "divergence": ("s-1", "divergence_of_sea_ice_velocity", "divergence ux + vy"),
     "shear": ("s-1", "", "maximum shear strain rate sqrt((ux - vy)^2 + (uy + vx)^2)"),
     "vorticity": ("s-1", "", "vorticity vx - uy"),
     "total_deformation": ("s-1", "", "total deformation rate sqrt(divergence^2 + shear^2)"),
-    "stress_xx": ("N m-1", "", "mean stress of the ice in the cell, xx (tension positive), "
-                  "vertically integrated"),
+    "stress_xx": ("N m-1", "", ("mean stress of the ice in the cell, xx (tension positive), "
+                                "vertically integrated")),
     "stress_yy": ("N m-1", "", "mean stress, yy (tension positive), vertically integrated"),
     "stress_xy": ("N m-1", "", "mean stress, xy, vertically integrated"),
     "stress_1": ("N m-1", "", "larger principal stress, vertically integrated"),
@@ -198,13 +199,7 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
 
 def _midpoints(lon1, lat1, lon2, lat2):
     """Great-circle midpoints [deg] of point pairs [deg]."""
-    def xyz(lon, lat):
-        lo, la = np.radians(lon), np.radians(lat)
-        return np.stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)])
-
-    m = xyz(lon1, lat1) + xyz(lon2, lat2)
-    return (np.degrees(np.arctan2(m[1], m[0])),
-            np.degrees(np.arctan2(m[2], np.hypot(m[0], m[1]))))
+    return xyz_to_lonlat(lonlat_to_xyz(lon1, lat1) + lonlat_to_xyz(lon2, lat2))
 
 
 # ---------------------------------------------------------------------------- from a file

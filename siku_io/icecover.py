@@ -25,9 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
-
-_LAT = ("lat", "latitude", "nav_lat", "tlat", "ulat", "y_lat")
-_LON = ("lon", "longitude", "nav_lon", "tlon", "ulon", "x_lon")
+from siku_forcing.cf import find_coordinate
 
 
 @dataclass
@@ -42,21 +40,18 @@ class Cover:
     h: np.ndarray | None = None
 
 
-def _coord(ds, da, given: str, names: tuple[str, ...], role: str, where: str):
+def _coord(ds, da, given: str, role: str, where: str):
+    """The latitude or longitude (``role``) coordinate of ``da``: ``given``, or found by the CF
+    rules of ``siku_forcing.cf`` among the variables along dimensions of ``da`` (1-D or 2-D)."""
     if given:
         if given not in ds.variables:
             raise DataError(f"{where}: no coordinate '{given}' ({role}) in the file")
         return ds[given]
-    for k, v in ds.variables.items():
-        sn = str(v.attrs.get("standard_name", "")).lower()
-        un = str(v.attrs.get("units", "")).lower().replace("_", "")
-        if sn == role or (role == "latitude" and un in ("degreesnorth", "degreen")) or \
-                (role == "longitude" and un in ("degreeseast", "degreee")):
-            if set(v.dims) <= set(da.dims):
-                return v
-    for k in ds.variables:
-        if str(k).lower() in names and set(ds[k].dims) <= set(da.dims):
-            return ds[k]
+    dims = set(da.dims)
+    found = find_coordinate(((k, v) for k, v in ds.variables.items() if set(v.dims) <= dims),
+                            role[:3])
+    if found is not None:
+        return ds[found]
     raise DataError(f"{where}: cannot tell the {role} of the variable '{da.name}'; set "
                     f"{role[:3]} = \"...\" in [elements.mesh.cover]")
 
@@ -100,7 +95,7 @@ def _sample(values: np.ndarray, lat, lon, plat: np.ndarray, plon: np.ndarray) ->
     else:
         from scipy.spatial import cKDTree
 
-        from .mesh import lonlat_to_xyz
+        from siku_core.geometry.sphere import lonlat_to_xyz
 
         ok = np.isfinite(lat) & np.isfinite(lon)
         tree = cKDTree(lonlat_to_xyz(lon[ok], lat[ok]))
@@ -130,8 +125,8 @@ def read_cover(cfg, base_dir: Path, start, plon: np.ndarray, plat: np.ndarray,
                 raise DataError(f"{where}: {path} has no variable '{var}' ({role}); variables "
                                 f"present: {', '.join(sorted(map(str, ds.data_vars)))}")
             da = _pick_time(ds[var], cfg.time, start, where)
-            lat = _coord(ds, da, cfg.lat, _LAT, "latitude", where)
-            lon = _coord(ds, da, cfg.lon, _LON, "longitude", where)
+            lat = _coord(ds, da, cfg.lat, "latitude", where)
+            lon = _coord(ds, da, cfg.lon, "longitude", where)
             cat = cfg.category
             if cat and cat not in da.dims:
                 raise DataError(f"{where}: '{var}' has no category dimension '{cat}' (its "

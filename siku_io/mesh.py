@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import ConvexHull, SphericalVoronoi, cKDTree
 
+from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.kernel_cache import user_cache_dir
 
 MESH_VERSION = 1
@@ -76,20 +77,7 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------------- sphere helpers
-def lonlat_to_xyz(lon, lat) -> np.ndarray:
-    """Unit vectors ``(n, 3)`` of longitudes and latitudes in degrees (docs/explanation/physics.md eq. 1)."""
-    lo = np.radians(np.asarray(lon, dtype=float))
-    la = np.radians(np.asarray(lat, dtype=float))
-    cl = np.cos(la)
-    return np.stack([cl * np.cos(lo), cl * np.sin(lo), np.sin(la)], axis=-1)
-
-
-def xyz_to_lonlat(p) -> tuple[np.ndarray, np.ndarray]:
-    """Longitude in ``[-180, 180]`` and latitude (degrees) of vectors ``(n, 3)``."""
-    p = np.asarray(p, dtype=float)
-    lon = np.degrees(np.arctan2(p[..., 1], p[..., 0]))
-    lat = np.degrees(np.arctan2(p[..., 2], np.hypot(p[..., 0], p[..., 1])))
-    return lon, lat
+# lonlat_to_xyz, xyz_to_lonlat: siku_core.geometry.sphere (imported above, named in __all__)
 
 
 def _unit(p: np.ndarray) -> np.ndarray:
@@ -1196,9 +1184,8 @@ def shipped(path: str | Path) -> bool:
     """Whether a file lies inside one of siku's installed packages (a shipped scene)."""
     import siku_core
     import siku_forcing
-    import siku_plugins
-
     import siku_io
+    import siku_plugins
 
     p = Path(path).resolve()
     return any(p.is_relative_to(Path(m.__file__).resolve().parent)

@@ -14,36 +14,21 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
+from siku_core.geometry.quat import qmatrices
+from siku_core.geometry.sphere import xyz_to_lonlat
 
 UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)", "stress_ee": "N/m",
          "stress_nn": "N/m", "stress_en": "N/m"}
 STATIC = 1
 
 
-def _rotation_matrices(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    m = np.empty((len(q), 3, 3))
-    m[:, 0, 0] = 1 - 2 * (y * y + z * z)
-    m[:, 0, 1] = 2 * (x * y - w * z)
-    m[:, 0, 2] = 2 * (x * z + w * y)
-    m[:, 1, 0] = 2 * (x * y + w * z)
-    m[:, 1, 1] = 1 - 2 * (x * x + z * z)
-    m[:, 1, 2] = 2 * (y * z - w * x)
-    m[:, 2, 0] = 2 * (x * z - w * y)
-    m[:, 2, 1] = 2 * (y * z + w * x)
-    m[:, 2, 2] = 1 - 2 * (x * x + y * y)
-    return m
-
-
 def polygons_lonlat(q: np.ndarray, offsets: np.ndarray, verts: np.ndarray, radius: float):
     """Vertices of every element as ``[lon, lat]`` degrees (list of ``(k, 2)`` arrays)."""
     owner = np.repeat(np.arange(len(q)), np.diff(offsets))
     loc = np.column_stack([verts[:, 0] / radius, verts[:, 1] / radius, np.ones(len(verts))])
-    g = np.einsum("nij,nj->ni", _rotation_matrices(q)[owner], loc)
+    g = np.einsum("nij,nj->ni", qmatrices(q)[owner], loc)
     g /= np.linalg.norm(g, axis=1)[:, None]
-    lat = np.degrees(np.arctan2(g[:, 2], np.hypot(g[:, 0], g[:, 1])))
-    lon = np.degrees(np.arctan2(g[:, 1], g[:, 0]))
-    ll = np.column_stack([lon, lat])
+    ll = np.column_stack(xyz_to_lonlat(g))
     return [ll[offsets[i]:offsets[i + 1]] for i in range(len(q))]
 
 

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from siku_core import DataError
+from siku_core.geometry.sphere import lonlat_to_xyz
 from siku_core.outputs import in_use
 
 #: the file layout this version writes and reads (``siku_io.hdf5``)
@@ -37,12 +38,12 @@ def _lookup3(data: bytes) -> int:
         a = (a + int.from_bytes(data[i:i + 4], "little")) & m
         b = (b + int.from_bytes(data[i + 4:i + 8], "little")) & m
         c = (c + int.from_bytes(data[i + 8:i + 12], "little")) & m
-        a = (a - c) & m; a ^= rot(c, 4); c = (c + b) & m  # noqa: E702
-        b = (b - a) & m; b ^= rot(a, 6); a = (a + c) & m  # noqa: E702
-        c = (c - b) & m; c ^= rot(b, 8); b = (b + a) & m  # noqa: E702
-        a = (a - c) & m; a ^= rot(c, 16); c = (c + b) & m  # noqa: E702
-        b = (b - a) & m; b ^= rot(a, 19); a = (a + c) & m  # noqa: E702
-        c = (c - b) & m; c ^= rot(b, 4); b = (b + a) & m  # noqa: E702
+        a = (a - c) & m; a ^= rot(c, 4); c = (c + b) & m
+        b = (b - a) & m; b ^= rot(a, 6); a = (a + c) & m
+        c = (c - b) & m; c ^= rot(b, 8); b = (b + a) & m
+        a = (a - c) & m; a ^= rot(c, 16); c = (c + b) & m
+        b = (b - a) & m; b ^= rot(a, 19); a = (a + c) & m
+        c = (c - b) & m; c ^= rot(b, 4); b = (b + a) & m
         n -= 12
         i += 12
     if n == 0:
@@ -51,13 +52,13 @@ def _lookup3(data: bytes) -> int:
     a = (a + int.from_bytes(tail[0:4], "little")) & m
     b = (b + int.from_bytes(tail[4:8], "little")) & m
     c = (c + int.from_bytes(tail[8:12], "little")) & m
-    c ^= b; c = (c - rot(b, 14)) & m  # noqa: E702
-    a ^= c; a = (a - rot(c, 11)) & m  # noqa: E702
-    b ^= a; b = (b - rot(a, 25)) & m  # noqa: E702
-    c ^= b; c = (c - rot(b, 16)) & m  # noqa: E702
-    a ^= c; a = (a - rot(c, 4)) & m  # noqa: E702
-    b ^= a; b = (b - rot(a, 14)) & m  # noqa: E702
-    c ^= b; c = (c - rot(b, 24)) & m  # noqa: E702
+    c ^= b; c = (c - rot(b, 14)) & m
+    a ^= c; a = (a - rot(c, 11)) & m
+    b ^= a; b = (b - rot(a, 25)) & m
+    c ^= b; c = (c - rot(b, 16)) & m
+    a ^= c; a = (a - rot(c, 4)) & m
+    b ^= a; b = (b - rot(a, 14)) & m
+    c ^= b; c = (c - rot(b, 24)) & m
     return c
 
 
@@ -193,10 +194,11 @@ def snapshot_drift(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         time = s["time"][:n]
         free = f["geometry/flags"][:] == 0
         radius = float(f.attrs["radius"])
-        lat, lon = np.radians(s["lat"][:n][:, free]), np.radians(s["lon"][:n][:, free])
+        lat, lon = s["lat"][:n][:, free], s["lon"][:n][:, free]
     if n == 0 or not free.any():
         return time, np.zeros(n)
-    x, y, z = np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)
+    p = lonlat_to_xyz(lon, lat)
+    x, y, z = p[..., 0], p[..., 1], p[..., 2]
     dot = x * x[0] + y * y[0] + z * z[0]
     cross = np.sqrt((y * z[0] - z * y[0]) ** 2 + (z * x[0] - x * z[0]) ** 2
                     + (x * y[0] - y * x[0]) ** 2)

@@ -13,11 +13,14 @@ gnomonic projection, so floes may sit anywhere, the poles and the antimeridian i
 from __future__ import annotations
 
 import math
+from typing import ClassVar
 
 import numpy as np
 
 from siku_core import hookimpl
 from siku_core.errors import SceneError
+from siku_core.geometry.polygon import polygon_area
+from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.interfaces import ElementSource, ElementSpec
 from siku_core.params import Param
 
@@ -28,12 +31,6 @@ ARC_POINTS_PER_D = 2.0
 
 
 # --------------------------------------------------------------------------- planar geometry
-
-
-def polygon_area(p: np.ndarray) -> float:
-    """Signed area [m²] of a polygon ``(k, 2)`` (positive counter-clockwise)."""
-    x, y = p[:, 0], p[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
 
 def clip_convex(poly: np.ndarray, clip: np.ndarray) -> np.ndarray:
@@ -89,7 +86,7 @@ def outline_polygon(kind: str, length: float, width: float, angle: float,
         if kind == "disc":
             b = a
         perim = math.pi * (3 * (a + b) - math.sqrt((3 * a + b) * (a + 3 * b)))
-        n = max(24, int(math.ceil(ARC_POINTS_PER_D * perim / element_size)))
+        n = max(24, math.ceil(ARC_POINTS_PER_D * perim / element_size))
         t = 2 * math.pi * np.arange(n) / n
         p = np.column_stack([a * np.cos(t), b * np.sin(t)])
     c, s = math.cos(math.radians(angle)), math.sin(math.radians(angle))
@@ -158,17 +155,13 @@ def to_lonlat(xy: np.ndarray, lon: float, lat: float, radius: float) -> np.ndarr
     [deg] to ``[lon, lat]`` [deg] (longitudes in (-180, 180])."""
     g = _frame(lon, lat) @ np.column_stack([xy / radius, np.ones(len(xy))]).T
     g = g / np.linalg.norm(g, axis=0)
-    la = np.degrees(np.arctan2(g[2], np.hypot(g[0], g[1])))
-    lo = np.degrees(np.arctan2(g[1], g[0]))
-    return np.column_stack([lo, la])
+    return np.column_stack(xyz_to_lonlat(g.T))
 
 
 def to_plane(lonlat: np.ndarray, lon: float, lat: float, radius: float) -> np.ndarray:
     """Gnomonic projection of ``[lon, lat]`` [deg] points into the tangent plane at
     ``(lon, lat)`` [m]."""
-    lo, la = np.radians(lonlat[:, 0]), np.radians(lonlat[:, 1])
-    p = np.column_stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)])
-    loc = p @ _frame(lon, lat)
+    loc = lonlat_to_xyz(lonlat[:, 0], lonlat[:, 1]) @ _frame(lon, lat)
     if np.any(loc[:, 2] <= 0.05):
         raise ValueError("outline spans too much of the sphere for one floe")
     return radius * loc[:, :2] / loc[:, 2:3]
@@ -199,7 +192,7 @@ class Floe(ElementSource):
     """One floe: an outline filled with bonded Voronoi elements of mean size ``D`` (seed 004)."""
 
     name = "floe"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "outline": Param("rectangle", "", "shape of the floe", type=str,
                          choices=("rectangle", "disc", "ellipse", "polygon")),
         "center": Param([0.0, 0.0], "deg", "[lon, lat] of the floe centre (not for polygon)",
@@ -226,9 +219,7 @@ class Floe(ElementSource):
             if ll.ndim != 2 or ll.shape[1] != 2 or len(ll) < 3:
                 raise SceneError(f"{where}: outline = 'polygon' needs 'vertices', at least 3 "
                                  "[lon, lat] pairs")
-            g = np.column_stack([np.cos(np.radians(ll[:, 1])) * np.cos(np.radians(ll[:, 0])),
-                                 np.cos(np.radians(ll[:, 1])) * np.sin(np.radians(ll[:, 0])),
-                                 np.sin(np.radians(ll[:, 1]))]).mean(axis=0)
+            g = lonlat_to_xyz(ll[:, 0], ll[:, 1]).mean(axis=0)
             lon = math.degrees(math.atan2(g[1], g[0]))
             lat = math.degrees(math.atan2(g[2], math.hypot(g[0], g[1])))
             try:
@@ -263,7 +254,7 @@ class FloeField(ElementSource):
     """Many floes over a lon/lat box, sizes from a power law, placed without overlap."""
 
     name = "floe_field"
-    params = {
+    params: ClassVar[dict[str, Param]] = {
         "lon": Param(None, "deg", "[west, east] of the region", type=list),
         "lat": Param(None, "deg", "[south, north] of the region", type=list),
         "shape": Param("rectangle", "", "floe shape (rectangles turned at random, or discs)",

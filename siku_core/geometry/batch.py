@@ -18,7 +18,8 @@ from numba import njit
 
 from ..errors import GeometryError
 from .polygon import element_from_lonlat
-from .quat import from_tangent, latlon_to_xyz, q_from_latlon, to_tangent, xyz_to_latlon
+from .quat import from_tangent, q_from_latlon, to_tangent
+from .sphere import latlon_to_xyz, xyz_to_latlon
 
 OK, FALLBACK = 0, 1
 

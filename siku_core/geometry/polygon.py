@@ -6,7 +6,15 @@ import math
 import numpy as np
 
 from ..errors import GeometryError
-from .quat import from_tangent, latlon_to_xyz, q_from_latlon, to_tangent, xyz_to_latlon
+from .quat import from_tangent, q_from_latlon, to_tangent
+from .sphere import latlon_to_xyz, xyz_to_latlon
+
+
+def polygon_area(poly: np.ndarray) -> float:
+    """Signed area [m²] of a polygon ``(k, 2)``, positive counter-clockwise: the area of
+    :func:`area_centroid_moment`, summed the same way (bit for bit)."""
+    x, y = poly[:, 0], poly[:, 1]
+    return 0.5 * float((x * np.roll(y, -1) - np.roll(x, -1) * y).sum())
 
 
 def area_centroid_moment(poly: np.ndarray) -> tuple[float, np.ndarray, float]:

@@ -22,6 +22,16 @@ from numba import njit, prange
 
 from ..parallel import chunk_bounds, chunks
 
+# the point conversions live in .sphere; re-exported for callers that import them with the
+# quaternion helpers
+from .sphere import great_circle_distance, latlon_to_xyz, xyz_to_latlon
+
+__all__ = [
+    "cayley_step", "centers", "east_north_local", "east_north_row", "from_tangent",
+    "great_circle_distance", "latlon_of", "latlon_to_xyz", "q_center", "q_from_latlon",
+    "qmatrices", "qmatrix", "qmul", "qrotate", "qrotate_inv", "to_tangent", "xyz_to_latlon",
+]
+
 
 @njit(cache=True, inline="always")
 def qmul(a, b):
@@ -101,28 +111,6 @@ def q_center(q):
     out[0] = 2 * (x * z + w * y)
     out[1] = 2 * (y * z - w * x)
     out[2] = 1 - 2 * (x * x + y * y)
-    return out
-
-
-@njit(cache=True, inline="always")
-def xyz_to_latlon(p):
-    """Latitude and longitude (radians, lon in (-pi, pi]) of a vector (eq. 1; any length).
-
-    ``atan2(z, hypot(x, y))`` is exact to round-off at every latitude; ``asin(z / r)`` would
-    lose the colatitude near the poles (``z / r = 1 - colat²/2``: error ``eps / colat``)."""
-    lat = math.atan2(p[2], math.hypot(p[0], p[1]))
-    lon = math.atan2(p[1], p[0])
-    return lat, lon
-
-
-@njit(cache=True, inline="always")
-def latlon_to_xyz(lat, lon):
-    """Unit vector of geographic ``(lat, lon)`` in radians (eq. 1)."""
-    out = np.empty(3)
-    cl = math.cos(lat)
-    out[0] = cl * math.cos(lon)
-    out[1] = cl * math.sin(lon)
-    out[2] = math.sin(lat)
     return out
 
 
@@ -223,11 +211,21 @@ def from_tangent(q, x, y, radius):
     return g / math.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
 
 
-def great_circle_distance(p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
-    """Angle (radians) between unit vectors, robust for tiny and near-antipodal angles."""
-    cross = np.linalg.norm(np.cross(p1, p2), axis=-1)
-    dot = np.sum(p1 * p2, axis=-1)
-    return np.arctan2(cross, dot)
+def qmatrices(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(N, 3, 3)`` of quaternions ``q (N, 4)``: :func:`qmatrix` with NumPy,
+    the same arithmetic element by element (for readers and plots, outside kernels)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    m = np.empty((len(q), 3, 3))
+    m[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    m[:, 0, 1] = 2 * (x * y - w * z)
+    m[:, 0, 2] = 2 * (x * z + w * y)
+    m[:, 1, 0] = 2 * (x * y + w * z)
+    m[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    m[:, 1, 2] = 2 * (y * z - w * x)
+    m[:, 2, 0] = 2 * (x * z - w * y)
+    m[:, 2, 1] = 2 * (y * z + w * x)
+    m[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return m
 
 
 @njit(cache=True, inline="always")
