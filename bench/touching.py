@@ -97,9 +97,9 @@ def _shared(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def leads(hours: float) -> list[str]:
-    from siku_io.grid import Grid, GridCfg
-    from siku_io.gridding import grid_snapshot, snapshot_of
-    from siku_io.leads import detect
+    from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
+    from siku_io.analysis.leads import detect
+    from siku_io.analysis.regular_grid import Grid, GridCfg
 
     out = {}
     first, second = VARIANTS

@@ -13,8 +13,8 @@ import pytest
 from siku_core import SceneError
 from siku_core.geometry.quat import centers
 from siku_core.simulation import Simulation
-from siku_io.bmi import INPUT_NAMES, OUTPUT_NAMES, SikuBmi
-from siku_io.xr import east_north
+from siku_io.coupling.bmi import INPUT_NAMES, OUTPUT_NAMES, SikuBmi
+from siku_io.output.element_geometry import east_north
 
 HERE = Path(__file__).parent
 R = 6_371_000.0

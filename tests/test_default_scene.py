@@ -130,9 +130,9 @@ def test_the_leads_found_on_the_grid_start_at_the_coast(run6h):
     ice or of a rooted lead (leads branch from the coastal lead). The longest lead is rooted,
     and so is most of the lead length (measured: 4 leads of 1452 km, all rooted), while
     the pack's joints lie far from the coast (test above)."""
-    from siku_io.grid import Grid, GridCfg
-    from siku_io.gridding import grid_snapshot, snapshot_of
-    from siku_io.leads import detect
+    from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
+    from siku_io.analysis.leads import detect
+    from siku_io.analysis.regular_grid import Grid, GridCfg
 
     sim = run6h
     cell = 10e3

@@ -18,8 +18,8 @@ import pytest
 
 from siku_core.simulation import Simulation
 from siku_core.testing.scenes import make_scene
-from siku_io.grid import Grid, GridCfg
-from siku_io.gridding import Snapshot, grid_snapshot, snapshot_of, strain_rates
+from siku_io.analysis.gridded_fields import Snapshot, grid_snapshot, snapshot_of, strain_rates
+from siku_io.analysis.regular_grid import Grid, GridCfg
 
 R = 6371e3
 

@@ -63,7 +63,7 @@ def run(scene, era5_file, records: int | None = None):
     from bmi_era5 import BmiEra5
     from scipy.interpolate import RegularGridInterpolator
 
-    from siku_io.bmi import SikuBmi
+    from siku_io.coupling.bmi import SikuBmi
 
     cfg = Path(tempfile.mkdtemp()) / "era5.yaml"
     cfg.write_text(f"bmi-era5:\n  name: reanalysis-era5-single-levels\n  path: {era5_file}\n"

@@ -1,4 +1,5 @@
-"""Rheology comparison: one wind-driven scene, three contact laws (docs/explanation/physics.md §4.3).
+"""Rheology comparison: one wind-driven scene, three contact laws
+(docs/explanation/physics.md §4.3).
 
 The scene is ``examples/rheology_comparison.toml``: a 4 × 12 pack of 0.5° (about 56 km) square
 floes, 1 m thick, on the equator, with a static west column (a coast), driven by an anticyclone
@@ -58,8 +59,8 @@ import pytest
 
 from siku_core.scene import load_scene
 from siku_core.state import STATIC
-from siku_io import ensemble
-from siku_io.results import last_snapshot
+from siku_io.ensemble import runs as ensemble
+from siku_io.output.results import last_snapshot
 
 pytest.importorskip("distributed")
 

@@ -365,7 +365,7 @@ def scene_grid(path) -> dict | None:
     """The ``[output.grid]`` table of the scene an output file records (``None``: none)."""
     import tomllib
 
-    from .results import open_results
+    from siku_io.output.results import open_results
 
     with open_results(path) as f:
         text = f["scene"][()].decode()

@@ -18,7 +18,8 @@ class MeshSource(ElementSource):
     table_model = MeshCfg
 
     def build(self, scene, seed, where):
-        from siku_io.mesh import ICE, KIND_NAMES, mesh_for_scene
+        from siku_io.mesh.cache import mesh_for_scene
+        from siku_io.mesh.mesh_file import ICE, KIND_NAMES
 
         mc = MeshCfg.model_validate({**self.p, "seed": seed})
         mesh, _ = mesh_for_scene(scene, mc, where)
@@ -41,8 +42,8 @@ class MeshSource(ElementSource):
     def _cover(scene, mesh, mc, where):
         """Which cells stay (static cells always; ice cells where the concentration reaches
         the threshold) and the thickness of each ice cell from the cover file [m]."""
-        from siku_io.icecover import read_cover
-        from siku_io.mesh import ICE
+        from siku_io.mesh.icecover import read_cover
+        from siku_io.mesh.mesh_file import ICE
 
         where = where[:-1] + ".cover]" if where.endswith("]") else f"{where}.cover"
         ice = mesh.kind == ICE

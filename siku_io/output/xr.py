@@ -29,29 +29,9 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
+from siku_io.output.element_geometry import east_north, polygons_lonlat
 
 GROUPS = (None, "states", "diagnostics", "breaks")
-
-
-def east_north(q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Eastward and northward components [same unit as ``V``] of local-frame vectors ``V``
-    (..., 2) of elements with quaternions ``q`` (..., 4) (as
-    ``siku_core.geometry.quat.east_north_local``, vectorised)."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    c0 = 2 * (x * z + w * y)
-    c1 = 2 * (y * z - w * x)
-    rho = np.hypot(c0, c1)
-    pole = rho < 1e-14
-    rho = np.where(pole, 1.0, rho)
-    v0, v1 = -c1 / rho, c0 / rho
-    # local components of the global east vector: R(q)^T (v0, v1, 0)
-    ex = (1 - 2 * (y * y + z * z)) * v0 + 2 * (x * y + w * z) * v1
-    ey = 2 * (x * y - w * z) * v0 + (1 - 2 * (x * x + z * z)) * v1
-    ex = np.where(pole, 1.0, ex)
-    ey = np.where(pole, 0.0, ey)
-    u = V[..., 0] * ex + V[..., 1] * ey
-    v = -V[..., 0] * ey + V[..., 1] * ex
-    return u, v
 
 
 def _time_coord(time_s: np.ndarray, start: str, decode_times: bool):
@@ -78,8 +58,7 @@ def open_output(path: str | os.PathLike, group: str | None = None, outlines: boo
     docstring); ``group``: ``None`` (the states), ``"diagnostics"`` or ``"breaks"``."""
     import xarray as xr
 
-    from .plot import polygons_lonlat
-    from .results import check_layout, n_snapshots, open_results
+    from siku_io.output.results import check_layout, n_snapshots, open_results
 
     path = Path(path)
     if group not in GROUPS:

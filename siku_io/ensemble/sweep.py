@@ -81,8 +81,7 @@ from siku_core.scene import (
     read_input_text,
     scene_from_text,
 )
-
-from .sweep_cfg import DERIVED, RESERVED, SweepCfg
+from siku_io.ensemble.sweep_cfg import DERIVED, RESERVED, SweepCfg
 
 
 # ---------------------------------------------------------------------------- values
@@ -407,5 +406,12 @@ def load_sweep(path: str | Path, out_dir: str | Path | None = None, registry=Non
                            out_dir, registry)
 
 
-__all__ = ["Sweep", "Member", "Axis", "SweepCfg", "load_sweep", "sweep_from_text",
-           "toml_value"]
+__all__ = [
+    "Axis",
+    "Member",
+    "Sweep",
+    "SweepCfg",
+    "load_sweep",
+    "sweep_from_text",
+    "toml_value",
+]

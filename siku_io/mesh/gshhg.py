@@ -28,8 +28,17 @@ RESOLUTIONS = {"crude": "c", "low": "l", "intermediate": "i"}
 #: typical distance between points of each level [m]
 RESOLUTION_M = {"crude": 25_000.0, "low": 5_000.0, "intermediate": 1_000.0}
 
-__all__ = ["PACKAGE", "RESOLUTIONS", "Shore", "choose_resolution", "data_dir", "land_geometry",
-           "land_function", "shorelines", "version"]
+__all__ = [
+    "PACKAGE",
+    "RESOLUTIONS",
+    "Shore",
+    "choose_resolution",
+    "data_dir",
+    "land_function",
+    "land_geometry",
+    "shorelines",
+    "version",
+]
 
 
 def data_dir() -> Path:

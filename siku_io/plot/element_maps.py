@@ -14,44 +14,18 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
+from siku_io.output.element_geometry import polygons_lonlat
 
 UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)", "stress_ee": "N/m",
          "stress_nn": "N/m", "stress_en": "N/m"}
 STATIC = 1
 
 
-def _rotation_matrices(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    m = np.empty((len(q), 3, 3))
-    m[:, 0, 0] = 1 - 2 * (y * y + z * z)
-    m[:, 0, 1] = 2 * (x * y - w * z)
-    m[:, 0, 2] = 2 * (x * z + w * y)
-    m[:, 1, 0] = 2 * (x * y + w * z)
-    m[:, 1, 1] = 1 - 2 * (x * x + z * z)
-    m[:, 1, 2] = 2 * (y * z - w * x)
-    m[:, 2, 0] = 2 * (x * z - w * y)
-    m[:, 2, 1] = 2 * (y * z + w * x)
-    m[:, 2, 2] = 1 - 2 * (x * x + y * y)
-    return m
-
-
-def polygons_lonlat(q: np.ndarray, offsets: np.ndarray, verts: np.ndarray, radius: float):
-    """Vertices of every element as ``[lon, lat]`` degrees (list of ``(k, 2)`` arrays)."""
-    owner = np.repeat(np.arange(len(q)), np.diff(offsets))
-    loc = np.column_stack([verts[:, 0] / radius, verts[:, 1] / radius, np.ones(len(verts))])
-    g = np.einsum("nij,nj->ni", _rotation_matrices(q)[owner], loc)
-    g /= np.linalg.norm(g, axis=1)[:, None]
-    lat = np.degrees(np.arctan2(g[:, 2], np.hypot(g[:, 0], g[:, 1])))
-    lon = np.degrees(np.arctan2(g[:, 1], g[:, 0]))
-    ll = np.column_stack([lon, lat])
-    return [ll[offsets[i]:offsets[i + 1]] for i in range(len(q))]
-
-
 class Output:
     """Read-only view of an output file for plotting."""
 
     def __init__(self, path: str | Path):
-        from .results import n_snapshots, open_results
+        from siku_io.output.results import n_snapshots, open_results
 
         self.path = Path(path)
         with open_results(self.path) as f:
@@ -69,7 +43,7 @@ class Output:
             self.q = f["states/q"][:n]
             self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()}
             scene = f["scene"][()] if "scene" in f else b""
-        from .mapdeco import scene_has_coast
+        from siku_io.plot.mapdeco import scene_has_coast
 
         #: whether the run's scene has a coast (a mesh against land data): land is drawn
         self.has_coast = scene_has_coast(scene.decode() if isinstance(scene, bytes) else scene)
@@ -83,7 +57,7 @@ class Output:
 
 
 def _projection(lat_mean: float, lon_mean: float):
-    from .mapdeco import projection
+    from siku_io.plot.mapdeco import projection
 
     return projection(lat_mean, lon_mean)
 
@@ -92,7 +66,7 @@ def _levels(vmax: float, field: str) -> np.ndarray:
     """Colour levels: tenths for damage, about ten round steps up to ``vmax`` otherwise."""
     if field == "damage":
         return np.linspace(0.0, 1.0, 11)
-    from .mapdeco import _nice
+    from siku_io.plot.mapdeco import _nice
 
     step = _nice(vmax / 10.0) if vmax > 0 else 0.1
     return np.arange(0.0, vmax + step * 1.0001, step)
@@ -148,7 +122,7 @@ class MapPainter:
     def draw(self, index: int) -> None:
         import cartopy.crs as ccrs
 
-        from .mapdeco import when
+        from siku_io.plot.mapdeco import when
 
         out = self.out
         polys = polygons_lonlat(out.q[index], out.offsets, out.verts, out.radius)
@@ -180,7 +154,7 @@ def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: i
     """Write a GIF animation of every snapshot coloured by ``field`` (tight frames)."""
     import matplotlib.pyplot as plt
 
-    from .mapdeco import save_gif
+    from siku_io.plot.mapdeco import save_gif
 
     out = Output(path)
     painter = MapPainter(out, field)

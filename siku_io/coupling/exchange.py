@@ -39,8 +39,7 @@ from siku_core.geometry.quat import east_north_row
 from siku_core.interfaces import ForcingSource
 from siku_core.state import FREE
 from siku_forcing.waves import WATER_DRAG_PARAMS, drag_coefficient
-
-from .grid import Grid, GridCfg, grid_error
+from siku_io.analysis.regular_grid import Grid, GridCfg, grid_error
 
 #: per-cell input fields of the exchange source: name -> (units, meaning)
 INPUTS: dict[str, tuple[str, str]] = {
@@ -89,8 +88,7 @@ def element_polygons(sim) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
     """Vertex longitudes, latitudes [deg], CSR offsets and centre longitudes [deg] of the
     elements of a running simulation."""
     from siku_core.geometry.quat import latlon_of
-
-    from .plot import polygons_lonlat
+    from siku_io.output.element_geometry import polygons_lonlat
 
     st = sim.state
     ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, sim.radius)
@@ -293,8 +291,7 @@ def ice_fields(sim, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 10
 def grid_velocity(sim, grid: Grid) -> tuple[np.ndarray, np.ndarray]:
     """Element velocities [m/s] along the grid's axes at their centres."""
     from siku_core.geometry.quat import latlon_of
-
-    from .xr import east_north
+    from siku_io.output.element_geometry import east_north
 
     st = sim.state
     u, v = east_north(st.q, st.V)
@@ -306,3 +303,9 @@ def grid_velocity(sim, grid: Grid) -> tuple[np.ndarray, np.ndarray]:
 @hookimpl
 def siku_register_forcing_sources():
     return [Exchange]
+
+
+@hookimpl
+def siku_configured(scene):
+    """Check ``[coupling]`` before the run starts."""
+    check_coupling(scene)

@@ -40,9 +40,8 @@ from typing import Any, Mapping
 
 from siku_core import __version__
 from siku_core.errors import SceneError, SikuError
-
-from .ensemble_summary import SUMMARY_KIND, summarize, write_summary
-from .sweep import Member, Sweep, load_sweep, sweep_from_text
+from siku_io.ensemble.summary import SUMMARY_KIND, summarize, write_summary
+from siku_io.ensemble.sweep import Member, Sweep, load_sweep, sweep_from_text
 
 
 # ---------------------------------------------------------------------------- one member
@@ -87,8 +86,7 @@ def plan(sweep: Sweep) -> dict[str, dict[str, Any]]:
     """What each member needs, by name: ``{"action": "run" | "restart" | "reuse" | "fail",
     "message": ...}``, from its scene (validated, components checked) and its output file."""
     from siku_core.limits import check_components
-
-    from .results import run_progress
+    from siku_io.output.results import run_progress
 
     out: dict[str, dict[str, Any]] = {}
     for m in sweep.members:
@@ -201,7 +199,7 @@ def _as_sweep(sweep: Sweep | str | Path | Mapping[str, Any], out_dir) -> Sweep:
     if isinstance(sweep, Sweep):
         return sweep
     if isinstance(sweep, Mapping):
-        from .sweep import toml_value
+        from siku_io.ensemble.sweep import toml_value
 
         lines = []
         tables = {}
@@ -350,4 +348,4 @@ def cmd_ensemble(args) -> int:
     return 1 if failed else 0
 
 
-__all__ = ["run", "plan", "summarize", "run_member", "write_summary", "cmd_ensemble"]
+__all__ = ["cmd_ensemble", "plan", "run", "run_member", "summarize", "write_summary"]

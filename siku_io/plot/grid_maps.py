@@ -37,7 +37,7 @@ def is_grid_file(path) -> bool:
 def _open(path):
     import xarray as xr
 
-    from .grid import Grid, GridCfg
+    from siku_io.analysis.regular_grid import Grid, GridCfg
 
     try:
         ds = xr.open_dataset(path)
@@ -122,7 +122,7 @@ class GridPainter:
                                      "lead (broken joints)")
                 self.lines.append(ln)
         handles = {ln.get_label(): ln for ln in self.lines}
-        from .mapdeco import legend
+        from siku_io.plot.mapdeco import legend
 
         legend(self.ax, land=self.land_level is not None, static=False,
                extra=list(handles.values()))
@@ -164,7 +164,7 @@ def plot_grid(path, out_dir=None, field: str | None = None, animation: bool = Tr
     if animation:
         import matplotlib.pyplot as plt
 
-        from .mapdeco import save_gif
+        from siku_io.plot.mapdeco import save_gif
 
         p = GridPainter(path, field)
         try:

@@ -97,7 +97,7 @@ def draw_land(ax, proj, box, resolution: str | None = None) -> str | None:
     import cartopy.crs as ccrs
     from matplotlib.collections import PolyCollection
 
-    from . import gshhg
+    from siku_io.mesh import gshhg
 
     lon, lat = lonlat_window(proj, box)
     if resolution is None:  # shoreline points at most ~3 pixels apart on a 500-pixel map

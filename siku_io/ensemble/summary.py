@@ -13,8 +13,7 @@ import numpy as np
 from siku_core import __version__
 from siku_core.errors import DataError, SikuError
 from siku_core.outputs import partial_path, publish
-
-from .sweep import DERIVED, Sweep
+from siku_io.ensemble.sweep import DERIVED, Sweep
 
 SUMMARY_KIND = "siku ensemble summary"
 
@@ -28,7 +27,7 @@ def _coord(values: list[Any]) -> np.ndarray:
         return np.array(values, dtype=np.float64)
     if all(isinstance(v, str) for v in values):
         return np.array(values, dtype=object)
-    from .sweep import toml_value
+    from siku_io.ensemble.sweep import toml_value
 
     return np.array([toml_value(v) for v in values], dtype=object)
 
@@ -38,8 +37,7 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
     import xarray as xr
 
     from siku_core.diagnostics import catalogue
-
-    from .results import read_diagnostics, snapshot_drift
+    from siku_io.output.results import read_diagnostics, snapshot_drift
 
     dims = [a.dim for a in sw.axes]
     shape = sw.shape

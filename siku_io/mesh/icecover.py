@@ -100,7 +100,7 @@ def _sample(values: np.ndarray, lat, lon, plat: np.ndarray, plon: np.ndarray) ->
     else:
         from scipy.spatial import cKDTree
 
-        from .mesh import lonlat_to_xyz
+        from .sphere import lonlat_to_xyz
 
         ok = np.isfinite(lat) & np.isfinite(lon)
         tree = cKDTree(lonlat_to_xyz(lon[ok], lat[ok]))

@@ -273,8 +273,7 @@ class HDF5Writer(Writer):
         on the coded ones, and the epoch of the time axes when the scene has a start."""
         from siku_core.contacts import BREAK_MODES
         from siku_core.state import FLAG_NAMES
-
-        from .layout import describe, flag_attrs
+        from siku_io.output.layout import describe, flag_attrs
 
         epoch = sim.start.strftime("%Y-%m-%d %H:%M:%S") if sim.start else None
         for path in _leaves(self.f):

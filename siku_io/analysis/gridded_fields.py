@@ -29,14 +29,11 @@ file as tables along the dimensions ``lead`` and ``intersection``.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from siku_core import DataError
 from siku_core.stress import principal
-
-from .grid import Grid, GridCfg
+from siku_io.analysis.regular_grid import Grid, GridCfg
 
 #: gridded fields: name -> (units, standard name or "", long name)
 FIELDS: dict[str, tuple[str, str, str]] = {
@@ -110,9 +107,7 @@ def snapshot_of(sim) -> Snapshot:
     """The :class:`Snapshot` of a running simulation's current state (its stress: that of the
     last force evaluation)."""
     from siku_core.geometry.quat import latlon_of
-
-    from .plot import polygons_lonlat
-    from .xr import east_north
+    from siku_io.output.element_geometry import east_north, polygons_lonlat
 
     st = sim.state
     lat, lon = latlon_of(st.q)
@@ -243,8 +238,7 @@ def grid_output(path, cfg: GridCfg, progress: bool = False):
     """The gridded dataset (``xarray.Dataset``, CF) of an output file at every snapshot (or
     every ``cfg.every``), with its leads (``siku_io.leads``)."""
     from siku_core.units import parse_duration
-
-    from .xr import open_output
+    from siku_io.output.xr import open_output
 
     ds = open_output(path)
     breaks = open_output(path, group="breaks")
@@ -275,7 +269,7 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
     output dataset) and the leads tables."""
     import xarray as xr
 
-    from .leads import detect_series
+    from siku_io.analysis.leads import detect_series
 
     names = [k for k in FIELDS if rows and k in rows[0] and (cfg.fields is None
                                                               or k in cfg.fields)]
@@ -285,7 +279,7 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
             raise DataError(f"[output.grid] fields: unknown {', '.join(unknown)}; known: "
                             f"{', '.join(FIELDS)}")
     dims = ("time", *grid.dims)
-    from .netcdf import cf_time_units
+    from siku_io.output.netcdf import cf_time_units
 
     coords = {k: xr.Variable(d, v, a) for k, (d, v, a) in grid.cf_coords().items()}
     units, comment = cf_time_units(str(src.attrs.get("start", "")))
@@ -331,33 +325,3 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
         "references": "Kwok et al. (2008), J. Geophys. Res. 113, C08010 (RGPS strain rates)",
     })
     return out
-
-
-def write_netcdf(ds, target: Path, overwrite: bool = False) -> Path:
-    """Write a dataset to ``target`` as NetCDF-4, built beside it and put in place atomically;
-    an existing file is replaced only with ``overwrite``."""
-    from siku_core.outputs import fsync_path, partial_path, publish
-
-    target = Path(target)
-    if target.exists() and not overwrite:
-        raise DataError(f"{target}: exists; choose another --out, or pass --overwrite")
-    part = partial_path(target)
-    enc = {}
-    for k, v in ds.variables.items():
-        if np.issubdtype(v.dtype, np.floating):
-            enc[k] = {"_FillValue": np.nan if k not in ds.coords else None}
-        if k == "time" and np.issubdtype(v.dtype, np.datetime64):
-            start = str(ds.attrs.get("start", ""))[:19].replace("T", " ") or "1970-01-01"
-            enc[k] = {"units": f"seconds since {start}", "calendar": "proleptic_gregorian",
-                      "dtype": "float64"}
-    try:
-        ds.to_netcdf(part, format="NETCDF4", engine="netcdf4", encoding=enc)
-        publish(part, target, replace=overwrite)
-    except OSError as exc:
-        try:
-            part.unlink()
-        except OSError:
-            pass
-        raise DataError(f"{target}: cannot write: {exc}") from None
-    fsync_path(target)
-    return target

@@ -12,7 +12,7 @@ The scene's ``[output]`` file is written only with ``[coupling] write_output = t
 
 Example::
 
-    from siku_io.bmi import SikuBmi
+    from siku_io.coupling.bmi import SikuBmi
 
     ice = SikuBmi()
     ice.initialize("coupled.toml")
@@ -79,8 +79,7 @@ class SikuBmi(Bmi):
     def initialize(self, config_file: str | None = None) -> None:
         from siku_core import SceneError, load_scene
         from siku_core.simulation import Simulation
-
-        from .coupling import Exchange, coupling_grid, grid_velocity
+        from siku_io.coupling.exchange import Exchange, coupling_grid, grid_velocity
 
         if not config_file:
             raise SceneError("SikuBmi.initialize needs a scene file (TOML with [coupling.grid])")
@@ -110,7 +109,7 @@ class SikuBmi(Bmi):
         self._advance(max(0, min(n, sim.n_steps - sim.step_index)))
 
     def _advance(self, n: int) -> None:
-        from .coupling import grid_velocity
+        from siku_io.coupling.exchange import grid_velocity
 
         sim = self.sim
         if n <= 0:
@@ -195,7 +194,7 @@ class SikuBmi(Bmi):
 
     # ------------------------------------------------------------------ values
     def _outputs(self) -> dict[str, np.ndarray]:
-        from .coupling import ice_fields
+        from siku_io.coupling.exchange import ice_fields
 
         sim = self.sim
         if self._out_step != sim.step_index:

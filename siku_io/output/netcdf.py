@@ -83,7 +83,7 @@ def cf_dataset(path):
     ``xarray.Dataset`` whose values are exactly those of the file."""
     import xarray as xr
 
-    from .xr import open_output
+    from siku_io.output.xr import open_output
 
     src = open_output(path, decode_times=False)
     units, comment = cf_time_units(str(src.attrs.get("start", "")))
@@ -152,13 +152,41 @@ def cf_dataset(path):
 
 def export(path, target=None, overwrite: bool = False) -> Path:
     """Write the CF-NetCDF form of a siku HDF5 output file (default: beside it, ``.nc``)."""
-    from .gridding import write_netcdf
-
     path = Path(path)
     target = Path(target) if target else path.with_suffix(".nc")
     if target.resolve() == path.resolve():
         raise DataError(f"{target}: the export would overwrite its input; choose another --out")
     return write_netcdf(cf_dataset(path), target, overwrite=overwrite)
+
+
+def write_netcdf(ds, target: Path, overwrite: bool = False) -> Path:
+    """Write a dataset to ``target`` as NetCDF-4, built beside it and put in place atomically;
+    an existing file is replaced only with ``overwrite``."""
+    from siku_core.outputs import fsync_path, partial_path, publish
+
+    target = Path(target)
+    if target.exists() and not overwrite:
+        raise DataError(f"{target}: exists; choose another --out, or pass --overwrite")
+    part = partial_path(target)
+    enc = {}
+    for k, v in ds.variables.items():
+        if np.issubdtype(v.dtype, np.floating):
+            enc[k] = {"_FillValue": np.nan if k not in ds.coords else None}
+        if k == "time" and np.issubdtype(v.dtype, np.datetime64):
+            start = str(ds.attrs.get("start", ""))[:19].replace("T", " ") or "1970-01-01"
+            enc[k] = {"units": f"seconds since {start}", "calendar": "proleptic_gregorian",
+                      "dtype": "float64"}
+    try:
+        ds.to_netcdf(part, format="NETCDF4", engine="netcdf4", encoding=enc)
+        publish(part, target, replace=overwrite)
+    except OSError as exc:
+        try:
+            part.unlink()
+        except OSError:
+            pass
+        raise DataError(f"{target}: cannot write: {exc}") from None
+    fsync_path(target)
+    return target
 
 
 def complete_records(path) -> int:
@@ -208,9 +236,8 @@ class NetCDFWriter(Writer):
 
     def _define(self, sim) -> None:
         from siku_core.state import FLAG_NAMES
-
-        from .layout import FIELDS, describe
-        from .plot import polygons_lonlat
+        from siku_io.output.element_geometry import polygons_lonlat
+        from siku_io.output.layout import FIELDS, describe
 
         nc, st = self.nc, sim.state
         start = sim.start.isoformat() if sim.start else ""
@@ -218,7 +245,8 @@ class NetCDFWriter(Writer):
 
         attrs = {"siku_version": __version__, "title": sim.scene.cfg.title, "start": start,
                  "dt": sim.dt,
-                 "dt_requested": getattr(sim, "dt_requested", sim.dt), "seed": sim.seed, "radius": sim.radius, "n_elements": st.n,
+                 "dt_requested": getattr(sim, "dt_requested", sim.dt), "seed": sim.seed,
+                 "radius": sim.radius, "n_elements": st.n,
                  "n_steps": sim.n_steps}
         attrs["source"] = f"siku {__version__} run of {sim.scene.path or 'a scene'}"
         g = global_attrs(attrs)
@@ -301,9 +329,7 @@ class NetCDFWriter(Writer):
 
     def write_state(self, sim) -> None:
         from siku_core.geometry.quat import latlon_of
-
-        from .plot import polygons_lonlat
-        from .xr import east_north
+        from siku_io.output.element_geometry import east_north, polygons_lonlat
 
         if self._last == sim.step_index or self.nc is None:
             return
