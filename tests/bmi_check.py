@@ -1,4 +1,5 @@
-"""Run the CSDMS ``bmi-tester`` suite (its own tests, unchanged) on ``siku_io.bmi:SikuBmi``.
+"""Run the CSDMS ``bmi-tester`` suite (its own tests, unchanged) on
+``siku_io.coupling.bmi:SikuBmi``.
 
 ``python tests/bmi_check.py SCENE.toml`` from the directory holding the scene; exit status 0 when
 every stage passes. Each stage runs as ``bmi-test`` runs it (``bmi_tester.api.check_bmi``), with
@@ -21,7 +22,7 @@ def main(scene: str) -> int:
     stages = [root / "_bootstrap", *sorted((root / "_tests").glob("stage_*"))]
     status = 0
     for stage in stages:
-        rc = check_bmi("siku_io.bmi:SikuBmi", tests_dir=str(stage), input_file=scene,
+        rc = check_bmi("siku_io.coupling.bmi:SikuBmi", tests_dir=str(stage), input_file=scene,
                        manifest=[scene], bmi_version="2.0",
                        extra_args=["--confcutdir", str(root), "-p", "no:cacheprovider", "-q",
                                    "-rs", "-W", "ignore::DeprecationWarning"])

@@ -1,5 +1,5 @@
-"""The Basic Model Interface of a siku run (``siku_io.bmi``) and its exchange grid
-(``siku_io.coupling``): the CSDMS bmi-tester suite, set/update/get against the same forcing
+"""The Basic Model Interface of a siku run (``siku_io.coupling.bmi``) and its exchange grid
+(``siku_io.coupling.exchange``): the CSDMS bmi-tester suite, set/update/get against the same forcing
 given by a scene, and the momentum handed over through the grid."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Ensembles on Dask (``siku ensemble``, ``siku_io.ensemble.run``): members identical to
+"""Ensembles on Dask (``siku ensemble``, ``siku_io.ensemble.runs.run``): members identical to
 ``siku run``, failures isolated, interrupted sweeps resumed, the summary dataset, bad sweep
 files.
 

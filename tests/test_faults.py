@@ -276,7 +276,7 @@ def test_a_run_that_fails_before_its_first_new_snapshot_leaves_the_old_file(tmp_
 
 
 def test_a_killed_netcdf_run_leaves_a_file_of_real_rows_and_missing_values(tmp_path):
-    """The NetCDF writer (``siku_io.netcdf``): after ``kill -9`` at random moments the file
+    """The NetCDF writer (``siku_io.output.netcdf``): after ``kill -9`` at random moments the file
     opens in xarray; every record with a ``step`` equals the uninterrupted run's; a record
     without one (the write the kill cut short) holds its time and, per variable, the real row
     or missing values: never other numbers."""

@@ -1,4 +1,4 @@
-"""Initial ice cover from a CF NetCDF file (``[elements.mesh.cover]``, ``siku_io.icecover``).
+"""Initial ice cover from a CF NetCDF file (``[elements.mesh.cover]``, ``siku_io.mesh.icecover``).
 
 The fields are written here: concentration and thickness linear in longitude and latitude, so
 bilinear sampling at a cell's seed is exact and every element can be checked against the

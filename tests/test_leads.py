@@ -1,4 +1,4 @@
-"""Leads as numbers (siku_io.leads): synthetic fields with known lines.
+"""Leads as numbers (siku_io.analysis.leads): synthetic fields with known lines.
 
 Lines drawn between cell centres (``skimage.draw.line``) must come back one lead each (a
 crossing splits none of them), at their direction within 5 degrees and their length (between

@@ -1,8 +1,8 @@
 """Element results on a regular grid (``siku grid``, ``[output.grid]``): concentration,
 thickness, velocity, strain rates, stress and broken joints per cell, as a CF-NetCDF dataset.
 
-Per cell, at each gridded time (``siku_io.grid`` gives the overlap ``fraction`` of each element
-with each cell and the cell's true area ``A_c``):
+Per cell, at each gridded time (``siku_io.analysis.regular_grid`` gives the overlap ``fraction`` of
+each element with each cell and the cell's true area ``A_c``):
 
 * ``concentration`` = sum of ``fraction × area`` over the elements / ``A_c`` [1] (CF
   ``sea_ice_area_fraction``; overlapping elements may push it above 1);
@@ -24,8 +24,8 @@ with each cell and the cell's true area ``A_c``):
 * ``broken_joints``: joints broken by then whose midpoint (between the centres of their two
   elements) lies in the cell [1], the open leads the joints record.
 
-Leads (linear kinematic features) found on these fields (``siku_io.leads``) go into the same
-file as tables along the dimensions ``lead`` and ``intersection``.
+Leads (linear kinematic features) found on these fields (``siku_io.analysis.leads``) go into the
+same file as tables along the dimensions ``lead`` and ``intersection``.
 """
 from __future__ import annotations
 
@@ -204,8 +204,8 @@ def _midpoints(lon1, lat1, lon2, lat2):
 
 # ---------------------------------------------------------------------------- from a file
 def snapshots(ds, breaks=None):
-    """:class:`Snapshot` of every time of an output dataset (``siku_io.xr.open_output``), with
-    the breaks dataset (``group="breaks"``) for the broken joints."""
+    """:class:`Snapshot` of every time of an output dataset (``siku_io.output.xr.open_output``),
+    with the breaks dataset (``group="breaks"``) for the broken joints."""
     off = np.r_[ds["node_offset"].values, ds.sizes["node"]]
     stress = all(k in ds for k in ("stress_ee", "stress_nn", "stress_en"))
     bt = bi = bj = None
@@ -236,7 +236,7 @@ def _seconds(ds) -> np.ndarray:
 
 def grid_output(path, cfg: GridCfg, progress: bool = False):
     """The gridded dataset (``xarray.Dataset``, CF) of an output file at every snapshot (or
-    every ``cfg.every``), with its leads (``siku_io.leads``)."""
+    every ``cfg.every``), with its leads (``siku_io.analysis.leads``)."""
     from siku_core.units import parse_duration
     from siku_io.output.xr import open_output
 

@@ -200,7 +200,7 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
 
 
 def detect_series(grid, ds, cfg):
-    """The leads of every time of a gridded dataset (``siku_io.gridding``) as an
+    """The leads of every time of a gridded dataset (``siku_io.analysis.gridded_fields``) as an
     ``xarray.Dataset`` of tables along ``lead`` and ``intersection``."""
     import xarray as xr
 

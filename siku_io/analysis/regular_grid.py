@@ -39,7 +39,7 @@ KINDS = ("lonlat", "polar_stereographic")
 
 
 class GridCfg(BaseModel):
-    """``[output.grid]``: the grid, what goes on it and when (``siku_io.grid``)."""
+    """``[output.grid]``: the grid, what goes on it and when (``siku_io.analysis.regular_grid``)."""
 
     model_config = ConfigDict(extra="forbid")
 

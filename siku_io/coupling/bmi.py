@@ -2,8 +2,8 @@
 
 ``initialize(scene.toml)`` builds the run of a scene that has ``[coupling.grid]`` (the exchange
 grid) and ``[[forcing]] source = "exchange"`` (the forces of the fields another model sets); see
-``siku_io.coupling`` for what flows each way. Time is in seconds from the scene's start; one
-``update`` is one time step. Every variable lives on grid 0, the exchange grid: a
+``siku_io.coupling.exchange`` for what flows each way. Time is in seconds from the scene's start;
+one ``update`` is one time step. Every variable lives on grid 0, the exchange grid: a
 ``uniform_rectilinear`` grid of ``(ny, nx)`` nodes at the cell centres (spacing and origin in
 degrees on a ``lonlat`` grid, projected metres on a ``polar_stereographic`` one), values flattened
 row by row (``y`` slowest), vectors along the grid's x and y axes.

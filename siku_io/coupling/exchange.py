@@ -1,11 +1,11 @@
 """The exchange grid of a coupled run: what the ice gives a wave or ocean model per cell, and the
 forces the cells' fields exert on the ice (forcing source ``exchange``).
 
-A scene names the grid in ``[coupling.grid]`` (keys of ``siku_io.grid.GridCfg``: ``lonlat`` or
-``polar_stereographic``) and takes the fields with ``[[forcing]] source = "exchange"``. Element
-``e`` and cell ``c`` share the ice area ``S_ec = fraction_ec S_e`` and mass ``m_ec = fraction_ec
-m_e`` (``Grid.overlap``: exact polygon clipping). For every such pair the cell's fields exert, in
-grid components,
+A scene names the grid in ``[coupling.grid]`` (keys of ``siku_io.analysis.regular_grid.GridCfg``:
+``lonlat`` or ``polar_stereographic``) and takes the fields with ``[[forcing]] source =
+"exchange"``. Element ``e`` and cell ``c`` share the ice area ``S_ec = fraction_ec S_e`` and mass
+``m_ec = fraction_ec m_e`` (``Grid.overlap``: exact polygon clipping). For every such pair the
+cell's fields exert, in grid components,
 
 * slope: ``-m_ec g grad eta_c`` (``grad eta`` by central differences of the cell elevations,
   one-sided at the edges, over true distances on the sphere);
@@ -158,7 +158,7 @@ def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx
 class Exchange(ForcingSource):
     """Forces on the ice from per-cell fields of the exchange grid (``[coupling.grid]``):
     slope of the sea surface, water drag, a force per area and wind drag; set by a coupled
-    model through the BMI (``siku_io.bmi``), zero otherwise."""
+    model through the BMI (``siku_io.coupling.bmi``), zero otherwise."""
 
     name = "exchange"
     #: read besides the parameters (the conformance suite cannot build the source without it)

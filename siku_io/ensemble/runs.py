@@ -1,11 +1,11 @@
-"""Ensembles on Dask: every member of a sweep (``siku_io.sweep``) run as a task on a Dask
+"""Ensembles on Dask: every member of a sweep (``siku_io.ensemble.sweep``) run as a task on a Dask
 distributed cluster, and a summary dataset (xarray, one dimension per axis, written as NetCDF).
 
 .. code-block:: python
 
-    from siku_io import ensemble
+    from siku_io.ensemble import runs
 
-    ds = ensemble.run("rheology.toml")          # a local cluster, one worker per core
+    ds = runs.run("rheology.toml")          # a local cluster, one worker per core
     ds["joints_broken"].sel(law="mohr_coulomb")
 
 * Each member runs exactly as ``siku run BASE --set KEY=VALUE ... --out OUTPUT`` would
@@ -240,7 +240,7 @@ def _check_summary_target(sweep: Sweep) -> None:
 def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None = None,
         workers: int | None = None, threads: int | None = None, out_dir=None,
         progress: bool | None = None, write: bool = True, on_start=None):
-    """Run every member of ``sweep`` (a sweep file, a :class:`~siku_io.sweep.Sweep`, or the
+    """Run every member of ``sweep`` (a sweep file, a :class:`~siku_io.ensemble.sweep.Sweep`, or the
     sweep as a dict) and return the summary dataset (``xarray.Dataset``).
 
     scheduler : a Dask scheduler address, ``"serial"`` (one after another in this process),

@@ -1,4 +1,4 @@
-"""The summary dataset of an ensemble (``siku_io.ensemble``): one dimension per axis, the
+"""The summary dataset of an ensemble (``siku_io.ensemble.runs``): one dimension per axis, the
 diagnostics the sweep asks for (final values and time series, with units), each member's status,
 message, output file and ``siku run`` command; written as NetCDF-4."""
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The sweep file's tables (``siku_io.sweep`` reads the file): strict pydantic models, so that
-an unknown key, an empty axis or zipped lists of unequal length are refused naming the key."""
+"""The sweep file's tables (``siku_io.ensemble.sweep`` reads the file): strict pydantic models, so
+that an unknown key, an empty axis or zipped lists of unequal length are refused naming the key."""
 from __future__ import annotations
 
 import copy

@@ -224,7 +224,7 @@ def glm_land(window: Region, max_pixels: int = WINDOW_MAX_PIXELS) -> LandGrid:
 
 
 def gshhg_land(window: Region, r_min: float, R: float) -> LandGrid:
-    """The GSHHG shorelines (:mod:`siku_io.gshhg`) rasterised on pixels of an eighth of the
+    """The GSHHG shorelines (:mod:`siku_io.mesh.gshhg`) rasterised on pixels of an eighth of the
     smallest spacing ``r_min`` [m] over a window, at the coarsest GSHHG level whose points are
     at most ``r_min / 5`` apart."""
     from . import gshhg

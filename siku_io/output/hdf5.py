@@ -269,8 +269,8 @@ class HDF5Writer(Writer):
         self._describe(sim, known)
 
     def _describe(self, sim, diagnostics) -> None:
-        """``units`` and ``long_name`` on every dataset (``siku_io.layout``), CF flag meanings
-        on the coded ones, and the epoch of the time axes when the scene has a start."""
+        """``units`` and ``long_name`` on every dataset (``siku_io.output.layout``), CF flag
+        meanings on the coded ones, and the epoch of the time axes when the scene has a start."""
         from siku_core.contacts import BREAK_MODES
         from siku_core.state import FLAG_NAMES
         from siku_io.output.layout import describe, flag_attrs

@@ -200,7 +200,7 @@ def complete_records(path) -> int:
 
 
 class NetCDFWriter(Writer):
-    """Element states as CF-NetCDF (``siku_io.netcdf``), written so that a kill leaves a file
+    """Element states as CF-NetCDF (``siku_io.output.netcdf``), written so that a kill leaves a file
     that opens and holds only real data (or values marked missing)."""
 
     name = "netcdf"

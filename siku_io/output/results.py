@@ -1,6 +1,6 @@
 """Reading siku's HDF5 output files: the complete snapshots only, and files a killed run left.
 
-The number of complete snapshots is the length of ``/states/step`` (``siku_io.hdf5`` says how
+The number of complete snapshots is the length of ``/states/step`` (``siku_io.output.hdf5`` says how
 the writer keeps it so); a killed writer leaves HDF5's "open for writing" mark, which
 :func:`open_results` clears (as ``h5clear -s`` does) when no process holds the file.
 """
@@ -17,7 +17,7 @@ import numpy as np
 from siku_core import DataError
 from siku_core.outputs import in_use
 
-#: the file layout this version writes and reads (``siku_io.hdf5``)
+#: the file layout this version writes and reads (``siku_io.output.hdf5``)
 LAYOUT = 2
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 

@@ -1,7 +1,7 @@
 """siku output files as xarray datasets: ``xr.open_dataset("run.h5", engine="siku")``.
 
 The backend (entry point ``siku`` of ``xarray.backends``) reads the complete snapshots of an
-HDF5 output file (``siku_io.hdf5``; a file a killed run left behind opens too) into a dataset
+HDF5 output file (``siku_io.output.hdf5``; a file a killed run left behind opens too) into a dataset
 with dimensions ``time`` × ``element`` (and ``node``, the polygon vertices of all elements in
 order):
 
@@ -162,7 +162,7 @@ except ImportError:  # pragma: no cover - xarray is a dependency
 
 class SikuBackend(BackendEntrypoint):
     """``xr.open_dataset(path, engine="siku", group=None|"diagnostics"|"breaks",
-    outlines=True)``: a siku HDF5 output file (``siku_io.xr``)."""
+    outlines=True)``: a siku HDF5 output file (``siku_io.output.xr``)."""
 
     open_dataset_parameters = ("filename_or_obj", "drop_variables", "group", "outlines",
                                "decode_times")

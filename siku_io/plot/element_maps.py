@@ -5,7 +5,7 @@ writer (``/states/fields/NAME``: ``speed`` [m/s], ``damage`` [1] = share of an e
 joints that have broken); static elements (coast, landfast ice) are grey. Polar regions use a
 polar stereographic projection. Maps carry a labelled graticule, a scale bar, a legend and the
 date; land from the GSHHG shorelines is drawn for scenes that have a coast
-(:mod:`siku_io.mapdeco`; nothing is downloaded).
+(:mod:`siku_io.plot.mapdeco`; nothing is downloaded).
 """
 from __future__ import annotations
 

@@ -3,8 +3,8 @@
 Each map shows one field of one time on the cells (their true outlines: lon/lat or polar
 stereographic; cells without ice are left blank), with a colourbar in the field's units, land
 from the GSHHG shorelines where the run's scene has a coast, graticule, scale bar, and the
-leads found at that time (``siku_io.leads``) drawn end to end: from the deformation in black,
-from broken joints in red.
+leads found at that time (``siku_io.analysis.leads``) drawn end to end: from the deformation in
+black, from broken joints in red.
 """
 from __future__ import annotations
 

@@ -1,11 +1,12 @@
 """What every siku map has: the projection and frame, land from the GSHHG shorelines, a
 labelled graticule, a scale bar, a legend, the date in the title, and tight animation frames.
 
-Maps of element outputs (:mod:`siku_io.plot`) and of gridded files (:mod:`siku_io.plot_grid`)
-share these. Land is drawn only for scenes that have a coast (a mesh built against land data,
-:func:`scene_has_coast`): an idealised pack on the equator is drawn on open water, not over
-whatever real coast lies at those coordinates. The land fills the whole map frame (it is read
-for the lon/lat window that covers the projected frame, not only the elements' box).
+Maps of element outputs (:mod:`siku_io.plot.element_maps`) and of gridded files
+(:mod:`siku_io.plot.grid_maps`) share these. Land is drawn only for scenes that have a coast (a
+mesh built against land data, :func:`scene_has_coast`): an idealised pack on the equator is drawn
+on open water, not over whatever real coast lies at those coordinates. The land fills the whole map
+frame (it is read for the lon/lat window that covers the projected frame, not only the elements'
+box).
 """
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ which is set to ``collision``, ``distributed_spring`` and ``mohr_coulomb`` in tu
 keeps its default parameters (those cannot differ between the runs without changing more than
 the law: the strict parameter tables of the three laws only share the collision keys).
 
-The comparison is an ensemble (``siku_io.ensemble``, on the session's local Dask cluster): the
+The comparison is an ensemble (``siku_io.ensemble.runs``, on the session's local Dask cluster): the
 three laws times five values of the anticyclone's ``vmax`` (8, 8.5, 11, 14 and 15 m/s), fifteen
 members; the metrics below come from the summary dataset and the members' output files.
 
