@@ -36,7 +36,7 @@ from siku_core.stress import principal
 from siku_io.analysis.regular_grid import Grid, GridCfg
 
 #: gridded fields: name -> (units, standard name or "", long name)
-FIELDS: dict[str, tuple[str, str, str]] = {
+GRID_FIELDS: dict[str, tuple[str, str, str]] = {
     "concentration": ("1", "sea_ice_area_fraction", "ice area over cell area"),
     "thickness": ("m", "sea_ice_thickness", "ice volume over cell area (mean thickness of the "
                   "whole cell)"),
@@ -128,7 +128,7 @@ def snapshot_of(sim) -> Snapshot:
 
 
 def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
-    """Every field of :data:`FIELDS` on ``grid`` for one state, ``(ny, nx)`` arrays."""
+    """Every field of :data:`GRID_FIELDS` on ``grid`` for one state, ``(ny, nx)`` arrays."""
     ny, nx = grid.shape
     nc = ny * nx
     A = grid.cell_area.ravel()
@@ -271,13 +271,13 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
 
     from siku_io.analysis.leads import detect_series
 
-    names = [k for k in FIELDS if rows and k in rows[0] and (cfg.fields is None
+    names = [k for k in GRID_FIELDS if rows and k in rows[0] and (cfg.fields is None
                                                               or k in cfg.fields)]
     if cfg.fields:
-        unknown = sorted(set(cfg.fields) - set(FIELDS))
+        unknown = sorted(set(cfg.fields) - set(GRID_FIELDS))
         if unknown:
             raise DataError(f"[output.grid] fields: unknown {', '.join(unknown)}; known: "
-                            f"{', '.join(FIELDS)}")
+                            f"{', '.join(GRID_FIELDS)}")
     dims = ("time", *grid.dims)
     from siku_io.output.netcdf import cf_time_units
 
@@ -289,7 +289,7 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
     mapping = "crs" if grid.kind != "lonlat" else None
     data = {}
     for k in names:
-        units, std, long_name = FIELDS[k]
+        units, std, long_name = GRID_FIELDS[k]
         attrs = {"units": units, "long_name": long_name}
         if std:
             attrs["standard_name"] = std

@@ -33,7 +33,7 @@ import numpy as np
 
 #: largest difference of direction [degrees] for two branches at a junction to be one lead
 MERGE_ANGLE = 25.0
-KINDS = {1: "deformation", 2: "broken_joints"}
+LEAD_KINDS = {1: "deformation", 2: "broken_joints"}
 # the 8-neighbourhood in ring order (for the crossing number)
 _RING = ((-1, -1), (-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1))
 
@@ -229,8 +229,8 @@ def detect_series(grid, ds, cfg):
                                                    **more} if units is not None else
                            {"long_name": long_name, **more})
 
-    kinds = {"flag_values": np.array(sorted(KINDS), dtype=np.int8),
-             "flag_meanings": " ".join(KINDS[k] for k in sorted(KINDS))}
+    kinds = {"flag_values": np.array(sorted(LEAD_KINDS), dtype=np.int8),
+             "flag_meanings": " ".join(LEAD_KINDS[k] for k in sorted(LEAD_KINDS))}
     L = "lead"
     data = {
         "lead_time": xr.Variable(L, tv[[r[0] for r in rows]] if rows else tv[:0], T),

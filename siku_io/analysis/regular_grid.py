@@ -35,7 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from siku_core import DataError
 
-KINDS = ("lonlat", "polar_stereographic")
+GRID_KINDS = ("lonlat", "polar_stereographic")
 
 
 class GridCfg(BaseModel):

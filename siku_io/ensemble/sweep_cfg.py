@@ -16,11 +16,11 @@ DERIVED = {"mean_drift": ("m", "mean great-circle distance of the free elements 
 RESERVED = ("time", "status", "message", "output", "command", "wall_time", "steps")
 
 
-class _Strict(BaseModel):
+class _NoUnknownKeys(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-class DrawCfg(_Strict):
+class DrawCfg(_NoUnknownKeys):
     """A distribution to draw one key's values from."""
 
     distribution: Literal["uniform", "loguniform", "normal", "lognormal", "integers", "choice"]
@@ -74,7 +74,7 @@ class DrawCfg(_Strict):
         return [float(v) for v in x]
 
 
-class AxisCfg(_Strict):
+class AxisCfg(_NoUnknownKeys):
     """``[[axis]]``: one dimension of the ensemble."""
 
     name: str | None = None
@@ -118,7 +118,7 @@ class AxisCfg(_Strict):
         return self
 
 
-class ReplicatesCfg(_Strict):
+class ReplicatesCfg(_NoUnknownKeys):
     """``[replicates]``: the product again ``n`` times, replicate ``r`` with ``key = seed + r``."""
 
     n: int = Field(ge=1, le=1_000_000)
@@ -126,7 +126,7 @@ class ReplicatesCfg(_Strict):
     seed: int = Field(0, ge=0)
 
 
-class SummaryCfg(_Strict):
+class SummaryCfg(_NoUnknownKeys):
     """``[summary]``: the diagnostics of the summary dataset."""
 
     final: list[str] | None = None
@@ -134,7 +134,7 @@ class SummaryCfg(_Strict):
     file: str = "summary.nc"
 
 
-class ClusterCfg(_Strict):
+class ClusterCfg(_NoUnknownKeys):
     """``[cluster]``: where the members run."""
 
     scheduler: str | None = None
@@ -143,7 +143,7 @@ class ClusterCfg(_Strict):
     timeout: float = Field(10.0, gt=0, le=3600, description="time to reach a scheduler [s]")
 
 
-class SweepCfg(_Strict):
+class SweepCfg(_NoUnknownKeys):
     """The whole sweep file."""
 
     title: str = ""

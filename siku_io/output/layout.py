@@ -3,8 +3,8 @@ CF uses them) and a description. The writer stores them as ``units`` and ``long_
 attributes; ``docs/reference/output.md`` is the same catalogue as a page (a test checks that
 every dataset of a real file is on it and carries these attributes).
 
-Patterns: ``states/fields/NAME`` (per-element fields: :data:`FIELDS`), ``states/history/KEY/NAME``
-(a component's history for an exact restart), ``diagnostics/NAME``
+Patterns: ``states/fields/NAME`` (per-element fields: :data:`ELEMENT_FIELDS`),
+``states/history/KEY/NAME`` (a component's history for an exact restart), ``diagnostics/NAME``
 (``siku_core.diagnostics.catalogue``).
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ ROOT_ATTRS: dict[str, tuple[str, str]] = {
 }
 
 #: per-element fields written to ``/states/fields``: name -> (units, meaning)
-FIELDS: dict[str, tuple[str, str]] = {
+ELEMENT_FIELDS: dict[str, tuple[str, str]] = {
     "speed": ("m s-1", "speed of the element centroid"),
     "damage": ("1", "share of the element's frozen joints that have broken"),
     **STRESS_FIELDS,
@@ -91,7 +91,7 @@ def describe(path: str, diagnostics: dict[str, tuple[str, str]] | None = None
         return DATASETS[path]
     parts = path.split("/")
     if parts[:2] == ["states", "fields"] and len(parts) == 3:
-        return FIELDS.get(parts[2], ("1", f"per-element field '{parts[2]}' reported by a "
+        return ELEMENT_FIELDS.get(parts[2], ("1", f"per-element field '{parts[2]}' reported by a "
                                      "component"))
     if parts[:2] == ["states", "history"] and len(parts) == 4:
         if parts[2] == "contacts" and parts[3] in CONTACT_HISTORY:

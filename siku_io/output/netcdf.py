@@ -237,7 +237,7 @@ class NetCDFWriter(Writer):
     def _define(self, sim) -> None:
         from siku_core.state import FLAG_NAMES
         from siku_io.output.element_geometry import polygons_lonlat
-        from siku_io.output.layout import FIELDS, describe
+        from siku_io.output.layout import ELEMENT_FIELDS, describe
 
         nc, st = self.nc, sim.state
         start = sim.start.isoformat() if sim.start else ""
@@ -277,7 +277,7 @@ class NetCDFWriter(Writer):
                      "northward velocity of the centroid"),
                "spin": ("rad s-1", "", "spin about the local vertical")}
         for k in self.fields:
-            u, ln = FIELDS.get(k, ("1", f"per-element field '{k}'"))
+            u, ln = ELEMENT_FIELDS.get(k, ("1", f"per-element field '{k}'"))
             per[k] = (u, _STANDARD.get(k, {}).get("standard_name", ""), ln)
         # record variables are (time, element): a record is one contiguous block per variable
         for k, (u, std, ln) in per.items():

@@ -14,11 +14,12 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
+from siku_core.state import STATIC
 from siku_io.output.element_geometry import polygons_lonlat
 
-UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)", "stress_ee": "N/m",
-         "stress_nn": "N/m", "stress_en": "N/m"}
-STATIC = 1
+#: units on the colour bar, worded for a reader (the file's UDUNITS: ELEMENT_FIELDS)
+COLORBAR_UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)", "stress_ee": "N/m",
+                  "stress_nn": "N/m", "stress_en": "N/m"}
 
 
 class Output:
@@ -117,7 +118,7 @@ class MapPainter:
                                    edgecolors="0.25", linewidths=0.15, zorder=2)
         self.ax.add_collection(self.coll)
         cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.8, pad=0.03, ticks=levels[::2])
-        cb.set_label(f"{field} [{UNITS.get(field, '')}]")
+        cb.set_label(f"{field} [{COLORBAR_UNITS.get(field, '')}]")
 
     def draw(self, index: int) -> None:
         import cartopy.crs as ccrs
