@@ -30,8 +30,8 @@ import numpy as np
 from bmipy import Bmi
 
 #: name -> (exchange key, units, "in"/"out", description). Input keys are fields of the
-#: ``exchange`` forcing source; output keys those of ``siku_io.coupling.ice_fields`` (plus the
-#: per-cell force the ice received).
+#: ``exchange`` forcing source; output keys those of ``siku_io.coupling.exchange.ice_fields``
+#: (plus the per-cell force the ice received).
 VARIABLES: dict[str, tuple[str, str, str, str]] = {
     "sea_water_surface__elevation": ("eta", "m", "in", "sea surface elevation"),
     "sea_water_flowing__x_component_of_velocity": (

@@ -175,7 +175,7 @@ def land_geometry(lon, lat, resolution: str = "low"):
 
 def land_function(lon, lat, resolution: str = "low"):
     """``fn(lon, lat) -> bool array``: whether points are on GSHHG land, for the mesh builder
-    (``siku_io.mesh.LandGrid.from_function``). Longitudes are taken modulo 360 into the
+    (``siku_io.mesh.land.LandGrid.from_function``). Longitudes are taken modulo 360 into the
     window."""
     import shapely
 
