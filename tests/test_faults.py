@@ -22,7 +22,7 @@ import pytest
 
 from siku_core.cli import default_scene_path, main
 from siku_core.testing.contact_conformance import contact_scene_text, square_pack
-from siku_io.output.hdf5 import open_results
+from siku_io.output.results import open_results
 
 STEPS = 3000
 EVERY = 20  # steps per snapshot

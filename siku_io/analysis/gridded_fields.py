@@ -127,6 +127,15 @@ def snapshot_of(sim) -> Snapshot:
                     nodes[:, 0], nodes[:, 1], st.vert_offsets, stress, broken)
 
 
+def cell_means(cell, weights, weight_sums, values, empty: float) -> np.ndarray:
+    """Per cell, the mean of ``values`` (one per element-cell overlap) with ``weights``, whose
+    per-cell sums are ``weight_sums``; ``empty`` in cells without weight (NaN for a gridded
+    file, 0 for the coupling's exchange grid, which must hand over finite numbers)."""
+    safe = np.where(weight_sums > 0, weight_sums, 1.0)
+    return np.where(weight_sums > 0,
+                    np.bincount(cell, weights * values, len(weight_sums)) / safe, empty)
+
+
 def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
     """Every field of :data:`GRID_FIELDS` on ``grid`` for one state, ``(ny, nx)`` arrays."""
     ny, nx = grid.shape
@@ -140,9 +149,8 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
     gu, gv = grid.rotate(snap.u, snap.v, snap.lon)
     wm = frac * snap.mass[el]
     msum = np.bincount(cell, wm, nc)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out["u"] = np.where(msum > 0, np.bincount(cell, wm * gu[el], nc) / msum, np.nan)
-        out["v"] = np.where(msum > 0, np.bincount(cell, wm * gv[el], nc) / msum, np.nan)
+    out["u"] = cell_means(cell, wm, msum, gu[el], np.nan)
+    out["v"] = cell_means(cell, wm, msum, gv[el], np.nan)
     # strain rates from the centres inside each cell
     X, Y = grid.to_plane(snap.lon, snap.lat)
     ix = np.searchsorted(grid.x_edges, X, side="right") - 1
@@ -173,9 +181,8 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
         sxx = ca * ca * see + 2 * ca * sa * sen + sa * sa * snn
         syy = sa * sa * see - 2 * ca * sa * sen + ca * ca * snn
         sxy = (ca * ca - sa * sa) * sen + ca * sa * (snn - see)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            for name, s in (("stress_xx", sxx), ("stress_yy", syy), ("stress_xy", sxy)):
-                out[name] = np.where(ice > 0, np.bincount(cell, w * s[el], nc) / ice, np.nan)
+        for name, s in (("stress_xx", sxx), ("stress_yy", syy), ("stress_xy", sxy)):
+            out[name] = cell_means(cell, w, ice, s[el], np.nan)
         s1, s2, sI, sII = principal(out["stress_xx"], out["stress_yy"], out["stress_xy"])
         out.update(stress_1=s1, stress_2=s2, stress_I=sI, stress_II=sII)
     if len(snap.broken):

@@ -252,6 +252,8 @@ def ice_fields(sim, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 10
     ``area_fraction`` [1], ``volume`` [m³], ``top``, ``bottom`` [m], ``u``, ``v`` [m/s], and
     ``ax``, ``ay`` [m/s²] from the element velocities ``velocity_before`` (grid components) an
     ``interval`` [s] ago (zero without them)."""
+    from siku_io.analysis.gridded_fields import cell_means
+
     ny, nx = grid.shape
     nc = ny * nx
     st = sim.state
@@ -274,14 +276,14 @@ def ice_fields(sim, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 10
     out: dict[str, Any] = {"area_fraction": ice / A,
                            "volume": np.bincount(cell, w * st.thickness[el], nc),
                            "top": top, "bottom": bottom}
-    safe = np.where(msum > 0, msum, 1.0)
-    out["u"] = np.where(msum > 0, np.bincount(cell, wm * gu[el], nc) / safe, 0.0)
-    out["v"] = np.where(msum > 0, np.bincount(cell, wm * gv[el], nc) / safe, 0.0)
+    # the mass-weighted cell means of a gridded file, with 0 rather than NaN in empty cells
+    out["u"] = cell_means(cell, wm, msum, gu[el], 0.0)
+    out["v"] = cell_means(cell, wm, msum, gv[el], 0.0)
     if velocity_before is not None and interval > 0:
         ax = (gu - velocity_before[0]) / interval
         ay = (gv - velocity_before[1]) / interval
-        out["ax"] = np.where(msum > 0, np.bincount(cell, wm * ax[el], nc) / safe, 0.0)
-        out["ay"] = np.where(msum > 0, np.bincount(cell, wm * ay[el], nc) / safe, 0.0)
+        out["ax"] = cell_means(cell, wm, msum, ax[el], 0.0)
+        out["ay"] = cell_means(cell, wm, msum, ay[el], 0.0)
     else:
         out["ax"] = np.zeros(nc)
         out["ay"] = np.zeros(nc)
@@ -294,10 +296,8 @@ def grid_velocity(sim, grid: Grid) -> tuple[np.ndarray, np.ndarray]:
     from siku_io.output.element_geometry import east_north
 
     st = sim.state
-    u, v = east_north(st.q, st.V)
-    lat, lon = latlon_of(st.q)
-    a = grid.axes(np.degrees(lon), np.degrees(lat))
-    return u * np.cos(a) + v * np.sin(a), -u * np.sin(a) + v * np.cos(a)
+    _, lon = latlon_of(st.q)
+    return grid.rotate(*east_north(st.q, st.V), np.degrees(lon))
 
 
 @hookimpl

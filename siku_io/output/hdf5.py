@@ -68,9 +68,8 @@ from siku_core.outputs import (
     settle,
 )
 
-from .results import (  # noqa: F401 - the readers, also offered here
+from .results import (
     LAYOUT,
-    check_layout,
     clear_open_mark,
     last_snapshot,
     n_snapshots,

@@ -14,7 +14,7 @@ import pytest
 
 from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, square_pack
-from siku_io.output.hdf5 import last_snapshot
+from siku_io.output.results import last_snapshot
 
 N = 40
 DT = 0.1
