@@ -39,7 +39,7 @@ def sweep(duration: str = "24h") -> dict:
 
 def _worker(kind: str, workers: int, duration: str) -> None:
     t0 = time.perf_counter()
-    from siku_io import ensemble
+    from siku_io.ensemble import runs as ensemble
 
     t_import = time.perf_counter() - t0
     started: list[float] = []
@@ -58,8 +58,8 @@ def _worker(kind: str, workers: int, duration: str) -> None:
 
 def _run(kind: str, workers: int, duration: str) -> dict:
     out = subprocess.run([sys.executable, "-m", "bench.ensemble", "--worker", kind,
-                          "--workers", str(workers), "--duration", duration], cwd=ROOT, capture_output=True, text=True,
-                         check=True)
+                          "--workers", str(workers), "--duration", duration], cwd=ROOT,
+                         capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 

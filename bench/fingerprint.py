@@ -77,9 +77,9 @@ def _file_case(path: Path, **overrides: str):
 def _coupled():
     """The flume of ``examples/coupling/two_way_waves.py`` driven through the BMI for 5 s."""
     sys.path.insert(0, str(ROOT / "examples" / "coupling"))
-    from two_way_waves import R, FlumeWaves
+    from two_way_waves import FlumeWaves, R
 
-    from siku_io.bmi import SikuBmi
+    from siku_io.coupling.bmi import SikuBmi
 
     ice = SikuBmi()
     ice.initialize(str(ROOT / "examples" / "coupling" / "waves_ice.toml"))

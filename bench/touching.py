@@ -15,8 +15,8 @@ common span across the normal) and from the joint's edges (``face``, the engine'
   broken joints of both runs and their overlap with the exact run's (Jaccard index: shared /
   either), the lead area,
   and the broken joints gridded on the 10 km polar stereographic grid of
-  ``tests/test_default_scene.py`` reduced to leads (``siku_io.leads``): the cells shared, the
-  number and total length of the leads. A third run, the exact rule at a time step of 1.5 s
+  ``tests/test_default_scene.py`` reduced to leads (``siku_io.analysis.leads``): the cells shared,
+  the number and total length of the leads. A third run, the exact rule at a time step of 1.5 s
   instead of 1.75 s, shows how much the pattern moves with the discretisation alone;
 * **virtual ice tests** (``siku_plugins.lab.virtual_test``: tension, compression, flexure of
   the bonded block, law ``bonded_particle``): Young's modulus and strength under both rules;
@@ -97,9 +97,9 @@ def _shared(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def leads(hours: float) -> list[str]:
-    from siku_io.grid import Grid, GridCfg
-    from siku_io.gridding import grid_snapshot, snapshot_of
-    from siku_io.leads import detect
+    from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
+    from siku_io.analysis.leads import detect
+    from siku_io.analysis.regular_grid import Grid, GridCfg
 
     out = {}
     first, second = VARIANTS

@@ -69,7 +69,7 @@ Missing data
 Modules
     This one holds the field (:class:`Gridded`: files, records, time bracketing, sampling);
     :mod:`siku_forcing.gridded_reader` reads a component's files, :mod:`siku_forcing.gridded_kernel`
-    interpolates, :mod:`siku_forcing.cf` holds the CF rules shared with ``siku_io.icecover``.
+    interpolates, :mod:`siku_forcing.cf` holds the CF rules shared with ``siku_io.mesh.icecover``.
 """
 from __future__ import annotations
 

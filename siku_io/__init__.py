@@ -1,1 +1,2 @@
-"""Input/output: HDF5 output and restart, meshes, coastlines, plots (imported lazily)."""
+"""Input/output, one subpackage per concern (output, analysis, mesh, coupling, ensemble, plot),
+each imported lazily and registering its own commands."""

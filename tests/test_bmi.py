@@ -1,5 +1,5 @@
-"""The Basic Model Interface of a siku run (``siku_io.bmi``) and its exchange grid
-(``siku_io.coupling``): the CSDMS bmi-tester suite, set/update/get against the same forcing
+"""The Basic Model Interface of a siku run (``siku_io.coupling.bmi``) and its exchange grid
+(``siku_io.coupling.exchange``): the CSDMS bmi-tester suite, set/update/get against the same forcing
 given by a scene, and the momentum handed over through the grid."""
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import pytest
 from siku_core import SceneError
 from siku_core.geometry.quat import centers
 from siku_core.simulation import Simulation
-from siku_io.bmi import INPUT_NAMES, OUTPUT_NAMES, SikuBmi
-from siku_io.xr import east_north
+from siku_io.coupling.bmi import INPUT_NAMES, OUTPUT_NAMES, SikuBmi
+from siku_io.output.element_geometry import east_north
 
 HERE = Path(__file__).parent
 R = 6_371_000.0

@@ -63,7 +63,7 @@ def test_a_case_runs_on_files_of_the_ncep_layout(tmp_path):
     assert sorted(set(field.records_read)) == [1, 2]
     from siku_core.geometry.quat import centers, east_north_local
     from siku_core.state import FREE
-    from siku_io.mesh import xyz_to_lonlat
+    from siku_core.geometry.sphere import xyz_to_lonlat
 
     st = sim.state
     free = st.flags == FREE

@@ -125,14 +125,14 @@ def test_lead_and_stress_diagnostics(run6h):
 def test_the_leads_found_on_the_grid_start_at_the_coast(run6h):
     """Report Fig. 11: leads initiate along the shoreline and propagate into the pack. The
     broken joints on a polar stereographic grid of 10 km cells (about the element size,
-    6-8.5 km), reduced to leads by ``siku_io.leads``; a lead is rooted at the coast when one of
-    its cells lies within 1.5 cells (an element plus the half-diagonal of a cell) of the static
-    ice or of a rooted lead (leads branch from the coastal lead). The longest lead is rooted,
+    6-8.5 km), reduced to leads by ``siku_io.analysis.leads``; a lead is rooted at the coast when
+    one of its cells lies within 1.5 cells (an element plus the half-diagonal of a cell) of the
+    static ice or of a rooted lead (leads branch from the coastal lead). The longest lead is rooted,
     and so is most of the lead length (measured: 4 leads of 1452 km, all rooted), while
     the pack's joints lie far from the coast (test above)."""
-    from siku_io.grid import Grid, GridCfg
-    from siku_io.gridding import grid_snapshot, snapshot_of
-    from siku_io.leads import detect
+    from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
+    from siku_io.analysis.leads import detect
+    from siku_io.analysis.regular_grid import Grid, GridCfg
 
     sim = run6h
     cell = 10e3

@@ -301,7 +301,7 @@ def test_toml_examples_in_the_docs_parse(where, block):
         tomllib.loads(block)
         return
     if re.search(r"^scene = ", block, re.MULTILINE):  # a sweep file (docs/howto/ensembles.md)
-        from siku_io.sweep import sweep_from_text
+        from siku_io.ensemble.sweep import sweep_from_text
 
         sw = sweep_from_text(block, where, ROOT / "examples" / "sweeps")
         assert sw.members

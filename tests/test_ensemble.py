@@ -1,4 +1,4 @@
-"""Ensembles on Dask (``siku ensemble``, ``siku_io.ensemble.run``): members identical to
+"""Ensembles on Dask (``siku ensemble``, ``siku_io.ensemble.runs.run``): members identical to
 ``siku run``, failures isolated, interrupted sweeps resumed, the summary dataset, bad sweep
 files.
 
@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 from siku_core import cli
-from siku_io import ensemble
-from siku_io.results import run_progress
-from siku_io.sweep import load_sweep, toml_value
+from siku_io.ensemble import runs as ensemble
+from siku_io.ensemble.sweep import load_sweep, toml_value
+from siku_io.output.results import run_progress
 
 pytest.importorskip("distributed")
 

@@ -22,7 +22,7 @@ import pytest
 
 from siku_core.cli import default_scene_path, main
 from siku_core.testing.contact_conformance import contact_scene_text, square_pack
-from siku_io.hdf5 import open_results
+from siku_io.output.results import open_results
 
 STEPS = 3000
 EVERY = 20  # steps per snapshot
@@ -276,13 +276,13 @@ def test_a_run_that_fails_before_its_first_new_snapshot_leaves_the_old_file(tmp_
 
 
 def test_a_killed_netcdf_run_leaves_a_file_of_real_rows_and_missing_values(tmp_path):
-    """The NetCDF writer (``siku_io.netcdf``): after ``kill -9`` at random moments the file
+    """The NetCDF writer (``siku_io.output.netcdf``): after ``kill -9`` at random moments the file
     opens in xarray; every record with a ``step`` equals the uninterrupted run's; a record
     without one (the write the kill cut short) holds its time and, per variable, the real row
     or missing values: never other numbers."""
     import xarray as xr
 
-    from siku_io.netcdf import complete_records
+    from siku_io.output.netcdf import complete_records
 
     text = scene_text().replace('file = "out.h5"', 'file = "out.nc"\nwriter = "netcdf"')
     ref_dir = tmp_path / "ref"

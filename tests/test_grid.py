@@ -1,4 +1,5 @@
-"""Gridded fields (siku_io.grid, siku_io.gridding): exact area, exact strain rates, stress.
+"""Gridded fields (siku_io.analysis.regular_grid, siku_io.analysis.gridded_fields): exact area,
+exact strain rates, stress.
 
 * Concentration times cell area, summed over the grid, is the ice area of the elements to
   round-off: the overlap pieces of a polygon partition it (1e-9 relative), on both grid kinds and
@@ -18,8 +19,8 @@ import pytest
 
 from siku_core.simulation import Simulation
 from siku_core.testing.scenes import make_scene
-from siku_io.grid import Grid, GridCfg
-from siku_io.gridding import Snapshot, grid_snapshot, snapshot_of, strain_rates
+from siku_io.analysis.gridded_fields import Snapshot, grid_snapshot, snapshot_of, strain_rates
+from siku_io.analysis.regular_grid import Grid, GridCfg
 
 R = 6371e3
 

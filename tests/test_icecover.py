@@ -1,4 +1,4 @@
-"""Initial ice cover from a CF NetCDF file (``[elements.mesh.cover]``, ``siku_io.icecover``).
+"""Initial ice cover from a CF NetCDF file (``[elements.mesh.cover]``, ``siku_io.mesh.icecover``).
 
 The fields are written here: concentration and thickness linear in longitude and latitude, so
 bilinear sampling at a cell's seed is exact and every element can be checked against the
@@ -13,7 +13,7 @@ from siku_core.elements import build_elements
 from siku_core.errors import SikuError
 from siku_core.scene import load_scene
 from siku_core.state import FREE
-from siku_io import mesh as M
+from siku_io.mesh.cache import mesh_for_scene
 
 RHO = 910.0  # kg/m3, the default ice density ([materials.ice] density)
 LON, LAT = (-160.0, -150.0), (72.0, 75.0)
@@ -78,7 +78,7 @@ cache = false
 
 def _mesh(tmp_path):
     sc = _scene(tmp_path, 'file = "c.nc"')
-    return M.mesh_for_scene(sc)[0]
+    return mesh_for_scene(sc)[0]
 
 
 @pytest.mark.parametrize("percent", [False, True])

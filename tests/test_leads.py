@@ -1,4 +1,4 @@
-"""Leads as numbers (siku_io.leads): synthetic fields with known lines.
+"""Leads as numbers (siku_io.analysis.leads): synthetic fields with known lines.
 
 Lines drawn between cell centres (``skimage.draw.line``) must come back one lead each (a
 crossing splits none of them), at their direction within 5 degrees and their length (between
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from siku_io.grid import Grid, GridCfg
-from siku_io.leads import detect
+from siku_io.analysis.leads import detect
+from siku_io.analysis.regular_grid import Grid, GridCfg
 
 R = 6371e3
 PS = GridCfg(kind="polar_stereographic", x=(-1.5e6, 1.5e6), y=(-1.5e6, 1.5e6),

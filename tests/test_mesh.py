@@ -36,28 +36,38 @@ from siku_core.errors import SceneError
 from siku_core.geometry.clip import overlap, project_partner
 from siku_core.geometry.polygon import element_from_lonlat
 from siku_core.geometry.quat import centers
+from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.scene import load_scene, scene_from_text
 from siku_core.state import FREE, STATIC
-from siku_io import mesh as M
+from siku_io.mesh.build import build_mesh
+from siku_io.mesh.cache import load_or_build, mesh_for_scene
+from siku_io.mesh.contours import points_in_polygon, read_contour
+from siku_io.mesh.land import LandGrid, glm_land
+from siku_io.mesh.mesh_file import COAST, ICE, LANDFAST, Mesh
+from siku_io.mesh.params import MeshParams
+from siku_io.mesh.region import Region
+from siku_io.mesh.seeding import SpacingField
+from siku_io.mesh.sphere import _unit, arc_of
+from siku_io.mesh.voronoi import _next_index
 
 R = 6_371_000.0
 
 
 # ---------------------------------------------------------------------------- helpers
 def seed_xyz(mesh):
-    return M.lonlat_to_xyz(mesh.seeds[:, 0], mesh.seeds[:, 1])
+    return lonlat_to_xyz(mesh.seeds[:, 0], mesh.seeds[:, 1])
 
 
 def nn_over_spacing(mesh, spacing_of):
     p = seed_xyz(mesh)
     d, _ = cKDTree(p).query(p, 2)
-    return M.arc_of(d[:, 1], R) / spacing_of(p)
+    return arc_of(d[:, 1], R) / spacing_of(p)
 
 
 def circumradius(mesh):
     """Largest distance from each seed to its cell's vertices [m]."""
     cell = np.repeat(np.arange(mesh.n), np.diff(mesh.offsets))
-    d = M.arc_of(np.linalg.norm(mesh.xyz() - seed_xyz(mesh)[cell], axis=1), R)
+    d = arc_of(np.linalg.norm(mesh.xyz() - seed_xyz(mesh)[cell], axis=1), R)
     out = np.zeros(mesh.n)
     np.maximum.at(out, cell, d)
     return out
@@ -68,18 +78,18 @@ def cell_samples(mesh, cells, step_m):
     ``(lon, lat, cell)``."""
     lon, lat, owner = [], [], []
     for i in cells:
-        v = M.lonlat_to_xyz(*mesh.cell(i).T)
+        v = lonlat_to_xyz(*mesh.cell(i).T)
         s = seed_xyz(mesh)[i]
         b = np.roll(v, -1, axis=0)
         pts = [v]
         for a, c in zip(v, b):
-            m = max(2, math.ceil(M.arc_of(np.linalg.norm(c - a), R) / step_m) + 1)
+            m = max(2, math.ceil(arc_of(np.linalg.norm(c - a), R) / step_m) + 1)
             t = np.linspace(0, 1, m)[:, None]
             pts.append(a * (1 - t) + c * t)
             for f in (0.25, 0.5, 0.75):  # interior: points between the seed and the edge
                 pts.append(s * (1 - f) + (a * (1 - t) + c * t) * f)
-        p = M._unit(np.vstack(pts))
-        lo, la = M.xyz_to_lonlat(p)
+        p = _unit(np.vstack(pts))
+        lo, la = xyz_to_lonlat(p)
         lon.append(lo)
         lat.append(la)
         owner.append(np.full(len(lo), i))
@@ -118,11 +128,11 @@ def max_overlap_share(q, off, verts, area):
 # ---------------------------------------------------------------------------- fixtures
 @pytest.fixture(scope="module")
 def sphere():
-    return M.build_mesh(lon=[-180, 180], lat=[-90, 90], spacing=300e3, land="none", seed=2)
+    return build_mesh(lon=[-180, 180], lat=[-90, 90], spacing=300e3, land="none", seed=2)
 
 
 # synthetic land: a wavy southern coast and a round island, rasterised once
-WINDOW = M.Region.box([-4.0, 16.0], [57.0, 67.0])
+WINDOW = Region.box([-4.0, 16.0], [57.0, 67.0])
 
 
 def wavy_land(lon, lat):
@@ -133,16 +143,16 @@ def wavy_land(lon, lat):
 
 @pytest.fixture(scope="module")
 def synthetic():
-    land = M.LandGrid.from_function(wavy_land, WINDOW, 1000.0, R, name="wavy")
-    params = M.MeshParams(
+    land = LandGrid.from_function(wavy_land, WINDOW, 1000.0, R, name="wavy")
+    params = MeshParams(
         lon=[0.0, 12.0], lat=[60.0, 64.0], spacing=30e3, coast_spacing=12e3,
         coast_distance=80e3, seed=5, land="none",
         landfast=[[[2.0, 61.3], [5.0, 61.3], [5.0, 62.0], [2.0, 62.0]]],
     )
-    mesh = M.build_mesh(params, land_grid=land)
-    field = M.SpacingField(
+    mesh = build_mesh(params, land_grid=land)
+    field = SpacingField(
         coarse=30e3, fine=12e3, distance=80e3, R=R,
-        coast_xyz=M.lonlat_to_xyz(*land.pixel_centres(land.coast_pixels()[0])))
+        coast_xyz=lonlat_to_xyz(*land.pixel_centres(land.coast_pixels()[0])))
     return mesh, land, field
 
 
@@ -186,24 +196,24 @@ def beaufort(tmp_path_factory):
 
 # ---------------------------------------------------------------------------- region
 def test_region_box_across_the_antimeridian_and_full_circle():
-    r = M.Region.box([170.0, -170.0], [60.0, 70.0])
+    r = Region.box([170.0, -170.0], [60.0, 70.0])
     assert r.width == pytest.approx(20.0)
     assert r.contains([175.0, -175.0, 180.0, -180.0], [65.0] * 4).all()
     assert not r.contains([0.0, 169.0, -169.0, 175.0], [65.0, 65.0, 65.0, 71.0]).any()
-    assert M.Region.box([-180, 180], [60, 90]).full_lon
+    assert Region.box([-180, 180], [60, 90]).full_lon
     with pytest.raises(ValueError, match="south < north"):
-        M.Region.box([0, 1], [70, 60])
+        Region.box([0, 1], [70, 60])
 
 
 def test_mesh_across_the_antimeridian_builds_elements():
-    mesh = M.build_mesh(lon=[175.0, -175.0], lat=[70.0, 72.0], spacing=15e3, land="none", seed=1)
+    mesh = build_mesh(lon=[175.0, -175.0], lat=[70.0, 72.0], spacing=15e3, land="none", seed=1)
     assert mesh.n > 50
     lon = mesh.seeds[:, 0]
     assert (lon > 170).any() and (lon < -170).any()
-    assert M.Region.box([175.0, -175.0], [70.0, 72.0]).contains(*mesh.lonlat.T).all()
+    assert Region.box([175.0, -175.0], [70.0, 72.0]).contains(*mesh.lonlat.T).all()
     area = elements_of(mesh)[3]
     assert np.all(area > 0)
-    box = M.Region.box([175.0, -175.0], [70.0, 72.0]).area(R)
+    box = Region.box([175.0, -175.0], [70.0, 72.0]).area(R)
     assert 0.8 * box < mesh.spherical_areas().sum() <= box
 
 
@@ -213,7 +223,7 @@ def test_whole_sphere_cells_cover_the_sphere(sphere):
     total = sphere.spherical_areas().sum()
     assert abs(total / (4 * math.pi * R**2) - 1.0) < 1e-9
     # a closed tessellation: every edge belongs to exactly two cells
-    nxt = M._next_index(sphere.offsets)
+    nxt = _next_index(sphere.offsets)
     e = np.sort(np.stack([sphere.vertex_id, sphere.vertex_id[nxt]], axis=1), axis=1)
     _, counts = np.unique(e, axis=0, return_counts=True)
     assert np.all(counts == 2)
@@ -238,10 +248,10 @@ def test_spacing_from_a_function_is_respected():
         d = np.hypot((np.asarray(lon) - 0.0) * math.cos(math.radians(72)), np.asarray(lat) - 72)
         return 10e3 + 20e3 * np.clip(d / 1.5, 0.0, 1.0)
 
-    mesh = M.build_mesh(lon=[-8.0, 8.0], lat=[70.0, 74.0], spacing=30e3, land="none", seed=3,
+    mesh = build_mesh(lon=[-8.0, 8.0], lat=[70.0, 74.0], spacing=30e3, land="none", seed=3,
                         spacing_fn=fn, spacing_bounds=(10e3, 30e3))
     assert mesh.digest.startswith("custom-")
-    nn = nn_over_spacing(mesh, lambda p: fn(*M.xyz_to_lonlat(p)))
+    nn = nn_over_spacing(mesh, lambda p: fn(*xyz_to_lonlat(p)))
     assert nn.min() >= 1.0 - 1e-9 and 1.0 <= nn.mean() <= 1.6
     a = mesh.spherical_areas()
     near = np.hypot(mesh.seeds[:, 0] * math.cos(math.radians(72)), mesh.seeds[:, 1] - 72) < 0.3
@@ -250,7 +260,7 @@ def test_spacing_from_a_function_is_respected():
 
 def test_polar_cap_cells_cover_the_cap_up_to_the_dropped_edge_cells():
     sp = 150e3
-    mesh = M.build_mesh(lon=[-180, 180], lat=[60, 90], spacing=sp, land="none", seed=4)
+    mesh = build_mesh(lon=[-180, 180], lat=[60, 90], spacing=sp, land="none", seed=4)
     a = mesh.spherical_areas().sum()
     lat0 = math.radians(60.0)
     cap = 2 * math.pi * R**2 * (1 - math.sin(lat0))
@@ -295,7 +305,7 @@ def test_no_ice_cell_on_or_touching_land(synthetic):
     mesh, land, _ = synthetic
     c = mesh.counts()
     assert c["ice"] > 50 and c["coast"] > 20 and c["landfast"] > 3 and mesh.stats["removed_land"]
-    ice = np.flatnonzero(mesh.kind == M.ICE)
+    ice = np.flatnonzero(mesh.kind == ICE)
     assert not land.is_land(*mesh.seeds[ice].T).any()
     lon, lat, owner = cell_samples(mesh, ice, 250.0)
     hit = land.is_land(lon, lat)
@@ -307,8 +317,8 @@ def test_cells_touching_land_are_static_coast_and_coast_is_sealed(synthetic):
     lon, lat, owner = cell_samples(mesh, range(mesh.n), 250.0)
     touching = np.zeros(mesh.n, dtype=bool)
     touching[owner[land.is_land(lon, lat)]] = True
-    assert np.all(mesh.kind[touching] == M.COAST)
-    coast = mesh.kind == M.COAST
+    assert np.all(mesh.kind[touching] == COAST)
+    coast = mesh.kind == COAST
     assert touching[coast].mean() > 0.95  # the rest touch land only at a pixel corner
     # land_removal = "covered": every kept cell has water
     has_water = np.zeros(mesh.n, dtype=bool)
@@ -325,7 +335,7 @@ def test_cells_touching_land_are_static_coast_and_coast_is_sealed(synthetic):
                                  lo * 111.2 * np.cos(np.radians(la)),
                                  (12.0 - lo) * 111.2 * np.cos(np.radians(la))])
     interior = np.minimum.reduceat(edge_km, mesh.offsets[:-1]) > 61.0
-    ice = (mesh.kind == M.ICE) & interior
+    ice = (mesh.kind == ICE) & interior
     assert ice.sum() > 20
     assert np.all(degree[ice] == sides[ice])
 
@@ -333,14 +343,14 @@ def test_cells_touching_land_are_static_coast_and_coast_is_sealed(synthetic):
 def test_landfast_cells_are_static(synthetic):
     mesh, _, _ = synthetic
     poly = mesh.params["params"]["landfast"][0]
-    inside = M.points_in_polygon(*mesh.seeds.T, poly)
-    assert np.all(mesh.kind[inside] != M.ICE)
-    assert np.all(inside[mesh.kind == M.LANDFAST])
+    inside = points_in_polygon(*mesh.seeds.T, poly)
+    assert np.all(mesh.kind[inside] != ICE)
+    assert np.all(inside[mesh.kind == LANDFAST])
 
 
 def test_seed_rule_removes_every_cell_with_a_seed_on_land(synthetic):
     _, land, _ = synthetic
-    mesh = M.build_mesh(M.MeshParams(lon=[0.0, 12.0], lat=[60.0, 64.0], spacing=30e3, seed=5,
+    mesh = build_mesh(MeshParams(lon=[0.0, 12.0], lat=[60.0, 64.0], spacing=30e3, seed=5,
                                      land="none", land_removal="seed"), land_grid=land)
     assert not land.is_land(*mesh.seeds.T).any()
     assert mesh.counts()["coast"] > 5
@@ -348,11 +358,11 @@ def test_seed_rule_removes_every_cell_with_a_seed_on_land(synthetic):
 
 def test_points_in_polygon_and_contour_files(tmp_path):
     poly = [[-1.0, 60.0], [1.0, 60.0], [1.0, 61.0], [-1.0, 61.0]]
-    got = M.points_in_polygon([0.0, 0.0, 2.0, 179.0], [60.5, 59.9, 60.5, 60.5], poly)
+    got = points_in_polygon([0.0, 0.0, 2.0, 179.0], [60.5, 59.9, 60.5, 60.5], poly)
     assert got.tolist() == [True, False, False, False]
     txt = tmp_path / "fast.txt"
     txt.write_text("# landfast\n-1 60\n1 60\n1 61\n-1 61\n-1 60\n\n5 5\n6 5\n6 6\n")
-    polys = M.read_contour(txt)
+    polys = read_contour(txt)
     assert [len(p) for p in polys] == [4, 3]
     shapefile = pytest.importorskip("shapefile")
     w = shapefile.Writer(str(tmp_path / "fast"), shapeType=shapefile.POLYGON)
@@ -360,14 +370,14 @@ def test_points_in_polygon_and_contour_files(tmp_path):
     w.poly([poly + [poly[0]]])
     w.record("a")
     w.close()
-    (shp,) = M.read_contour(tmp_path / "fast.shp")
+    (shp,) = read_contour(tmp_path / "fast.shp")
     assert np.allclose(np.sort(shp, axis=0), np.sort(np.array(poly), axis=0))
 
 
 # ---------------------------------------------------------------------------- files
 def test_save_load_round_trip_is_identical(tmp_path, synthetic):
     mesh, _, _ = synthetic
-    back = M.Mesh.load(mesh.save(tmp_path / "m.npz"))
+    back = Mesh.load(mesh.save(tmp_path / "m.npz"))
     for name in ("offsets", "lonlat", "vertex_id", "seeds", "kind"):
         a, b = getattr(mesh, name), getattr(back, name)
         assert a.dtype == b.dtype and np.array_equal(a, b), name
@@ -381,28 +391,28 @@ def json_round(d):
 
 def test_build_is_reproducible_and_seeded():
     kw = {"lon": [-10.0, 10.0], "lat": [70.0, 74.0], "spacing": 40e3, "land": "none"}
-    a, b = M.build_mesh(seed=1, **kw), M.build_mesh(seed=1, **kw)
+    a, b = build_mesh(seed=1, **kw), build_mesh(seed=1, **kw)
     assert np.array_equal(a.lonlat, b.lonlat) and np.array_equal(a.offsets, b.offsets)
-    c = M.build_mesh(seed=2, **kw)
+    c = build_mesh(seed=2, **kw)
     assert c.digest != a.digest and not np.array_equal(c.seeds[:10], a.seeds[:10])
 
 
 def test_cache_is_reused_until_the_parameters_change(tmp_path):
     path = tmp_path / "cache.npz"
-    p = M.MeshParams(lon=[-10.0, 10.0], lat=[70.0, 74.0], spacing=40e3, land="none", seed=1)
-    m1, built1 = M.load_or_build(p, path)
+    p = MeshParams(lon=[-10.0, 10.0], lat=[70.0, 74.0], spacing=40e3, land="none", seed=1)
+    m1, built1 = load_or_build(p, path)
     stamp = path.stat().st_mtime_ns
-    m2, built2 = M.load_or_build(p, path)
+    m2, built2 = load_or_build(p, path)
     assert built1 and not built2 and path.stat().st_mtime_ns == stamp
     assert np.array_equal(m1.lonlat, m2.lonlat)
     p.spacing = 45e3
-    m3, built3 = M.load_or_build(p, path)
+    m3, built3 = load_or_build(p, path)
     assert built3 and m3.digest != m1.digest and m3.n < m1.n
-    assert M.Mesh.load(path).digest == m3.digest
+    assert Mesh.load(path).digest == m3.digest
     path.write_bytes(b"not a mesh")
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        m4, built4 = M.load_or_build(p, path)
+        m4, built4 = load_or_build(p, path)
     assert built4 and any("unreadable mesh cache" in str(x.message) for x in w)
     assert np.array_equal(m4.lonlat, m3.lonlat)
 
@@ -425,17 +435,17 @@ velocity = [0.1, 0.0]
     st = build_elements(load_scene(path))
     cache = tmp_path / "sea.mesh.npz"
     assert cache.is_file()
-    mesh, built = M.mesh_for_scene(load_scene(path))
+    mesh, built = mesh_for_scene(load_scene(path))
     assert not built and st.n == mesh.n
     assert np.all(st.flags == FREE) and np.all(st.thickness == 2.0)
     assert np.allclose(np.hypot(*st.V.T), 0.1)
     path.write_text(text.replace("40000.0", "50000.0"), encoding="utf-8")
-    mesh2, built2 = M.mesh_for_scene(load_scene(path))
+    mesh2, built2 = mesh_for_scene(load_scene(path))
     assert built2 and mesh2.n < mesh.n
     # a scene from text and no mesh_file is not cached
     monkeypatch.chdir(tmp_path)
-    _, built3 = M.mesh_for_scene(scene_from_text(text))
-    _, built4 = M.mesh_for_scene(scene_from_text(text))
+    _, built3 = mesh_for_scene(scene_from_text(text))
+    _, built4 = mesh_for_scene(scene_from_text(text))
     assert built3 and built4
 
 
@@ -456,17 +466,17 @@ def test_scene_mesh_errors_name_the_table():
 # ---------------------------------------------------------------------------- Beaufort (GLM)
 def test_beaufort_scene_builds_with_static_coast_and_auto_joints(beaufort):
     sim, path, seconds = beaufort
-    mesh, built = M.mesh_for_scene(sim.scene)
+    mesh, built = mesh_for_scene(sim.scene)
     assert not built and (path.parent / "beaufort.mesh.npz").is_file()
     st = sim.state
     c = mesh.counts()
     assert st.n == mesh.n and c["ice"] > 300 and c["coast"] > 50 and c["landfast"] > 10
-    assert np.all(st.flags[mesh.kind != M.ICE] == STATIC)
-    assert np.all(st.flags[mesh.kind == M.ICE] == FREE)
+    assert np.all(st.flags[mesh.kind != ICE] == STATIC)
+    assert np.all(st.flags[mesh.kind == ICE] == FREE)
     # joints: exactly the edge-sharing pairs that are not both static
     cm = sim.contacts
     joints = set(zip(cm.ji.tolist(), cm.jj.tolist()))
-    free = mesh.kind == M.ICE
+    free = mesh.kind == ICE
     want = {(int(i), int(j)) for i, j in mesh.neighbours() if free[i] or free[j]}
     assert joints == want
     assert sum(free[i] and free[j] for i, j in joints) > 500
@@ -475,14 +485,14 @@ def test_beaufort_scene_builds_with_static_coast_and_auto_joints(beaufort):
 
 def test_beaufort_ice_cells_are_off_the_land_mask(beaufort):
     sim, _, _ = beaufort
-    mesh, _ = M.mesh_for_scene(sim.scene)
-    land = M.glm_land(M.Region.box([-162.0, -138.0], [69.0, 74.0]))
-    ice = np.flatnonzero(mesh.kind == M.ICE)
+    mesh, _ = mesh_for_scene(sim.scene)
+    land = glm_land(Region.box([-162.0, -138.0], [69.0, 74.0]))
+    ice = np.flatnonzero(mesh.kind == ICE)
     assert not land.is_land(*mesh.seeds[ice].T).any()
     lon, lat, owner = cell_samples(mesh, ice, 150.0)
     hit = land.is_land(lon, lat)
     assert not hit.any(), np.unique(owner[hit])
-    assert land.is_land(*mesh.seeds[mesh.kind == M.COAST].T).any()  # some coast seeds on land
+    assert land.is_land(*mesh.seeds[mesh.kind == COAST].T).any()  # some coast seeds on land
 
 
 @pytest.mark.slow
@@ -493,8 +503,8 @@ def test_land_window_matches_global_land_mask(request):
         pytest.skip("imports the whole 0.9 GB land mask; run with -m slow")
     globe = pytest.importorskip("global_land_mask.globe")
 
-    win = M.Region.box([-162.0, -138.0], [69.0, 74.0])
-    land = M.glm_land(win)
+    win = Region.box([-162.0, -138.0], [69.0, 74.0])
+    land = glm_land(win)
     rng = np.random.default_rng(0)
     lon = rng.uniform(-162, -138, 200_000)
     lat = rng.uniform(69, 74, 200_000)

@@ -97,7 +97,7 @@ def test_xarray_reads_the_file_exactly(outputs):
     breaks = xr.open_dataset(path, engine="siku", group="breaks")
     assert breaks.sizes["break"] > 0
     # the outlines: each element's nodes lie around its centre
-    from siku_io.xr import outlines_at
+    from siku_io.output.xr import outlines_at
 
     polys = outlines_at(ds, -1)
     assert len(polys) == ds.sizes["element"]
@@ -150,7 +150,7 @@ def test_the_netcdf_writer_holds_the_run(outputs):
     for k in ("u", "v", "lon", "lat", "damage", "stress_nn"):
         assert np.array_equal(nc[k].values, h5[k].values), k
     assert np.array_equal(nc["node_lon_t"].values, h5["node_lon"].values)
-    from siku_io.netcdf import complete_records
+    from siku_io.output.netcdf import complete_records
 
     assert complete_records(path) == h5.sizes["time"]
 
@@ -214,7 +214,7 @@ def test_a_scene_grid_table_is_checked_before_the_run_and_written_after_it(tmp_p
 
 
 def test_gridded_fields_are_drawn_with_their_units(outputs):
-    from siku_io.plot_grid import plot_grid
+    from siku_io.plot.grid_maps import plot_grid
 
     grid = outputs / "run.grid.nc"
     if not grid.exists():
@@ -228,7 +228,7 @@ def test_gridded_fields_are_drawn_with_their_units(outputs):
 
 
 def test_every_grid_key_is_on_the_scene_reference():
-    from siku_io.grid import GridCfg
+    from siku_io.analysis.regular_grid import GridCfg
 
     text = (ROOT / "docs" / "reference" / "scene.md").read_text(encoding="utf-8")
     section = text.split("## `output.grid`")[1].split("\n## ")[0]
@@ -244,7 +244,7 @@ def test_the_results_guide_runs(outputs, monkeypatch):
     import matplotlib
 
     matplotlib.use("Agg")
-    from siku_io.grid import GridCfg
+    from siku_io.analysis.regular_grid import GridCfg
 
     guide = (ROOT / "docs" / "howto" / "results.md").read_text(encoding="utf-8")
     grid = outputs / "run.grid.nc"

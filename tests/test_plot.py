@@ -104,7 +104,7 @@ every = "1h"
 
 
 def test_scene_has_coast_only_for_a_mesh_against_land_data():
-    from siku_io.mapdeco import scene_has_coast
+    from siku_io.plot.mapdeco import scene_has_coast
 
     assert scene_has_coast('[elements.mesh]\nlon = [0, 1]\nlat = [70, 71]\nspacing = 1e4\n')
     assert scene_has_coast('[elements.mesh]\nland = "gshhg"\n')
@@ -117,7 +117,7 @@ def test_land_is_drawn_only_where_the_scene_has_a_coast(output, coast_output, tm
     """The idealised pair of floes (no mesh) has no land on its map although its frame lies
     off Alaska; the mesh scene's map fills land in the shoreline colour. Both have the
     graticule labels, a scale bar and the date in the title."""
-    from siku_io.plot import MapPainter, Output, draw_map
+    from siku_io.plot.element_maps import MapPainter, Output, draw_map
 
     plain = draw_map(output, tmp_path / "plain.png", -1, "speed")
     coast = draw_map(coast_output, tmp_path / "coast.png", -1, "speed")
@@ -139,7 +139,7 @@ def test_animation_frames_are_tight_and_equal(coast_output, tmp_path):
     """Every GIF frame has the same size and at most a few pixels of white margin."""
     from PIL import Image, ImageSequence
 
-    from siku_io.plot import animate
+    from siku_io.plot.element_maps import animate
 
     gif = animate(coast_output, tmp_path / "a.gif", "speed")
     with Image.open(gif) as im:

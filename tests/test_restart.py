@@ -9,7 +9,7 @@ from siku_core.cli import main
 from siku_core.errors import SceneError
 from siku_core.simulation import Simulation
 from siku_core.testing import scene_text
-from siku_io.hdf5 import last_snapshot
+from siku_io.output.results import last_snapshot
 
 N = 6
 DT = 60.0

@@ -73,8 +73,8 @@ def test_uniaxial_tension_gives_the_applied_stress_in_the_interior(pulled):
 
 
 def test_the_gridded_stress_of_the_interior_is_the_applied_stress(pulled):
-    from siku_io.grid import Grid, GridCfg
-    from siku_io.gridding import grid_snapshot, snapshot_of
+    from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
+    from siku_io.analysis.regular_grid import Grid, GridCfg
 
     sim = pulled
     st = sim.state

@@ -1,10 +1,10 @@
 """Ice driven through the BMI by a component no one here wrote: CSDMS ``bmi-era5``.
 
 ``BmiEra5`` (package ``bmi-era5``) serves the fields of an ERA5 NetCDF file record by record
-behind the Basic Model Interface; siku (``siku_io.bmi.SikuBmi``) takes winds on its exchange
-grid. The driver below is all the glue there is: at each ERA5 record it reads the 10 m wind,
-interpolates it bilinearly from the ERA5 grid to the centres of siku's exchange cells, hands it
-to siku and advances the ice to the next record (the wind held over the record's hour).
+behind the Basic Model Interface; siku (``siku_io.coupling.bmi.SikuBmi``) takes winds on its
+exchange grid. The driver below is all the glue there is: at each ERA5 record it reads the 10 m
+wind, interpolates it bilinearly from the ERA5 grid to the centres of siku's exchange cells, hands
+it to siku and advances the ice to the next record (the wind held over the record's hour).
 
 ``bmi-era5`` downloads from the Copernicus data store only when its file is missing; here the
 file exists, written by :func:`write_era5` in ERA5's layout (``valid_time``, ``latitude`` from
@@ -63,7 +63,7 @@ def run(scene, era5_file, records: int | None = None):
     from bmi_era5 import BmiEra5
     from scipy.interpolate import RegularGridInterpolator
 
-    from siku_io.bmi import SikuBmi
+    from siku_io.coupling.bmi import SikuBmi
 
     cfg = Path(tempfile.mkdtemp()) / "era5.yaml"
     cfg.write_text(f"bmi-era5:\n  name: reanalysis-era5-single-levels\n  path: {era5_file}\n"

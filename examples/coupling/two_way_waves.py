@@ -52,8 +52,8 @@ def run(scene=HERE / "waves_ice.toml", duration=None, exchange_every=0.5, alpha=
     """Run the coupled system; returns ``(ice BMI (finalized), waves, record)`` with ``record``
     holding per exchange the time [s] and the ice velocities along the flume [m/s]."""
     from siku_core.geometry.quat import latlon_of
-    from siku_io.bmi import SikuBmi
-    from siku_io.xr import east_north
+    from siku_io.coupling.bmi import SikuBmi
+    from siku_io.output.element_geometry import east_north
 
     ice = SikuBmi()
     ice.initialize(str(scene))

@@ -9,13 +9,12 @@ segments) from ``/states/history/contacts``.
 """
 from __future__ import annotations
 
-import h5py
 import numpy as np
 import pytest
 
 from siku_core.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, square_pack
-from siku_io.hdf5 import last_snapshot
+from siku_io.output.results import last_snapshot
 
 N = 40
 DT = 0.1

@@ -1,4 +1,5 @@
-"""Rheology comparison: one wind-driven scene, three contact laws (docs/explanation/physics.md §4.3).
+"""Rheology comparison: one wind-driven scene, three contact laws
+(docs/explanation/physics.md §4.3).
 
 The scene is ``examples/rheology_comparison.toml``: a 4 × 12 pack of 0.5° (about 56 km) square
 floes, 1 m thick, on the equator, with a static west column (a coast), driven by an anticyclone
@@ -9,7 +10,7 @@ which is set to ``collision``, ``distributed_spring`` and ``mohr_coulomb`` in tu
 keeps its default parameters (those cannot differ between the runs without changing more than
 the law: the strict parameter tables of the three laws only share the collision keys).
 
-The comparison is an ensemble (``siku_io.ensemble``, on the session's local Dask cluster): the
+The comparison is an ensemble (``siku_io.ensemble.runs``, on the session's local Dask cluster): the
 three laws times five values of the anticyclone's ``vmax`` (8, 8.5, 11, 14 and 15 m/s), fifteen
 members; the metrics below come from the summary dataset and the members' output files.
 
@@ -58,8 +59,8 @@ import pytest
 
 from siku_core.scene import load_scene
 from siku_core.state import STATIC
-from siku_io import ensemble
-from siku_io.results import last_snapshot
+from siku_io.ensemble import runs as ensemble
+from siku_io.output.results import last_snapshot
 
 pytest.importorskip("distributed")
 

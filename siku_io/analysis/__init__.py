@@ -1,0 +1,2 @@
+"""Analysis of results: regular grids, element fields gridded onto them (concentration, velocity,
+deformation, stress), leads, and ``siku grid``."""

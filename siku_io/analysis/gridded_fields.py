@@ -1,0 +1,329 @@
+"""Element results on a regular grid (``siku grid``, ``[output.grid]``): concentration,
+thickness, velocity, strain rates, stress and broken joints per cell, as a CF-NetCDF dataset.
+
+Per cell, at each gridded time (``siku_io.analysis.regular_grid`` gives the overlap ``fraction`` of
+each element with each cell and the cell's true area ``A_c``):
+
+* ``concentration`` = sum of ``fraction × area`` over the elements / ``A_c`` [1] (CF
+  ``sea_ice_area_fraction``; overlapping elements may push it above 1);
+* ``thickness`` = ice volume / ``A_c`` [m] (the mean thickness of the whole cell);
+* ``u``, ``v``: mass-weighted mean velocity [m/s], east/north on a lonlat grid, along the grid
+  axes on a polar stereographic one;
+* strain rates [1/s] from the element centres inside the cell by the line integral around their
+  convex hull, as for RGPS cells (Kwok et al. 2008): ``du/dx = (1/A) ∮ u dy``, ``du/dy = -(1/A)
+  ∮ u dx`` (likewise ``v``), the trapezoidal rule along each hull edge, which is exact for any
+  velocity field linear in position. Then ``divergence = ux + vy``, ``shear = sqrt((ux -
+  vy)² + (uy + vx)²)``, ``vorticity = vx - uy``, ``total_deformation = sqrt(divergence² +
+  shear²)``. A cell with fewer than ``min_elements`` centres, or whose hull covers less than
+  ``min_hull`` of it, gets NaN. Positions are in the grid's plane: projected metres on a polar
+  stereographic grid (as RGPS), the equirectangular plane about the cell centre on a lonlat one;
+* stress [N/m]: the area-weighted mean of the element stresses (``siku_core.stress``) in grid
+  components ``stress_xx``, ``stress_yy``, ``stress_xy``, principal stresses ``stress_1 >=
+  stress_2``, ``stress_I = (s1 + s2)/2`` (mean normal stress) and ``stress_II = (s1 - s2)/2``
+  (maximum shear stress); NaN where a cell holds no ice;
+* ``broken_joints``: joints broken by then whose midpoint (between the centres of their two
+  elements) lies in the cell [1], the open leads the joints record.
+
+Leads (linear kinematic features) found on these fields (``siku_io.analysis.leads``) go into the
+same file as tables along the dimensions ``lead`` and ``intersection``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from siku_core import DataError
+from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
+from siku_core.stress import principal
+from siku_io.analysis.regular_grid import Grid, GridCfg
+
+#: gridded fields: name -> (units, standard name or "", long name)
+GRID_FIELDS: dict[str, tuple[str, str, str]] = {
+    "concentration": ("1", "sea_ice_area_fraction", "ice area over cell area"),
+    "thickness": ("m", "sea_ice_thickness", ("ice volume over cell area (mean thickness of the "
+                                             "whole cell)")),
+    "u": ("m s-1", "", "mass-weighted mean ice velocity along x (east on a lonlat grid)"),
+    "v": ("m s-1", "", "mass-weighted mean ice velocity along y (north on a lonlat grid)"),
+    "divergence": ("s-1", "divergence_of_sea_ice_velocity", "divergence ux + vy"),
+    "shear": ("s-1", "", "maximum shear strain rate sqrt((ux - vy)^2 + (uy + vx)^2)"),
+    "vorticity": ("s-1", "", "vorticity vx - uy"),
+    "total_deformation": ("s-1", "", "total deformation rate sqrt(divergence^2 + shear^2)"),
+    "stress_xx": ("N m-1", "", ("mean stress of the ice in the cell, xx (tension positive), "
+                                "vertically integrated")),
+    "stress_yy": ("N m-1", "", "mean stress, yy (tension positive), vertically integrated"),
+    "stress_xy": ("N m-1", "", "mean stress, xy, vertically integrated"),
+    "stress_1": ("N m-1", "", "larger principal stress, vertically integrated"),
+    "stress_2": ("N m-1", "", "smaller principal stress, vertically integrated"),
+    "stress_I": ("N m-1", "", "mean normal stress (stress_1 + stress_2)/2"),
+    "stress_II": ("N m-1", "", "maximum shear stress (stress_1 - stress_2)/2"),
+    "n_elements": ("1", "", "element centres in the cell"),
+    "broken_joints": ("1", "", "broken joints with their midpoint in the cell"),
+}
+
+
+def strain_rates(x, y, u, v) -> tuple[float, float, float, float, float]:
+    """Velocity gradient ``(ux, uy, vx, vy)`` [1/s] and hull area [m²] of points ``(x, y)``
+    [m] with velocities ``(u, v)`` [m/s]: the line integral around their convex hull
+    (module docstring). NaN gradient for fewer than 3 points or a degenerate hull."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    nan = (np.nan, np.nan, np.nan, np.nan, 0.0)
+    if len(x) < 3:
+        return nan
+    pts = np.column_stack([x, y])
+    try:
+        hull = ConvexHull(pts)
+    except QhullError:
+        return nan
+    k = hull.vertices  # counter-clockwise in 2-D
+    xs, ys, us, vs = x[k], y[k], u[k], v[k]
+    xn, yn, un, vn = (np.roll(a, -1) for a in (xs, ys, us, vs))
+    area = 0.5 * np.sum(xs * yn - xn * ys)
+    if not area > 0.0:
+        return nan
+    dx, dy = xn - xs, yn - ys
+    um, vm = 0.5 * (us + un), 0.5 * (vs + vn)
+    return (np.sum(um * dy) / area, -np.sum(um * dx) / area, np.sum(vm * dy) / area,
+            -np.sum(vm * dx) / area, area)
+
+
+class Snapshot:
+    """What the gridding needs of one state: per element ``lon``, ``lat`` [deg] of the centre,
+    ``u``, ``v`` [m/s] east/north, ``area`` [m²], ``thickness`` [m], ``mass`` [kg], stress
+    east/north components [N/m] (``stress``: ``(N, 3)`` or ``None``), the polygons
+    (``node_lon``, ``node_lat`` [deg], CSR ``offsets``) and broken joints ``(i, j)``."""
+
+    def __init__(self, lon, lat, u, v, area, thickness, mass, node_lon, node_lat, offsets,
+                 stress=None, broken=None):
+        self.lon, self.lat = np.asarray(lon, float), np.asarray(lat, float)
+        self.u, self.v = np.asarray(u, float), np.asarray(v, float)
+        self.area, self.thickness = np.asarray(area, float), np.asarray(thickness, float)
+        self.mass = np.asarray(mass, float)
+        self.node_lon, self.node_lat = np.asarray(node_lon, float), np.asarray(node_lat, float)
+        self.offsets = np.asarray(offsets, np.int64)
+        self.stress = None if stress is None else np.asarray(stress, float)
+        self.broken = np.zeros((0, 2), np.int64) if broken is None else np.asarray(broken)
+
+
+def snapshot_of(sim) -> Snapshot:
+    """The :class:`Snapshot` of a running simulation's current state (its stress: that of the
+    last force evaluation)."""
+    from siku_core.geometry.quat import latlon_of
+    from siku_io.output.element_geometry import east_north, polygons_lonlat
+
+    st = sim.state
+    lat, lon = latlon_of(st.q)
+    u, v = east_north(st.q, st.V)
+    ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, sim.radius)
+    nodes = np.concatenate(ll) if ll else np.zeros((0, 2))
+    fields = sim.element_fields()
+    stress = None
+    if "stress_ee" in fields:
+        stress = np.column_stack([fields[k] for k in ("stress_ee", "stress_nn", "stress_en")])
+    broken = None
+    cm = sim.contacts
+    if cm is not None and cm.n_joints:
+        b = ~cm.intact
+        broken = np.column_stack([cm.ji[b], cm.jj[b]])
+    return Snapshot(np.degrees(lon), np.degrees(lat), u, v, st.area, st.thickness, st.m,
+                    nodes[:, 0], nodes[:, 1], st.vert_offsets, stress, broken)
+
+
+def cell_means(cell, weights, weight_sums, values, empty: float) -> np.ndarray:
+    """Per cell, the mean of ``values`` (one per element-cell overlap) with ``weights``, whose
+    per-cell sums are ``weight_sums``; ``empty`` in cells without weight (NaN for a gridded
+    file, 0 for the coupling's exchange grid, which must hand over finite numbers)."""
+    safe = np.where(weight_sums > 0, weight_sums, 1.0)
+    return np.where(weight_sums > 0,
+                    np.bincount(cell, weights * values, len(weight_sums)) / safe, empty)
+
+
+def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
+    """Every field of :data:`GRID_FIELDS` on ``grid`` for one state, ``(ny, nx)`` arrays."""
+    ny, nx = grid.shape
+    nc = ny * nx
+    A = grid.cell_area.ravel()
+    el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
+    w = frac * snap.area[el]
+    ice = np.bincount(cell, w, nc)
+    out = {"concentration": ice / A,
+           "thickness": np.bincount(cell, w * snap.thickness[el], nc) / A}
+    gu, gv = grid.rotate(snap.u, snap.v, snap.lon)
+    wm = frac * snap.mass[el]
+    msum = np.bincount(cell, wm, nc)
+    out["u"] = cell_means(cell, wm, msum, gu[el], np.nan)
+    out["v"] = cell_means(cell, wm, msum, gv[el], np.nan)
+    # strain rates from the centres inside each cell
+    X, Y = grid.to_plane(snap.lon, snap.lat)
+    ix = np.searchsorted(grid.x_edges, X, side="right") - 1
+    iy = np.searchsorted(grid.y_edges, Y, side="right") - 1
+    inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+    home = np.where(inside, iy * nx + ix, -1)
+    out["n_elements"] = np.bincount(home[inside], minlength=nc).astype(float)
+    grad = np.full((4, nc), np.nan)
+    cfg = grid.cfg
+    order = np.argsort(home, kind="stable")
+    bounds = np.searchsorted(home[order], np.arange(nc + 1))
+    for c in np.flatnonzero(out["n_elements"] >= cfg.min_elements):
+        members = order[bounds[c]:bounds[c + 1]]
+        px, py = grid.local_metres(snap.lon[members], snap.lat[members], c // nx, c % nx)
+        ux, uy, vx, vy, hull = strain_rates(px, py, gu[members], gv[members])
+        if hull >= cfg.min_hull * A[c]:
+            grad[:, c] = ux, uy, vx, vy
+    ux, uy, vx, vy = grad
+    out["divergence"] = ux + vy
+    out["shear"] = np.hypot(ux - vy, uy + vx)
+    out["vorticity"] = vx - uy
+    out["total_deformation"] = np.hypot(out["divergence"], out["shear"])
+    if snap.stress is not None:
+        a = grid.axes(snap.lon, snap.lat)
+        ca, sa = np.cos(a), np.sin(a)
+        see, snn, sen = snap.stress.T
+        # Q sigma Q^T with Q = [[cos a, sin a], [-sin a, cos a]]: east/north to grid axes
+        sxx = ca * ca * see + 2 * ca * sa * sen + sa * sa * snn
+        syy = sa * sa * see - 2 * ca * sa * sen + ca * ca * snn
+        sxy = (ca * ca - sa * sa) * sen + ca * sa * (snn - see)
+        for name, s in (("stress_xx", sxx), ("stress_yy", syy), ("stress_xy", sxy)):
+            out[name] = cell_means(cell, w, ice, s[el], np.nan)
+        s1, s2, sI, sII = principal(out["stress_xx"], out["stress_yy"], out["stress_xy"])
+        out.update(stress_1=s1, stress_2=s2, stress_I=sI, stress_II=sII)
+    if len(snap.broken):
+        i, j = snap.broken[:, 0], snap.broken[:, 1]
+        mid = _midpoints(snap.lon[i], snap.lat[i], snap.lon[j], snap.lat[j])
+        bx, by = grid.to_plane(*mid)
+        bi = np.searchsorted(grid.x_edges, bx, side="right") - 1
+        bj = np.searchsorted(grid.y_edges, by, side="right") - 1
+        ok = (bi >= 0) & (bi < nx) & (bj >= 0) & (bj < ny)
+        out["broken_joints"] = np.bincount(bj[ok] * nx + bi[ok], minlength=nc).astype(float)
+    else:
+        out["broken_joints"] = np.zeros(nc)
+    return {k: v.reshape(ny, nx) for k, v in out.items()}
+
+
+def _midpoints(lon1, lat1, lon2, lat2):
+    """Great-circle midpoints [deg] of point pairs [deg]."""
+    return xyz_to_lonlat(lonlat_to_xyz(lon1, lat1) + lonlat_to_xyz(lon2, lat2))
+
+
+# ---------------------------------------------------------------------------- from a file
+def snapshots(ds, breaks=None):
+    """:class:`Snapshot` of every time of an output dataset (``siku_io.output.xr.open_output``),
+    with the breaks dataset (``group="breaks"``) for the broken joints."""
+    off = np.r_[ds["node_offset"].values, ds.sizes["node"]]
+    stress = all(k in ds for k in ("stress_ee", "stress_nn", "stress_en"))
+    bt = bi = bj = None
+    if breaks is not None and "time" in breaks:
+        bt, bi, bj = (breaks[k].values for k in ("time", "i", "j"))
+    seconds = _seconds(ds)
+    for t in range(ds.sizes["time"]):
+        broken = None
+        if bt is not None:
+            done = bt <= seconds[t]
+            broken = np.column_stack([bi[done], bj[done]])
+        yield Snapshot(
+            ds["lon"].values[t], ds["lat"].values[t], ds["u"].values[t], ds["v"].values[t],
+            ds["area"].values, ds["thickness"].values, ds["mass"].values,
+            ds["node_lon"].values[t], ds["node_lat"].values[t], off,
+            np.column_stack([ds[k].values[t] for k in ("stress_ee", "stress_nn", "stress_en")])
+            if stress else None, broken)
+
+
+def _seconds(ds) -> np.ndarray:
+    """Model seconds of every snapshot of an output dataset."""
+    t = ds["time"].values
+    if np.issubdtype(t.dtype, np.datetime64):
+        t0 = np.datetime64(str(ds.attrs["start"]).replace("+00:00", "").replace("Z", ""), "ns")
+        return (t - t0) / np.timedelta64(1, "s")
+    return np.asarray(t, dtype=float)
+
+
+def grid_output(path, cfg: GridCfg, progress: bool = False):
+    """The gridded dataset (``xarray.Dataset``, CF) of an output file at every snapshot (or
+    every ``cfg.every``), with its leads (``siku_io.analysis.leads``)."""
+    from siku_core.units import parse_duration
+    from siku_io.output.xr import open_output
+
+    ds = open_output(path)
+    breaks = open_output(path, group="breaks")
+    grid = Grid(cfg, float(ds.attrs["radius"]))
+    seconds = _seconds(ds)
+    keep = np.arange(ds.sizes["time"])
+    if cfg.every is not None:
+        try:
+            every = parse_duration(cfg.every) if isinstance(cfg.every, str) else float(cfg.every)
+        except ValueError as exc:
+            raise DataError(f"[output.grid] every = {cfg.every!r}: {exc}") from None
+        marks = np.floor(seconds / every + 1e-9)
+        keep = np.flatnonzero(np.r_[True, np.diff(marks) > 0])
+    ds = ds.isel(time=keep)
+    rows = []
+    snaps = snapshots(ds, breaks)
+    if progress:
+        from tqdm import tqdm
+
+        snaps = tqdm(snaps, total=ds.sizes["time"], desc="gridding", unit="snapshot")
+    for snap in snaps:
+        rows.append(grid_snapshot(grid, snap))
+    return to_dataset(grid, rows, ds, cfg)
+
+
+def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
+    """CF dataset of gridded rows (one dict per time) with the coordinates of ``src`` (an
+    output dataset) and the leads tables."""
+    import xarray as xr
+
+    from siku_io.analysis.leads import detect_series
+
+    names = [k for k in GRID_FIELDS if rows and k in rows[0] and (cfg.fields is None
+                                                              or k in cfg.fields)]
+    if cfg.fields:
+        unknown = sorted(set(cfg.fields) - set(GRID_FIELDS))
+        if unknown:
+            raise DataError(f"[output.grid] fields: unknown {', '.join(unknown)}; known: "
+                            f"{', '.join(GRID_FIELDS)}")
+    dims = ("time", *grid.dims)
+    from siku_io.output.netcdf import cf_time_units
+
+    coords = {k: xr.Variable(d, v, a) for k, (d, v, a) in grid.cf_coords().items()}
+    units, comment = cf_time_units(str(src.attrs.get("start", "")))
+    coords["time"] = xr.Variable("time", _seconds(src), {
+        "standard_name": "time", "long_name": "time of the gridded fields", "units": units,
+        "calendar": "proleptic_gregorian", "axis": "T", "comment": comment})
+    mapping = "crs" if grid.kind != "lonlat" else None
+    data = {}
+    for k in names:
+        units, std, long_name = GRID_FIELDS[k]
+        attrs = {"units": units, "long_name": long_name}
+        if std:
+            attrs["standard_name"] = std
+        if k in ("u", "v"):
+            if grid.kind == "lonlat":
+                attrs["standard_name"] = ("eastward_sea_ice_velocity" if k == "u" else
+                                          "northward_sea_ice_velocity")
+            else:
+                attrs["standard_name"] = "sea_ice_x_velocity" if k == "u" else \
+                    "sea_ice_y_velocity"
+        if mapping:
+            attrs["grid_mapping"] = mapping
+            attrs["coordinates"] = "lat lon"
+        attrs["cell_measures"] = "area: cell_area"
+        data[k] = xr.Variable(dims, np.stack([r[k] for r in rows]) if rows else
+                              np.zeros((0, *grid.shape)), attrs)
+    data["cell_area"] = xr.Variable(grid.dims, grid.cell_area, {
+        "units": "m2", "standard_name": "cell_area", "long_name": "true area of the cell on "
+        "the model sphere", **({"grid_mapping": mapping, "coordinates": "lat lon"}
+                               if mapping else {})})
+    out = xr.Dataset(data, coords)
+    if cfg.leads and rows:
+        out = out.merge(detect_series(grid, out, cfg))
+    out.attrs.update({
+        "Conventions": "CF-1.8",
+        "title": f"{src.attrs.get('title', '')}: gridded fields".strip(": "),
+        "source": f"siku {src.attrs.get('siku_version', '')} (siku grid)",
+        "history": f"gridded from {src.attrs.get('source', 'a siku output file')}",
+        "grid": cfg.model_dump_json(exclude_none=True),
+        "start": str(src.attrs.get("start", "")),
+        "earth_radius": float(grid.radius),
+        "scene": src.attrs.get("scene", ""),
+        "references": "Kwok et al. (2008), J. Geophys. Res. 113, C08010 (RGPS strain rates)",
+    })
+    return out

@@ -1,0 +1,273 @@
+"""Leads as numbers: linear kinematic features (LKFs) found in gridded deformation and in the
+broken joints on the grid, each with its length, orientation, ends and opening, and the angles
+at which they cross.
+
+The image steps are scikit-image's (after the LKF detection of Linow & Dierking 2017 and Hutter
+et al. 2019, simplified):
+
+1. a mask of the cells where the total deformation exceeds ``lead_threshold`` [1/day] (or,
+   for open leads, where a joint has broken);
+2. its skeleton (``skimage.morphology.skeletonize``), one cell wide;
+3. junctions: skeleton cells with three or more branches leaving them (crossing number of the
+   8-neighbourhood); removing the skeleton within two cells of each junction splits it into
+   branches (``skimage.measure.label``, 8-connected), and junctions that close are one;
+4. at each junction the branches are paired when their directions differ by less than
+   ``MERGE_ANGLE`` (closest first): a lead that a crossing lead cut in two is one lead again;
+5. each lead at least ``lead_min_length`` cells long: its orientation is the principal axis of
+   its cells (degrees counter-clockwise from the grid's x axis, in [0, 180)), its length the
+   distance along that axis between the centres of its two end cells (its ends);
+   ``opening`` is the velocity jump across it, the integral of the divergence over its cells
+   divided by its extent along itself (length plus one cell) [m/s] (positive: opening,
+   negative: closing): exact for a jump spread over a band one cell wide;
+6. an intersection is a junction where two different leads meet: the acute angle between
+   them [degrees] and where.
+
+Positions are metres in the grid's plane (polar stereographic), or in the plane about the lead's
+centre (lonlat: ``x = R cos(lat_c) (lon - lon_c)``, ``y = R (lat - lat_c)``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: largest difference of direction [degrees] for two branches at a junction to be one lead
+MERGE_ANGLE = 25.0
+LEAD_KINDS = {1: "deformation", 2: "broken_joints"}
+# the 8-neighbourhood in ring order (for the crossing number)
+_RING = ((-1, -1), (-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1))
+
+
+@dataclass
+class Lead:
+    cells: np.ndarray  # (k, 2) row, column
+    length: float  # m
+    orientation: float  # degrees from the x axis, [0, 180)
+    centre: tuple[float, float]  # lon, lat
+    ends: tuple[tuple[float, float], tuple[float, float]]  # (lon, lat) of both ends
+    opening: float  # m/s
+
+
+@dataclass
+class Crossing:
+    leads: tuple[int, int]
+    angle: float  # degrees, (0, 90]
+    where: tuple[float, float]  # lon, lat
+
+
+def _shift(a: np.ndarray, dy: int, dx: int) -> np.ndarray:
+    out = np.zeros_like(a)
+    ny, nx = a.shape
+    out[max(dy, 0):ny + min(dy, 0), max(dx, 0):nx + min(dx, 0)] = \
+        a[max(-dy, 0):ny + min(-dy, 0), max(-dx, 0):nx + min(-dx, 0)]
+    return out
+
+
+def junctions(skel: np.ndarray) -> np.ndarray:
+    """Skeleton cells where three or more branches meet: crossing number (0 -> 1 transitions
+    around the 8-neighbourhood) of at least 3, or at least 4 neighbours."""
+    ring = [_shift(skel, -dy, -dx).astype(np.int8) for dy, dx in _RING]
+    cross = sum(((ring[k] == 0) & (ring[(k + 1) % 8] == 1)) for k in range(8))
+    count = sum(ring)
+    return skel & ((cross >= 3) | (count >= 4))
+
+
+class _Union:
+    def __init__(self, n):
+        self.p = list(range(n))
+
+    def find(self, a):
+        while self.p[a] != a:
+            self.p[a] = self.p[self.p[a]]
+            a = self.p[a]
+        return a
+
+    def join(self, a, b):
+        self.p[self.find(a)] = self.find(b)
+
+
+def _axis(xy: np.ndarray) -> tuple[np.ndarray, float]:
+    """Unit principal axis of points and its angle [degrees, 0-180)."""
+    d = xy - xy.mean(axis=0)
+    if len(xy) < 2:
+        return np.array([1.0, 0.0]), 0.0
+    w, v = np.linalg.eigh(d.T @ d)
+    ax = v[:, np.argmax(w)]
+    return ax, float(np.degrees(np.arctan2(ax[1], ax[0])) % 180.0)
+
+
+def _angle_between(a: float, b: float) -> float:
+    d = abs(a - b) % 180.0
+    return min(d, 180.0 - d)
+
+
+def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
+           min_length: int = 3) -> tuple[list[Lead], list[Crossing]]:
+    """Leads and their crossings in a boolean ``mask`` ``(ny, nx)`` on ``grid`` (module
+    docstring); ``divergence`` [1/s] gives each lead's opening."""
+    from scipy.ndimage import binary_dilation
+    from skimage.measure import label
+    from skimage.morphology import skeletonize
+
+    mask = np.asarray(mask, bool)
+    skel = skeletonize(mask)
+    junc = junctions(skel)
+    # a junction and the skeleton within two cells of it: two junctions that close (the
+    # skeleton of a crossing of wide bands is two forks joined by a stub) are one crossing
+    zone = binary_dilation(junc, structure=np.ones((3, 3), bool), iterations=2) & skel
+    branches = label(skel & ~zone, connectivity=2)
+    zones = label(zone, connectivity=2)
+    nb = int(branches.max())
+    X, Y = np.meshgrid(grid.x, grid.y)
+    lon_c, lat_c = grid.centres_lonlat
+
+    def metres(rc: np.ndarray) -> np.ndarray:
+        r, c = rc[:, 0], rc[:, 1]
+        if grid.kind != "lonlat":
+            return np.column_stack([X[r, c], Y[r, c]])
+        lat0 = np.radians(lat_c[r, c].mean())
+        lon = lon_c[r, c]
+        lon0 = lon.mean()
+        R = grid.radius
+        return np.column_stack([R * np.cos(lat0) * np.radians(((lon - lon0 + 180) % 360) - 180),
+                                R * np.radians(lat_c[r, c] - lat_c[r, c].mean())])
+
+    cells = [np.argwhere(branches == b + 1) for b in range(nb)]
+    angle = [_axis(metres(rc))[1] if len(rc) else 0.0 for rc in cells]
+    uf = _Union(nb)
+    touch_zone: dict[int, list[int]] = {}
+    for z in range(1, int(zones.max()) + 1):  # the branches touching each junction zone
+        ring = binary_dilation(zones == z, structure=np.ones((3, 3), bool))
+        touching = sorted(set(np.unique(branches[ring])) - {0})
+        touch_zone[z] = [b - 1 for b in touching]
+        pairs = sorted(((_angle_between(angle[a], angle[b]), a, b)
+                        for k, a in enumerate(touch_zone[z]) for b in touch_zone[z][k + 1:]))
+        used: set[int] = set()
+        for d, a, b in pairs:
+            if d < MERGE_ANGLE and a not in used and b not in used:
+                uf.join(a, b)
+                used.update((a, b))
+    groups: dict[int, list[int]] = {}
+    for b in range(nb):
+        groups.setdefault(uf.find(b), []).append(b)
+    leads: list[Lead] = []
+    owner = {}
+    if grid.kind == "lonlat":  # cell sides [m] in the plane of the lead
+        dlon = np.radians(np.diff(grid.x_edges))[None, :] * np.ones(grid.shape)
+        dlat = np.radians(np.diff(grid.y_edges))[:, None] * np.ones(grid.shape)
+        side_x = grid.radius * np.cos(np.radians(lat_c)) * dlon
+        side_y = grid.radius * dlat
+    else:
+        side_x = np.diff(grid.x_edges)[None, :] * np.ones(grid.shape)
+        side_y = np.diff(grid.y_edges)[:, None] * np.ones(grid.shape)
+    for members in groups.values():
+        rc = np.concatenate([cells[b] for b in members])
+        # the junction cells between two joined branches belong to the lead
+        for z, bs in touch_zone.items():
+            if sum(b in members for b in bs) >= 2:
+                rc = np.concatenate([rc, np.argwhere(zones == z)])
+        xy = metres(rc)
+        ax, ang = _axis(xy)
+        proj = (xy - xy.mean(axis=0)) @ ax
+        sx, sy = side_x[rc[:, 0], rc[:, 1]], side_y[rc[:, 0], rc[:, 1]]
+        w = float(np.mean(np.abs(sx * ax[0]) + np.abs(sy * ax[1])))  # one cell along the lead
+        length = float(proj.max() - proj.min())
+        if length < (min_length - 1) * w * (1 - 1e-6):
+            continue
+        e0, e1 = rc[np.argmin(proj)], rc[np.argmax(proj)]
+        opening = np.nan
+        if divergence is not None:
+            dv = divergence[rc[:, 0], rc[:, 1]]
+            ok = np.isfinite(dv)
+            if ok.any():  # integral over the band / its extent along the lead
+                opening = float(np.sum(dv[ok] * sx[ok] * sy[ok]) / (ok.mean() * (length + w)))
+        for b in members:
+            owner[b] = len(leads)
+        leads.append(Lead(rc, length, ang, (float(lon_c[tuple(rc.T)].mean()),
+                                            float(lat_c[tuple(rc.T)].mean())),
+                          ((float(lon_c[e0[0], e0[1]]), float(lat_c[e0[0], e0[1]])),
+                           (float(lon_c[e1[0], e1[1]]), float(lat_c[e1[0], e1[1]]))), opening))
+    crossings: list[Crossing] = []
+    for z, bs in touch_zone.items():
+        ids = sorted({owner[b] for b in bs if b in owner})
+        zc = np.argwhere(zones == z)
+        where = (float(lon_c[tuple(zc.T)].mean()), float(lat_c[tuple(zc.T)].mean()))
+        for k, a in enumerate(ids):
+            for b in ids[k + 1:]:
+                crossings.append(Crossing((a, b), _angle_between(
+                    leads[a].orientation, leads[b].orientation), where))
+    return leads, crossings
+
+
+def detect_series(grid, ds, cfg):
+    """The leads of every time of a gridded dataset (``siku_io.analysis.gridded_fields``) as an
+    ``xarray.Dataset`` of tables along ``lead`` and ``intersection``."""
+    import xarray as xr
+
+    rows, xrows = [], []
+    for t in range(ds.sizes["time"]):
+        div = ds["divergence"].values[t] if "divergence" in ds else None
+        masks = []
+        if "total_deformation" in ds:
+            tot = ds["total_deformation"].values[t] * 86400.0
+            masks.append((1, np.nan_to_num(tot, nan=0.0) >= cfg.lead_threshold))
+        if "broken_joints" in ds:
+            masks.append((2, ds["broken_joints"].values[t] > 0))
+        for kind, m in masks:
+            found, cross = detect(m, grid, div if kind == 1 else None, cfg.lead_min_length)
+            base = len(rows)
+            for f in found:
+                rows.append((t, kind, f))
+            for c in cross:
+                xrows.append((t, kind, c, base))
+    tv = ds["time"].values
+    T = {"long_name": "time of the gridded field", **{
+        k: v for k, v in ds["time"].attrs.items() if k in ("units", "calendar")}}
+
+    def var(dim, vals, units, long_name, **more):
+        return xr.Variable(dim, np.asarray(vals), {"units": units, "long_name": long_name,
+                                                   **more} if units is not None else
+                           {"long_name": long_name, **more})
+
+    kinds = {"flag_values": np.array(sorted(LEAD_KINDS), dtype=np.int8),
+             "flag_meanings": " ".join(LEAD_KINDS[k] for k in sorted(LEAD_KINDS))}
+    L = "lead"
+    data = {
+        "lead_time": xr.Variable(L, tv[[r[0] for r in rows]] if rows else tv[:0], T),
+        "lead_kind": var(L, np.array([r[1] for r in rows], np.int8), None,
+                         "what the lead was found in", **kinds),
+        "lead_length": var(L, [r[2].length for r in rows], "m", "length of the lead"),
+        "lead_orientation": var(L, [r[2].orientation for r in rows], "degree",
+                                "direction of the lead, counter-clockwise from the grid x axis "
+                                "(east on a lonlat grid), 0-180"),
+        "lead_cells": var(L, np.array([len(r[2].cells) for r in rows], np.int32), "1",
+                          "grid cells of the lead's skeleton"),
+        "lead_lon": var(L, [r[2].centre[0] for r in rows], "degrees_east",
+                        "longitude of the lead's centre"),
+        "lead_lat": var(L, [r[2].centre[1] for r in rows], "degrees_north",
+                        "latitude of the lead's centre"),
+        "lead_opening": var(L, [r[2].opening for r in rows], "m s-1",
+                            "velocity jump across the lead (opening positive)"),
+    }
+    for k, end in ((0, "start"), (1, "end")):
+        data[f"lead_{end}_lon"] = var(L, [r[2].ends[k][0] for r in rows], "degrees_east",
+                                      f"longitude of the lead's {end}")
+        data[f"lead_{end}_lat"] = var(L, [r[2].ends[k][1] for r in rows], "degrees_north",
+                                      f"latitude of the lead's {end}")
+    X = "intersection"
+    data.update({
+        "intersection_time": xr.Variable(X, tv[[r[0] for r in xrows]] if xrows else tv[:0], T),
+        "intersection_kind": var(X, np.array([r[1] for r in xrows], np.int8), None,
+                                 "what the leads were found in", **kinds),
+        "intersection_angle": var(X, [r[2].angle for r in xrows], "degree",
+                                  "acute angle between the two leads"),
+        "intersection_lead_a": var(X, np.array([r[3] + r[2].leads[0] for r in xrows],
+                                               np.int32), "1", "index of one lead"),
+        "intersection_lead_b": var(X, np.array([r[3] + r[2].leads[1] for r in xrows],
+                                               np.int32), "1", "index of the other lead"),
+        "intersection_lon": var(X, [r[2].where[0] for r in xrows], "degrees_east",
+                                "longitude of the intersection"),
+        "intersection_lat": var(X, [r[2].where[1] for r in xrows], "degrees_north",
+                                "latitude of the intersection"),
+    })
+    return xr.Dataset(data)

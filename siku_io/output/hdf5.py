@@ -1,0 +1,494 @@
+"""HDF5 output (h5py) that a crash, a kill or a full disk cannot corrupt, and bit-for-bit
+restart.
+
+File layout (``layout`` = 2)::
+
+    /                  attrs: siku_version, layout, title, scene_file, scene_sha256, dt [s],
+                              start (ISO or ""), n_steps (steps the scene asks for), seed,
+                              n_elements, radius [m]; nothing about when or where it
+                              was written, so the same scene, seed and versions give the
+                              same file, byte for byte
+    /scene             the scene file text, verbatim (with --set and --extend overrides noted)
+    /run_record        JSON: what the run depends on (effective scene, components with every
+                       parameter, versions): a restart compares it with its own
+    /plugins           attrs: package -> version of every package that provided a component
+    /components        JSON: name and parameters of every component of the run
+    /geometry          vert_offsets, verts [m], m [kg], I [kg m²], area [m²], thickness [m],
+                       radius [m], flags, material, floe (floe index of each element, -1: none)
+    /states            the snapshots: step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N)
+                       [rad/s], lat, lon (T,N) [deg], fields/NAME (T,N) per-element quantities
+                       for maps (speed [m/s], damage [1]), history/KEY/NAME (T,...) every
+                       component's history (joint state, break modes): a restart reads the
+                       last row
+    /diagnostics       step, time [s] and one series per diagnostic, attrs units and
+                       long_name (siku_core.diagnostics.DIAGNOSTICS); its rows are written
+                       with the snapshots, so they end where the snapshots end
+    /breaks            one row per broken joint, in the order they broke: time [s] (model
+                       time of the state that broke it), joint, i, j (element indices), lat,
+                       lon [deg] (joint midpoint when written), mode (attrs: code -> name)
+
+How nothing is lost (``docs/explanation/outputs.md``):
+
+* The file is built beside the target (``.NAME.PID.partial``) and put in place atomically once
+  it holds its first snapshot; an existing file is replaced only when the engine allows it
+  (``--overwrite``, or a restart continuing the same file, which copies the earlier rows).
+* The file is written in HDF5's single-writer/multiple-reader (SWMR) mode, whose ordered
+  flushes keep the file consistent on disk after every write, so a kill at any moment leaves a
+  file that opens. A snapshot is committed in two flushes: first every dataset's new row, then
+  the new row of ``/states/step``. **The number of complete snapshots is the length of
+  ``/states/step``** (likewise ``/diagnostics/step`` and ``/breaks/time``); after a fault other
+  datasets may hold the rows of the commit it cut short, whose data may not have reached the
+  disk. :func:`open_results`, :func:`n_snapshots` and :func:`last_snapshot` apply this rule.
+* A write that fails (full disk, quota, file-size limit) stops the run with a one-line error
+  naming the last snapshot safely on disk; nothing more is written to the file, and its
+  "open for writing" mark is cleared so that it opens everywhere.
+* A killed run leaves that mark set (HDF5 then refuses a plain ``h5py.File(path)``);
+  :func:`open_results` (used by every siku command) clears it when no process holds the file,
+  as ``h5clear -s`` does; ``h5py.File(path, "r", swmr=True)`` reads such a file as it is.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from siku_core import DataError, Param, __version__, hookimpl
+from siku_core.geometry.quat import latlon_of
+from siku_core.interfaces import Writer
+from siku_core.outputs import (
+    RunLock,
+    fsync_path,
+    is_disk_full,
+    partial_path,
+    publish,
+    settle,
+)
+
+from .results import (
+    LAYOUT,
+    clear_open_mark,
+    last_snapshot,
+    n_snapshots,
+    open_results,
+)
+
+_GEOMETRY = ("vert_offsets", "verts", "m", "I", "area", "thickness", "radius", "flags",
+             "material", "floe")
+#: files given up after a failed write, kept open (on /dev/null) until the process ends
+_SEALED: list = []
+
+
+# ---------------------------------------------------------------------------- writing
+def _create(group, name: str, row: np.ndarray, compression: str | None):
+    """An empty dataset growing by rows shaped like ``row``."""
+    row = np.asarray(row)
+    return group.create_dataset(  # (a zero-length row, e.g. no joints, still needs chunks > 0)
+        name, shape=(0, *row.shape), maxshape=(None, *(d or None for d in row.shape)),
+        dtype=row.dtype, chunks=(1, *(max(d, 1) for d in row.shape)) if row.ndim else (256,),
+        compression=compression if row.ndim else None,
+    )
+
+
+def _append(ds, values, rows: int) -> None:
+    """Append ``rows`` rows ``values`` (shaped ``(rows, *row_shape)``, or one row when
+    ``rows == 1``) to ``ds`` along its first axis.
+
+    Through h5py's low-level dataset calls (extent, hyperslab, write): about a third of the
+    cost of ``ds.resize`` and slice assignment, which build selections in Python; a snapshot
+    writes some fifty datasets. HDF5 converts the values to the dataset's type as the
+    high-level call does."""
+    from h5py import h5s
+
+    did = ds.id
+    shape = did.shape
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "biuf" or 0 in shape[1:]:
+        n = shape[0]  # strings, empty rows: the high-level call
+        ds.resize(n + rows, axis=0)
+        if rows == 1 and arr.ndim == len(shape) - 1:
+            ds[n] = arr
+        else:
+            ds[n:] = arr
+        return
+    arr = np.ascontiguousarray(arr).reshape((rows, *shape[1:]))
+    n = shape[0]
+    did.set_extent((n + rows, *shape[1:]))
+    fspace = did.get_space()
+    fspace.select_hyperslab((n,) + (0,) * (len(shape) - 1), arr.shape)
+    did.write(h5s.create_simple(arr.shape), fspace, arr)
+
+
+def _grow(ds, value) -> None:
+    _append(ds, value, 1)
+
+
+def _extend(ds, values: np.ndarray) -> None:
+    if len(values):
+        _append(ds, values, len(values))
+
+
+class HDF5Writer(Writer):
+    """Element states, diagnostics, breaks, scene text and plugin versions in one HDF5 file,
+    written so that no fault corrupts it (module docstring)."""
+
+    name = "hdf5"
+    params = {
+        "compression": Param("none", "", "compression of the per-snapshot datasets (gzip, lzf: "
+                             "smaller files, slower writes)", type=str,
+                             choices=("gzip", "lzf", "none")),
+    }
+
+    # -------------------------------------------------------------- opening
+    def open(self, ctx) -> None:
+        import h5py
+
+        self.target = Path(self.path)
+        # a second run() of the same simulation continues the file this writer made
+        again = getattr(self, "_ino", None)
+        self._again = again is not None and self.target.exists() and (
+            self.target.stat().st_ino == again)
+        self.partial = partial_path(self.target)
+        self.replace = self.target.exists()  # the engine allowed it (--overwrite or restart)
+        self.published = False
+        self.lock = None
+        self.f = None
+        self.comp = None if self.p["compression"] == "none" else self.p["compression"]
+        self._last_state = None  # (step, time) of the last committed snapshot
+        self._last_diag = None
+        self._diag_rows: list[dict] = []  # diagnostics rows kept until the next snapshot
+        try:
+            self.target.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise DataError(f"{self.target}: cannot create its folder: {exc}") from None
+        self._check_space(ctx)
+        swmr = False
+        try:
+            self.f = h5py.File(self.partial, "w", libver="latest")
+            self._layout(ctx)
+            self._copied = self._copy_restart(ctx)
+            swmr = True
+            self.f.swmr_mode = True
+            self.lock = RunLock(self.partial)
+        except (OSError, RuntimeError, ValueError) as exc:
+            # closed (so that HDF5 forgets the file: a later file of this process may get the
+            # same inode) unless the switch to SWMR mode failed, after which HDF5 cannot close
+            self._discard(close=not swmr)
+            what = "disk full" if is_disk_full(exc) else f"cannot create the output file: {exc}"
+            raise DataError(f"{self.target}: {what}; nothing written (an existing file is "
+                            "untouched)") from None
+        if self._copied:  # the file already holds real snapshots
+            self._publish()
+        self._ino = os.stat(self.partial if not self.published else self.target).st_ino
+
+    def _check_space(self, ctx) -> None:
+        """Refuse to start when the disk (or the file-size limit) cannot hold the file with its
+        first snapshot, and warn when it cannot hold the whole run."""
+        import resource
+        import shutil
+        import warnings
+
+        rows = self._state_rows(ctx)
+        row = sum(np.asarray(v).nbytes for v in rows.values()) + 8
+        n_diag = len(ctx.diagnostics())
+        geometry = sum(np.asarray(getattr(ctx.state, k)).nbytes for k in _GEOMETRY)
+        series = n_diag + 8 + sum(np.ndim(v) == 0 for v in rows.values())  # 2 KiB chunks
+        first = 32768 + 2560 * series + 512 * (len(rows) + len(_GEOMETRY)) + geometry + row + len(
+            ctx.scene.text)
+        snaps = ctx.n_steps // max(ctx.snapshot_every, 1) + 2
+        diags = ctx.n_steps // max(ctx.diagnostics_every, 1) + 2
+        whole = first + snaps * row + diags * 8 * n_diag
+        free = shutil.disk_usage(self.target.parent).free
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        if limit != resource.RLIM_INFINITY:
+            free = min(free, limit)
+        if first > free:
+            raise DataError(f"{self.target}: disk full: {free} bytes free (or allowed per file), "
+                            f"the file needs about {first} to hold its first snapshot; nothing "
+                            "written (an existing file is untouched)")
+        if whole > free:
+            warnings.warn(f"{self.target}: the run will write about {whole / 1e6:.3g} MB but only "
+                          f"{free / 1e6:.3g} MB are free; it stops with a message naming the last "
+                          "snapshot on disk if the disk fills", stacklevel=2)
+
+    def _layout(self, ctx) -> None:
+        f = self.f
+        st = ctx.state
+        f.attrs["siku_version"] = __version__
+        f.attrs["layout"] = LAYOUT
+        f.attrs["title"] = ctx.scene.cfg.title
+        f.attrs["scene_file"] = str(ctx.scene.path or "")
+        f.attrs["scene_sha256"] = hashlib.sha256(ctx.scene.text.encode()).hexdigest()
+        f.attrs["dt"] = ctx.dt
+        f.attrs["dt_requested"] = ctx.dt_requested
+        f.attrs["start"] = ctx.start.isoformat() if ctx.start else ""
+        f.attrs["n_steps"] = ctx.n_steps
+        f.attrs["seed"] = ctx.seed
+        f.attrs["n_elements"] = st.n
+        f.attrs["radius"] = ctx.radius
+        f.create_dataset("scene", data=ctx.scene.text)
+        f.create_dataset("run_record", data=json.dumps(ctx.run_record(), default=str))
+        g = f.create_group("plugins")
+        for pkg, ver in ctx.plugin_versions().items():
+            g.attrs[pkg] = ver
+        f.create_dataset("components", data=json.dumps(
+            ctx.component_descriptions(), default=str))
+        geo = f.create_group("geometry")
+        for k in _GEOMETRY:
+            geo.create_dataset(k, data=getattr(st, k))
+        s = f.create_group("states")
+        self.rows = {}
+        for name, row in self._state_rows(ctx, fields=True).items():
+            self.rows[name] = _create(s, name, row, self.comp)
+        self.step_ds = _create(s, "step", np.int64(0), None)
+        self.diag = {}
+        dg = f.create_group("diagnostics")
+        from siku_core.diagnostics import catalogue
+
+        known = catalogue(ctx.registry)
+        for k, v in ctx.diagnostics().items():
+            self.diag[k] = _create(dg, k, np.asarray(v), None)
+            if k in known:
+                self.diag[k].attrs["units"], self.diag[k].attrs["long_name"] = known[k]
+        self.breaks = None
+        if ctx.contacts is not None and ctx.contacts.n_joints:
+            from siku_core.contacts import BREAK_MODES
+
+            b = f.create_group("breaks")
+            for code, name in BREAK_MODES.items():
+                b.attrs[f"mode_{code}"] = name
+            cols = {"time": np.float64(0), "joint": np.int64(0), "i": np.int64(0),
+                    "j": np.int64(0), "lat": np.float64(0), "lon": np.float64(0),
+                    "mode": np.int8(0)}
+            self.breaks = {k: b.create_dataset(k, shape=(0,), maxshape=(None,), dtype=v.dtype,
+                                               chunks=(256,)) for k, v in cols.items()}
+        self._describe(ctx, known)
+
+    def _describe(self, ctx, diagnostics) -> None:
+        """``units`` and ``long_name`` on every dataset (``siku_io.output.layout``), CF flag
+        meanings on the coded ones, and the epoch of the time axes when the scene has a start."""
+        from siku_core.contacts import BREAK_MODES
+        from siku_core.state import FLAG_NAMES
+        from siku_io.output.layout import describe, flag_attrs
+
+        epoch = ctx.start.strftime("%Y-%m-%d %H:%M:%S") if ctx.start else None
+        for path in _leaves(self.f):
+            ds = self.f[path]
+            units, long_name = describe(path, diagnostics)
+            if path.endswith("time") and path.count("/") == 1 and epoch:
+                units = f"seconds since {epoch}"
+            ds.attrs["units"] = units
+            ds.attrs["long_name"] = long_name
+        flags = self.f["geometry/flags"]
+        flags.attrs.update(flag_attrs({v: k for k, v in FLAG_NAMES.items()}, flags.dtype))
+        if self.breaks is not None:
+            self.breaks["mode"].attrs.update(flag_attrs(BREAK_MODES, np.int8))
+
+    def _state_rows(self, ctx, fields: bool = True) -> dict[str, np.ndarray]:
+        """Every per-snapshot dataset's row for the current state, by path in ``/states``."""
+        st = ctx.state
+        lat, lon = latlon_of(st.q)
+        rows = {"time": np.float64(ctx.time), "q": st.q, "V": st.V, "w": st.w,
+                "lat": np.degrees(lat), "lon": np.degrees(lon)}
+        for name, val in ctx.element_fields().items():
+            rows[f"fields/{name}"] = np.asarray(val)
+        for key, arrays in ctx.history().items():
+            for name, arr in arrays.items():
+                rows[f"history/{key}/{name}"] = np.asarray(arr)
+        return rows
+
+    def _copy_restart(self, ctx) -> bool:
+        """Continuing the file a restart read: copy its complete snapshots, the diagnostics up
+        to the restart step and the breaks before it. ``False`` when writing another file."""
+        if self._again:
+            src, step = self.target, ctx.step_index
+        else:
+            src = ctx.restart_path
+            if ctx.restarted_from is None or src is None or not self.target.exists():
+                return False
+            if not os.path.samefile(src, self.target):
+                return False
+            step = ctx.restarted_from
+        with open_results(src) as g:
+            n = n_snapshots(g)
+            s = g["states"]
+            names = {k for k in _leaves(s) if k != "step"}
+            if names != set(self.rows):
+                raise DataError(
+                    f"{self.target}: cannot continue this file in place: its snapshots hold "
+                    f"{', '.join(sorted(names - set(self.rows))) or 'no'} extra and "
+                    f"{', '.join(sorted(set(self.rows) - names)) or 'no'} missing datasets for "
+                    "this scene; write the continued run to another --out")
+            for name, ds in self.rows.items():
+                _extend(ds, s[name][:n])
+            _extend(self.step_ds, s["step"][:n])
+            d = g["diagnostics"]
+            if "step" in d:
+                keep = int(np.searchsorted(d["step"][:d["step"].shape[0]], step, side="right"))
+                for k, ds in self.diag.items():
+                    if k in d:
+                        _extend(ds, d[k][:keep])
+                if keep:
+                    self._last_diag = int(d["step"][keep - 1])
+            if self.breaks is not None and "breaks" in g:
+                b = g["breaks"]
+                t = b["time"][:b["time"].shape[0]]
+                keep = int(np.count_nonzero(t < step * ctx.dt))
+                for k, ds in self.breaks.items():
+                    _extend(ds, b[k][:keep])
+        self._last_state = (step, step * ctx.dt)
+        return True
+
+    # -------------------------------------------------------------- writing
+    def write_state(self, ctx) -> None:
+        if self._last_state is not None and self._last_state[0] == ctx.step_index:
+            return
+        data = [(self.rows[k], v) for k, v in self._state_rows(ctx).items() if k in self.rows]
+        markers = [(self.step_ds, np.int64(ctx.step_index))]
+        ddata, dmarkers = self._diagnostics_upto(ctx.step_index)
+        data += ddata
+        markers = dmarkers + markers
+        cm = ctx.contacts
+        if self.breaks is not None and cm is not None:
+            rows = cm.take_breaks()
+            data += [(self.breaks[k], v) for k, v in rows.items() if k != "time"]
+            markers.insert(0, (self.breaks["time"], rows["time"]))
+        self._commit(data, markers, f"the snapshot at step {ctx.step_index}")
+        self._last_state = (ctx.step_index, ctx.time)
+        if not self.published:
+            self._publish()
+
+    def write_diagnostics(self, ctx, diag: Mapping[str, Any]) -> None:
+        """Keep one row of diagnostics; the rows go to the file with the next snapshot (one
+        write per series instead of one per row), so the file's diagnostics end where its
+        snapshots end."""
+        if self._last_diag == diag["step"]:
+            return
+        self._diag_rows.append({k: v for k, v in diag.items() if k in self.diag})
+        self._last_diag = diag["step"]
+
+    def _diagnostics_upto(self, step: int) -> tuple[list, list]:
+        """The kept diagnostics rows up to ``step`` as (data, markers) of one commit."""
+        rows = [r for r in self._diag_rows if r["step"] <= step]
+        self._diag_rows = [r for r in self._diag_rows if r["step"] > step]
+        if not rows:
+            return [], []
+        data = [(ds, np.array([r[k] for r in rows], dtype=ds.dtype))
+                for k, ds in self.diag.items() if k != "step"]
+        return data, [(self.diag["step"], np.array([r["step"] for r in rows], dtype=np.int64))]
+
+    def _commit(self, data, markers, what: str) -> None:
+        """Write the rows ``data`` and flush, then the ``markers`` (the datasets whose length
+        counts complete rows) and flush: a kill in between leaves the rows uncounted."""
+        try:
+            for phase in (data, markers):
+                for ds, v in phase:
+                    if np.ndim(v) == 1 and ds.id.rank == 1:
+                        _extend(ds, v)
+                    else:
+                        _grow(ds, v)
+                self.f.flush()
+        except (OSError, RuntimeError, ValueError) as exc:
+            self._abandon(exc, what)
+
+    def _publish(self) -> None:
+        publish(self.partial, self.target, replace=self.replace)
+        self.published = True
+        fsync_path(self.target)
+        self._ino = self.target.stat().st_ino
+
+    # -------------------------------------------------------------- faults and closing
+    def _seal(self, close: bool = True) -> None:
+        """Stop every further write to the file: HDF5's descriptor now points at ``/dev/null``,
+        so closing the file (which flushes what HDF5 still holds) writes nothing to it and
+        HDF5 closes cleanly."""
+        f = self.f
+        if f is None or not f.id.valid:
+            return
+        try:
+            fd = f.id.get_vfd_handle()
+            null = os.open(os.devnull, os.O_RDWR)
+            os.dup2(null, fd)
+            os.close(null)
+        except (OSError, ValueError, TypeError):
+            pass
+        if close:
+            try:
+                f.close()
+            except Exception:  # noqa: BLE001 - the close is expected to fail on the sealed file
+                pass
+        else:  # HDF5 may be in no state to close it (a failed switch to SWMR mode): keep it
+            _SEALED.append(f)
+        self.f = None
+
+    def _abandon(self, exc: BaseException, what: str) -> None:
+        self._seal()
+        if self.lock is not None:
+            self.lock.release()
+            self.lock = None
+        why = "disk full" if is_disk_full(exc) else f"write failed ({exc})"
+        if not self.published:
+            self._discard()
+            raise DataError(f"{self.target}: {why} while writing {what}; nothing written (an "
+                            "existing file is untouched)") from None
+        try:
+            clear_open_mark(self.target)
+        except (OSError, DataError):
+            pass
+        step, t = self._last_state if self._last_state else (None, None)
+        held = (f"holds complete snapshots to step {step} (t = {t:g} s); continue with "
+                f"--restart {self.target}") if step is not None else "holds no snapshot"
+        raise DataError(f"{self.target}: {why} while writing {what}; the file {held}") from None
+
+    def _discard(self, close: bool = True) -> None:
+        self._seal(close)
+        try:
+            os.unlink(self.partial)
+        except OSError:
+            pass
+
+    def close(self, ctx) -> None:
+        f = getattr(self, "f", None)
+        if f is not None and f.id.valid:
+            try:
+                f.close()
+            except (OSError, RuntimeError) as exc:
+                self._abandon(exc, "the end of the file")
+        self.f = None
+        settle(self)
+
+    # -------------------------------------------------------------- restart
+    @classmethod
+    def read_restart(cls, path, ctx) -> dict:
+        """The last complete snapshot of ``path``: ``step``, ``q``, ``V``, ``w``, every
+        component's ``history``, and the file's ``record`` and ``n_steps`` (the engine puts
+        them into the run: :meth:`siku_core.interfaces.Writer.read_restart`)."""
+        path = Path(path)
+        if not path.is_file():
+            raise DataError(f"{path}: restart file not found")
+        try:
+            last = last_snapshot(path)
+        except OSError as exc:
+            raise DataError(f"{path}: cannot read restart file: {exc}") from None
+        N = last["q"].shape[0]
+        if N != ctx.state.n:
+            raise DataError(f"{path}: restart has {N} elements but the scene builds {ctx.state.n}")
+        return {k: last[k] for k in ("step", "q", "V", "w", "history", "record", "n_steps")}
+
+
+def _leaves(group, prefix: str = "") -> list[str]:
+    out = []
+    for k, v in group.items():
+        if hasattr(v, "items"):
+            out.extend(_leaves(v, f"{prefix}{k}/"))
+        else:
+            out.append(prefix + k)
+    return out
+
+
+@hookimpl
+def siku_register_writers():
+    return [HDF5Writer]

@@ -1,0 +1,416 @@
+"""CF-NetCDF output of element results: ``siku export OUT.h5 --to netcdf`` and the writer
+``[output] writer = "netcdf"``.
+
+Layout of ``siku export`` (CF 1.8, checked with the IOOS ``compliance-checker``): every
+element is a discrete sampling geometry feature of type ``trajectory`` (``element`` is its
+``trajectory_id``) in the multidimensional array representation, sampled at the snapshots:
+
+* dimensions ``element``, ``obs`` (the snapshots), ``node`` (the polygon vertices of all
+  elements, in order);
+* ``time(element, obs)`` (``seconds since`` the scene's start, or 1970-01-01 when it sets none:
+  the ``comment`` says so; the same times for every element), ``lon``/``lat(element, obs)``
+  [degrees] of the centroids;
+* per element and snapshot: ``u``/``v`` (``eastward_sea_ice_velocity``, ``northward_...``) [m/s],
+  ``spin`` [rad/s], every per-element field (``speed``, ``damage``, ``stress_ee`` ... [N/m]);
+* per element: ``area`` [m²], ``thickness`` (``sea_ice_thickness``) [m], ``mass`` [kg],
+  ``flags`` (``flag_values``/``flag_meanings``), ``material``, ``floe``;
+* outlines as CF polygon geometry: the container ``outline`` (``geometry_type = "polygon"``)
+  with ``node_count(element)`` and ``node_lon``/``node_lat(node)``: the polygons at the first
+  time (CF geometry does not vary in time); ``node_lon_t``/``node_lat_t(node, obs)`` hold them
+  at every snapshot.
+
+The writer (a file that grows while the run goes) holds the same variables with the record
+dimension ``time`` first, as the NetCDF-3 format requires: ``time(time)``, ``lon(time,
+element)``... (CF's "incomplete" orientation; ``siku export`` of the run's HDF5 output gives the
+trajectory form above).
+
+The writer writes the NetCDF-3 64-bit-offset format in unbuffered shared mode with fill values
+on: a new record is written ``time`` first (which fills the record's other variables with
+missing values, NaN), then variable by variable, ``step`` last; a kill leaves at most one
+record whose ``step`` is missing, which :func:`complete_records` leaves out and any other
+reader sees as missing values, never as numbers. The file is built beside its target and put
+in place with its first snapshot, as the HDF5 writer's (``docs/explanation/outputs.md``).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from siku_core import DataError, Param, hookimpl
+from siku_core.interfaces import Writer
+
+FILL_INT = np.int32(-2147483647)
+#: per-element data variables: name in the siku dataset -> CF attributes added
+_STANDARD = {
+    "u": {"standard_name": "eastward_sea_ice_velocity"},
+    "v": {"standard_name": "northward_sea_ice_velocity"},
+    "speed": {"standard_name": "sea_ice_speed"},
+}
+_STATIC = {"area": "area", "thickness": "thickness", "mass": "mass",
+           "moment_of_inertia": "moment_of_inertia", "flags": "flags", "material": "material",
+           "floe": "floe"}
+
+
+def cf_time_units(start: str) -> tuple[str, str]:
+    """CF time units and a comment."""
+    if start:
+        stamp = start.replace("T", " ").replace("+00:00", "").replace("Z", "")[:19]
+        return f"seconds since {stamp}", "model time 0 is the scene's start"
+    return ("seconds since 1970-01-01 00:00:00",
+            "model seconds since the start of the run: the scene sets no start date, so "
+            "dates read as 1970-01-01 plus the model time")
+
+
+def global_attrs(src_attrs: dict) -> dict:
+    return {
+        "Conventions": "CF-1.8",
+        "featureType": "trajectory",
+        "title": str(src_attrs.get("title", "")) or "siku run",
+        "institution": "siku users",
+        "source": f"siku {src_attrs.get('siku_version', '')} discrete-element sea-ice model",
+        "history": str(src_attrs.get("source", "siku run")),
+        "references": "siku documentation, docs/reference/output.md",
+        "comment": "each element (an ice polygon) is a trajectory feature",
+        **{f"siku_{k}": (v if isinstance(v, (int, float, str)) else str(v))
+           for k, v in src_attrs.items() if k not in ("source",)},
+    }
+
+
+def cf_dataset(path):
+    """The CF-NetCDF layout (module docstring) of a siku HDF5 output file, as an
+    ``xarray.Dataset`` whose values are exactly those of the file."""
+    import xarray as xr
+
+    from siku_io.output.xr import open_output
+
+    src = open_output(path, decode_times=False)
+    units, comment = cf_time_units(str(src.attrs.get("start", "")))
+    E, T = "element", "obs"
+    src = src.rename({"time": "obs"})
+    n = src.sizes[E]
+    coords = {
+        "time": xr.Variable((E, T), np.broadcast_to(src["obs"].values, (n, src.sizes[T])), {
+            "standard_name": "time", "long_name": "time of the snapshot", "units": units,
+            "calendar": "proleptic_gregorian", "axis": "T", "comment": comment}),
+        "lon": xr.Variable((E, T), src["lon"].values.T, {
+            "standard_name": "longitude", "units": "degrees_east",
+            "long_name": "longitude of the element centroid"}),
+        "lat": xr.Variable((E, T), src["lat"].values.T, {
+            "standard_name": "latitude", "units": "degrees_north",
+            "long_name": "latitude of the element centroid"}),
+    }
+    data = {
+        "element": xr.Variable(E, np.arange(src.sizes[E], dtype=np.int32), {
+            "cf_role": "trajectory_id", "long_name": "element index"}),
+        "step": xr.Variable(T, src["step"].values.astype(np.int32), {
+            "long_name": "step index of the snapshot", "units": "1",
+            "_FillValue": FILL_INT}),
+    }
+    per = ["u", "v", "spin"] + [k for k in src.data_vars if src[k].dims == (T, E)
+                                and k not in ("u", "v", "spin")]
+    for k in per:
+        a = dict(src[k].attrs)
+        a.update(_STANDARD.get(k, {}))
+        a["coordinates"] = "time lat lon"
+        a["geometry"] = "outline"
+        data[k] = xr.Variable((E, T), src[k].values.T, a)
+    for k, name in _STATIC.items():
+        v = src[k]
+        a = dict(v.attrs)
+        if k == "thickness":
+            a["standard_name"] = "sea_ice_thickness"
+        vals = v.values.astype(np.int32) if v.dtype.kind == "i" else v.values
+        if "flag_values" in a:
+            a["flag_values"] = np.asarray(a["flag_values"], dtype=vals.dtype)
+        data[name] = xr.Variable(E, vals, a)
+    data["outline"] = xr.Variable((), np.int32(0), {
+        "geometry_type": "polygon", "node_count": "node_count",
+        "node_coordinates": "node_lon node_lat",
+        "long_name": "element outlines at the first time"})
+    data["node_count"] = xr.Variable(E, src["node_count"].values.astype(np.int32), {
+        "long_name": "number of vertices of each element's polygon"})
+    n0 = 0 if src.sizes[T] else None
+    nl = src["node_lon"].values
+    nt = src["node_lat"].values
+    data["node_lon"] = xr.Variable("node", nl[n0] if n0 is not None else nl[:0, 0], {
+        "units": "degrees_east", "standard_name": "longitude", "axis": "X",
+        "long_name": "longitude of the polygon vertices at the first time"})
+    data["node_lat"] = xr.Variable("node", nt[n0] if n0 is not None else nt[:0, 0], {
+        "units": "degrees_north", "standard_name": "latitude", "axis": "Y",
+        "long_name": "latitude of the polygon vertices at the first time"})
+    data["node_lon_t"] = xr.Variable(("node", T), nl.T, {
+        "units": "degrees_east", "long_name": "longitude of the polygon vertices"})
+    data["node_lat_t"] = xr.Variable(("node", T), nt.T, {
+        "units": "degrees_north", "long_name": "latitude of the polygon vertices"})
+    out = xr.Dataset(data, coords, global_attrs(src.attrs))
+    out = out.drop_vars("obs", errors="ignore")
+    out.attrs["siku_plugins"] = src.attrs.get("plugins", "{}")
+    return out
+
+
+def export(path, target=None, overwrite: bool = False) -> Path:
+    """Write the CF-NetCDF form of a siku HDF5 output file (default: beside it, ``.nc``)."""
+    path = Path(path)
+    target = Path(target) if target else path.with_suffix(".nc")
+    if target.resolve() == path.resolve():
+        raise DataError(f"{target}: the export would overwrite its input; choose another --out")
+    return write_netcdf(cf_dataset(path), target, overwrite=overwrite)
+
+
+def write_netcdf(ds, target: Path, overwrite: bool = False) -> Path:
+    """Write a dataset to ``target`` as NetCDF-4, built beside it and put in place atomically;
+    an existing file is replaced only with ``overwrite``."""
+    from siku_core.outputs import fsync_path, partial_path, publish
+
+    target = Path(target)
+    if target.exists() and not overwrite:
+        raise DataError(f"{target}: exists; choose another --out, or pass --overwrite")
+    part = partial_path(target)
+    enc = {}
+    for k, v in ds.variables.items():
+        if np.issubdtype(v.dtype, np.floating):
+            enc[k] = {"_FillValue": np.nan if k not in ds.coords else None}
+        if k == "time" and np.issubdtype(v.dtype, np.datetime64):
+            start = str(ds.attrs.get("start", ""))[:19].replace("T", " ") or "1970-01-01"
+            enc[k] = {"units": f"seconds since {start}", "calendar": "proleptic_gregorian",
+                      "dtype": "float64"}
+    try:
+        ds.to_netcdf(part, format="NETCDF4", engine="netcdf4", encoding=enc)
+        publish(part, target, replace=overwrite)
+    except OSError as exc:
+        try:
+            part.unlink()
+        except OSError:
+            pass
+        raise DataError(f"{target}: cannot write: {exc}") from None
+    fsync_path(target)
+    return target
+
+
+def complete_records(path) -> int:
+    """Complete snapshots of a NetCDF file the writer made: the records before the first whose
+    ``step`` is missing."""
+    import netCDF4
+
+    with netCDF4.Dataset(path) as nc:
+        step = np.ma.getmaskarray(nc["step"][:])
+        return int(np.argmax(step)) if step.any() else len(step)
+
+
+class NetCDFWriter(Writer):
+    """Element states as CF-NetCDF (``siku_io.output.netcdf``), written so that a kill leaves a file
+    that opens and holds only real data (or values marked missing)."""
+
+    name = "netcdf"
+    params = {
+        "outlines": Param(True, "", "write the polygon outlines at every snapshot "
+                          "(node_lon_t, node_lat_t)", type=bool),
+    }
+
+    def open(self, ctx) -> None:
+        import netCDF4
+
+        from siku_core.outputs import RunLock, partial_path
+
+        self.target = Path(self.path)
+        self.partial = partial_path(self.target)
+        self.replace = self.target.exists()
+        self.published = False
+        self.lock = None
+        self.nc = None
+        self.t = 0
+        self._last = None
+        try:
+            self.target.parent.mkdir(parents=True, exist_ok=True)
+            self.nc = netCDF4.Dataset(self.partial, "ws", format="NETCDF3_64BIT_OFFSET")
+            self.nc.set_fill_on()
+            self._define(ctx)
+            self.nc.sync()
+            self.lock = RunLock(self.partial)
+        except (OSError, RuntimeError, ValueError) as exc:
+            self._discard()
+            raise DataError(f"{self.target}: cannot create the output file: {exc}; nothing "
+                            "written (an existing file is untouched)") from None
+
+    def _define(self, ctx) -> None:
+        from siku_core.state import FLAG_NAMES
+        from siku_io.output.element_geometry import polygons_lonlat
+        from siku_io.output.layout import ELEMENT_FIELDS, describe
+
+        nc, st = self.nc, ctx.state
+        start = ctx.start.isoformat() if ctx.start else ""
+        from siku_core import __version__
+
+        attrs = {"siku_version": __version__, "title": ctx.scene.cfg.title, "start": start,
+                 "dt": ctx.dt,
+                 "dt_requested": ctx.dt_requested, "seed": ctx.seed,
+                 "radius": ctx.radius, "n_elements": st.n,
+                 "n_steps": ctx.n_steps}
+        attrs["source"] = f"siku {__version__} run of {ctx.scene.path or 'a scene'}"
+        g = global_attrs(attrs)
+        g["siku_scene"] = ctx.scene.text
+        g["siku_plugins"] = json.dumps(ctx.plugin_versions())
+        nc.setncatts(g)
+        N = st.n
+        nodes = len(st.verts)
+        nc.createDimension("element", N)
+        nc.createDimension("time", None)
+        nc.createDimension("node", nodes)
+        units, comment = cf_time_units(start)
+        v = nc.createVariable("time", "f8", ("time",), fill_value=False)
+        v.setncatts({"standard_name": "time", "long_name": "time of the snapshot",
+                     "units": units, "calendar": "proleptic_gregorian", "axis": "T",
+                     "comment": comment})
+        v = nc.createVariable("step", "i4", ("time",), fill_value=FILL_INT)
+        v.setncatts({"long_name": "step index of the snapshot; missing: an incomplete record",
+                     "units": "1"})
+        v = nc.createVariable("element", "i4", ("element",))
+        v.setncatts({"cf_role": "trajectory_id", "long_name": "element index"})
+        v[:] = np.arange(N, dtype=np.int32)
+        self.fields = list(ctx.element_fields())
+        per = {"lon": ("degrees_east", "longitude", "longitude of the element centroid"),
+               "lat": ("degrees_north", "latitude", "latitude of the element centroid"),
+               "u": ("m s-1", "eastward_sea_ice_velocity", "eastward velocity of the centroid"),
+               "v": ("m s-1", "northward_sea_ice_velocity",
+                     "northward velocity of the centroid"),
+               "spin": ("rad s-1", "", "spin about the local vertical")}
+        for k in self.fields:
+            u, ln = ELEMENT_FIELDS.get(k, ("1", f"per-element field '{k}'"))
+            per[k] = (u, _STANDARD.get(k, {}).get("standard_name", ""), ln)
+        # record variables are (time, element): a record is one contiguous block per variable
+        for k, (u, std, ln) in per.items():
+            v = nc.createVariable(k, "f8", ("time", "element"), fill_value=np.nan)
+            v.setncatts({"units": u, "long_name": ln, **({"standard_name": std} if std else {})})
+            if k not in ("lon", "lat"):
+                v.setncatts({"coordinates": "time lat lon", "geometry": "outline"})
+        geo = {"area": (st.area, "m2", "element area"),
+               "thickness": (st.thickness, "m", "element thickness"),
+               "mass": (st.m, "kg", "element mass"),
+               "moment_of_inertia": (st.I, "kg m2", "polar moment of inertia about the "
+                                     "centroid")}
+        for k, (val, u, ln) in geo.items():
+            v = nc.createVariable(k, "f8", ("element",))
+            v.setncatts({"units": u, "long_name": ln})
+            if k == "thickness":
+                v.standard_name = "sea_ice_thickness"
+            v[:] = val
+        for k, val in (("flags", st.flags), ("material", st.material), ("floe", st.floe)):
+            v = nc.createVariable(k, "i4", ("element",))
+            units, ln = describe(f"geometry/{k}")
+            v.setncatts({"units": units, "long_name": ln})
+            if k == "flags":
+                codes = sorted(FLAG_NAMES.values())
+                names = {c: n for n, c in FLAG_NAMES.items()}
+                v.flag_values = np.array(codes, dtype=np.int32)
+                v.flag_meanings = " ".join(names[c] for c in codes)
+            v[:] = np.asarray(val).astype(np.int32)
+        v = nc.createVariable("outline", "i4", ())
+        v.setncatts({"geometry_type": "polygon", "node_count": "node_count",
+                     "node_coordinates": "node_lon node_lat",
+                     "long_name": "element outlines at the first time"})
+        v = nc.createVariable("node_count", "i4", ("element",))
+        v.long_name = "number of vertices of each element's polygon"
+        v[:] = np.diff(st.vert_offsets).astype(np.int32)
+        ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, ctx.radius)
+        flat = np.concatenate(ll) if ll else np.zeros((0, 2))
+        for k, col, u, std, ax in (("node_lon", 0, "degrees_east", "longitude", "X"),
+                                   ("node_lat", 1, "degrees_north", "latitude", "Y")):
+            v = nc.createVariable(k, "f8", ("node",))
+            v.setncatts({"units": u, "standard_name": std, "axis": ax,
+                         "long_name": f"{std} of the polygon vertices at the first time"})
+            v[:] = flat[:, col]
+        if self.p["outlines"]:
+            for k, u, ln in (("node_lon_t", "degrees_east", "longitude"),
+                             ("node_lat_t", "degrees_north", "latitude")):
+                v = nc.createVariable(k, "f8", ("time", "node"), fill_value=np.nan)
+                v.setncatts({"units": u, "long_name": f"{ln} of the polygon vertices"})
+
+    def write_state(self, ctx) -> None:
+        from siku_core.geometry.quat import latlon_of
+        from siku_io.output.element_geometry import east_north, polygons_lonlat
+
+        if self._last == ctx.step_index or self.nc is None:
+            return
+        st = ctx.state
+        t = self.t
+        lat, lon = latlon_of(st.q)
+        u, v = east_north(st.q, st.V)
+        rows = {"lon": np.degrees(lon), "lat": np.degrees(lat), "u": u, "v": v, "spin": st.w}
+        rows.update({k: np.asarray(a, float) for k, a in ctx.element_fields().items()
+                     if k in self.fields})
+        if self.p["outlines"]:
+            ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, ctx.radius)
+            flat = np.concatenate(ll) if ll else np.zeros((0, 2))
+            rows["node_lon_t"], rows["node_lat_t"] = flat[:, 0], flat[:, 1]
+        try:
+            # time first (it grows the record: the other variables get missing values), step
+            # last: a kill in between leaves a record with its time and missing values
+            self.nc["time"][t] = ctx.time
+            for k, a in rows.items():
+                self.nc[k][t] = a
+            self.nc.sync()
+            self.nc["step"][t] = np.int32(ctx.step_index)
+            self.nc.sync()
+        except (OSError, RuntimeError) as exc:
+            self._fail(exc, ctx)
+        self.t += 1
+        self._last = ctx.step_index
+        if not self.published:
+            from siku_core.outputs import publish
+
+            publish(self.partial, self.target, replace=self.replace)
+            self.published = True
+
+    def write_diagnostics(self, ctx, diag) -> None:
+        """Diagnostics are not part of this layout (the HDF5 writer keeps them)."""
+
+    def _fail(self, exc, ctx):
+        from siku_core.outputs import is_disk_full
+
+        why = "disk full" if is_disk_full(exc) else f"write failed ({exc})"
+        try:
+            self.nc.close()
+        except Exception:  # noqa: BLE001 - the file is given up
+            pass
+        self.nc = None
+        if not self.published:
+            self._discard()
+            raise DataError(f"{self.target}: {why}; nothing written (an existing file is "
+                            "untouched)") from None
+        raise DataError(f"{self.target}: {why} at step {ctx.step_index}; the file holds "
+                        f"{self.t} complete snapshots") from None
+
+    def _discard(self) -> None:
+        if self.nc is not None:
+            try:
+                self.nc.close()
+            except Exception:  # noqa: BLE001
+                pass
+            self.nc = None
+        try:
+            self.partial.unlink()
+        except OSError:
+            pass
+
+    def close(self, ctx) -> None:
+        from siku_core.outputs import settle
+
+        if getattr(self, "nc", None) is not None:
+            try:
+                self.nc.close()
+            except (OSError, RuntimeError):
+                pass
+            self.nc = None
+        settle(self)
+
+    @classmethod
+    def read_restart(cls, path, ctx) -> dict:
+        raise DataError(f"{path}: a restart reads an HDF5 output ([output] writer = \"hdf5\"); "
+                        "the NetCDF writer keeps no component history")
+
+
+@hookimpl
+def siku_register_writers():
+    return [NetCDFWriter]

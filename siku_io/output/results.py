@@ -1,0 +1,205 @@
+"""Reading siku's HDF5 output files: the complete snapshots only, and files a killed run left.
+
+The number of complete snapshots is the length of ``/states/step`` (``siku_io.output.hdf5`` says how
+the writer keeps it so); a killed writer leaves HDF5's "open for writing" mark, which
+:func:`open_results` clears (as ``h5clear -s`` does) when no process holds the file.
+"""
+from __future__ import annotations
+
+import json
+import os
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from siku_core import DataError
+from siku_core.geometry.sphere import lonlat_to_xyz
+from siku_core.outputs import in_use
+
+#: the file layout this version writes and reads (``siku_io.output.hdf5``)
+LAYOUT = 2
+_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def _lookup3(data: bytes) -> int:
+    """Bob Jenkins' lookup3 ``hashlittle`` with initial value 0: the checksum of HDF5 metadata
+    (HDF5 file format specification, "Checksum")."""
+    m = 0xFFFFFFFF
+
+    def rot(x: int, k: int) -> int:
+        return ((x << k) | (x >> (32 - k))) & m
+
+    n = len(data)
+    a = b = c = (0xDEADBEEF + n) & m
+    i = 0
+    while n > 12:
+        a = (a + int.from_bytes(data[i:i + 4], "little")) & m
+        b = (b + int.from_bytes(data[i + 4:i + 8], "little")) & m
+        c = (c + int.from_bytes(data[i + 8:i + 12], "little")) & m
+        a = (a - c) & m; a ^= rot(c, 4); c = (c + b) & m
+        b = (b - a) & m; b ^= rot(a, 6); a = (a + c) & m
+        c = (c - b) & m; c ^= rot(b, 8); b = (b + a) & m
+        a = (a - c) & m; a ^= rot(c, 16); c = (c + b) & m
+        b = (b - a) & m; b ^= rot(a, 19); a = (a + c) & m
+        c = (c - b) & m; c ^= rot(b, 4); b = (b + a) & m
+        n -= 12
+        i += 12
+    if n == 0:
+        return c
+    tail = data[i:i + n] + bytes(12 - n)
+    a = (a + int.from_bytes(tail[0:4], "little")) & m
+    b = (b + int.from_bytes(tail[4:8], "little")) & m
+    c = (c + int.from_bytes(tail[8:12], "little")) & m
+    c ^= b; c = (c - rot(b, 14)) & m
+    a ^= c; a = (a - rot(c, 11)) & m
+    b ^= a; b = (b - rot(a, 25)) & m
+    c ^= b; c = (c - rot(b, 16)) & m
+    a ^= c; a = (a - rot(c, 4)) & m
+    b ^= a; b = (b - rot(a, 14)) & m
+    c ^= b; c = (c - rot(b, 24)) & m
+    return c
+
+
+def clear_open_mark(path: str | Path) -> bool:
+    """Clear the "open for writing" flags a killed writer leaves in the superblock of an HDF5
+    file (format version 2 or 3 superblock at offset 0), as ``h5clear -s`` does; ``False`` if
+    there was nothing to clear. Refused while another process holds the file."""
+    import fcntl
+
+    path = Path(path)
+    fd = os.open(path, os.O_RDWR)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise DataError(f"{path}: is being written by another process") from None
+        head = os.pread(fd, 48, 0)
+        if len(head) < 48 or head[:8] != _SIGNATURE or head[8] not in (2, 3) or head[9] != 8:
+            raise DataError(f"{path}: not an HDF5 file with a version 2/3 superblock")
+        if struct.unpack("<I", head[44:48])[0] != _lookup3(head[:44]):
+            raise DataError(f"{path}: corrupt HDF5 superblock (checksum)")
+        if head[11] == 0 and os.fstat(fd).st_size >= struct.unpack("<Q", head[28:36])[0]:
+            return False
+        eof = struct.unpack("<Q", head[28:36])[0]
+        size = os.fstat(fd).st_size
+        new = bytearray(head)
+        if size < eof:  # a block HDF5 allotted but could not write (full disk): nothing
+            new[28:36] = struct.pack("<Q", size)  # written refers to it, so end the file here
+        new[11] = 0
+        new[44:48] = struct.pack("<I", _lookup3(bytes(new[:44])))
+        os.pwrite(fd, bytes(new), 0)
+        os.fsync(fd)
+        return True
+    finally:
+        os.close(fd)
+
+
+def open_results(path: str | Path):
+    """Open a siku HDF5 output file for reading (an ``h5py.File``).
+
+    A file a killed run left behind is opened after :func:`clear_open_mark`; a file a run is
+    still writing is opened in SWMR read mode. Use :func:`n_snapshots` for the number of
+    complete snapshots."""
+    import h5py
+
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path}: output file not found")
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        if "already open for write" not in str(exc):
+            raise DataError(f"{path}: not a readable HDF5 file: {exc}") from None
+    try:
+        if in_use(path):
+            return h5py.File(path, "r", swmr=True)
+        clear_open_mark(path)
+        return h5py.File(path, "r")
+    except OSError as exc:
+        raise DataError(f"{path}: not a readable HDF5 file: {exc}") from None
+
+
+def n_snapshots(f) -> int:
+    """Number of complete snapshots in an open output file: the length of ``/states/step``."""
+    return int(f["states/step"].shape[0]) if "states" in f and "step" in f["states"] else 0
+
+
+def check_layout(f, path: Path) -> None:
+    if "states" not in f or "step" not in f["states"]:
+        raise DataError(f"{path}: no element states (is it a siku output file?)")
+    if int(f.attrs.get("layout", 1)) != LAYOUT:
+        raise DataError(f"{path}: written by an older siku (file layout "
+                        f"{int(f.attrs.get('layout', 1))}, this version reads {LAYOUT}); rerun "
+                        "the scene to restart from it")
+
+
+def last_snapshot(path: str | Path) -> dict[str, Any]:
+    """The last complete snapshot of an output file, what a restart reads: ``step``, ``time``
+    [s], ``q``, ``V`` [m/s], ``w`` [rad/s], ``history`` (``{component: {name: array}}``), and
+    the file's ``record`` (run record) and ``n_steps``."""
+    path = Path(path)
+    with open_results(path) as f:
+        check_layout(f, path)
+        n = n_snapshots(f)
+        if n == 0:
+            raise DataError(f"{path}: holds no complete snapshot to restart from")
+        s = f["states"]
+        out: dict[str, Any] = {k: s[k][n - 1] for k in ("q", "V", "w")}
+        out["step"] = int(s["step"][n - 1])
+        out["time"] = float(s["time"][n - 1])
+        out["history"] = {key: {name: ds[n - 1] for name, ds in g.items()}
+                          for key, g in s["history"].items()} if "history" in s else {}
+        out["record"] = json.loads(f["run_record"][()])
+        out["n_steps"] = int(f.attrs["n_steps"])
+        return out
+
+
+def run_progress(path: str | Path) -> dict[str, Any]:
+    """How far the run in an output file got: ``step`` (of its last complete snapshot; -1 with
+    none), ``n_steps`` (the steps its scene asks for), ``complete`` (``step == n_steps``) and
+    ``scene_sha256`` (of the scene text the file records)."""
+    path = Path(path)
+    with open_results(path) as f:
+        check_layout(f, path)
+        n = n_snapshots(f)
+        step = int(f["states/step"][n - 1]) if n else -1
+        n_steps = int(f.attrs["n_steps"])
+        return {"step": step, "n_steps": n_steps, "complete": step == n_steps,
+                "scene_sha256": str(f.attrs.get("scene_sha256", ""))}
+
+
+def read_diagnostics(path: str | Path) -> dict[str, tuple[np.ndarray, str]]:
+    """The complete rows of every diagnostic series of an output file: name -> (values, unit)
+    (``time`` [s] and ``step`` included)."""
+    path = Path(path)
+    with open_results(path) as f:
+        check_layout(f, path)
+        g = f["diagnostics"]
+        n = int(g["step"].shape[0])
+        return {k: (ds[:n], str(ds.attrs.get("units", "1" if k == "step" else
+                                             "s" if k == "time" else "")))
+                for k, ds in g.items()}
+
+
+def snapshot_drift(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """``(time [s], mean drift [m])`` at every complete snapshot: the mean great-circle
+    distance of the free elements from where they were at the file's first snapshot."""
+    path = Path(path)
+    with open_results(path) as f:
+        check_layout(f, path)
+        n = n_snapshots(f)
+        s = f["states"]
+        time = s["time"][:n]
+        free = f["geometry/flags"][:] == 0
+        radius = float(f.attrs["radius"])
+        lat, lon = s["lat"][:n][:, free], s["lon"][:n][:, free]
+    if n == 0 or not free.any():
+        return time, np.zeros(n)
+    p = lonlat_to_xyz(lon, lat)
+    x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    dot = x * x[0] + y * y[0] + z * z[0]
+    cross = np.sqrt((y * z[0] - z * y[0]) ** 2 + (z * x[0] - x * z[0]) ** 2
+                    + (x * y[0] - y * x[0]) ** 2)
+    return time, radius * np.arctan2(cross, dot).mean(axis=1)

@@ -1,0 +1,182 @@
+"""Maps and animations of siku output files (matplotlib + cartopy projections).
+
+Elements are drawn as their polygons, coloured by a per-element field written by the HDF5
+writer (``/states/fields/NAME``: ``speed`` [m/s], ``damage`` [1] = share of an element's
+joints that have broken); static elements (coast, landfast ice) are grey. Polar regions use a
+polar stereographic projection. Maps carry a labelled graticule, a scale bar, a legend and the
+date; land from the GSHHG shorelines is drawn for scenes that have a coast
+(:mod:`siku_io.plot.mapdeco`; nothing is downloaded).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from siku_core import DataError
+from siku_core.state import STATIC
+from siku_io.output.element_geometry import polygons_lonlat
+
+#: units on the colour bar, worded for a reader (the file's UDUNITS: ELEMENT_FIELDS)
+COLORBAR_UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)", "stress_ee": "N/m",
+                  "stress_nn": "N/m", "stress_en": "N/m"}
+
+
+class Output:
+    """Read-only view of an output file for plotting."""
+
+    def __init__(self, path: str | Path):
+        from siku_io.output.results import n_snapshots, open_results
+
+        self.path = Path(path)
+        with open_results(self.path) as f:
+            if "states" not in f or "q" not in f["states"]:
+                raise DataError(f"{self.path}: no element states (is it a siku output file?)")
+            n = n_snapshots(f)  # complete snapshots only (a killed run may leave one more row)
+            self.title = str(f.attrs.get("title", ""))
+            self.radius = float(f.attrs["radius"])
+            self.start = str(f.attrs.get("start", ""))
+            geo = f["geometry"]
+            self.offsets = geo["vert_offsets"][...]
+            self.verts = geo["verts"][...]
+            self.flags = geo["flags"][...]
+            self.time = f["states/time"][:n]
+            self.q = f["states/q"][:n]
+            self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()}
+            scene = f["scene"][()] if "scene" in f else b""
+        from siku_io.plot.mapdeco import scene_has_coast
+
+        #: whether the run's scene has a coast (a mesh against land data): land is drawn
+        self.has_coast = scene_has_coast(scene.decode() if isinstance(scene, bytes) else scene)
+
+    def field(self, name: str) -> np.ndarray:
+        if name not in self.fields:
+            raise DataError(
+                f"{self.path}: no field '{name}'; available: {', '.join(sorted(self.fields))}"
+            )
+        return self.fields[name]
+
+
+def _projection(lat_mean: float, lon_mean: float):
+    from siku_io.plot.mapdeco import projection
+
+    return projection(lat_mean, lon_mean)
+
+
+def _levels(vmax: float, field: str) -> np.ndarray:
+    """Colour levels: tenths for damage, about ten round steps up to ``vmax`` otherwise."""
+    if field == "damage":
+        return np.linspace(0.0, 1.0, 11)
+    from siku_io.plot.mapdeco import _nice
+
+    step = _nice(vmax / 10.0) if vmax > 0 else 0.1
+    return np.arange(0.0, vmax + step * 1.0001, step)
+
+
+class MapPainter:
+    """Draws one snapshot of an output file; reused for animation frames."""
+
+    def __init__(self, out: Output, field: str = "damage", vmax: float | None = None,
+                 land: bool | None = None):
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from matplotlib.collections import PolyCollection
+        from matplotlib.colors import BoundaryNorm
+
+        from . import mapdeco
+
+        self.out = out
+        self.field_name = field
+        self.values = out.field(field)
+        allv = np.concatenate([
+            np.concatenate(polygons_lonlat(out.q[k], out.offsets, out.verts, out.radius))
+            for k in sorted({0, len(out.time) // 2, len(out.time) - 1})
+        ])
+        lon_ref = float(allv[0, 0])
+        lonw = (allv[:, 0] - lon_ref + 180) % 360 - 180 + lon_ref
+        lat_mean = float(allv[:, 1].mean())
+        self.proj = mapdeco.projection(lat_mean, float(lonw.mean()))
+        self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
+        self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
+        self.ax.set_facecolor(mapdeco.OCEAN)
+        self.box = mapdeco.frame_for(self.ax, self.proj, lonw, allv[:, 1])
+        self.land = out.has_coast if land is None else land
+        self.land_level = (mapdeco.draw_land(self.ax, self.proj, self.box) if self.land
+                           else None)
+        mapdeco.graticule(self.ax)
+        mapdeco.scale_bar(self.ax, self.proj, self.box, out.radius)
+        self.static = out.flags == STATIC
+        mapdeco.legend(self.ax, land=self.land_level is not None, static=bool(self.static.any()))
+        vmax = vmax if vmax is not None else (1.0 if field == "damage" else
+                                              float(np.nanmax(self.values)) or 1.0)
+        levels = _levels(vmax, field)
+        cmap = matplotlib.colormaps["viridis" if field != "damage" else "magma_r"]
+        cmap = cmap.resampled(len(levels) - 1).with_extremes(bad=mapdeco.STATIC_GREY)
+        self.coll = PolyCollection([], cmap=cmap, norm=BoundaryNorm(levels, len(levels) - 1),
+                                   edgecolors="0.25", linewidths=0.15, zorder=2)
+        self.ax.add_collection(self.coll)
+        cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.8, pad=0.03, ticks=levels[::2])
+        cb.set_label(f"{field} [{COLORBAR_UNITS.get(field, '')}]")
+
+    def draw(self, index: int) -> None:
+        import cartopy.crs as ccrs
+
+        from siku_io.plot.mapdeco import when
+
+        out = self.out
+        polys = polygons_lonlat(out.q[index], out.offsets, out.verts, out.radius)
+        allv = np.concatenate(polys)
+        xy = self.proj.transform_points(ccrs.PlateCarree(), allv[:, 0], allv[:, 1])[:, :2]
+        segs = [xy[out.offsets[i]:out.offsets[i + 1]] for i in range(len(polys))]
+        self.coll.set_verts(segs)
+        vals = np.ma.masked_array(self.values[index], mask=self.static)
+        self.coll.set_array(vals)
+        self.ax.set_title(f"{out.title or out.path.name}\n"
+                          f"{when(out.start, float(out.time[index]))}", fontsize=10)
+
+
+def draw_map(path: str | Path, out_png: str | Path, index: int = -1,
+             field: str = "damage") -> Path:
+    """Write a PNG map of snapshot ``index`` coloured by ``field``."""
+    out = Output(path)
+    painter = MapPainter(out, field)
+    painter.draw(index if index >= 0 else len(out.time) + index)
+    out_png = Path(out_png)
+    painter.fig.savefig(out_png, bbox_inches="tight")
+    import matplotlib.pyplot as plt
+
+    plt.close(painter.fig)
+    return out_png
+
+
+def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: int = 6) -> Path:
+    """Write a GIF animation of every snapshot coloured by ``field`` (tight frames)."""
+    import matplotlib.pyplot as plt
+
+    from siku_io.plot.mapdeco import save_gif
+
+    out = Output(path)
+    painter = MapPainter(out, field)
+    try:
+        return save_gif(painter.fig, painter.draw, len(out.time), Path(out_gif), fps)
+    finally:
+        plt.close(painter.fig)
+
+
+def plot_all(path: str | Path, out_dir: str | Path | None = None, field: str | None = None,
+             animation: bool = True) -> list[Path]:
+    """Maps of the first and last snapshots and an animation; returns the files written."""
+    path = Path(path)
+    out_dir = Path(out_dir) if out_dir else path.parent
+    out_dir.mkdir(parents=True, exist_ok=True)
+    out = Output(path)
+    if field is None:
+        field = "damage" if "damage" in out.fields else "speed"
+    stem = path.stem
+    files = [draw_map(path, out_dir / f"{stem}_{field}_first.png", 0, field),
+             draw_map(path, out_dir / f"{stem}_{field}_last.png", -1, field)]
+    if animation:
+        files.append(animate(path, out_dir / f"{stem}_{field}.gif", field))
+    return files

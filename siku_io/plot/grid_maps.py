@@ -1,0 +1,175 @@
+"""Maps of gridded fields (``siku grid`` files): ``siku plot RUN.grid.nc --field NAME``.
+
+Each map shows one field of one time on the cells (their true outlines: lon/lat or polar
+stereographic; cells without ice are left blank), with a colourbar in the field's units, land
+from the GSHHG shorelines where the run's scene has a coast, graticule, scale bar, and the
+leads found at that time (``siku_io.analysis.leads``) drawn end to end: from the deformation in
+black, from broken joints in red.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from siku_core import DataError
+
+#: fields drawn on a scale symmetric about zero
+SIGNED = {"u", "v", "divergence", "vorticity", "stress_xx", "stress_yy", "stress_xy",
+          "stress_1", "stress_2", "stress_I"}
+
+
+def is_grid_file(path) -> bool:
+    """Whether ``path`` is a NetCDF file ``siku grid`` wrote."""
+    path = Path(path)
+    if path.suffix != ".nc" or not path.is_file():
+        return False
+    import netCDF4
+
+    try:
+        with netCDF4.Dataset(path) as nc:
+            return "grid" in nc.ncattrs()
+    except OSError:
+        return False
+
+
+def _open(path):
+    import xarray as xr
+
+    from siku_io.analysis.regular_grid import Grid, GridCfg
+
+    try:
+        ds = xr.open_dataset(path)
+    except (OSError, ValueError) as exc:
+        raise DataError(f"{path}: not a readable NetCDF file: {exc}") from None
+    cfg = GridCfg(**json.loads(ds.attrs["grid"]))
+    return ds, Grid(cfg, float(ds.attrs["earth_radius"]))
+
+
+class GridPainter:
+    """Draws one field of a gridded file at one time; reused for animation frames."""
+
+    def __init__(self, path, field: str):
+        import cartopy.crs as ccrs
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from . import mapdeco
+
+        self.path = Path(path)
+        self.ds, self.grid = _open(path)
+        if field not in self.ds or self.ds[field].dims[0] != "time":
+            have = [k for k, v in self.ds.data_vars.items() if v.dims[:1] == ("time",)
+                    and v.ndim == 3]
+            raise DataError(f"{path}: no gridded field '{field}'; available: "
+                            f"{', '.join(have)}")
+        self.field = field
+        g = self.grid
+        X, Y = np.meshgrid(g.x_edges, g.y_edges)
+        lon, lat = g.to_lonlat(X, Y)
+        ref = float(lon[lon.shape[0] // 2, lon.shape[1] // 2])
+        self.lon = (lon - ref + 180.0) % 360.0 - 180.0 + ref
+        self.lat = lat
+        self.proj = mapdeco.projection(float(lat.mean()), float(self.lon.mean()))
+        self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
+        self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
+        self.ax.set_facecolor(mapdeco.OCEAN)
+        self.box = mapdeco.frame_for(self.ax, self.proj, self.lon.ravel(), lat.ravel(),
+                                     pad=0.02)
+        land = mapdeco.scene_has_coast(str(self.ds.attrs.get("scene", "")))
+        self.land_level = mapdeco.draw_land(self.ax, self.proj, self.box) if land else None
+        mapdeco.graticule(self.ax)
+        mapdeco.scale_bar(self.ax, self.proj, self.box, float(self.ds.attrs["earth_radius"]))
+        values = self.ds[field].values.astype(float)
+        if field != "concentration" and "concentration" in self.ds:  # open water shows through
+            values = np.where(self.ds["concentration"].values > 0, values, np.nan)
+        self.values = values
+        scale = float(np.nanmax(np.abs(values))) if np.isfinite(values).any() else 1.0
+        scale = scale or 1.0
+        signed = field in SIGNED
+        cmap = matplotlib.colormaps["RdBu_r" if signed else "viridis"].with_extremes(
+            bad=(0, 0, 0, 0))
+        self.mesh = self.ax.pcolormesh(self.lon, self.lat, np.ma.masked_invalid(values[0]),
+                                       cmap=cmap, vmin=-scale if signed else 0.0, vmax=scale,
+                                       transform=ccrs.PlateCarree(), zorder=1, shading="flat")
+        attrs = self.ds[field].attrs
+        cb = self.fig.colorbar(self.mesh, ax=self.ax, shrink=0.8)
+        cb.set_label(f"{field} [{attrs.get('units', '')}]\n{attrs.get('long_name', '')}",
+                     fontsize=8)
+        self.lines = []
+
+    def draw(self, index: int) -> None:
+        import cartopy.crs as ccrs
+
+        ds = self.ds
+        self.mesh.set_array(np.ma.masked_invalid(self.values[index]).ravel())
+        for ln in self.lines:
+            ln.remove()
+        self.lines = []
+        t = ds["time"].values[index]
+        if "lead_time" in ds and ds.sizes.get("lead", 0):
+            now = ds["lead_time"].values == t
+            for k in np.flatnonzero(now):
+                kind = int(ds["lead_kind"].values[k])
+                lons = [float(ds["lead_start_lon"][k]), float(ds["lead_end_lon"][k])]
+                lats = [float(ds["lead_start_lat"][k]), float(ds["lead_end_lat"][k])]
+                (ln,) = self.ax.plot(lons, lats, color="k" if kind == 1 else "crimson",
+                                     linewidth=1.5, transform=ccrs.Geodetic(), zorder=4,
+                                     label="lead (deformation)" if kind == 1 else
+                                     "lead (broken joints)")
+                self.lines.append(ln)
+        handles = {ln.get_label(): ln for ln in self.lines}
+        from siku_io.plot.mapdeco import legend
+
+        legend(self.ax, land=self.land_level is not None, static=False,
+               extra=list(handles.values()))
+        if self.ax.get_legend() is not None:
+            self.lines.append(self.ax.get_legend())
+        if not np.issubdtype(np.asarray(t).dtype, np.datetime64):
+            when = f"t = {float(t) / 3600:.1f} h"
+        elif not ds.attrs.get("start"):  # model time written as seconds since 1970
+            when = f"t = {(t - np.datetime64('1970-01-01')) / np.timedelta64(1, 'h'):.1f} h"
+        else:
+            when = np.datetime_as_string(t, unit="m").replace("T", " ") + " UTC"
+        title = str(ds.attrs.get("title", "")) or self.path.name
+        self.ax.set_title(f"{title}\n{self.field}, {when}", fontsize=10)
+
+
+def draw_grid_map(path, out_png, field: str, index: int = -1) -> Path:
+    """A PNG map of one gridded field at time ``index``."""
+    import matplotlib.pyplot as plt
+
+    p = GridPainter(path, field)
+    n = p.ds.sizes["time"]
+    p.draw(index if index >= 0 else n + index)
+    out_png = Path(out_png)
+    p.fig.savefig(out_png, bbox_inches="tight")
+    plt.close(p.fig)
+    return out_png
+
+
+def plot_grid(path, out_dir=None, field: str | None = None, animation: bool = True
+              ) -> list[Path]:
+    """Maps of the first and last times of a gridded file and an animation."""
+    path = Path(path)
+    out_dir = Path(out_dir) if out_dir else path.parent
+    out_dir.mkdir(parents=True, exist_ok=True)
+    field = field or "total_deformation"
+    stem = path.name.removesuffix(".nc").replace(".", "_")
+    files = [draw_grid_map(path, out_dir / f"{stem}_{field}_first.png", field, 0),
+             draw_grid_map(path, out_dir / f"{stem}_{field}_last.png", field, -1)]
+    if animation:
+        import matplotlib.pyplot as plt
+
+        from siku_io.plot.mapdeco import save_gif
+
+        p = GridPainter(path, field)
+        try:
+            files.append(save_gif(p.fig, p.draw, p.ds.sizes["time"],
+                                  out_dir / f"{stem}_{field}.gif", fps=4))
+        finally:
+            plt.close(p.fig)
+    return files
