@@ -125,7 +125,8 @@ def find_shared_edges(q, offsets, verts, pairs, tol, R):
 # local frame to ``i``'s, so a point ``(x, y)`` of ``j``'s tangent plane is ``g_xy (R / g_z)``
 # with ``g = M (x/R, y/R, 1)`` in ``i``'s plane (the gnomonic normalisation cancels), and
 # ``M^T`` goes back. ``M`` and the projection are computed exactly as ``project_partner``
-# does, so the narrow phase sees the same partner vertices as the tests' reference loops, bit for bit.
+# does, so the narrow phase sees the same partner vertices as the tests' reference loops, bit
+# for bit.
 
 #: per-contact contribution layout: generalised force and torque on ``i``, then on ``j``, then
 #: the contact point in ``i``'s frame [m] (what the element stress of ``siku_core.stress`` needs)

@@ -281,7 +281,8 @@ def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
     """Pairs ``lo <= k < hi`` of :func:`~siku_core.contacts.collision_forces`; returns how
     many overlap. ``xy``, ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers
     (clipping, partner vertices, geometry, result, a block of overlaps waiting for
-    :func:`_collision_block`)."""
+    :func:`_collision_block`). One compiled loop on purpose: the geometry, the pretest and the
+    block hand-off share the task's buffers, and a split would cost calls in the hot loop."""
     inv_r = 1.0 / R
     no = 0
     nb = 0

@@ -183,8 +183,9 @@ class BroadPhase(Component):
         """Candidate pairs ``(K, 2)`` int64, ``i < j``, lexicographically sorted."""
 
 
-# the contact law's contract lives in its own module; listed among the kinds here
-from .contact_law import ContactLaw
+# the contact law's contract lives in its own module (which subclasses Component, so it is
+# imported once Component exists); listed among the kinds here
+from .contact_law import ContactLaw  # noqa: E402
 
 
 class Writer(Component):

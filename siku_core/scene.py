@@ -2,16 +2,15 @@
 
 A scene is one TOML file describing a run: ``[time]``, ``[planet]``, ``[materials.NAME]``,
 ``[elements]`` (``[[elements.polygon]]``, ``[[elements.pack]]``, ``[elements.mesh]``),
-``[integrator]``, ``[[forcing]]``, ``[output]`` and ``[run]``. Every table is strict: an unknown key, a value of the
-wrong type or out of range is a :class:`~siku_core.errors.SceneError` naming the file, the key and
-the allowed values. The reference is ``docs/reference/scene.md``.
+``[integrator]``, ``[[forcing]]``, ``[output]`` and ``[run]``. Every table is strict: an
+unknown key, a value of the wrong type or out of range is a :class:`~siku_core.errors.SceneError`
+naming the file, the key and the allowed values (:mod:`siku_core.scene_messages`). The
+reference is ``docs/reference/scene.md``.
 """
 from __future__ import annotations
 
 import datetime as _dt
-import re
 import tomllib
-import typing
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -27,6 +26,7 @@ from pydantic import (
 
 from .errors import SceneError
 from .params import format_validation_error
+from .scene_messages import explain_validation_error
 from .units import parse_duration
 
 Duration = Annotated[float, BeforeValidator(parse_duration), Field(gt=0)]
@@ -142,7 +142,8 @@ class CoverCfg(_Strict):
 
 class MeshCfg(_ElementCommon):
     """``[elements.mesh]``: Voronoi cells of blue-noise seeds over a lon/lat box, land removed,
-    coast and landfast cells static (built by the ``mesh`` element source, cached in ``mesh_file``)."""
+    coast and landfast cells static (built by the ``mesh`` element source, cached in
+    ``mesh_file``)."""
 
     lon: Pair
     lat: Pair
@@ -308,128 +309,6 @@ class SceneCfg(_Strict):
         return self
 
 
-def _unwrap(ann: Any) -> Any:
-    """Innermost pydantic model class of an annotation (list[X], X | None, dict[str, X])."""
-    origin = typing.get_origin(ann)
-    if origin is Annotated:
-        return _unwrap(typing.get_args(ann)[0])
-    if origin is None:
-        return ann
-    for a in typing.get_args(ann):
-        inner = _unwrap(a)
-        if isinstance(inner, type) and issubclass(inner, BaseModel):
-            return inner
-    return None
-
-
-def _allowed_keys(model: type[BaseModel], loc: tuple) -> list[str]:
-    cur: Any = model
-    for part in loc[:-1]:
-        if isinstance(part, str) and isinstance(cur, type) and issubclass(cur, BaseModel):
-            f = cur.model_fields.get(part)
-            if f is None:
-                break
-            cur = _unwrap(f.annotation)
-    if isinstance(cur, type) and issubclass(cur, BaseModel):
-        return sorted(cur.model_fields)
-    return []
-
-
-def _toml_path(loc: tuple) -> str:
-    out = ""
-    for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else (("." if out else "") + str(part))
-    return out
-
-
-def _field_at(model: type[BaseModel], loc: tuple) -> Any:
-    """The pydantic ``FieldInfo`` at a validation-error location, or ``None``."""
-    cur: Any = model
-    info = None
-    dict_key = False
-    for part in loc:
-        if isinstance(part, int):
-            continue
-        if dict_key:  # a user-chosen key of a dict table, e.g. the NAME of [materials.NAME]
-            dict_key = False
-            continue
-        if not (isinstance(cur, type) and issubclass(cur, BaseModel)):
-            return None
-        info = cur.model_fields.get(part)
-        if info is None:
-            return None
-        args = (info.annotation, *typing.get_args(info.annotation))
-        dict_key = any(typing.get_origin(a) is dict for a in args)
-        cur = _unwrap(info.annotation)
-    return info
-
-
-def _allowed_range(model: type[BaseModel], loc: tuple) -> str:
-    """``"0 <= key < 0.5 [1]"`` from a field's bounds and the unit in its description."""
-    info = _field_at(model, loc)
-    if info is None:
-        return ""
-    found: list[Any] = list(info.metadata)
-
-    def walk(ann: Any) -> None:
-        if typing.get_origin(ann) is Annotated:
-            for m in typing.get_args(ann)[1:]:
-                found.extend(getattr(m, "metadata", [m]))
-            walk(typing.get_args(ann)[0])
-        else:
-            for a in typing.get_args(ann):
-                walk(a)
-
-    walk(info.annotation)
-    lo = hi = ""
-    for c in found:
-        for attr, side, op in (("gt", "lo", "<"), ("ge", "lo", "<="), ("lt", "hi", "<"),
-                               ("le", "hi", "<=")):
-            v = getattr(c, attr, None)
-            if v is not None and type(c).__name__.lower() == attr:
-                if side == "lo":
-                    lo = f"{v:g} {op} "
-                else:
-                    hi = f" {op} {v:g}"
-    if not (lo or hi):
-        return ""
-    m = re.search(r"\[([^\]]+)\]\s*$", info.description or "")
-    unit = m.group(1) if m else ""
-    if any(getattr(c, "func", None) is parse_duration for c in found):
-        unit = "s"
-    return f"; allowed range: {lo}{loc[-1]}{hi}" + (f" [{unit}]" if unit else "")
-
-
-def _explain(err: ValidationError, where: str, model: type[BaseModel] | None = None) -> str:
-    """One line per problem of ``err`` (a validation of ``model``, default :class:`SceneCfg`),
-    each starting with ``where`` and naming the key."""
-    model = model or SceneCfg
-    lines = []
-    for e in err.errors():
-        loc = tuple(e["loc"])
-        path = _toml_path(loc)
-        if e["type"] == "extra_forbidden":
-            keys = ", ".join(_allowed_keys(model, loc)) or "(none)"
-            lines.append(f"{where}: unknown key '{path}'; allowed keys here: {keys}")
-        elif e["type"] == "missing":
-            lines.append(f"{where}: missing required key '{path}'")
-        elif e["type"] == "value_error" and not path:
-            lines.append(f"{where}: {e['msg'].removeprefix('Value error, ')}")
-        else:
-            msg = e["msg"].removeprefix("Value error, ")
-            if "input" in e and e["type"] != "value_error":
-                hint = ""
-                if e["type"] in ("greater_than", "greater_than_equal", "less_than",
-                                 "less_than_equal"):
-                    hint = _allowed_range(model, loc)
-                lines.append(
-                    f"{where}: key '{path}' = {e['input']!r}: {msg[0].lower() + msg[1:]}{hint}"
-                )
-            else:
-                lines.append(f"{where}: [{path}] {msg}")
-    return "\n".join(lines)
-
-
 class Scene:
     """A validated scene: its configuration, its source text and where it came from."""
 
@@ -451,8 +330,9 @@ class Scene:
         return f"{self.label} [{table}]"
 
 
-def _override_value(text: str) -> Any:
-    """A ``--set`` value: read as TOML (``6.0``, ``"6h"``, ``true``, ``[1, 2]``) or else a string."""
+def override_value(text: str) -> Any:
+    """A ``--set`` value: read as TOML (``6.0``, ``"6h"``, ``true``, ``[1, 2]``), else a
+    string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
@@ -473,7 +353,7 @@ def apply_overrides(data: dict, overrides: dict[str, str], label: str) -> None:
             cur = cur.setdefault(part, {})
         if not isinstance(cur, dict):
             raise SceneError(f"{label}: cannot set '{key}': not a table key")
-        cur[parts[-1]] = _override_value(raw)
+        cur[parts[-1]] = override_value(raw)
 
 
 def _refuse_nul(value: Any, label: str, key: str = "") -> None:
@@ -511,7 +391,7 @@ def scene_from_text(
     try:
         cfg = SceneCfg.model_validate(data)
     except ValidationError as exc:
-        raise SceneError(_explain(exc, label)) from None
+        raise SceneError(explain_validation_error(exc, label, SceneCfg)) from None
     return Scene(cfg, text, path)
 
 

@@ -115,54 +115,14 @@ class Simulation:
         self.integrator: Integrator = self._component(
             "integrator", cfg.integrator.name, cfg.integrator.params, "integrator"
         )  # type: ignore[assignment]
-        self.forcing: list[ForcingSource] = []
-        for k, f in enumerate(cfg.forcing):
-            src: ForcingSource = self._component(
-                "forcing", f.source, f.params, f"forcing[{k}]"
-            )  # type: ignore[assignment]
-            if f.field is not None:
-                if not src.uses_field:
-                    raise SceneError(
-                        f"{scene.where(f'forcing[{k}]')}: forcing source '{f.source}' takes no "
-                        "'field' table"
-                    )
-                src.field = self._component(
-                    "field", f.field.type, f.field.params, f"forcing[{k}].field"
-                )  # type: ignore[assignment]
-                if not src.accepts_field(type(src.field)):
-                    raise SceneError(
-                        f"{scene.where(f'forcing[{k}].field')}: forcing source '{f.source}' "
-                        f"cannot use a field of type '{f.field.type}'"
-                    )
-            elif src.uses_field and src.field_required:
-                raise SceneError(
-                    f"{scene.where(f'forcing[{k}]')}: forcing source '{f.source}' needs a "
-                    "'field' table, e.g. field = {type = \"uniform\", params = {u = 10.0}}"
-                )
-            self.forcing.append(src)
+        self.forcing: list[ForcingSource] = [
+            self._forcing_source(k, f) for k, f in enumerate(cfg.forcing)]
 
         self.timings: dict[str, float] = dict.fromkeys(PHASES, 0.0)
-        self.contacts = None
-        if cfg.contact is not None:
-            from .contact_model import ContactModel
-
-            cc = cfg.contact
-            self.contacts = ContactModel(
-                cc, self.state, self.radius, list(cfg.materials.values()),
-                law=self._component("contact_law", cc.law, cc.params, "contact"),
-                broad=self._component("broad_phase", cc.broad_phase, {}, "contact"),
-                time_step=lambda: self.dt, where=scene.where("contact"), label=scene.label,
-                timings=self.timings)
+        self.contacts = self._contact_model() if cfg.contact is not None else None
         self._commit = True
 
-        self.writers: list[Writer] = []
-        if self.output_path is not None:
-            path = self.output_path
-            w: Writer = self._component(
-                "writer", cfg.output.writer, cfg.output.params, "output"
-            )  # type: ignore[assignment]
-            w.path = path  # type: ignore[attr-defined]
-            self.writers.append(w)
+        self.writers: list[Writer] = [self._writer()] if self.output_path is not None else []
         self.state_schedule = StepInterval.snapshots(cfg.output.every, self.dt, self.n_steps)
         self.diag_schedule = StepInterval.diagnostics(cfg.output.diagnostics_every, self.dt,
                                                       self.n_steps)
@@ -190,6 +150,54 @@ class Simulation:
         cls = self.registry.get(kind, name, where=f"{where}: ")
         full = validate_params(name, cls.params, params, where)
         return cls(full)
+
+    def _contact_model(self) -> Any:
+        """The contact phase of the scene's ``[contact]`` table: its law and broad phase built
+        like every component, handed to a :class:`~siku_core.contact_model.ContactModel`."""
+        from .contact_model import ContactModel
+
+        scene, cc = self.scene, self.scene.cfg.contact
+        return ContactModel(
+            cc, self.state, self.radius, list(scene.cfg.materials.values()),
+            law=self._component("contact_law", cc.law, cc.params, "contact"),
+            broad=self._component("broad_phase", cc.broad_phase, {}, "contact"),
+            time_step=lambda: self.dt, where=scene.where("contact"), label=scene.label,
+            timings=self.timings)
+
+    def _writer(self) -> Writer:
+        """The writer of ``[output]``, writing to :attr:`output_path`."""
+        out = self.scene.cfg.output
+        w: Writer = self._component("writer", out.writer, out.params, "output")  # type: ignore
+        w.path = self.output_path
+        return w
+
+    def _forcing_source(self, k: int, f: Any) -> ForcingSource:
+        """The forcing source of the scene's ``[[forcing]]`` table ``k`` (``f``), with its
+        field built from the table's ``field`` sub-table when it takes one."""
+        scene = self.scene
+        src: ForcingSource = self._component(
+            "forcing", f.source, f.params, f"forcing[{k}]"
+        )  # type: ignore[assignment]
+        if f.field is not None:
+            if not src.uses_field:
+                raise SceneError(
+                    f"{scene.where(f'forcing[{k}]')}: forcing source '{f.source}' takes no "
+                    "'field' table"
+                )
+            src.field = self._component(
+                "field", f.field.type, f.field.params, f"forcing[{k}].field"
+            )  # type: ignore[assignment]
+            if not src.accepts_field(type(src.field)):
+                raise SceneError(
+                    f"{scene.where(f'forcing[{k}].field')}: forcing source '{f.source}' "
+                    f"cannot use a field of type '{f.field.type}'"
+                )
+        elif src.uses_field and src.field_required:
+            raise SceneError(
+                f"{scene.where(f'forcing[{k}]')}: forcing source '{f.source}' needs a "
+                "'field' table, e.g. field = {type = \"uniform\", params = {u = 10.0}}"
+            )
+        return src
 
     def components(self) -> list[Component]:
         """Every component of the run, in step order."""

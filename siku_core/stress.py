@@ -1,4 +1,5 @@
-"""Average stress of each element from its contact forces (docs/explanation/physics.md §4, "stress").
+"""Average stress of each element from its contact forces (docs/explanation/physics.md §4,
+"stress").
 
 For an element of area ``A`` in equilibrium the mean of the (vertically integrated) stress
 tensor over its area is fixed by the forces on its boundary (the Love-Weber formula of

@@ -1,9 +1,13 @@
 """Narrow-phase contact geometry: convex polygon clipping (numba, ``cache=True``).
 
-docs/explanation/physics.md section 4.1. The partner's vertices are projected into the element's tangent plane
-(``project_partner``), the two convex polygons are intersected with Sutherland–Hodgman clipping
-(``overlap`` / ``overlap_scratch``), and the overlap area, the overlap centroid, the points where
-the two boundaries cross and the contact normal of eq. (10) come back.
+Over 500 lines for a reason: the clip and its tolerance rules (one point, on a line, touching)
+are one algorithm whose cases must agree with each other; split, the rules would be read apart.
+
+docs/explanation/physics.md section 4.1. The partner's vertices are projected into the
+element's tangent plane (``project_partner``), the two convex polygons are intersected with
+Sutherland–Hodgman clipping (``overlap`` / ``overlap_scratch``), and the overlap area, the
+overlap centroid, the points where the two boundaries cross and the contact normal of eq. (10)
+come back.
 
 Units and conventions
 ---------------------
@@ -109,7 +113,8 @@ def polygon_area_centroid(poly):
 
 @njit(cache=True)
 def overlap_scratch_size(n1, n2):
-    """Rows of scratch space ``overlap_scratch`` needs for polygons of ``n1`` and ``n2`` vertices."""
+    """Rows of scratch space ``overlap_scratch`` needs for polygons of ``n1`` and ``n2``
+    vertices."""
     return 2 * (n1 + n2) + 8
 
 
@@ -235,7 +240,8 @@ def overlap_inline(poly1, poly2, xy, tag, c2x, c2y, drop_touching=False):
 @njit(cache=True, inline="always")
 def _overlap_core(poly1, poly2, xy, tag, lazy, n1, n2, cen, c2x_in, c2y_in, drop):
     """Body of :func:`overlap_scratch` for polygons of ``n1`` and ``n2`` vertices (inlined, so
-    that constant sizes compile to unrolled loops; the arithmetic is the same for any).
+    that constant sizes compile to unrolled loops; the arithmetic is the same for any). One
+    compiled pass on purpose: split into calls it would lose that unrolling and its speed.
 
     ``cen`` (with ``lazy``): the polygons are elements, both counter-clockwise, polygon 1
     centred at the origin and polygon 2 at ``(c2x_in, c2y_in)``: the fallback normal runs

@@ -49,12 +49,14 @@ def check_convex(poly: np.ndarray, label: str) -> None:
         raise GeometryError(f"{label}: polygon has non-finite vertices")
     if lengths.min() <= 1e-9 * scale:
         i = int(np.argmin(lengths))
-        raise GeometryError(f"{label}: degenerate polygon (vertices {i} and {(i + 1) % k} coincide)")
+        raise GeometryError(
+            f"{label}: degenerate polygon (vertices {i} and {(i + 1) % k} coincide)")
     cross = e[:, 0] * np.roll(e[:, 1], -1) - e[:, 1] * np.roll(e[:, 0], -1)
     tol = 1e-12 * scale * scale
     if np.any(cross < -tol):
         i = int(np.argmin(cross))
-        raise GeometryError(f"{label}: polygon is not convex (turns clockwise at vertex {(i + 1) % k})")
+        raise GeometryError(
+            f"{label}: polygon is not convex (turns clockwise at vertex {(i + 1) % k})")
     a, _, _ = area_centroid_moment(poly)
     if a <= 1e-9 * scale * scale:
         raise GeometryError(f"{label}: degenerate polygon (zero area)")

@@ -355,9 +355,9 @@ def grid_error(exc: Exception, where: str) -> DataError:
     from pydantic import ValidationError
 
     if isinstance(exc, ValidationError):
-        from siku_core.scene import _explain
+        from siku_core.scene_messages import explain_validation_error
 
-        return DataError(_explain(exc, where, GridCfg))
+        return DataError(explain_validation_error(exc, where, GridCfg))
     return DataError(f"{where}: {exc}")
 
 

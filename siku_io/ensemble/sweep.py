@@ -74,13 +74,12 @@ from siku_core.errors import SceneError
 from siku_core.scene import (
     Scene,
     SceneCfg,
-    _allowed_keys,
-    _explain,
-    _override_value,
     apply_overrides,
+    override_value,
     read_input_text,
     scene_from_text,
 )
+from siku_core.scene_messages import allowed_keys, explain_validation_error
 from siku_io.ensemble.sweep_cfg import DERIVED, RESERVED, SweepCfg
 
 
@@ -302,7 +301,7 @@ def _check_key(sweep_label: str, where: str, key: str, value: Any, base: dict, s
         for e in err.errors():
             loc = ".".join(str(p) for p in e["loc"])
             if e["type"] == "extra_forbidden" and (loc == key or key.startswith(loc + ".")):
-                allowed = ", ".join(_allowed_keys(SceneCfg, tuple(e["loc"]))) or "(none)"
+                allowed = ", ".join(allowed_keys(SceneCfg, tuple(e["loc"]))) or "(none)"
                 raise SceneError(f"{where}: key '{key}' is not a key of the scene ('{loc}' is "
                                  f"unknown; allowed keys there: {allowed})") from None
     m = re.fullmatch(r"(.+)\.params\.([^.]+)(\..+)?", key)
@@ -338,7 +337,7 @@ def sweep_from_text(text: str, label: str = "<sweep>", base_dir: Path | None = N
     try:
         cfg = SweepCfg.model_validate(data)
     except ValidationError as err:
-        raise SceneError(_explain(err, label, SweepCfg)) from None
+        raise SceneError(explain_validation_error(err, label, SweepCfg)) from None
     scene_path = (base_dir / cfg.scene).resolve()
     if not scene_path.is_file():
         raise SceneError(f"{label}: key 'scene': scene file {scene_path} not found")
@@ -364,7 +363,7 @@ def sweep_from_text(text: str, label: str = "<sweep>", base_dir: Path | None = N
             cfgs.append(m.scene(scene_text).cfg)
         except SceneError:
             pass
-    checks = [("set", k, _override_value(v)) for k, v in fixed.items()]
+    checks = [("set", k, override_value(v)) for k, v in fixed.items()]
     for a_k, a in enumerate(axes):
         what = "replicates" if a.kind == "replicates" else f"axis[{a_k}]"
         checks += [(what, k, a.rows[0][i]) for i, k in enumerate(a.keys)]
