@@ -1,7 +1,8 @@
 """Broad-phase contact candidate kernels on unit vectors (numba, ``cache=True``).
 
-docs/explanation/physics.md section 4.1. Every element has a bounding circle on the unit sphere; a pair of
-elements is a candidate for the narrow phase when their bounding circles, grown by a skin, meet.
+docs/explanation/physics.md section 4.1. Every element has a bounding circle on the unit sphere; a
+pair of elements is a candidate for the narrow phase when their bounding circles, grown by a skin,
+meet.
 
 Inputs (common to all kernels)
 ------------------------------
@@ -148,7 +149,8 @@ def _sift(a, idx, root, end):
 
 @njit(cache=True)
 def _argsort(a):
-    """Indices sorting ``a`` ascending, ties by index (heapsort: deterministic, cheap to compile)."""
+    """Indices sorting ``a`` ascending, ties by index (heapsort: deterministic, cheap to
+    compile)."""
     n = a.shape[0]
     idx = np.arange(n)
     for start in range(n // 2 - 1, -1, -1):
