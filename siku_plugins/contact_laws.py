@@ -260,6 +260,10 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     cells of equal ``h E`` (``a == b``, uniform ice) the factor is 1 whatever ``lam``: ``E_s``
     is the thinner side's ``E`` exactly, and neither ``lam`` nor the factor is computed. The
     damping uses the same stiffness, ``(h E)_eff w / L0``.
+
+    It stays one function: one compiled pass over the segments, and splitting it would cost
+    numba's inlining or change the order of the floating-point operations (results are
+    bit-for-bit).
     """
     nseg = int(pars[MC.n_segments])
     L0 = g[J_L0]

@@ -269,6 +269,9 @@ def cell_grid_pairs(centers, radii, skin, skip):
     list of cell keys (no dense array): memory O(N), time O(N log N + candidates). Working in
     3-D Cartesian coordinates, it has no trouble at the poles or the antimeridian.
     Returns int64 ``(K, 2)``, ``i < j``, sorted lexicographically.
+
+    It stays one function: one compiled pass over the cells, and splitting it would cost numba's
+    inlining of the inner loops.
     """
     n = centers.shape[0]
     rho, s, c, w = _prepare(radii, skin)
