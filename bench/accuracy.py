@@ -5,9 +5,10 @@ of (integrator × dt) — and for V6 (resolution × integrator × dt) — and me
 
 * the **error** against a reference:
 
-  - V2 great circle (docs/explanation/physics.md §8): distance [m] of the element's centre after 6 days from the
-    exact solution (the torque-free symmetric top, as in ``tests/test_great_circles.py``);
-    oblique case (20°N 40°E, 45° to east, 60°/day), with one turn per day of spin and without;
+  - V2 great circle (docs/explanation/physics.md §8): distance [m] of the element's centre after 6
+    days from the exact solution (the torque-free symmetric top, as in
+    ``tests/test_great_circles.py``); oblique case (20°N 40°E, 45° to east, 60°/day), with one turn
+    per day of spin and without;
   - V1 free drift: spin-up from rest under a 10 m/s wind in still water without Coriolis,
     largest ``|U - U∞ tanh(κ t)|`` [m/s] over ``t = 300, 600, … 3600 s`` (as in
     ``tests/test_free_drift.py``; analytic);

@@ -92,8 +92,9 @@ def dump(sim, path: Path) -> None:
         for a in (ei, ej, K, width, zeta):
             np.ascontiguousarray(a, float).tofile(f)
         np.ascontiguousarray(pairs, np.int64).tofile(f)
-        clipped = (cm.pair_active == 1) if cm is not None and len(cm.pair_active) == len(pairs) else \
-            np.zeros(len(pairs), bool)
+        clipped = ((cm.pair_active == 1)
+                   if cm is not None and len(cm.pair_active) == len(pairs)
+                   else np.zeros(len(pairs), bool))
         clipped.astype(float).tofile(f)
 
 

@@ -3,8 +3,8 @@
 ``python -m bench.touching`` (from the repository root; ``--quick``: a smaller subset) runs the
 cases below with ``touching = "contact"`` and ``"ignore"``; ``--compare face`` runs them under
 the default rule with the touching faces of jointed neighbours found by the clip (``clip``:
-``siku_core.testing.switches.face_path`` off, the contact at the mean of the sliver's vertices, the width the
-common span across the normal) and from the joint's edges (``face``, the engine's default:
+``siku_core.testing.switches.face_path`` off, the contact at the mean of the sliver's vertices, the
+width the common span across the normal) and from the joint's edges (``face``, the engine's default:
 ``siku_core.geometry.face``):
 
 * **V6 pack pull** (``bench.accuracy.pull``: the clamped pack of

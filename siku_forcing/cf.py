@@ -1,7 +1,7 @@
-"""CF conventions shared by the readers of gridded NetCDF data (``siku_forcing.gridded``, the
-winds and currents; ``siku_io.mesh.icecover``, the initial ice cover): which coordinate of a variable
-is latitude, longitude or time, the spellings of m/s, and the check that a classic NetCDF file
-is complete.
+"""CF conventions shared by the readers of gridded NetCDF data (``siku_forcing.gridded``, the winds
+and currents; ``siku_io.mesh.icecover``, the initial ice cover): which coordinate of a variable is
+latitude, longitude or time, the spellings of m/s, and the check that a classic NetCDF file is
+complete.
 
 Coordinate discovery (:func:`find_coordinate`) tries, in this order, over the candidates in the
 order given:

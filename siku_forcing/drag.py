@@ -6,7 +6,8 @@ With ``U`` the ice velocity, ``k`` the local vertical and ``S`` the element area
 * water: ``tau_w = rho_w C_w |U_w - U| ((U_w - U) cos th_w + k × (U_w - U) sin th_w)`` (eq. 20)
 * Coriolis: ``-m f k × U``, ``f = 2 Omega_E sin(lat)`` on the sphere.
 
-``F = S (tau_a + tau_w) - m f k × U`` (eq. 18). Defaults are eq. 21 and docs/explanation/physics.md §3.
+``F = S (tau_a + tau_w) - m f k × U`` (eq. 18). Defaults are eq. 21 and
+docs/explanation/physics.md §3.
 """
 from __future__ import annotations
 
@@ -176,7 +177,10 @@ class WaterDrag(_Drag):
             _spin_drag(w, self.st.flags, self.spin_coef, T)
 
     def stability_limit(self, sim):
-        """Explicit drag is stable for ``dt < m / (S rho_w C_w |dU|) = rho_i h/(rho_w C_w |dU|)``."""
+        """Explicit drag is stable for ``dt < m / (S rho_w C_w |dU|)``.
+
+        That is ``dt < rho_i h / (rho_w C_w |dU|)`` [s].
+        """
         st = sim.state
         if self.p["C"] == 0 or self.p["rho"] == 0:
             return None

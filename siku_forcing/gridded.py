@@ -4,7 +4,8 @@ Scene use (paths relative to the scene file's directory; glob patterns such as
 ``uwnd.10m.gauss.*.nc`` join several files, e.g. years, along time)::
 
     # NCEP/NCAR reanalysis: one file per component, variables uwnd / vwnd (the defaults)
-    field = { type = "gridded", params = { u_file = "uwnd.10m.2001.nc", v_file = "vwnd.10m.2001.nc" } }
+    field = { type = "gridded", params = { u_file = "uwnd.10m.2001.nc",
+                                           v_file = "vwnd.10m.2001.nc" } }
     # any CF lat/lon file holding both components, with a name mapping
     field = { type = "gridded", params = { file = "era5.nc", u = "u10", v = "v10",
                                            lat = "latitude", lon = "longitude", time = "time" } }
@@ -206,8 +207,8 @@ class Gridded(Field):
             end = t0 + np.timedelta64(round(total * 1e9), "ns")
             raise DataError(
                 f"{self.where}: time records of {cu.label()} ({rng}) do not cover the run "
-                f"({iso_seconds(t0)} .. {iso_seconds(end)}); use files for the run's dates (a glob pattern "
-                "such as 'uwnd.10m.*.nc' joins years) or move [time] start")
+                f"({iso_seconds(t0)} .. {iso_seconds(end)}); use files for the run's dates "
+                "(a glob pattern such as 'uwnd.10m.*.nc' joins years) or move [time] start")
         return secs.astype(np.float64)
 
     # ------------------------------------------------------------------ records
@@ -260,8 +261,8 @@ class Gridded(Field):
         if t < tr[0] - tol or t > tr[-1] + tol:
             t0 = self.cu.times[0]
             at = t0 + np.timedelta64(round((t - tr[0]) * 1e9), "ns")
-            raise DataError(f"{self.where}: time {iso_seconds(at)} (t = {t:g} s) is outside the records "
-                            f"of {self.cu.label()} ({iso_seconds(self.cu.times[0])} .. "
+            raise DataError(f"{self.where}: time {iso_seconds(at)} (t = {t:g} s) is outside "
+                            f"the records of {self.cu.label()} ({iso_seconds(self.cu.times[0])} .. "
                             f"{iso_seconds(self.cu.times[-1])})")
         k = int(np.searchsorted(tr, t, side="right")) - 1
         k = min(max(k, 0), tr.size - 1)

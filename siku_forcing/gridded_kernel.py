@@ -39,6 +39,9 @@ def interpolate(lat, lon, ylat, xoff, lon0, periodic, cap_s, cap_n, U0, V0, P0, 
     ``ylat (ny)`` ascending latitudes [rad]; ``xoff (nx)`` ascending longitude offsets from
     ``lon0`` in ``[0, 2 pi)`` [rad]; ``U0, V0 (ny, nx)`` / ``U1, V1`` the two records, weights
     ``1 - alpha`` and ``alpha``; ``P0, P1 (2, 2)`` pole vectors ``(W_x, W_y)`` south [0], north [1].
+
+    It stays one function: one compiled pass over the points, and splitting it would cost numba's
+    inlining or change the order of the floating-point operations (results are bit-for-bit).
     """
     twopi = 2.0 * math.pi
     halfpi = 0.5 * math.pi

@@ -1,14 +1,17 @@
 """Built-in contact laws (rheologies): collision, distributed_spring, mohr_coulomb,
 bonded_particle.
 
-docs/explanation/physics.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's loops in
-:mod:`siku_core.contacts` call it (the contract, layouts of ``g`` and sign conventions are in
-:mod:`siku_core.contact_law`: forces and couples returned act on element ``j``, in ``i``'s
+The four laws stay side by side in this one module, each evaluator beside its class, so that the
+rheologies can be read and compared together (hence its length).
+
+docs/explanation/physics.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's
+loops in :mod:`siku_core.contacts` call it (the contract, layouts of ``g`` and sign conventions are
+in :mod:`siku_core.contact_law`: forces and couples returned act on element ``j``, in ``i``'s
 frame). Each law declares the entries of its parameter vectors once, as a
 :class:`~siku_core.contact_law.ParameterRecord`; its evaluator reads them by name through the
-record's index (``pars[CP.damping_ratio]``). Every law collides
-overlapping elements with the collision evaluator; joint laws add their joint evaluator for
-intact frozen joints, and a broken joint continues as a collision contact.
+record's index (``pars[CP.damping_ratio]``). Every law collides overlapping elements with the
+collision evaluator; joint laws add their joint evaluator for intact frozen joints, and a broken
+joint continues as a collision contact.
 """
 from __future__ import annotations
 
@@ -257,6 +260,10 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     cells of equal ``h E`` (``a == b``, uniform ice) the factor is 1 whatever ``lam``: ``E_s``
     is the thinner side's ``E`` exactly, and neither ``lam`` nor the factor is computed. The
     damping uses the same stiffness, ``(h E)_eff w / L0``.
+
+    It stays one function: one compiled pass over the segments, and splitting it would cost
+    numba's inlining or change the order of the floating-point operations (results are
+    bit-for-bit).
     """
     nseg = int(pars[MC.n_segments])
     L0 = g[J_L0]

@@ -4,7 +4,8 @@ bonded block, as a Python function and as ``siku lab``.
 The block is a rectangle filled with bonded Voronoi elements of mean size ``D`` (element source
 ``lab_block``, a :class:`~siku_plugins.floes.Floe` with handles), on the equator at 0°E, long
 axis east. Handles are groups of elements that the engine holds or moves at a steady velocity
-(docs/explanation/physics.md §2: ``static`` and ``steady`` elements), bonded to the block like any neighbour:
+(docs/explanation/physics.md §2: ``static`` and ``steady`` elements), bonded to the block like any
+neighbour:
 
 * **tension / compression**: the elements whose centres lie within ``1.5 D`` of the west end are
   static, those within ``1.5 D`` of the east end move east (tension) or west (compression) at

@@ -22,7 +22,7 @@ if not (ROOT / "bench" / "accuracy.py").is_file():  # pragma: no cover - install
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from bench import accuracy as acc
+from bench import accuracy as acc  # noqa: E402 - bench/ is importable only after the sys.path insert
 
 
 def order(integrator: str, forces: bool) -> int:

@@ -1,7 +1,8 @@
 """V1 free drift (docs/explanation/physics.md §8): one element under uniform wind and still water.
 
 Momentum balance of an element of area ``S``, thickness ``h``, mass ``m = rho_i h S``
-(docs/explanation/physics.md §3, eqs. 18–20, ``relative = false`` so the wind stress does not depend on ``U``)::
+(docs/explanation/physics.md §3, eqs. 18–20, ``relative = false`` so the wind stress does not
+depend on ``U``)::
 
     m dU/dt = S tau_a + S tau_w - m f k × U,
     tau_a = rho_a C_a |U_a| U_a                              (th_a = 0),

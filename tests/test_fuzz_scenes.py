@@ -97,7 +97,8 @@ def scenes(draw) -> str:
             # a plausible value: the scene often stays valid and runs
             f = draw(st.sampled_from([0.1, 0.5, 0.9, 1.1, 2.0, 10.0, 100.0, -1.0]))
             parent[key] = type(old)(old * f) if isinstance(old, float) else int(old * f)
-        elif op in ("same", "scale"):  # a value of the same kind: the scene stays well-typed more often
+        elif op in ("same", "scale"):
+            # a value of the same kind: the scene stays well-typed more often
             pool = (NUMBERS if isinstance(old, (int, float)) and not isinstance(old, bool)
                     else STRINGS if isinstance(old, str) else ADVERSARIAL)
             parent[key] = copy.deepcopy(draw(st.sampled_from(pool)))

@@ -1,4 +1,5 @@
-"""V2 great circles (docs/explanation/physics.md §8): free motion of one element on the sphere, no forcing.
+"""V2 great circles (docs/explanation/physics.md §8): free motion of one element on the sphere,
+no forcing.
 
 Exact solution. The element is a rigid body turning about the planet centre with body-frame
 angular velocity ``Omega = (-Vy/R, Vx/R, w)`` and inertia ``diag(mR², mR², I)``; with no forces

@@ -16,14 +16,14 @@ import warnings
 import numpy as np
 import pytest
 
-xr = pytest.importorskip("xarray")
-pytest.importorskip("netCDF4")
-
 from siku_core.errors import DataError, SceneError
 from siku_core.plugins import get_registry
 from siku_core.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_forcing.gridded import Gridded, pole_vector
+
+xr = pytest.importorskip("xarray")
+pytest.importorskip("netCDF4")
 
 START = dt.datetime(2001, 1, 1)
 START_UTC = START.replace(tzinfo=dt.UTC)  # what a scene's "start = ...Z" gives
@@ -52,7 +52,8 @@ def write_nc(path, var, data, lat, lon, times=None, *, units="m/s", names=None, 
     if times is not None:
         coords[names["time"]] = (names["time"], np.asarray(times, "datetime64[ns]"))
     attrs = {} if units is None else {"units": units}
-    data_vars = {k: (dims, np.asarray(d, float), attrs) for k, d in {var: data, **(also or {})}.items()}
+    data_vars = {k: (dims, np.asarray(d, float), attrs)
+                 for k, d in {var: data, **(also or {})}.items()}
     ds = xr.Dataset(data_vars, coords=coords)
     enc = {}
     if times is not None:

@@ -2,8 +2,8 @@
 
 ``docs/explanation/design.md``: "the engine never imports the packages above it, at import time
 or later". The packages above it are found, not listed: every top-level package of the
-distribution in the repository (``siku_*``) other than ``siku_core`` and every top-level module that an installed ``siku`` entry
-point names.
+distribution in the repository (``siku_*``) other than ``siku_core`` and every top-level module
+that an installed ``siku`` entry point names.
 """
 from __future__ import annotations
 

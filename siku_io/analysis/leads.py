@@ -105,19 +105,49 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
            min_length: int = 3) -> tuple[list[Lead], list[Crossing]]:
     """Leads and their crossings in a boolean ``mask`` ``(ny, nx)`` on ``grid`` (module
     docstring); ``divergence`` [1/s] gives each lead's opening."""
+    branches, zones = _branches_and_zones(np.asarray(mask, bool))
+    nb = int(branches.max())
+    metres = _planar_metres(grid)
+    cells = [np.argwhere(branches == b + 1) for b in range(nb)]
+    angle = [_axis(metres(rc))[1] if len(rc) else 0.0 for rc in cells]
+    groups, touch_zone = _join_branches(branches, zones, angle)
+    side_x, side_y = _cell_sides(grid)
+    leads: list[Lead] = []
+    owner = {}
+    for members in groups:
+        rc = np.concatenate([cells[b] for b in members])
+        # the junction cells between two joined branches belong to the lead
+        for z, bs in touch_zone.items():
+            if sum(b in members for b in bs) >= 2:
+                rc = np.concatenate([rc, np.argwhere(zones == z)])
+        lead = _lead_of(rc, grid, metres, side_x, side_y, divergence, min_length)
+        if lead is None:
+            continue
+        for b in members:
+            owner[b] = len(leads)
+        leads.append(lead)
+    return leads, _crossings(grid, zones, touch_zone, owner, leads)
+
+
+def _branches_and_zones(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The labelled branches of the mask's skeleton and the labelled junction zones between
+    them. A zone is a junction and the skeleton within two cells of it: two junctions that
+    close (the skeleton of a crossing of wide bands is two forks joined by a stub) are one
+    crossing."""
     from scipy.ndimage import binary_dilation
     from skimage.measure import label
     from skimage.morphology import skeletonize
 
-    mask = np.asarray(mask, bool)
     skel = skeletonize(mask)
     junc = junctions(skel)
-    # a junction and the skeleton within two cells of it: two junctions that close (the
-    # skeleton of a crossing of wide bands is two forks joined by a stub) are one crossing
     zone = binary_dilation(junc, structure=np.ones((3, 3), bool), iterations=2) & skel
-    branches = label(skel & ~zone, connectivity=2)
-    zones = label(zone, connectivity=2)
-    nb = int(branches.max())
+    return label(skel & ~zone, connectivity=2), label(zone, connectivity=2)
+
+
+def _planar_metres(grid):
+    """A function of cells ``rc`` ``(k, 2)`` (row, column) giving their centres ``(k, 2)`` [m]
+    in a plane: the grid's own x, y, or on a lon/lat grid a local equirectangular projection
+    about the cells' mean longitude and latitude."""
     X, Y = np.meshgrid(grid.x, grid.y)
     lon_c, lat_c = grid.centres_lonlat
 
@@ -132,11 +162,20 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
         return np.column_stack([R * np.cos(lat0) * np.radians(((lon - lon0 + 180) % 360) - 180),
                                 R * np.radians(lat_c[r, c] - lat_c[r, c].mean())])
 
-    cells = [np.argwhere(branches == b + 1) for b in range(nb)]
-    angle = [_axis(metres(rc))[1] if len(rc) else 0.0 for rc in cells]
+    return metres
+
+
+def _join_branches(branches: np.ndarray, zones: np.ndarray,
+                   angle: list[float]) -> tuple[list[list[int]], dict[int, list[int]]]:
+    """The branches grouped into leads, and the branches touching each junction zone. At each
+    zone the pairs of branches closest in direction (``angle`` [degrees]) are joined, each
+    branch at most once, while they differ by less than :data:`MERGE_ANGLE`."""
+    from scipy.ndimage import binary_dilation
+
+    nb = int(branches.max())
     uf = _Union(nb)
     touch_zone: dict[int, list[int]] = {}
-    for z in range(1, int(zones.max()) + 1):  # the branches touching each junction zone
+    for z in range(1, int(zones.max()) + 1):
         ring = binary_dilation(zones == z, structure=np.ones((3, 3), bool))
         touching = sorted(set(np.unique(branches[ring])) - {0})
         touch_zone[z] = [b - 1 for b in touching]
@@ -150,43 +189,52 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
     groups: dict[int, list[int]] = {}
     for b in range(nb):
         groups.setdefault(uf.find(b), []).append(b)
-    leads: list[Lead] = []
-    owner = {}
-    if grid.kind == "lonlat":  # cell sides [m] in the plane of the lead
+    return list(groups.values()), touch_zone
+
+
+def _cell_sides(grid) -> tuple[np.ndarray, np.ndarray]:
+    """The sides [m] of every grid cell along x (east) and y (north), ``(ny, nx)`` each."""
+    if grid.kind == "lonlat":
+        _, lat_c = grid.centres_lonlat
         dlon = np.radians(np.diff(grid.x_edges))[None, :] * np.ones(grid.shape)
         dlat = np.radians(np.diff(grid.y_edges))[:, None] * np.ones(grid.shape)
-        side_x = grid.radius * np.cos(np.radians(lat_c)) * dlon
-        side_y = grid.radius * dlat
-    else:
-        side_x = np.diff(grid.x_edges)[None, :] * np.ones(grid.shape)
-        side_y = np.diff(grid.y_edges)[:, None] * np.ones(grid.shape)
-    for members in groups.values():
-        rc = np.concatenate([cells[b] for b in members])
-        # the junction cells between two joined branches belong to the lead
-        for z, bs in touch_zone.items():
-            if sum(b in members for b in bs) >= 2:
-                rc = np.concatenate([rc, np.argwhere(zones == z)])
-        xy = metres(rc)
-        ax, ang = _axis(xy)
-        proj = (xy - xy.mean(axis=0)) @ ax
-        sx, sy = side_x[rc[:, 0], rc[:, 1]], side_y[rc[:, 0], rc[:, 1]]
-        w = float(np.mean(np.abs(sx * ax[0]) + np.abs(sy * ax[1])))  # one cell along the lead
-        length = float(proj.max() - proj.min())
-        if length < (min_length - 1) * w * (1 - 1e-6):
-            continue
-        e0, e1 = rc[np.argmin(proj)], rc[np.argmax(proj)]
-        opening = np.nan
-        if divergence is not None:
-            dv = divergence[rc[:, 0], rc[:, 1]]
-            ok = np.isfinite(dv)
-            if ok.any():  # integral over the band / its extent along the lead
-                opening = float(np.sum(dv[ok] * sx[ok] * sy[ok]) / (ok.mean() * (length + w)))
-        for b in members:
-            owner[b] = len(leads)
-        leads.append(Lead(rc, length, ang, (float(lon_c[tuple(rc.T)].mean()),
-                                            float(lat_c[tuple(rc.T)].mean())),
-                          ((float(lon_c[e0[0], e0[1]]), float(lat_c[e0[0], e0[1]])),
-                           (float(lon_c[e1[0], e1[1]]), float(lat_c[e1[0], e1[1]]))), opening))
+        return grid.radius * np.cos(np.radians(lat_c)) * dlon, grid.radius * dlat
+    return (np.diff(grid.x_edges)[None, :] * np.ones(grid.shape),
+            np.diff(grid.y_edges)[:, None] * np.ones(grid.shape))
+
+
+def _lead_of(rc: np.ndarray, grid, metres, side_x: np.ndarray, side_y: np.ndarray,
+             divergence: np.ndarray | None, min_length: int) -> Lead | None:
+    """The lead made of cells ``rc``, or None when it is shorter than ``min_length`` cells:
+    its length [m] along its principal axis, orientation [degrees], centre and ends (lon,
+    lat), and opening [m/s] (the divergence integrated over the band per unit length)."""
+    lon_c, lat_c = grid.centres_lonlat
+    xy = metres(rc)
+    ax, ang = _axis(xy)
+    proj = (xy - xy.mean(axis=0)) @ ax
+    sx, sy = side_x[rc[:, 0], rc[:, 1]], side_y[rc[:, 0], rc[:, 1]]
+    w = float(np.mean(np.abs(sx * ax[0]) + np.abs(sy * ax[1])))  # one cell along the lead
+    length = float(proj.max() - proj.min())
+    if length < (min_length - 1) * w * (1 - 1e-6):
+        return None
+    e0, e1 = rc[np.argmin(proj)], rc[np.argmax(proj)]
+    opening = np.nan
+    if divergence is not None:
+        dv = divergence[rc[:, 0], rc[:, 1]]
+        ok = np.isfinite(dv)
+        if ok.any():  # integral over the band / its extent along the lead
+            opening = float(np.sum(dv[ok] * sx[ok] * sy[ok]) / (ok.mean() * (length + w)))
+    return Lead(rc, length, ang, (float(lon_c[tuple(rc.T)].mean()),
+                                  float(lat_c[tuple(rc.T)].mean())),
+                ((float(lon_c[e0[0], e0[1]]), float(lat_c[e0[0], e0[1]])),
+                 (float(lon_c[e1[0], e1[1]]), float(lat_c[e1[0], e1[1]]))), opening)
+
+
+def _crossings(grid, zones: np.ndarray, touch_zone: dict[int, list[int]], owner: dict[int, int],
+               leads: list[Lead]) -> list[Crossing]:
+    """Every pair of leads meeting at a junction zone, with the angle [degrees] between them
+    and the zone's mean lon/lat."""
+    lon_c, lat_c = grid.centres_lonlat
     crossings: list[Crossing] = []
     for z, bs in touch_zone.items():
         ids = sorted({owner[b] for b in bs if b in owner})
@@ -196,7 +244,7 @@ def detect(mask: np.ndarray, grid, divergence: np.ndarray | None = None,
             for b in ids[k + 1:]:
                 crossings.append(Crossing((a, b), _angle_between(
                     leads[a].orientation, leads[b].orientation), where))
-    return leads, crossings
+    return crossings
 
 
 def detect_series(grid, ds, cfg):

@@ -36,11 +36,26 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
     """The summary dataset of a sweep from its members' ``results`` and output files."""
     import xarray as xr
 
-    from siku_core.diagnostics import catalogue
-    from siku_io.output.results import read_diagnostics, snapshot_drift
-
     dims = [a.dim for a in sw.axes]
-    shape = sw.shape
+    coords = _axis_coords(sw)
+    cfg = sw.cfg.summary
+    series = list(cfg.series)
+    drift = cfg.final is None or "mean_drift" in cfg.final or "mean_drift" in series
+    diag, results = _read_member_diagnostics(sw, results, drift)
+    finals = _final_names(cfg.final, diag)
+    times = sorted({float(t) for d in diag.values() for q in series if q in d
+                    for t in _times_of(d, q)})
+    data, units = _member_arrays(sw, results, diag, finals, series, times)
+    variables = _summary_variables(dims, data, units, finals, series)
+    if series:
+        coords["time"] = ("time", np.array(times, dtype=np.float64),
+                          {"units": "s", "long_name": "model time since the start of the run"})
+    return xr.Dataset(variables, coords=coords, attrs=_summary_attrs(sw, results))
+
+
+def _axis_coords(sw: Sweep) -> dict[str, Any]:
+    """The coordinates of the sweep's axes: a ``values`` axis its values; any other axis an
+    index along it, plus one coordinate per scene key it sets."""
     coords: dict[str, Any] = {}
     for a in sw.axes:
         if a.kind == "values":
@@ -50,14 +65,20 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
             coords[a.dim] = (a.dim, np.arange(len(a)), {"long_name": f"{a.kind} index"})
             for k, key in enumerate(a.keys):
                 coords[key] = (a.dim, _coord([r[k] for r in a.rows]), {"scene_key": key})
+    return coords
+
+
+def _read_member_diagnostics(sw: Sweep, results: Mapping[str, Mapping[str, Any]], drift: bool):
+    """The diagnostics of every member that finished (``done`` or ``reused``), each output read
+    once: ``{member: {quantity: (values, units)}}``, with ``mean_drift`` [m] and the snapshot
+    times ``_snapshot_time`` [s] when ``drift``. A member whose output cannot be read is marked
+    failed in the returned copy of ``results``."""
+    from siku_io.output.results import read_diagnostics, snapshot_drift
+
     done = {m.name: m.output for m in sw.members
             if results.get(m.name, {}).get("status") in ("done", "reused")}
-    cfg = sw.cfg.summary
-    series = list(cfg.series)
-    drift = cfg.final is None or "mean_drift" in cfg.final or "mean_drift" in series
-    known = catalogue()
     diag: dict[str, dict[str, tuple[np.ndarray, str]]] = {}
-    for name, path in done.items():  # each output read once
+    for name, path in done.items():
         try:
             d = read_diagnostics(path)
             if drift:
@@ -69,18 +90,30 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
             results = dict(results)
             results[name] = {**results[name], "status": "failed",
                              "message": f"{path}: cannot read its results: {exc}"}
+    return diag, results
 
-    # without a [summary] final list: every diagnostic some member reports, and the derived
-    finals = list(cfg.final) if cfg.final is not None else sorted(
+
+def _final_names(final: list[str] | None, diag: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """The quantities whose final values the summary holds: the ``[summary] final`` list, or
+    without one every diagnostic some member reports, and the derived ones."""
+    if final is not None:
+        return list(final)
+    return sorted(
         {k for d in diag.values() for k in d
          if k not in ("step", "time") and not k.startswith("_") and k not in DERIVED}
     ) + list(DERIVED)
 
-    def times_of(d, q):
-        return d["_snapshot_time"][0] if q in DERIVED else d["time"][0]
 
-    times = sorted({float(t) for d in diag.values() for q in series if q in d
-                    for t in times_of(d, q)})
+def _times_of(d: Mapping[str, Any], q: str) -> np.ndarray:
+    """The model times [s] of quantity ``q``'s records in one member's diagnostics ``d``."""
+    return d["_snapshot_time"][0] if q in DERIVED else d["time"][0]
+
+
+def _member_arrays(sw: Sweep, results, diag, finals: list[str], series: list[str],
+                   times: list[float]) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """One array per summary variable over the sweep's shape (the series with a trailing time
+    dimension on ``times`` [s]), filled member by member, and the units of each quantity."""
+    shape = sw.shape
     data: dict[str, Any] = {}
     for key, dtype in (("status", object), ("message", object), ("output", object),
                        ("command", object)):
@@ -110,9 +143,19 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
                 units[q] = d[q][1]
         for q in series:
             if q in d:
-                cols = [tindex[float(t)] for t in times_of(d, q)]
+                cols = [tindex[float(t)] for t in _times_of(d, q)]
                 data[f"{q}_series"][m.index + (cols,)] = d[q][0]
                 units[q] = d[q][1]
+    return data, units
+
+
+def _summary_variables(dims: list[str], data: Mapping[str, np.ndarray], units: Mapping[str, str],
+                       finals: list[str], series: list[str]) -> dict[str, Any]:
+    """The summary's data variables with their units and long names: the final values, the
+    series, then each member's status, message, output, command, wall time [s] and steps."""
+    from siku_core.diagnostics import catalogue
+
+    known = catalogue()
     variables: dict[str, Any] = {}
     meaning = {**{k: v[1] for k, v in known.items()}, **{k: v[1] for k, v in DERIVED.items()}}
     for q in finals:
@@ -131,9 +174,11 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
     variables["wall_time"] = (dims, data["wall_time"], {"units": "s", "long_name": "wall-clock "
                                                         "time of the member's run"})
     variables["steps"] = (dims, data["steps"], {"long_name": "steps run by this sweep"})
-    if series:
-        coords["time"] = ("time", np.array(times, dtype=np.float64),
-                          {"units": "s", "long_name": "model time since the start of the run"})
+    return variables
+
+
+def _package_versions() -> dict[str, str]:
+    """The versions of siku and of the installed packages a summary depends on."""
     import importlib.metadata as md
 
     versions = {"siku": __version__}
@@ -142,13 +187,18 @@ def summarize(sw: Sweep, results: Mapping[str, Mapping[str, Any]]):
             versions[pkg] = md.version(pkg)
         except md.PackageNotFoundError:
             pass
-    attrs = {"kind": SUMMARY_KIND, "title": sw.cfg.title, "sweep": sw.text,
-             "sweep_file": sw.label, "sweep_out_dir": str(sw.out_dir),
-             "scene_file": str(sw.scene_path), "scene": sw.scene_text,
-             "versions": json.dumps(versions), "n_members": len(sw.members),
-             "n_failed": int(sum(1 for m in sw.members
-                                 if results.get(m.name, {}).get("status") == "failed"))}
-    return xr.Dataset(variables, coords=coords, attrs=attrs)
+    return versions
+
+
+def _summary_attrs(sw: Sweep, results: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """The summary's global attributes: the sweep and scene (files and text), the package
+    versions, and the counts of members and of failed ones."""
+    return {"kind": SUMMARY_KIND, "title": sw.cfg.title, "sweep": sw.text,
+            "sweep_file": sw.label, "sweep_out_dir": str(sw.out_dir),
+            "scene_file": str(sw.scene_path), "scene": sw.scene_text,
+            "versions": json.dumps(_package_versions()), "n_members": len(sw.members),
+            "n_failed": int(sum(1 for m in sw.members
+                                if results.get(m.name, {}).get("status") == "failed"))}
 
 
 def write_summary(ds, path: Path) -> Path:

@@ -143,40 +143,12 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
     R = float(params.radius)
     region = Region.box(params.lon, params.lat)
     rng = np.random.default_rng(params.seed)
-    fine = params.coast_spacing
-    graded = fine is not None and fine != params.spacing and params.coast_distance > 0
-    if spacing_fn is not None:
-        if spacing_bounds is None:
-            raise ValueError("spacing_fn needs spacing_bounds = (min, max) in metres")
-        r_min, r_max = map(float, spacing_bounds)
-    else:
-        r_min = min(params.spacing, fine) if graded else params.spacing  # type: ignore[type-var]
-        r_max = max(params.spacing, fine) if graded else params.spacing  # type: ignore[type-var]
-    margin = 3.0 * r_max
-    patch = region.expanded(margin, R)
-    # land window: the patch and, for the spacing rule, the coast within coast_distance of it
-    land: LandGrid | None = None
+    graded, r_min, r_max = _spacing_range(params, spacing_fn, spacing_bounds)
+    patch = region.expanded(3.0 * r_max, R)
     t_land = time.perf_counter()
-    if land_grid is not None:
-        land = land_grid
-    elif land_fn is not None or params.land != "none":
-        window = patch.expanded((params.coast_distance if graded else 0.0) + r_max, R)
-        if land_fn is not None:
-            land = LandGrid.from_function(land_fn, window, r_min / 8.0, R)
-        elif params.land == "gshhg":
-            land = gshhg_land(window, r_min, R)
-        else:
-            land = glm_land(window)
+    land = _land_window(params, patch, land_fn, land_grid, graded, r_min, r_max, R)
     t_land = time.perf_counter() - t_land
-    coast_xyz = None
-    if land is not None and graded:
-        kl, _ = land.coast_pixels()
-        coast_xyz = lonlat_to_xyz(*land.pixel_centres(kl)) if len(kl) else np.zeros((0, 3))
-    if spacing_fn is not None:
-        spacing = SpacingField(coarse=r_max, R=R, fn=spacing_fn, bounds=(r_min, r_max))
-    else:
-        spacing = SpacingField(coarse=params.spacing, fine=fine, distance=params.coast_distance,
-                               coast_xyz=coast_xyz, R=R)
+    spacing = _spacing_field(params, land, graded, spacing_fn, r_min, r_max, R)
     guards = _guards(patch, R, 2.0 * r_max + 0.05 * R)
     t1 = time.perf_counter()
     pts = blue_noise(patch, spacing, R, rng, guards=guards)
@@ -186,7 +158,81 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
     verts, offsets, index = voronoi_cells(allp, merge_chord=float(chord_of(MERGE_SHARE * r_min,
                                                                            R)))
     t_voronoi = time.perf_counter() - t1
-    # boundary treatment: keep cells entirely inside the region (seed, vertices, edge midpoints)
+    keep, sub_off, sub_idx = _cells_inside(region, pts, verts, offsets, index)
+    t1 = time.perf_counter()
+    kind, stay, removed = _cell_kinds(params, land, allp, pts, keep, verts, sub_off, sub_idx, R)
+    t_land += time.perf_counter() - t1
+    order = _row_order(region, pts[keep], stay, r_max, R)
+    custom = land_fn is not None or land_grid is not None or spacing_fn is not None
+    mesh = _assemble_mesh(params, custom, verts, pts[keep[order]], kind[order],
+                          *_csr_take(sub_off, sub_idx, order))
+    _check_convex(mesh)
+    mesh.stats = {
+        "points": int(len(pts)), "guards": len(guards), "cells_in_region": len(keep),
+        "removed_land": removed, **mesh.counts(),
+        "r_min": r_min, "r_max": r_max,
+        "land_window": list(land.shape) if land is not None else None,
+        "land_source": land.name if land is not None else None,
+        "seconds": {"total": time.perf_counter() - t0, "points": t_points,
+                    "voronoi": t_voronoi, "land": t_land},
+    }
+    return mesh
+
+
+def _spacing_range(params: MeshParams, spacing_fn: Callable | None,
+                   spacing_bounds: tuple | None) -> tuple[bool, float, float]:
+    """Whether the spacing is graded towards the coast, and the smallest and largest spacing
+    ``r_min``, ``r_max`` [m] (``spacing_bounds`` with a ``spacing_fn``)."""
+    fine = params.coast_spacing
+    graded = fine is not None and fine != params.spacing and params.coast_distance > 0
+    if spacing_fn is not None:
+        if spacing_bounds is None:
+            raise ValueError("spacing_fn needs spacing_bounds = (min, max) in metres")
+        r_min, r_max = map(float, spacing_bounds)
+    else:
+        r_min = min(params.spacing, fine) if graded else params.spacing  # type: ignore[type-var]
+        r_max = max(params.spacing, fine) if graded else params.spacing  # type: ignore[type-var]
+    return graded, r_min, r_max
+
+
+def _land_window(params: MeshParams, patch: Region, land_fn: Callable | None,
+                 land_grid: LandGrid | None, graded: bool, r_min: float, r_max: float,
+                 R: float) -> LandGrid | None:
+    """The land over the patch and, for a graded spacing, the coast within ``coast_distance``
+    [m] of it: ``land_grid`` as given, ``land_fn`` rasterised at ``r_min / 8``, the GSHHG or
+    GLM data set, or None without land. ``R`` the sphere radius [m]."""
+    if land_grid is not None:
+        return land_grid
+    if land_fn is None and params.land == "none":
+        return None
+    window = patch.expanded((params.coast_distance if graded else 0.0) + r_max, R)
+    if land_fn is not None:
+        return LandGrid.from_function(land_fn, window, r_min / 8.0, R)
+    if params.land == "gshhg":
+        return gshhg_land(window, r_min, R)
+    return glm_land(window)
+
+
+def _spacing_field(params: MeshParams, land: LandGrid | None, graded: bool,
+                   spacing_fn: Callable | None, r_min: float, r_max: float,
+                   R: float) -> SpacingField:
+    """The seed spacing [m]: ``spacing_fn``, or the parameters' spacing graded to
+    ``coast_spacing`` within ``coast_distance`` of the land's coast pixels."""
+    if spacing_fn is not None:
+        return SpacingField(coarse=r_max, R=R, fn=spacing_fn, bounds=(r_min, r_max))
+    coast_xyz = None
+    if land is not None and graded:
+        kl, _ = land.coast_pixels()
+        coast_xyz = lonlat_to_xyz(*land.pixel_centres(kl)) if len(kl) else np.zeros((0, 3))
+    return SpacingField(coarse=params.spacing, fine=params.coast_spacing,
+                        distance=params.coast_distance, coast_xyz=coast_xyz, R=R)
+
+
+def _cells_inside(region: Region, pts: np.ndarray, verts: np.ndarray, offsets: np.ndarray,
+                  index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The boundary treatment: the cells of ``pts`` (seeds, not guards) entirely inside the
+    region (seed, vertices and edge midpoints), as indices into ``pts`` and their CSR
+    vertex lists."""
     n_pts = len(pts)
     cand = np.flatnonzero(region.contains_xyz(pts) & (np.diff(offsets)[:n_pts] >= 3))
     c_off, c_idx = _csr_take(offsets, index, cand)
@@ -196,9 +242,16 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
     ok = np.logical_and.reduceat(inside, c_off[:-1]) if len(cand) else np.zeros(0, bool)
     keep = cand[ok]
     sub_off, sub_idx = _csr_take(offsets, index, keep)
+    return keep, sub_off, sub_idx
+
+
+def _cell_kinds(params: MeshParams, land: LandGrid | None, allp: np.ndarray, pts: np.ndarray,
+                keep: np.ndarray, verts: np.ndarray, sub_off: np.ndarray, sub_idx: np.ndarray,
+                R: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """The kind of each kept cell (ice, coast or landfast), which cells stay (those not removed
+    as land by the ``land_removal`` rule), and how many were removed."""
     kind = np.full(len(keep), ICE, dtype=np.int8)
     removed = 0
-    t1 = time.perf_counter()
     if land is not None and len(keep):
         seed_land, has_land, has_water = _classify(land, allp, keep, verts, sub_off, sub_idx, R)
         gone = seed_land if params.land_removal == "seed" else ~has_water
@@ -207,43 +260,41 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
         stay = ~gone
     else:
         stay = np.ones(len(keep), dtype=bool)
-    t_land += time.perf_counter() - t1
     if params.landfast:
         lo, la = xyz_to_lonlat(pts[keep])
         inside = np.zeros(len(keep), dtype=bool)
         for poly in params.landfast:
             inside |= points_in_polygon(lo, la, poly)
         kind[(kind == ICE) & inside] = LANDFAST
-    # final cells, ordered in rows of latitude (one spacing high), west to east
+    return kind, stay, removed
+
+
+def _row_order(region: Region, seeds_xyz: np.ndarray, stay: np.ndarray, r_max: float,
+               R: float) -> np.ndarray:
+    """The cells that stay, ordered in rows of latitude (one spacing ``r_max`` [m] high), west
+    to east; indices into ``seeds_xyz``."""
     sel = np.flatnonzero(stay)
-    seeds_xyz = pts[keep[sel]]
-    slon, slat = xyz_to_lonlat(seeds_xyz)
+    slon, slat = xyz_to_lonlat(seeds_xyz[sel])
     row = np.floor((slat - region.lat0) / math.degrees(r_max / R)).astype(np.int64)
     east = (slon - region.lon0) % 360.0
-    order = sel[np.lexsort((east, row))]
-    offsets_out, idx_out = _csr_take(sub_off, sub_idx, order)
-    used, vid = np.unique(idx_out, return_inverse=True)
+    return sel[np.lexsort((east, row))]
+
+
+def _assemble_mesh(params: MeshParams, custom: bool, verts: np.ndarray, seeds_xyz: np.ndarray,
+                   kind: np.ndarray, offsets: np.ndarray, idx: np.ndarray) -> Mesh:
+    """The mesh of the final cells (in order): their vertices as lon/lat [deg] shared through
+    ``vertex_id``, seeds, kinds, and the parameters' digest (marked ``custom`` when a land or
+    spacing function made it)."""
+    used, vid = np.unique(idx, return_inverse=True)
     vlon, vlat = xyz_to_lonlat(verts[used])
     lonlat = np.stack([vlon, vlat], axis=1)[vid.ravel()]
-    s_lon, s_lat = xyz_to_lonlat(pts[keep[order]])
-    custom = land_fn is not None or land_grid is not None or spacing_fn is not None
+    s_lon, s_lat = xyz_to_lonlat(seeds_xyz)
     digest = ("custom-" + params.digest()) if custom else params.digest()
-    mesh = Mesh(
-        offsets=offsets_out, lonlat=lonlat, vertex_id=vid.ravel().astype(np.int64),
-        seeds=np.stack([s_lon, s_lat], axis=1), kind=kind[order],
+    return Mesh(
+        offsets=offsets, lonlat=lonlat, vertex_id=vid.ravel().astype(np.int64),
+        seeds=np.stack([s_lon, s_lat], axis=1), kind=kind,
         params=params.identity(), digest=digest,
     )
-    _check_convex(mesh)
-    mesh.stats = {
-        "points": int(n_pts), "guards": len(guards), "cells_in_region": len(keep),
-        "removed_land": removed, **mesh.counts(),
-        "r_min": r_min, "r_max": r_max,
-        "land_window": list(land.shape) if land is not None else None,
-        "land_source": land.name if land is not None else None,
-        "seconds": {"total": time.perf_counter() - t0, "points": t_points,
-                    "voronoi": t_voronoi, "land": t_land},
-    }
-    return mesh
 
 
 def _check_convex(mesh: Mesh) -> None:

@@ -235,14 +235,22 @@ class NetCDFWriter(Writer):
                             "written (an existing file is untouched)") from None
 
     def _define(self, ctx) -> None:
-        from siku_core.state import FLAG_NAMES
-        from siku_io.output.element_geometry import polygons_lonlat
-        from siku_io.output.layout import ELEMENT_FIELDS, describe
-
-        nc, st = self.nc, ctx.state
+        """The header of the file and its fixed data, in this order: the global attributes, the
+        dimensions and coordinates, the per-snapshot records, the element geometry and the
+        outlines."""
         start = ctx.start.isoformat() if ctx.start else ""
+        self._define_attributes(ctx, start)
+        self._define_coordinates(ctx, start)
+        self._define_records(ctx)
+        self._define_geometry(ctx)
+        self._define_outlines(ctx)
+
+    def _define_attributes(self, ctx, start: str) -> None:
+        """The global attributes: the run's settings (``dt`` [s], ``radius`` [m], ...), the
+        scene's text and the plugins' versions."""
         from siku_core import __version__
 
+        st = ctx.state
         attrs = {"siku_version": __version__, "title": ctx.scene.cfg.title, "start": start,
                  "dt": ctx.dt,
                  "dt_requested": ctx.dt_requested, "seed": ctx.seed,
@@ -252,12 +260,16 @@ class NetCDFWriter(Writer):
         g = global_attrs(attrs)
         g["siku_scene"] = ctx.scene.text
         g["siku_plugins"] = json.dumps(ctx.plugin_versions())
-        nc.setncatts(g)
+        self.nc.setncatts(g)
+
+    def _define_coordinates(self, ctx, start: str) -> None:
+        """The dimensions (element, unlimited time, node) and the coordinates: ``time`` [s since
+        the start], the snapshot's ``step`` (missing in an incomplete record) and ``element``."""
+        nc, st = self.nc, ctx.state
         N = st.n
-        nodes = len(st.verts)
         nc.createDimension("element", N)
         nc.createDimension("time", None)
-        nc.createDimension("node", nodes)
+        nc.createDimension("node", len(st.verts))
         units, comment = cf_time_units(start)
         v = nc.createVariable("time", "f8", ("time",), fill_value=False)
         v.setncatts({"standard_name": "time", "long_name": "time of the snapshot",
@@ -269,6 +281,13 @@ class NetCDFWriter(Writer):
         v = nc.createVariable("element", "i4", ("element",))
         v.setncatts({"cf_role": "trajectory_id", "long_name": "element index"})
         v[:] = np.arange(N, dtype=np.int32)
+
+    def _define_records(self, ctx) -> None:
+        """The per-snapshot variables ``(time, element)``: centroid lon/lat [degrees], velocity
+        ``u, v`` [m/s], ``spin`` [rad/s] and the run's per-element fields; one contiguous block
+        per variable and record."""
+        from siku_io.output.layout import ELEMENT_FIELDS
+
         self.fields = list(ctx.element_fields())
         per = {"lon": ("degrees_east", "longitude", "longitude of the element centroid"),
                "lat": ("degrees_north", "latitude", "latitude of the element centroid"),
@@ -279,12 +298,19 @@ class NetCDFWriter(Writer):
         for k in self.fields:
             u, ln = ELEMENT_FIELDS.get(k, ("1", f"per-element field '{k}'"))
             per[k] = (u, _STANDARD.get(k, {}).get("standard_name", ""), ln)
-        # record variables are (time, element): a record is one contiguous block per variable
         for k, (u, std, ln) in per.items():
-            v = nc.createVariable(k, "f8", ("time", "element"), fill_value=np.nan)
+            v = self.nc.createVariable(k, "f8", ("time", "element"), fill_value=np.nan)
             v.setncatts({"units": u, "long_name": ln, **({"standard_name": std} if std else {})})
             if k not in ("lon", "lat"):
                 v.setncatts({"coordinates": "time lat lon", "geometry": "outline"})
+
+    def _define_geometry(self, ctx) -> None:
+        """The fixed per-element values: area [m2], thickness [m], mass [kg], moment of inertia
+        [kg m2], and the integer flags (with their meanings), material and floe."""
+        from siku_core.state import FLAG_NAMES
+        from siku_io.output.layout import describe
+
+        nc, st = self.nc, ctx.state
         geo = {"area": (st.area, "m2", "element area"),
                "thickness": (st.thickness, "m", "element thickness"),
                "mass": (st.m, "kg", "element mass"),
@@ -306,6 +332,13 @@ class NetCDFWriter(Writer):
                 v.flag_values = np.array(codes, dtype=np.int32)
                 v.flag_meanings = " ".join(names[c] for c in codes)
             v[:] = np.asarray(val).astype(np.int32)
+
+    def _define_outlines(self, ctx) -> None:
+        """The CF polygon geometry of the element outlines at the first time (vertex lon/lat
+        [degrees]) and, with ``outlines``, the per-snapshot vertex variables."""
+        from siku_io.output.element_geometry import polygons_lonlat
+
+        nc, st = self.nc, ctx.state
         v = nc.createVariable("outline", "i4", ())
         v.setncatts({"geometry_type": "polygon", "node_count": "node_count",
                      "node_coordinates": "node_lon node_lat",

@@ -38,12 +38,24 @@ def _lookup3(data: bytes) -> int:
         a = (a + int.from_bytes(data[i:i + 4], "little")) & m
         b = (b + int.from_bytes(data[i + 4:i + 8], "little")) & m
         c = (c + int.from_bytes(data[i + 8:i + 12], "little")) & m
-        a = (a - c) & m; a ^= rot(c, 4); c = (c + b) & m
-        b = (b - a) & m; b ^= rot(a, 6); a = (a + c) & m
-        c = (c - b) & m; c ^= rot(b, 8); b = (b + a) & m
-        a = (a - c) & m; a ^= rot(c, 16); c = (c + b) & m
-        b = (b - a) & m; b ^= rot(a, 19); a = (a + c) & m
-        c = (c - b) & m; c ^= rot(b, 4); b = (b + a) & m
+        a = (a - c) & m
+        a ^= rot(c, 4)
+        c = (c + b) & m
+        b = (b - a) & m
+        b ^= rot(a, 6)
+        a = (a + c) & m
+        c = (c - b) & m
+        c ^= rot(b, 8)
+        b = (b + a) & m
+        a = (a - c) & m
+        a ^= rot(c, 16)
+        c = (c + b) & m
+        b = (b - a) & m
+        b ^= rot(a, 19)
+        a = (a + c) & m
+        c = (c - b) & m
+        c ^= rot(b, 4)
+        b = (b + a) & m
         n -= 12
         i += 12
     if n == 0:
@@ -52,13 +64,20 @@ def _lookup3(data: bytes) -> int:
     a = (a + int.from_bytes(tail[0:4], "little")) & m
     b = (b + int.from_bytes(tail[4:8], "little")) & m
     c = (c + int.from_bytes(tail[8:12], "little")) & m
-    c ^= b; c = (c - rot(b, 14)) & m
-    a ^= c; a = (a - rot(c, 11)) & m
-    b ^= a; b = (b - rot(a, 25)) & m
-    c ^= b; c = (c - rot(b, 16)) & m
-    a ^= c; a = (a - rot(c, 4)) & m
-    b ^= a; b = (b - rot(a, 14)) & m
-    c ^= b; c = (c - rot(b, 24)) & m
+    c ^= b
+    c = (c - rot(b, 14)) & m
+    a ^= c
+    a = (a - rot(c, 11)) & m
+    b ^= a
+    b = (b - rot(a, 25)) & m
+    c ^= b
+    c = (c - rot(b, 16)) & m
+    a ^= c
+    a = (a - rot(c, 4)) & m
+    b ^= a
+    b = (b - rot(a, 14)) & m
+    c ^= b
+    c = (c - rot(b, 24)) & m
     return c
 
 

@@ -66,20 +66,10 @@ def open_output(path: str | os.PathLike, group: str | None = None, outlines: boo
                         "diagnostics, breaks")
     with open_results(path) as f:
         check_layout(f, path)
-        root = {k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()}
-        root = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in root.items()}
+        root, attrs = _file_attrs(f, path)
         start = str(root.get("start", ""))
-        attrs = dict(root)
-        attrs["scene"] = f["scene"][()].decode()
-        attrs["plugins"] = json.dumps(dict(f["plugins"].attrs))
-        attrs["source"] = f"siku {root.get('siku_version', '')} output file {path.name}"
         if group == "diagnostics":
-            g = f["diagnostics"]
-            n = int(g["step"].shape[0])
-            data = {k: xr.Variable("time", ds[:n], _attrs(ds)) for k, ds in g.items()
-                    if k not in ("time", "step")}
-            coords = {"time": _time_coord(g["time"][:n], start, decode_times),
-                      "step": xr.Variable("time", g["step"][:n], _attrs(g["step"]))}
+            data, coords = _diagnostics_variables(f["diagnostics"], start, decode_times)
             return _drop(xr.Dataset(data, coords, attrs), drop_variables)
         if group == "breaks":
             if "breaks" not in f:
@@ -90,55 +80,117 @@ def open_output(path: str | os.PathLike, group: str | None = None, outlines: boo
             return _drop(xr.Dataset(data, attrs=attrs), drop_variables)
         n = n_snapshots(f)
         s, geo = f["states"], f["geometry"]
-        N = int(root["n_elements"])
         q = s["q"][:n]
-        V = s["V"][:n]
-        u, v = east_north(q, V)
-        te = ("time", "element")
-        vel = {"units": "m s-1"}
-        data = {
-            "u": xr.Variable(te, u, {**vel, "standard_name": "eastward_sea_ice_velocity",
-                                     "long_name": "eastward velocity of the element centroid"}),
-            "v": xr.Variable(te, v, {**vel, "standard_name": "northward_sea_ice_velocity",
-                                     "long_name": "northward velocity of the element centroid"}),
-            "spin": xr.Variable(te, s["w"][:n], _attrs(s["w"])),
-            "q": xr.Variable((*te, "quaternion"), q, _attrs(s["q"])),
-            "V": xr.Variable((*te, "local_axis"), V, _attrs(s["V"])),
-        }
-        for name, ds in s.get("fields", {}).items():
-            data[name] = xr.Variable(te, ds[:n], _attrs(ds))
         offsets = geo["vert_offsets"][...]
-        for name, key in (("area", "area"), ("thickness", "thickness"), ("mass", "m"),
-                          ("moment_of_inertia", "I"), ("bounding_radius", "radius"),
-                          ("flags", "flags"), ("material", "material"), ("floe", "floe")):
-            data[name] = xr.Variable("element", geo[key][...], _attrs(geo[key]))
-        data["node_count"] = xr.Variable("element", np.diff(offsets).astype(np.int32),
-                                         {"long_name": "number of polygon vertices"})
-        data["node_offset"] = xr.Variable("element", offsets[:-1].astype(np.int64),
-                                          {"long_name": "index of the element's first node"})
-        coords = {
-            "time": _time_coord(s["time"][:n], start, decode_times),
-            "step": xr.Variable("time", s["step"][:n], _attrs(s["step"])),
-            "element": xr.Variable("element", np.arange(N), {"long_name": "element index"}),
-            "lon": xr.Variable(te, s["lon"][:n], {**_attrs(s["lon"]),
-                                                  "standard_name": "longitude"}),
-            "lat": xr.Variable(te, s["lat"][:n], {**_attrs(s["lat"]),
-                                                  "standard_name": "latitude"}),
-        }
+        data = {**_state_variables(s, q, n), **_geometry_variables(geo, offsets)}
+        coords = _state_coords(s, n, int(root["n_elements"]), start, decode_times)
         if outlines:
-            verts = geo["verts"][...]
-            radius = float(root["radius"])
-            nl = np.empty((n, len(verts)))
-            nt = np.empty((n, len(verts)))
-            for t in range(n):
-                ll = polygons_lonlat(q[t], offsets, verts, radius)
-                flat = np.concatenate(ll) if ll else np.zeros((0, 2))
-                nl[t], nt[t] = flat[:, 0], flat[:, 1]
-            data["node_lon"] = xr.Variable(("time", "node"), nl, {
-                "units": "degrees_east", "long_name": "longitude of the polygon vertices"})
-            data["node_lat"] = xr.Variable(("time", "node"), nt, {
-                "units": "degrees_north", "long_name": "latitude of the polygon vertices"})
+            data.update(_outline_variables(q, offsets, geo["verts"][...], float(root["radius"])))
     return _drop(xr.Dataset(data, coords, attrs), drop_variables)
+
+
+def _file_attrs(f, path: Path) -> tuple[dict, dict]:
+    """The file's root attributes (decoded to Python values) and the dataset's attributes:
+    those, the scene's text, the plugins' versions (JSON) and a ``source``."""
+    root = {k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()}
+    root = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in root.items()}
+    attrs = dict(root)
+    attrs["scene"] = f["scene"][()].decode()
+    attrs["plugins"] = json.dumps(dict(f["plugins"].attrs))
+    attrs["source"] = f"siku {root.get('siku_version', '')} output file {path.name}"
+    return root, attrs
+
+
+def _diagnostics_variables(g, start: str, decode_times: bool) -> tuple[dict, dict]:
+    """The diagnostics group's complete records: one variable per diagnostic along ``time``,
+    and the ``time`` and ``step`` coordinates."""
+    import xarray as xr
+
+    n = int(g["step"].shape[0])
+    data = {k: xr.Variable("time", ds[:n], _attrs(ds)) for k, ds in g.items()
+            if k not in ("time", "step")}
+    coords = {"time": _time_coord(g["time"][:n], start, decode_times),
+              "step": xr.Variable("time", g["step"][:n], _attrs(g["step"]))}
+    return data, coords
+
+
+def _state_variables(s, q: np.ndarray, n: int) -> dict:
+    """The first ``n`` snapshots of the states group ``s``: east and north velocity [m/s],
+    spin [rad/s], quaternion ``q``, local velocity ``V`` and the per-element fields."""
+    import xarray as xr
+
+    V = s["V"][:n]
+    u, v = east_north(q, V)
+    te = ("time", "element")
+    vel = {"units": "m s-1"}
+    data = {
+        "u": xr.Variable(te, u, {**vel, "standard_name": "eastward_sea_ice_velocity",
+                                 "long_name": "eastward velocity of the element centroid"}),
+        "v": xr.Variable(te, v, {**vel, "standard_name": "northward_sea_ice_velocity",
+                                 "long_name": "northward velocity of the element centroid"}),
+        "spin": xr.Variable(te, s["w"][:n], _attrs(s["w"])),
+        "q": xr.Variable((*te, "quaternion"), q, _attrs(s["q"])),
+        "V": xr.Variable((*te, "local_axis"), V, _attrs(s["V"])),
+    }
+    for name, ds in s.get("fields", {}).items():
+        data[name] = xr.Variable(te, ds[:n], _attrs(ds))
+    return data
+
+
+def _geometry_variables(geo, offsets: np.ndarray) -> dict:
+    """The fixed per-element values of the geometry group (area [m2], thickness [m], mass [kg],
+    moment of inertia [kg m2], bounding radius, flags, material, floe) and each polygon's node
+    count and first node."""
+    import xarray as xr
+
+    data = {}
+    for name, key in (("area", "area"), ("thickness", "thickness"), ("mass", "m"),
+                      ("moment_of_inertia", "I"), ("bounding_radius", "radius"),
+                      ("flags", "flags"), ("material", "material"), ("floe", "floe")):
+        data[name] = xr.Variable("element", geo[key][...], _attrs(geo[key]))
+    data["node_count"] = xr.Variable("element", np.diff(offsets).astype(np.int32),
+                                     {"long_name": "number of polygon vertices"})
+    data["node_offset"] = xr.Variable("element", offsets[:-1].astype(np.int64),
+                                      {"long_name": "index of the element's first node"})
+    return data
+
+
+def _state_coords(s, n: int, N: int, start: str, decode_times: bool) -> dict:
+    """The coordinates of the states: ``time``, ``step``, ``element`` (``N`` elements) and the
+    centroids' ``lon``, ``lat`` [degrees] of the first ``n`` snapshots."""
+    import xarray as xr
+
+    te = ("time", "element")
+    return {
+        "time": _time_coord(s["time"][:n], start, decode_times),
+        "step": xr.Variable("time", s["step"][:n], _attrs(s["step"])),
+        "element": xr.Variable("element", np.arange(N), {"long_name": "element index"}),
+        "lon": xr.Variable(te, s["lon"][:n], {**_attrs(s["lon"]),
+                                              "standard_name": "longitude"}),
+        "lat": xr.Variable(te, s["lat"][:n], {**_attrs(s["lat"]),
+                                              "standard_name": "latitude"}),
+    }
+
+
+def _outline_variables(q: np.ndarray, offsets: np.ndarray, verts: np.ndarray,
+                       radius: float) -> dict:
+    """The polygon vertices' lon/lat [degrees] ``(time, node)`` at every snapshot of ``q``, on
+    the sphere of ``radius`` [m]."""
+    import xarray as xr
+
+    n = len(q)
+    nl = np.empty((n, len(verts)))
+    nt = np.empty((n, len(verts)))
+    for t in range(n):
+        ll = polygons_lonlat(q[t], offsets, verts, radius)
+        flat = np.concatenate(ll) if ll else np.zeros((0, 2))
+        nl[t], nt[t] = flat[:, 0], flat[:, 1]
+    return {
+        "node_lon": xr.Variable(("time", "node"), nl, {
+            "units": "degrees_east", "long_name": "longitude of the polygon vertices"}),
+        "node_lat": xr.Variable(("time", "node"), nt, {
+            "units": "degrees_north", "long_name": "latitude of the polygon vertices"}),
+    }
 
 
 def _drop(ds, names):

@@ -1,7 +1,8 @@
 """Broad-phase contact candidate kernels on unit vectors (numba, ``cache=True``).
 
-docs/explanation/physics.md section 4.1. Every element has a bounding circle on the unit sphere; a pair of
-elements is a candidate for the narrow phase when their bounding circles, grown by a skin, meet.
+docs/explanation/physics.md section 4.1. Every element has a bounding circle on the unit sphere; a
+pair of elements is a candidate for the narrow phase when their bounding circles, grown by a skin,
+meet.
 
 Inputs (common to all kernels)
 ------------------------------
@@ -148,7 +149,8 @@ def _sift(a, idx, root, end):
 
 @njit(cache=True)
 def _argsort(a):
-    """Indices sorting ``a`` ascending, ties by index (heapsort: deterministic, cheap to compile)."""
+    """Indices sorting ``a`` ascending, ties by index (heapsort: deterministic, cheap to
+    compile)."""
     n = a.shape[0]
     idx = np.arange(n)
     for start in range(n // 2 - 1, -1, -1):
@@ -267,6 +269,9 @@ def cell_grid_pairs(centers, radii, skin, skip):
     list of cell keys (no dense array): memory O(N), time O(N log N + candidates). Working in
     3-D Cartesian coordinates, it has no trouble at the poles or the antimeridian.
     Returns int64 ``(K, 2)``, ``i < j``, sorted lexicographically.
+
+    It stays one function: one compiled pass over the cells, and splitting it would cost numba's
+    inlining of the inner loops.
     """
     n = centers.shape[0]
     rho, s, c, w = _prepare(radii, skin)

@@ -1,4 +1,6 @@
-"""Contact-law conformance suite over every registered contact law (docs/explanation/physics.md §4.3).
+"""Contact-law conformance suite over every registered contact law.
+
+docs/explanation/physics.md §4.3.
 
 The checks live in :mod:`siku_core.testing.contact_conformance` so that plugin authors can run
 them on their own law class (``check_contact_law(MyLaw)``). Built-in laws are also checked with

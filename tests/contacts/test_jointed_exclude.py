@@ -87,7 +87,8 @@ def test_exclude_leaves_exactly_the_intact_joints_out_of_the_candidates():
     assert {tuple(p) for p in cm.pairs.tolist()} == every - joints
 
     saved = cm.history()
-    before = {tuple(p): (cm.pair_active[k], cm.separating_hint[k]) for k, p in enumerate(cm.pairs.tolist())}
+    before = {tuple(p): (cm.pair_active[k], cm.separating_hint[k])
+              for k, p in enumerate(cm.pairs.tolist())}
     k = 5
     cm.break_joints(np.array([k]), BREAK_EXTERNAL, 1.0)
     now = [tuple(p) for p in cm.pairs.tolist()]

@@ -1,5 +1,6 @@
-"""V6: resolution independence of a bonded pack pulled by a handle (docs/explanation/physics.md §8, report
-Figs. 9–10).
+"""V6: resolution independence of a bonded pack pulled by a handle.
+
+docs/explanation/physics.md §8, report Figs. 9–10.
 
 Set-up
 ------
@@ -93,7 +94,8 @@ LAWS = {
     "mohr_coulomb": "{ sigma_c = 1.0e10, tensile_ratio = 1.0 }",
 }
 
-#: agreement asked for across resolutions (docs/explanation/physics.md V6; the report reached about 0.5 %)
+#: agreement asked for across resolutions (docs/explanation/physics.md V6; the report reached
+#: about 0.5 %)
 SPREAD_TOL = 0.02
 #: quasi-static force against the continuum answer
 THEORY_TOL = 0.005
