@@ -1,8 +1,8 @@
 """Built-in contact laws (rheologies): collision, distributed_spring, mohr_coulomb,
 bonded_particle.
 
-The four laws stay side by side in this one module, each evaluator beside its class, so that the
-rheologies can be read and compared together (hence its length).
+Over 500 lines for a reason: the four laws stay side by side in this one module, each evaluator
+beside its class, so that the rheologies can be read and compared together.
 
 docs/explanation/physics.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's
 loops in :mod:`siku_core.contacts` call it (the contract, layouts of ``g`` and sign conventions are
