@@ -60,6 +60,9 @@ class Component(ABC):
     diagnostic_units: ClassVar[Mapping[str, str]] = {}
     #: scene tables the component reads besides its parameters (e.g. ``"coupling.grid"``)
     scene_tables: ClassVar[tuple[str, ...]] = ()
+    #: the scene table the engine built this component from (e.g. ``"forcing[0].field"``),
+    #: for messages: ``ctx.where(self.table)``; empty for one built outside a scene table
+    table: str = ""
     #: groups of parameters of which one must be given (e.g. ``(("file",), ("u_file",
     #: "v_file"))``); the conformance suite reads them
     required_one_of: ClassVar[tuple[tuple[str, ...], ...]] = ()

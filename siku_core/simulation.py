@@ -149,7 +149,9 @@ class Simulation:
         where = self.scene.where(table)
         cls = self.registry.get(kind, name, where=f"{where}: ")
         full = validate_params(name, cls.params, params, where)
-        return cls(full)
+        comp = cls(full)
+        comp.table = table
+        return comp
 
     def _contact_model(self) -> Any:
         """The contact phase of the scene's ``[contact]`` table: its law and broad phase built

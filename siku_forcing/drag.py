@@ -102,8 +102,8 @@ class _Drag(ForcingSource):
     rho_default = 0.0
     C_default = 0.0
 
-    def setup(self, sim):
-        self.st = sim.state
+    def setup(self, ctx):
+        self.st = ctx.state
 
     def _sample(self, t, q):
         lat, lon = latlon_of(q)
@@ -166,8 +166,8 @@ class WaterDrag(_Drag):
     }
     field = None
 
-    def setup(self, sim):
-        super().setup(sim)
+    def setup(self, ctx):
+        super().setup(ctx)
         r = np.sqrt(self.st.area / math.pi)
         self.spin_coef = self.p["rho"] * self.p["C"] * 2.0 * math.pi * r**5 / 5.0
 
@@ -176,12 +176,12 @@ class WaterDrag(_Drag):
         if self.p["spin_drag"]:
             _spin_drag(w, self.st.flags, self.spin_coef, T)
 
-    def stability_limit(self, sim):
+    def stability_limit(self, ctx):
         """Explicit drag is stable for ``dt < m / (S rho_w C_w |dU|)``.
 
         That is ``dt < rho_i h / (rho_w C_w |dU|)`` [s].
         """
-        st = sim.state
+        st = ctx.state
         if self.p["C"] == 0 or self.p["rho"] == 0:
             return None
         found = drag_stability_limit(st, st.flags != STATIC, self.p["rho"], self.p["C"],
@@ -214,10 +214,10 @@ class Coriolis(ForcingSource):
         "rotation_rate": Param(-1.0, "rad/s", "planet rotation rate; -1: use [planet]", min=-1),
     }
 
-    def setup(self, sim):
-        self.st = sim.state
+    def setup(self, ctx):
+        self.st = ctx.state
         r = self.p["rotation_rate"]
-        self.omega = float(sim.rotation_rate if r < 0 else r)
+        self.omega = float(ctx.rotation_rate if r < 0 else r)
 
     def add(self, t, q, V, w, F, T):
         _coriolis(q, V, self.st.m, self.omega, F)

@@ -89,8 +89,8 @@ class Cyclone(Field):
         "move_north": Param(0.0, "m/s", "northward speed of the centre"),
     }
 
-    def setup(self, sim):
-        self.radius = float(sim.radius)
+    def setup(self, ctx):
+        self.radius = float(ctx.radius)
 
     def center(self, t: float) -> tuple[float, float]:
         """Centre latitude and longitude [rad] at ``t`` [s]."""

@@ -128,10 +128,10 @@ class Gridded(Field):
     records_read: list[int]
 
     # ------------------------------------------------------------------ setup
-    def setup(self, sim) -> None:
+    def setup(self, ctx) -> None:
         self.close()
-        self._sim = sim
-        self.where = self._where(sim)
+        self._ctx = ctx
+        self.where = self._where(ctx)
         p = self.p
         if p["file"] and (p["u_file"] or p["v_file"]):
             raise SceneError(f"{self.where}: give either 'file' (both components in one file) or "
@@ -140,7 +140,7 @@ class Gridded(Field):
             raise SceneError(f"{self.where}: the gridded field needs 'file' (both components) or "
                              "'u_file' and 'v_file', e.g. params = { u_file = "
                              "\"uwnd.10m.2001.nc\", v_file = \"vwnd.10m.2001.nc\" }")
-        base = Path(getattr(sim.scene, "base_dir", Path.cwd()))
+        base = Path(getattr(ctx.scene, "base_dir", Path.cwd()))
         key_u, key_v = ("file", "file") if p["file"] else ("u_file", "v_file")
         u_paths = self._paths(base, key_u)
         v_paths = u_paths if key_v == key_u else self._paths(base, key_v)
@@ -163,17 +163,16 @@ class Gridded(Field):
                             f"{cv.label()} ('{cv.var}') differ")
         self.t_rec: np.ndarray | None = None
         if cu.times is not None:
-            self.t_rec = self._record_seconds(sim, cu.times)
+            self.t_rec = self._record_seconds(ctx, cu.times)
         self.records_read = []
         self._cache: dict[Any, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._warned = False
 
-    def _where(self, sim) -> str:
-        scene = sim.scene
-        for k, src in enumerate(getattr(sim, "forcing", [])):
-            if getattr(src, "field", None) is self:
-                return scene.where(f"forcing[{k}].field")
-        return f"{getattr(scene, 'label', '<scene>')} (gridded field)"
+    def _where(self, ctx) -> str:
+        """The message prefix naming the scene table this field was built from."""
+        if self.table:
+            return ctx.scene.where(self.table)
+        return f"{getattr(ctx.scene, 'label', '<scene>')} (gridded field)"
 
     def _paths(self, base: Path, key: str) -> list[Path]:
         text = str(self.p[key])
@@ -189,10 +188,10 @@ class Gridded(Field):
                             f"relative paths are resolved against {base})")
         return [pat]
 
-    def _record_seconds(self, sim, times: np.ndarray) -> np.ndarray:
+    def _record_seconds(self, ctx, times: np.ndarray) -> np.ndarray:
         cu = self.cu
         rng = f"{iso_seconds(times[0])} .. {iso_seconds(times[-1])}"
-        start = getattr(sim, "start", None)
+        start = ctx.start
         if start is None:
             raise SceneError(
                 f"{self.where}: the gridded field's file {cu.label()} has time records "
@@ -202,7 +201,7 @@ class Gridded(Field):
             start = start.astimezone(_dt.UTC).replace(tzinfo=None)
         t0 = np.datetime64(start, "ns")
         secs = (times - t0).astype("timedelta64[ns]").astype(np.int64) / 1e9
-        total = float(sim.n_steps) * float(sim.dt)
+        total = float(ctx.n_steps) * float(ctx.dt)
         if secs[0] > 1e-6 or secs[-1] < total - 1e-6:
             end = t0 + np.timedelta64(round(total * 1e9), "ns")
             raise DataError(
@@ -248,7 +247,7 @@ class Gridded(Field):
     def _reopen(self) -> None:
         """Reopen the files after :meth:`close` (a field sampled again after a run ended)."""
         keep = self._cache, self.records_read, self._warned
-        self.setup(self._sim)
+        self.setup(self._ctx)
         self._cache, self.records_read, self._warned = keep
 
     def bracket(self, t: float) -> tuple[int | None, int | None, float]:

@@ -130,17 +130,17 @@ def _cut(members, cx, cy, load, vx, vy, offsets, mx, my, nx, ny, tol):
 class FlexuralBreaking:
     """The check of the module docstring for one run: ``check(t, q)`` breaks joints."""
 
-    def __init__(self, sim, field, critical_strain: float, every: float, rho: float):
-        cm = sim.contacts
+    def __init__(self, ctx, field, critical_strain: float, every: float, rho: float):
+        cm = ctx.contacts
         if cm is None or cm.n_joints == 0:
-            raise SceneError(f"{sim.scene.where('forcing')}: waves with breaking = true need "
+            raise SceneError(f"{ctx.scene.where('forcing')}: waves with breaking = true need "
                              "frozen joints ([contact] with a joint law)")
-        self.sim, self.cm, self.field = sim, cm, field
+        self.ctx, self.cm, self.field = ctx, cm, field
         self.eps_c = float(critical_strain)
         self.every = float(every)
         self.rho = float(rho)
         self.next_check = -math.inf
-        st = sim.state
+        st = ctx.state
         self.h = 0.5 * (st.thickness[cm.ji] + st.thickness[cm.jj])
         self.E = 0.5 * (cm.E[cm.ji] + cm.E[cm.jj])
         #: strain of every joint at the last check [1] (NaN: not evaluated, e.g. broken)
@@ -148,7 +148,7 @@ class FlexuralBreaking:
 
     def strains(self, t: float, q: np.ndarray, joints: np.ndarray) -> np.ndarray:
         """``min(eps_f, eps_r)`` of intact ``joints`` at time ``t`` [s] for state ``q``."""
-        cm, f, st, sim = self.cm, self.field, self.sim.state, self.sim
+        cm, f, st, ctx = self.cm, self.field, self.ctx.state, self.ctx
         lat, lon, de, dn = (a[joints] for a in cm.joint_lines(q))
         # across the joint: the normal of its edge
         eps_f = 0.5 * self.h[joints] * np.abs(f.curvature(t, lat, lon, dn, -de))
@@ -160,7 +160,7 @@ class FlexuralBreaking:
         clat, clon = latlon_of(q)
         cx, cy = f.plane(clat, clon)
         eta = f.evaluate(t, clat, clon)["eta"]
-        vlat, vlon = _vertices_latlon(q, st.vert_offsets, st.verts, sim.radius)
+        vlat, vlon = _vertices_latlon(q, st.vert_offsets, st.verts, ctx.radius)
         vx, vy = f.plane(vlat, vlon)
         mx, my = f.plane(lat, lon)
         A = st.area

@@ -254,9 +254,9 @@ class WaveField(Field):
     }
     radius = 6_371_000.0
 
-    def setup(self, sim):
-        self.radius = float(sim.radius)
-        self.seed = int(sim.seed)
+    def setup(self, ctx):
+        self.radius = float(ctx.radius)
+        self.seed = int(ctx.seed)
         self._build()
 
     def _build(self):
@@ -423,9 +423,9 @@ class Waves(ForcingSource):
         return LinearWave({**{k: p.default for k, p in LinearWave.params.items()},
                            "amplitude": 0.0})
 
-    def setup(self, sim):
-        self.sim = sim
-        self.st = sim.state
+    def setup(self, ctx):
+        self.ctx = ctx
+        self.st = ctx.state
         p = self.p
         self.C = drag_coefficient(p, self.name)
         self.g = float(self.field.p["g"])
@@ -434,13 +434,13 @@ class Waves(ForcingSource):
         if p["breaking"]:
             from .wave_breaking import FlexuralBreaking
 
-            self.breaker = FlexuralBreaking(sim, self.field, p["critical_strain"],
+            self.breaker = FlexuralBreaking(ctx, self.field, p["critical_strain"],
                                             p["break_every"], p["rho"])
 
     def add(self, t, q, V, w, F, T):
         f = self.field
         f._args()
-        if self.breaker is not None and self.sim.committing:
+        if self.breaker is not None and self.ctx.committing:
             self.breaker.check(t, q)
         drag = self.C * self.p["rho"] if self.p["drag"] else 0.0
         if drag == 0.0 and not self.p["slope"]:
@@ -449,11 +449,11 @@ class Waves(ForcingSource):
                      f.radius, f.amp, f.kx, f.ky, f.omega, f.phase, f.u_orbital, self.g,
                      bool(self.p["slope"]), drag, F)
 
-    def stability_limit(self, sim):
+    def stability_limit(self, ctx):
         """Drag: ``dt < m / (S rho_w C_d |dU|)`` with ``|dU|`` the largest orbital speed plus
         1 m/s of drift; and a tenth of the shortest wave period at ``dt_safety = 0.5``, so that
         every wave is sampled at ten steps or more."""
-        st = sim.state
+        st = ctx.state
         limits = [(0.2 * self.field.shortest_period(),
                    f"the shortest wave period {self.field.shortest_period():.4g} s")]
         if self.p["drag"] and self.C * self.p["rho"] > 0:

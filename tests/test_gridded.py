@@ -84,7 +84,7 @@ class FakeScene:
 
 
 class FakeSim:
-    """What a field's setup reads from a Simulation."""
+    """What a field's setup reads from its context (siku_core.context.Context)."""
 
     def __init__(self, base_dir, start=START, duration=6 * HOUR, dt=600.0):
         self.scene = FakeScene(base_dir)
@@ -462,6 +462,21 @@ def test_missing_file(tmp_path):
         field(tmp_path, u_file="nope.nc", v_file="vwnd.nc")
     with pytest.raises(DataError, match=r"no file matches file = 'x\*\.nc'"):
         field(tmp_path, file="x*.nc")
+
+
+def test_a_scene_field_names_its_table_in_messages(tmp_path):
+    """A field built from a scene names the file and its table ([forcing[1].field]): the
+    engine tells each component the table it was built from (``Component.table``)."""
+    text = scene_text([(-150.0, 75.0)], start=START_UTC, dt=60.0, duration="1h",
+                      forcing=[{"source": "coriolis"},
+                               {"source": "air_drag", "field": {
+                                   "type": "gridded",
+                                   "params": {"u_file": "nope.nc", "v_file": "nope.nc"}}}])
+    path = tmp_path / "named.toml"
+    path.write_text(text)
+    with pytest.raises(DataError, match=r"named\.toml \[forcing\[1\]\.field\]: data file not "
+                                        r"found: .*nope\.nc"):
+        Simulation(path, out=False, progress=False)
 
 
 def test_missing_variable_lists_the_variables_present(tmp_path):

@@ -84,14 +84,14 @@ def check_coupling(scene) -> None:
     coupling_grid(scene)
 
 
-def element_polygons(sim) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def element_polygons(ctx) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Vertex longitudes, latitudes [deg], CSR offsets and centre longitudes [deg] of the
     elements of a running simulation."""
     from siku_core.geometry.quat import latlon_of
     from siku_io.output.element_geometry import polygons_lonlat
 
-    st = sim.state
-    ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, sim.radius)
+    st = ctx.state
+    ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, ctx.radius)
     nodes = np.concatenate(ll) if ll else np.zeros((0, 2))
     _, lon = latlon_of(st.q)
     return nodes[:, 0], nodes[:, 1], st.vert_offsets, np.degrees(lon)
@@ -174,10 +174,10 @@ class Exchange(ForcingSource):
             min=1e-6),
     }
 
-    def setup(self, sim):
-        self.sim = sim
-        self.st = sim.state
-        self.grid = coupling_grid(sim.scene)
+    def setup(self, ctx):
+        self.ctx = ctx
+        self.st = ctx.state
+        self.grid = coupling_grid(ctx.scene)
         self.C = drag_coefficient(self.p, self.name)
         ny, nx = self.grid.shape
         #: the input fields, ``(ny, nx)`` each (INPUTS); a coupled model sets them
@@ -191,7 +191,7 @@ class Exchange(ForcingSource):
     def refresh(self) -> None:
         """Overlap of the elements with the cells at the current positions; restart the
         per-cell force record."""
-        nl, nt, off, clon = element_polygons(self.sim)
+        nl, nt, off, clon = element_polygons(self.ctx)
         el, cell, frac = self.grid.overlap(nl, nt, off, clon)
         from siku_core.geometry.quat import latlon_of
 
@@ -217,7 +217,7 @@ class Exchange(ForcingSource):
     def add(self, t, q, V, w, F, T):
         p = self.p
         f = self.fields
-        record = bool(self.sim.committing)
+        record = bool(self.ctx.committing)
         _pair_forces(q, V, self.st.m, self.st.area, self.free, *self.pairs,
                      self._gx if p["slope"] else np.zeros_like(self._gx),
                      self._gy if p["slope"] else np.zeros_like(self._gy),
@@ -233,9 +233,9 @@ class Exchange(ForcingSource):
         if record:
             self.recorded += 1
 
-    def stability_limit(self, sim):
+    def stability_limit(self, ctx):
         """Explicit drag: ``dt < m / (S rho_w C |dU|)`` (as ``water_drag``)."""
-        st = sim.state
+        st = ctx.state
         if not self.p["drag"] or self.C * self.p["rho"] == 0:
             return None
         found = drag_stability_limit(st, st.flags == FREE, self.p["rho"], self.C,
@@ -246,7 +246,7 @@ class Exchange(ForcingSource):
         return found[0], why
 
 
-def ice_fields(sim, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 1026.0,
+def ice_fields(ctx, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 1026.0,
                velocity_before: tuple[np.ndarray, np.ndarray] | None = None,
                interval: float = 0.0) -> dict[str, np.ndarray]:
     """What the ice gives the other model per cell (module docstring), ``(ny, nx)`` arrays:
@@ -257,8 +257,8 @@ def ice_fields(sim, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 10
 
     ny, nx = grid.shape
     nc = ny * nx
-    st = sim.state
-    nl, nt, off, clon = element_polygons(sim)
+    st = ctx.state
+    nl, nt, off, clon = element_polygons(ctx)
     el, cell, frac = grid.overlap(nl, nt, off, clon)
     A = grid.cell_area.ravel()
     w = frac * st.area[el]
@@ -273,7 +273,7 @@ def ice_fields(sim, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 10
     if len(el):
         np.maximum.at(top, cell, eta[cell] + st.thickness[el] - draft[el])
         np.minimum.at(bottom, cell, eta[cell] - draft[el])
-    gu, gv = grid_velocity(sim, grid)
+    gu, gv = grid_velocity(ctx, grid)
     out: dict[str, Any] = {"area_fraction": ice / A,
                            "volume": np.bincount(cell, w * st.thickness[el], nc),
                            "top": top, "bottom": bottom}
@@ -291,12 +291,12 @@ def ice_fields(sim, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 10
     return {k: v.reshape(ny, nx) for k, v in out.items()}
 
 
-def grid_velocity(sim, grid: Grid) -> tuple[np.ndarray, np.ndarray]:
+def grid_velocity(ctx, grid: Grid) -> tuple[np.ndarray, np.ndarray]:
     """Element velocities [m/s] along the grid's axes at their centres."""
     from siku_core.geometry.quat import latlon_of
     from siku_io.output.element_geometry import east_north
 
-    st = sim.state
+    st = ctx.state
     _, lon = latlon_of(st.q)
     return grid.rotate(*east_north(st.q, st.V), np.degrees(lon))
 
