@@ -293,7 +293,7 @@ class ContactModel(JointBook):
         i = int(np.argmax(om2))
         return math.sqrt(om2[i]), i
 
-    def stability_limit(self, sim) -> tuple[float, str] | None:
+    def stability_limit(self, ctx) -> tuple[float, str] | None:
         om, i = self.stiffness_bound()
         if om <= 0:
             return None
