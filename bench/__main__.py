@@ -52,7 +52,7 @@ BLOCK = 10
 
 
 def floe_laws(laws: list[str]) -> list[str]:
-    """The laws a floe scene runs with: ``bonded_particle`` (seed 004's), then the other joint
+    """The laws a floe scene runs with: ``bonded_particle`` (Orzech et al.'s), then the other joint
     laws asked for, on the same elements and joints."""
     return ["bonded_particle"] + [x for x in laws if x not in ("collision", "bonded_particle")]
 

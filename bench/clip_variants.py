@@ -35,7 +35,7 @@ import numba
 import numpy as np
 from numba import njit
 
-from siku_core.contacts import j_to_i, relative_matrix
+from siku_core.contact_frames import j_to_i, relative_matrix
 from siku_core.geometry.clip import (
     REL_TOL,
     _unit_or_x,

@@ -7,7 +7,7 @@ and the project's matching scenes, alternated in one window so that both see the
 * ``sq``: a square lattice, four neighbours, two bonds per particle: the topology of the bench's
   ``bonded`` pack (squares, ``joints = "auto"``, two joints per element);
 * ``hex``: a triangular lattice, six neighbours, three bonds per particle: the topology of the
-  bench's ``floe`` (Voronoi elements of seed 004, three bonds per element).
+  bench's ``floe`` (Voronoi elements of Orzech et al., three bonds per element).
 
 LAMMPS runs one MPI rank and two (``mpiexec -n 2``); the project one numba thread and two. Each
 LAMMPS case is ``--steps`` steps after a 100-step warm-up, rate = particles × steps / the "Loop

@@ -14,11 +14,11 @@
   whose overlap stays within the clip's tolerance exert no contact force and are settled by the
   separating-axis test instead of the clip (docs/explanation/contacts.md, "Touching").
 * ``free_drift``: the bonded pack without a ``[contact]`` table: forcing and integrator only.
-* ``floe``: one bonded floe (seed 004) of about ``n`` Voronoi elements of mean size 5 km (element
-  source ``floe``, a 2 : 1 rectangle on the equator), law ``bonded_particle`` with strengths
-  that nothing reaches, a uniform 10 m/s wind; about three bonds per element (a Voronoi packing
-  has six neighbours per cell) against the square pack's two. Any other joint law of
-  ``LAW_PARAMS`` runs on the same elements and joints.
+* ``floe``: one bonded floe (Orzech et al.) of about ``n`` Voronoi elements of mean size 5 km
+  (element source ``floe``, a 2 : 1 rectangle on the equator), law ``bonded_particle`` with
+  strengths that nothing reaches, a uniform 10 m/s wind; about three bonds per element (a
+  Voronoi packing has six neighbours per cell) against the square pack's two. Any other joint
+  law of ``LAW_PARAMS`` runs on the same elements and joints.
 * ``floe_ignore``: the floe with ``contact.touching = "ignore"``.
 * ``bonded_exclude``, ``floe_exclude``: the pack and the floe with ``contact.jointed =
   "exclude"``: a jointed pair is no collision candidate while its joint holds (the
@@ -172,7 +172,7 @@ def floe_text(n: int, steps: int = 100, touching: str = "contact",
               law: str = "bonded_particle", jointed: str = "collide") -> str:
     """One bonded floe of about ``n`` elements (``element_size`` 5 km, 2 : 1 rectangle;
     ``touching``, ``jointed``: the ``contact`` options; ``law``: its joints,
-    ``bonded_particle`` as in seed 004, or another joint law on the same elements and
+    ``bonded_particle`` as in Orzech et al., or another joint law on the same elements and
     joints)."""
     width = math.sqrt(n / 2.0) * FLOE_D
     params = dict(outline="rectangle", center=[10.0, 0.0], length=2 * width, width=width,

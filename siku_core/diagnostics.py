@@ -106,9 +106,9 @@ DIAGNOSTICS: dict[str, tuple[str, str]] = {
 
 def catalogue(registry=None) -> dict[str, tuple[str, str]]:
     """Every diagnostic a run can report, name -> (unit, meaning): :data:`DIAGNOSTICS`, the
-    joints broken by each mode (``contacts.BREAK_MODES``) and what registered components declare
+    joints broken by each mode (``contact_law.BREAK_MODES``) and what registered components declare
     in ``diagnostic_units`` (``registry``: default the process-wide one)."""
-    from .contacts import BREAK_MODES
+    from .contact_law import BREAK_MODES
     from .plugins import get_registry
 
     out = dict(DIAGNOSTICS)

@@ -6,7 +6,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .contacts import j_to_i, relative_matrix, rotation_matrices
+from .contact_frames import j_to_i, relative_matrix, rotation_matrices
 from .parallel import chunk_bounds, chunks, sum_chunks
 
 

@@ -44,7 +44,7 @@ STRESS_FIELDS = {
 def _moments(rm, ia, ib, out, on, off, idx, side, R, acc, nch):
     """Add to ``acc[e]`` the moments ``r f`` of element ``e``'s contacts of one list, in
     ascending contact index (``off, idx, side``: the list's element index,
-    ``siku_core.contacts.element_index``), parallel over elements."""
+    ``siku_core.contact_frames.element_index``), parallel over elements."""
     inv_r = 1.0 / R
     n = acc.shape[0]
     for c in prange(nch):
@@ -95,7 +95,7 @@ def element_stress(q, rm, area, R, contacts) -> np.ndarray:
     collision pairs), with ``out`` the per-contact rows of ``siku_core.contact_frames``
     (``ROW_*``) of
     the last force evaluation, ``on[k] == 1`` where contact ``k`` carried force, ``off, idx,
-    side`` the list's element index (``siku_core.contacts.element_index``), and ``rm`` the
+    side`` the list's element index (``siku_core.contact_frames.element_index``), and ``rm`` the
     rotation matrices of that evaluation."""
     n = q.shape[0]
     acc = np.zeros((n, 3))

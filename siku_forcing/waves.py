@@ -18,7 +18,7 @@ R) tan(lat)`` over a domain of size ``L``).
 Forces (:class:`Waves`, forcing source ``waves``) on each element, at its own centre:
 
 * water drag on the velocity relative to the orbital velocity, ``S rho_w C_d |u - U| (u - U)``
-  with the log-layer drag coefficient of seed 004 eq. 6, ``C_d = [kappa / ln(30 dz / K_s)]²``
+  with the log-layer drag coefficient of Orzech et al. eq. 6, ``C_d = [kappa / ln(30 dz / K_s)]²``
   (``kappa = 0.41``, roughness ``K_s``, layer thickness ``dz``), unless ``C`` is given;
 * the surface-slope force ``-m g grad eta``;
 * with ``breaking = true``, the wave-induced flexural breaking of :mod:`siku_forcing.wave_breaking`.
@@ -40,7 +40,7 @@ from siku_core.state import FREE
 
 from .drag import drag_stability_limit, quadratic_drag
 
-#: von Kármán constant of the log-layer drag coefficient (seed 004 eq. 6)
+#: von Kármán constant of the log-layer drag coefficient (Orzech et al. eq. 6)
 KAPPA = 0.41
 #: a separate random stream for wave phases: ``default_rng([seed, PHASE_STREAM])``
 PHASE_STREAM = 2004
@@ -72,7 +72,7 @@ def wavenumber(omega, depth, g: float = 9.81):
 
 
 def log_layer_drag(dz: float, roughness: float) -> float:
-    """Drag coefficient of a logarithmic boundary layer, seed 004 eq. 6:
+    """Drag coefficient of a logarithmic boundary layer, Orzech et al. eq. 6:
     ``C_d = [kappa / ln(30 dz / K_s)]²`` for a layer ``dz`` [m] and roughness ``K_s`` [m]."""
     r = 30.0 * dz / roughness
     if r <= 1.0:
@@ -85,7 +85,7 @@ def log_layer_drag(dz: float, roughness: float) -> float:
 WATER_DRAG_PARAMS = {
     "slope": Param(True, "", "surface-slope force -m g grad eta", type=bool),
     "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0.0),
-    "C": Param(-1.0, "1", "drag coefficient; -1: log layer, seed 004 eq. 6", min=-1.0),
+    "C": Param(-1.0, "1", "drag coefficient; -1: log layer, Orzech et al. eq. 6", min=-1.0),
     "roughness": Param(0.001, "m", "roughness height K_s of eq. 6", min=1e-9),
     "layer": Param(1.0, "m", "thickness dz of the layer below the ice in eq. 6", min=1e-9),
 }
@@ -399,8 +399,8 @@ class Jonswap(WaveField):
 # ----------------------------------------------------------------------------- forcing
 class Waves(ForcingSource):
     """Wave forces on every element at its centre: drag on the velocity relative to the orbital
-    velocity (log-layer ``C_d``, seed 004 eq. 6) and the slope force ``-m g grad eta``; optional
-    wave-induced flexural breaking of joints (``siku_forcing.wave_breaking``)."""
+    velocity (log-layer ``C_d``, Orzech et al. eq. 6) and the slope force ``-m g grad eta``;
+    optional wave-induced flexural breaking of joints (``siku_forcing.wave_breaking``)."""
 
     name = "waves"
     uses_field = True

@@ -1,4 +1,4 @@
-"""Element sources of bonded floes (seed 004): one floe filled with small elements, and a field
+"""Element sources of bonded floes (Orzech et al.): one floe filled with small elements, and a field
 of floes with a power-law size distribution.
 
 A floe is an outline (rectangle, disc, ellipse or a convex ``[lon, lat]`` polygon) filled with a
@@ -189,7 +189,8 @@ def _convex_ccw(p: np.ndarray, where: str) -> np.ndarray:
 
 
 class Floe(ElementSource):
-    """One floe: an outline filled with bonded Voronoi elements of mean size ``D`` (seed 004)."""
+    """One floe: an outline filled with bonded Voronoi elements of mean size ``D`` (as in
+    Orzech et al.)."""
 
     name = "floe"
     params: ClassVar[dict[str, Param]] = {

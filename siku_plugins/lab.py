@@ -1,4 +1,4 @@
-"""Virtual ice tests (seed 004 §3a): tension, compression and in-plane three-point bending of a
+"""Virtual ice tests (Orzech et al. §3a): tension, compression and in-plane three-point bending of a
 bonded block, as a Python function and as ``siku lab``.
 
 The block is a rectangle filled with bonded Voronoi elements of mean size ``D`` (element source
@@ -32,7 +32,7 @@ failure strain), or at ``max_strain`` (default four times the bond's failure str
 Results: the stress–strain curve, the macro modulus (least-squares slope between 10 % and 50 %
 of the peak on the rising branch), the macro strength (the peak stress) and the broken bonds by
 mode; :func:`strength_table` repeats a test over a list of bond strengths and fits the strength
-linearly (seed 004 Fig. 3).
+linearly (Orzech et al. Fig. 3).
 """
 from __future__ import annotations
 
@@ -369,7 +369,7 @@ def measure(sim, sigma_crit: float = math.nan, tau_crit: float = math.nan,
 
 @dataclass
 class StrengthTable:
-    """Macro strength against bond strength for one test (seed 004 Fig. 3)."""
+    """Macro strength against bond strength for one test (Orzech et al. Fig. 3)."""
 
     test: str
     results: list[LabResult]

@@ -1,4 +1,4 @@
-"""Virtual ice tests (seed 004 §3a, Fig. 3; ``siku_plugins.lab``, docs/explanation/lab.md).
+"""Virtual ice tests (Orzech et al. §3a, Fig. 3; ``siku_plugins.lab``, docs/explanation/lab.md).
 
 Linearity: the block is linear elastic up to brittle bond failure, and the only stress scale
 of the bonded-particle model is the bond strength (the collision law's stiffness is ``E``, like

@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from siku_core.contacts import find_shared_edges
+from siku_core.contact_frames import find_shared_edges
 from siku_core.elements import build_elements
 from siku_core.errors import SceneError
 from siku_core.geometry.clip import overlap, project_partner

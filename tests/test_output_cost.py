@@ -9,7 +9,7 @@ import numba
 import numpy as np
 import pytest
 
-from siku_core.contacts import frame_point
+from siku_core.contact_frames import frame_point
 from siku_core.diagnostics import element_diagnostics
 from siku_core.geometry.quat import latlon_of, q_center, qrotate, xyz_to_latlon
 from siku_core.joint_metrics import joint_diagnostics, joint_strain_opening

@@ -77,7 +77,7 @@ def test_a_tiny_benchmark_runs():
     for row in ("| bonded | distributed_spring | 120 |", "| collision | collision | 120 |",
                 "| free_drift | - | 120 |", "only what a scene requires"):
         assert row in out, row
-    # the floe runs seed 004's law and, on the same elements and joints, the law asked for
+    # the floe runs Orzech et al.'s law and, on the same elements and joints, the law asked for
     for row in ("| floe | bonded_particle |", "| floe | distributed_spring |"):
         assert row in out, row
     assert "I/O libraries imported after building and running both scenes: none" in out

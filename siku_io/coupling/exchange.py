@@ -10,7 +10,7 @@ cell's fields exert, in grid components,
 * slope: ``-m_ec g grad eta_c`` (``grad eta`` by central differences of the cell elevations,
   one-sided at the edges, over true distances on the sphere);
 * drag: ``S_ec rho_w C |u_c - U_e| (u_c - U_e)``, ``u_c`` the cell's water velocity, ``C`` as
-  for waves (log layer, seed 004 eq. 6, unless given);
+  for waves (log layer, Orzech et al. eq. 6, unless given);
 * stress: ``S_ec tau_c``, a force per area handed over by the other model;
 * wind: ``S_ec rho_a C_a |U_a| U_a`` (report eq. 19, no turning), ``U_a`` the cell's wind.
 

@@ -255,7 +255,7 @@ class HDF5Writer(Writer):
                 self.diag[k].attrs["units"], self.diag[k].attrs["long_name"] = known[k]
         self.breaks = None
         if ctx.contacts is not None and ctx.contacts.n_joints:
-            from siku_core.contacts import BREAK_MODES
+            from siku_core.contact_law import BREAK_MODES
 
             b = f.create_group("breaks")
             for code, name in BREAK_MODES.items():
@@ -270,7 +270,7 @@ class HDF5Writer(Writer):
     def _describe(self, ctx, diagnostics) -> None:
         """``units`` and ``long_name`` on every dataset (``siku_io.output.layout``), CF flag
         meanings on the coded ones, and the epoch of the time axes when the scene has a start."""
-        from siku_core.contacts import BREAK_MODES
+        from siku_core.contact_law import BREAK_MODES
         from siku_core.state import FLAG_NAMES
         from siku_io.output.layout import describe, flag_attrs
 

@@ -1,4 +1,4 @@
-"""Law "bonded_particle" (seed 004 eqs. 10–13; docs/explanation/contacts.md §4).
+"""Law "bonded_particle" (Orzech et al. eqs. 10–13; docs/explanation/contacts.md §4).
 
 Two 100 m square cells of 1 m ice (``E = 1 GPa``, ``nu = 0.3``) at 60°N share one bond along
 their common meridian edge, 5 m of open water between them (``gap = 0.05``; the bond is found

@@ -22,7 +22,7 @@ from numba import njit, prange
 
 import siku_core.parallel as parallel
 from reference_loops import collision_loop, joint_loop
-from siku_core.contacts import rotation_matrices, rotations_within
+from siku_core.contact_frames import rotation_matrices, rotations_within
 from siku_core.geometry.clip import (
     REL_TOL,
     apart,

@@ -58,7 +58,7 @@ import numba
 import numpy as np
 import pytest
 
-from siku_core.contacts import frame_point
+from siku_core.contact_frames import frame_point
 from siku_core.errors import NonFiniteError, StabilityError
 from siku_core.geometry.quat import centers, qmatrix
 from siku_core.joint_metrics import joint_strain_opening
@@ -439,7 +439,8 @@ def test_head_on_collision_at_the_corners(corner, share):
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "engine: the collision force K A n (contact_laws.py:50) is not a potential force: for a "
+    "engine: the collision force K A n (contact_laws/collision.py, collision_evaluator) is "
+    "not a potential force: for a "
     "face contact A = L(y) depth depends on the sliding offset y, but no tangential force "
     "-dU/dy goes with it; the loop gains 18 % of the elastic energy, and undamped touching "
     "packs gain energy at a dt-independent rate (x5 in 1e5 steps)"))

@@ -124,7 +124,7 @@ def test_the_generated_file_is_the_header_and_the_template(fresh_cache):
     template = open(contact_loops.__file__).read()
     assert text.endswith(template)
     header = text[:-len(template)]
-    assert "from siku_plugins.contact_laws import spring_evaluator as evaluate" in header
+    assert "from siku_plugins.contact_laws.spring import spring_evaluator as evaluate" in header
     assert "NRT = False" in header and "CACHE = True" in header
     assert loops.CACHE is True and contact_loops.CACHE is False
 

@@ -1,0 +1,89 @@
+"""The collision law: independent elements repel by their overlap area (eqs. 9–11 of
+Kulchitsky et al. 2017, docs/explanation/physics.md §4.3), with damping and Coulomb friction.
+Every law collides overlapping elements with this evaluator."""
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from siku_core import Param
+from siku_core.contact_law import (
+    G_AREA,
+    G_AREA_I,
+    G_AREA_J,
+    G_K,
+    G_MEFF,
+    G_NX,
+    G_NY,
+    G_VX,
+    G_VY,
+    G_WIDTH,
+    OUT_COUPLE,
+    OUT_FX,
+    OUT_FY,
+    ContactLaw,
+    ParameterRecord,
+)
+
+
+
+#: the collision parameter vector (every law)
+COLLISION_RECORD = ParameterRecord("sqrt_area", "damping_ratio", "viscosity", "friction")
+CP = COLLISION_RECORD.index
+
+
+@njit(cache=True)
+def collision_evaluator(g, pars, out):
+    """Eqs. 9–11: elastic ``K A n`` (or ``K sqrt(A) sqrt(A_min)``), damping, Coulomb friction.
+
+    Damping: a share ``zeta`` of critical for the normal stiffness per penetration depth
+    (``K width`` for the linear law), plus the eq. 11 viscosity ``-A eta v_rel``. No cut-off of
+    attractive damping forces, so a linear face contact has restitution
+    ``exp(-zeta pi / sqrt(1 - zeta²))``. Friction: tangential viscous force capped at
+    ``mu |F_n|``.
+    """
+    A = g[G_AREA]
+    nx, ny = g[G_NX], g[G_NY]
+    K = g[G_K]
+    L = g[G_WIDTH]
+    vx, vy = g[G_VX], g[G_VY]
+    if pars[CP.sqrt_area] != 0.0:
+        ac = math.sqrt(min(g[G_AREA_I], g[G_AREA_J]))
+        sa = math.sqrt(A)
+        fel = K * sa * ac
+        # tangent stiffness dF/d(depth) = K ac L / (2 sqrt(A)); none without overlap (A = 0)
+        k = 0.5 * K * ac * L / sa if sa > 0.0 else 0.0
+    else:
+        fel = K * A
+        k = K * L
+    c = 2.0 * pars[CP.damping_ratio] * math.sqrt(k * g[G_MEFF])
+    vn = vx * nx + vy * ny
+    fn = fel - c * vn
+    fx = fn * nx - pars[CP.viscosity] * A * vx
+    fy = fn * ny - pars[CP.viscosity] * A * vy
+    if pars[CP.friction] > 0.0:
+        tx, ty = vx - vn * nx, vy - vn * ny
+        vt = math.hypot(tx, ty)
+        if vt > 0.0:
+            ft = min(pars[CP.friction] * abs(fn), c * vt)
+            fx -= ft * tx / vt
+            fy -= ft * ty / vt
+    out[OUT_FX] = fx
+    out[OUT_FY] = fy
+    out[OUT_COUPLE] = 0.0
+
+
+class Collision(ContactLaw):
+    """Independent elements: elastic repulsion by overlap area (eqs. 9–11), no joints."""
+
+    name = "collision"
+    params = {
+        "sqrt_area": Param(False, "", "Matuttis-style force ~ sqrt(overlap area)", type=bool),
+        "damping_ratio": Param(0.1, "1", "share of critical damping of the normal contact",
+                               min=0, max=0.99),
+        "viscosity": Param(0.0, "Pa s/m", "eq. 11 viscosity eta of overlapping areas", min=0),
+        "friction": Param(0.0, "1", "Coulomb friction coefficient mu", min=0),
+    }
+    collision_evaluator = collision_evaluator
+    collision_record = COLLISION_RECORD
