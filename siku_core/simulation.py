@@ -7,9 +7,8 @@ One step (``docs/explanation/design.md``)::
     integrator       -> moves free elements; static never, steady on rails
     NaN guard, diagnostics and writers on their schedules
 
-Over 500 lines for a reason: the run's lifecycle (build, step, guard, write, close) is one
-class read top to bottom; restarting is in :mod:`siku_core.restart`, what components see in
-:mod:`siku_core.context`.
+Restarting is in :mod:`siku_core.restart`, the NaN guard in :mod:`siku_core.guard`, what
+components see in :mod:`siku_core.context`.
 """
 from __future__ import annotations
 
@@ -24,11 +23,12 @@ import numba
 import numpy as np
 
 from . import parallel
-from .diagnostics import all_finite, element_diagnostics, fastest, held_forces, state_sound
+from .diagnostics import element_diagnostics, held_forces
 from .context import Context
 from .elements import build_elements
+from .guard import Guard, check_initial_state
 from . import __version__
-from .errors import NonFiniteError, SceneError, StabilityError
+from .errors import SceneError, StabilityError
 from .interfaces import Component, Field, ForcingSource, Integrator, Writer
 from .limits import check_limits
 from .outputs import check_output_path, input_paths
@@ -38,10 +38,6 @@ from .scene import Scene, load_scene
 from .progress import CompileNotice
 from .restart import restart
 from .schedule import StepInterval, fit_time_step
-from .state import DYNAMIC
-
-#: quantities checked by the NaN guard, in the order their failure is reported
-_GUARDED = ("F", "T", "V", "w", "q")
 
 #: phases of a step timed in ``Simulation.timings`` [s], in step order: forcing sources; the
 #: contact joints; the broad phase (candidate-list rebuilds); narrow phase and collision law;
@@ -135,10 +131,10 @@ class Simulation:
         self.restart_path: Path | None = None
         if restart is not None:
             self._restart(Path(restart), force=force, extend=extend)
-        self._check_initial_state()
-        self._save_good()
+        check_initial_state(self)
+        #: the NaN guard and the last good snapshot it returns to (siku_core.guard)
+        self.guard = Guard(self)
         self._opened = False
-        self._guarded = -1
         self._force_time = 0.0
         self.timed_steps = 0
         if self.pm is not None:
@@ -299,7 +295,7 @@ class Simulation:
         if self.step_index % self.scene.cfg.run.nan_check_every == 0 or (
             self.step_index == self.n_steps
         ):
-            self._nan_guard()
+            self.guard.check()
         self.timings["guard"] += time.perf_counter() - t1
         self.timed_steps += 1
 
@@ -312,62 +308,6 @@ class Simulation:
         for k in self.timings:
             self.timings[k] = 0.0
         self.timed_steps = 0
-
-    def _nan_guard(self) -> None:
-        """Stop on a non-finite value or a speed above ``[run] max_speed`` (a diverging run).
-
-        The state and every component's history go back to the last good snapshot (the last
-        one written, or due to be written when the run writes nothing): see :meth:`_fail`.
-        """
-        st = self.state
-        self._guarded = self.step_index
-        vmax = self.scene.cfg.run.max_speed
-        if state_sound(st.F, st.T, st.V, st.w, st.q, vmax * vmax, parallel.chunks(st.n)):
-            return
-        for name in _GUARDED:
-            arr = getattr(st, name)
-            if not all_finite(arr.reshape(-1)):
-                bad = np.argwhere(~np.isfinite(arr.reshape(st.n, -1)))[0]
-                self._fail(f"non-finite {name} of element {int(bad[0])}")
-        i, speed2 = fastest(st.V)
-        if st.n and speed2 > vmax * vmax:
-            self._fail(
-                f"speed of element {i} is {np.sqrt(speed2):.3g} m/s, above [run] max_speed = "
-                f"{vmax:g} m/s: the run is diverging (is dt above the stable step?)"
-            )
-
-    def _save_good(self) -> None:
-        """Remember the current state and history as the last good snapshot."""
-        self._good = {k: getattr(self.state, k).copy() for k in DYNAMIC}
-        self._good_hist = self.history_arrays()
-        self._good_step = self.step_index
-
-    def _fail(self, what: str) -> None:
-        st = self.state
-        step = self.step_index
-        for k in DYNAMIC:
-            getattr(st, k)[:] = self._good[k]
-        self.set_history_arrays(self._good_hist)
-        self.step_index = self._good_step
-        saved = ""
-        if self._opened and self.writers:
-            saved = (f"; {self.output_path} holds the snapshots to the last good state "
-                     f"(step {self._good_step}, t = {self.time:g} s)")
-        raise NonFiniteError(f"{what} at step {step} (t = {step * self.dt:g} s){saved}")
-
-    def _check_initial_state(self) -> None:
-        """Refuse a run whose state is not finite before step 1 (a NaN velocity or spin in the
-        scene, or in a restart file)."""
-        st = self.state
-        for name, what in (("q", "position"), ("V", "velocity"), ("w", "spin")):
-            arr = getattr(st, name).reshape(st.n, -1)
-            bad = ~np.isfinite(arr).all(axis=1)
-            if bad.any():
-                i = int(np.argmax(bad))
-                src = (f"restart file {self.restart_path}" if self.restart_path is not None
-                       else self.scene.where("elements"))
-                raise SceneError(f"{src}: element {i} starts with a non-finite {what} "
-                                 f"{arr[i].tolist()}; the run needs finite numbers")
 
     def diagnostics(self) -> dict[str, Any]:
         """The diagnostics of the current state (``siku_core.diagnostics.DIAGNOSTICS`` lists
@@ -432,8 +372,8 @@ class Simulation:
         t0 = time.perf_counter()
         k, last = self.step_index, self.n_steps
         snapshot = force or self.state_schedule.due(k, last)
-        if snapshot and self._guarded != k:
-            self._nan_guard()
+        if snapshot and self.guard.checked_step != k:
+            self.guard.check()
             tg = time.perf_counter()
             self.timings["guard"] += tg - t0  # the guard's time is the guard's, not output's
             t0 = tg
@@ -446,7 +386,7 @@ class Simulation:
                 for w in self.writers:
                     w.write_state(self.context)
         if snapshot:
-            self._save_good()
+            self.guard.save()
         self.timings["output"] += time.perf_counter() - t0
 
     def run(self, steps: int | None = None) -> "Simulation":
