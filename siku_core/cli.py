@@ -23,7 +23,7 @@ DEFAULT_SCENE = "default_scene.toml"
 _KIND_TITLES = {
     "integrator": "integrators", "forcing": "forcing sources", "field": "velocity fields",
     "broad_phase": "broad phases", "contact_law": "contact laws", "writer": "writers",
-    "element_source": "element sources",
+    "element_source": "element sources", "process": "processes (change the ice)",
 }
 
 
@@ -53,9 +53,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
-    from .scene import load_scene
+    from .scene import load_scene, refuse_unitless_durations
     from .simulation import Simulation
 
+    refuse_unitless_durations(overrides, str(path))
     scene = load_scene(path, overrides)
     progress = False if args.no_progress else None
     extend = None
@@ -78,6 +79,9 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
     wall = time.perf_counter() - t0
     out = shown(sim.output_path) if sim.output_path is not None else "none"
     print(f"done in {wall:.1f} s; output: {out}", file=sys.stderr)
+    from .summary import format_summary, summary_of
+
+    print(format_summary(summary_of(sim, wall, out)), file=sys.stderr)
     if args.profile:
         print(profile_table(sim, wall), file=sys.stderr)
     if sim.output_path is not None and sim.step_index == sim.n_steps:
@@ -166,20 +170,34 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
     from .plugins import get_registry
 
     reg = get_registry()
+    want = args.which
+    kinds = {k: k for k in reg.entries} | {t: k for k, t in _KIND_TITLES.items()}
+    kind_wanted = kinds.get(want.replace("-", "_") if want else None) or kinds.get(
+        want.replace("-", " ") if want else None)
+    if want and not kind_wanted and not any(want in t for t in reg.entries.values()):
+        known = sorted({n for t in reg.entries.values() for n in t})
+        raise SceneError(f"siku plugins {want}: no component or kind of that name; kinds: "
+                         f"{', '.join(sorted(reg.entries))}; components: {', '.join(known)}")
     for kind, table in reg.entries.items():
-        if not table:
+        names = sorted(n for n in table if not want or kind == kind_wanted or n == want)
+        if not names:
             continue
         print(f"{_KIND_TITLES.get(kind, kind)}:")
-        for name in sorted(table):
+        for name in names:
             e = table[name]
             print(f"  {name}  ({e.package} {e.version}) - {plain(e.cls.summary())}")
             for pname, p in e.cls.params.items():
                 print(f"      {pname} = {p.default!r}  [{p.unit or '-'}]  {plain(p.doc)}; "
                       f"allowed: {plain(str(p.allowed()))}")
+            for f in e.cls.owned_fields:
+                print(f"      per-element field {f.name}  [{f.units}]  {plain(f.long_name)} "
+                      f"(on grids: {f.grid})")
             model = getattr(e.cls, "table_model", None)
             if model is not None:
                 keys = ", ".join(model.model_fields)
                 print(f"      keys of the scene table: {keys} (docs/reference/scene.md)")
+    if want:
+        return 0
     for pkg, err in reg.broken.items():
         print(f"failed to load: {pkg}: {err}")
     for msg in reg.refused.values():
@@ -229,7 +247,10 @@ def build_parser() -> argparse.ArgumentParser:
                        "so that its first run starts at full speed (no argument: the default)")
     w.add_argument("scene", nargs="?", help="scene file (TOML)")
     w.set_defaults(func=_cmd_warm)
-    p = sub.add_parser("plugins", help="list registered components with their parameters")
+    p = sub.add_parser("plugins", help="list registered components with their parameters "
+                       "(all, one kind, or one component)")
+    p.add_argument("which", nargs="?", metavar="NAME|KIND",
+                   help="a component (air_drag) or a kind (contact_law, 'forcing sources')")
     p.set_defaults(func=_cmd_plugins)
     _plugin_commands(sub)
     ap.set_defaults(commands=sub)

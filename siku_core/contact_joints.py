@@ -17,16 +17,21 @@ import numpy as np
 from numba import njit
 
 from .contact_frames import (
+    ROW_FIX,
+    ROW_FIY,
     ROW_SIZE,
     element_index,
     find_shared_edges,
+    frame_point,
     joint_constants,
 )
 from .contact_law import (
+    BREAK_MELT,
     BREAK_STRAIN,
     BreakMode,
 )
 from .errors import SceneError
+from .state import MELTED
 from .geometry.face import joint_edges
 from .geometry.quat import centers, east_north_row, from_tangent, xyz_to_latlon
 
@@ -136,6 +141,83 @@ class JointBook:
         self._record_breaks(t)
         return len(k)
 
+    def remove_elements(self, k: np.ndarray, t: float) -> int:
+        """Elements ``k`` melted away (``siku_core.ice``): their intact joints break with mode
+        ``MELT`` at model time ``t`` [s]. Returns how many joints broke."""
+        if not self.n_joints:
+            return 0
+        gone = np.zeros(self.state.n, dtype=bool)
+        gone[np.asarray(k, dtype=np.int64)] = True
+        hit = np.flatnonzero(gone[self.ji] | gone[self.jj])
+        return self.break_joints(hit, BREAK_MELT, t)
+
+    def refreeze_joints(self, k: np.ndarray, t: float) -> int:
+        """Broken joints ``k`` freeze again where their two sides are now: intact from the
+        next evaluation, at rest in the current configuration (the ends of ``j`` are put on
+        those of ``i``, the rest distance is the current one, the law's history starts from
+        zero) with the joints' eq. 9 stiffness. ``t`` [s] is the model time (for messages).
+        Returns how many joints refroze."""
+        st, R = self.state, self.radius
+        k = np.asarray(k, dtype=np.int64).reshape(-1)
+        k = k[~self.intact[k]]
+        gone = st.flags == MELTED  # (melted earlier in this step too)
+        k = k[~(gone[self.ji[k]] | gone[self.jj[k]])]
+        if not len(k):
+            return 0
+        c = centers(st.q)
+        for kk in k:
+            i, j = self.ji[kk], self.jj[kk]
+            for e in range(2):
+                x, y = frame_point(st.q[i], st.q[j], self.ends_i[kk, e, 0], self.ends_i[kk, e, 1],
+                                   R)
+                self.ends_j[kk, e, 0] = x
+                self.ends_j[kk, e, 1] = y
+            ci, cj = c[i], c[j]
+            self.L0[kk] = R * math.atan2(float(np.linalg.norm(np.cross(ci, cj))),
+                                         float(np.dot(ci, cj)))
+        self.intact[k] = True
+        self.break_mode[k] = 0
+        self.break_time[k] = np.nan
+        self.hist[k] = 0.0
+        self.refresh_joint_constants()
+        if self.exclude_jointed:
+            self._ref_centers = None  # the refrozen pairs leave the candidate list
+        return len(k)
+
+    def refresh_joint_constants(self) -> None:
+        """Every joint's eq. 9 stiffness and reduced mass from the current thickness, rest
+        state and masses (after a process changed them). A joint of an element that melted
+        away is broken; it gets a finite reduced mass all the same (its element's own mass
+        stands in for the zero inverse mass of an element that no longer moves)."""
+        st = self.state
+        minv = np.where(st.flags == MELTED, 1.0 / st.m, self.minv)
+        self.jK, self.jmeff = joint_constants(st.thickness, self.E, minv, self.ji, self.jj,
+                                              self.ends_i, self.ends_j)
+
+    def joint_gaps(self, k: np.ndarray) -> np.ndarray:
+        """How far apart the two sides of joints ``k`` are now [m]: the larger distance
+        between an end of the joint on ``i`` and the same end on ``j`` (0 where they are where
+        the joint was frozen, in ``i``'s tangent plane)."""
+        k = np.ascontiguousarray(k, dtype=np.int64)
+        return _joint_gaps(self.state.q, self.ji, self.jj, self.ends_i, self.ends_j,
+                           self.radius, k)
+
+    def joint_tension(self, k: np.ndarray) -> np.ndarray:
+        """Normal traction of intact joints ``k`` in the last force evaluation [Pa], opening
+        positive: the force on ``j`` along the joint's outward normal from ``i``, over the
+        joint's length and the thinner side's thickness."""
+        k = np.asarray(k, dtype=np.int64)
+        st = self.state
+        d = self.ends_i[k, 1] - self.ends_i[k, 0]
+        w = np.hypot(d[:, 0], d[:, 1])
+        safe = np.where(w > 0, w, 1.0)
+        nx, ny = d[:, 1] / safe, -d[:, 0] / safe  # a -> b runs counter-clockwise round i
+        # the force on j in i's frame is minus the generalised force on i (its contact point
+        # lies a joint's length from i's centre: the difference is of order (length / R)²)
+        fx, fy = -self.joint_rows[k, ROW_FIX], -self.joint_rows[k, ROW_FIY]
+        h = np.minimum(st.thickness[self.ji[k]], st.thickness[self.jj[k]])
+        return np.where(w > 0, (fx * nx + fy * ny) / (safe * h), 0.0)
+
     def joint_midpoints(self, k: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Latitude and longitude [deg] ``(len(k), 2)`` of the midpoints of joints ``k``."""
         from .geometry.quat import from_tangent, xyz_to_latlon
@@ -180,10 +262,18 @@ class JointBook:
         return {"time": self.break_time[k], "joint": k, "i": self.ji[k], "j": self.jj[k],
                 "lat": ll[:, 0], "lon": ll[:, 1], "mode": self.break_mode[k].astype(np.int8)}
 
+    #: whether the joints' rest state (``ends_j``, ``L0``) is history: set by the engine for a
+    #: scene with processes, which may refreeze joints where they are
+    rest_state_is_history = False
+
     def history(self) -> dict[str, np.ndarray]:
-        return {"intact": self.intact.astype(np.int8), "hist": self.hist.copy(),
-                "n_broken_total": np.array(self.n_broken_total),
-                "break_mode": self.break_mode.astype(np.int8), "break_time": self.break_time.copy()}
+        out = {"intact": self.intact.astype(np.int8), "hist": self.hist.copy(),
+               "n_broken_total": np.array(self.n_broken_total),
+               "break_mode": self.break_mode.astype(np.int8),
+               "break_time": self.break_time.copy()}
+        if self.rest_state_is_history:
+            out.update(ends_j=self.ends_j.copy(), L0=self.L0.copy())
+        return out
 
     def set_history(self, d: dict[str, np.ndarray]) -> None:
         if d["intact"].shape != self.intact.shape:
@@ -194,6 +284,10 @@ class JointBook:
         self.intact[:] = d["intact"].astype(bool)
         self.hist[...] = d["hist"]
         self.n_broken_total = int(d["n_broken_total"])
+        if "ends_j" in d and self.rest_state_is_history:
+            self.ends_j[...] = d["ends_j"]
+            self.L0[...] = d["L0"]
+            self.refresh_joint_constants()
         if "break_mode" in d:
             self.break_mode[:] = d["break_mode"]
             self.break_time[:] = d["break_time"]
@@ -231,3 +325,16 @@ def _joint_lines(q, ji, ends_i, R):
         de[k] = (tx * ex + ty * ey) / el
         dn[k] = (tx * nx + ty * ny) / el
     return lat, lon, de, dn
+
+
+@njit(cache=True)
+def _joint_gaps(q, ji, jj, ends_i, ends_j, R, ks):
+    out = np.empty(ks.shape[0])
+    for a in range(ks.shape[0]):
+        k = ks[a]
+        g = 0.0
+        for e in range(2):
+            x, y = frame_point(q[jj[k]], q[ji[k]], ends_j[k, e, 0], ends_j[k, e, 1], R)
+            g = max(g, math.hypot(x - ends_i[k, e, 0], y - ends_i[k, e, 1]))
+        out[a] = g
+    return out

@@ -39,8 +39,9 @@ from .interfaces import Component
 
 # ---------------------------------------------------------------------- layouts
 # collision geometry ``g``
-G_AREA, G_CX, G_CY, G_NX, G_NY, G_WIDTH, G_K, G_MEFF, G_VX, G_VY, G_AREA_I, G_AREA_J = range(12)
-G_SIZE = 12
+(G_AREA, G_CX, G_CY, G_NX, G_NY, G_WIDTH, G_K, G_MEFF, G_VX, G_VY, G_AREA_I, G_AREA_J, G_HI,
+ G_HJ) = range(14)
+G_SIZE = 14
 # joint geometry ``g``
 (J_S1X, J_S1Y, J_S2X, J_S2Y, J_AX, J_AY, J_BX, J_BY, J_L0, J_W, J_K, J_MEFF, J_VAX, J_VAY,
  J_VBX, J_VBY, J_HI, J_HJ, J_EI, J_EJ, J_NU, J_DT) = range(22)
@@ -66,6 +67,8 @@ COLLISION_LAYOUT = (
     ("G_VY", "m/s", "velocity of `j` relative to `i` at the centroid, y"),
     ("G_AREA_I", "m²", "area of `i`"),
     ("G_AREA_J", "m²", "area of `j`"),
+    ("G_HI", "m", "thickness of `i`"),
+    ("G_HJ", "m", "thickness of `j`"),
 )
 #: the joint geometry vector ``g``: ``(index constant, unit, meaning)`` per entry, in order
 JOINT_LAYOUT = (
@@ -128,6 +131,7 @@ class BreakMode(IntEnum):
     COMPRESSION = 4  #: normal (closing) stress above the compressive strength
     EXTERNAL = 5  #: broken by a component outside the law, without a more precise mode
     FLEXURE = 6  #: flexural (bending) strain above the critical strain (wave-induced)
+    MELT = 7  #: one of its elements melted away (a process, ``siku_core.ice``)
 
 
 # the same codes as plain ints, for compiled evaluators (numba stores an int in a float array;
@@ -138,6 +142,7 @@ BREAK_SHEAR = int(BreakMode.SHEAR)
 BREAK_COMPRESSION = int(BreakMode.COMPRESSION)
 BREAK_EXTERNAL = int(BreakMode.EXTERNAL)
 BREAK_FLEXURE = int(BreakMode.FLEXURE)
+BREAK_MELT = int(BreakMode.MELT)
 #: names of the break modes by code (code 0: intact), as written in output files
 BREAK_MODES = {int(m): m.name.lower() for m in BreakMode}
 
@@ -223,6 +228,33 @@ class ContactLaw(Component):
     def stiffness_factor(self) -> float:
         """Joint stiffness per unit length relative to ``K`` of eq. 9 (for the dt estimate)."""
         return 1.0
+
+    def stability_rates(self) -> dict[str, Any]:
+        """What the engine's stable-step estimate (``siku_core.stable_step``) needs of the law:
+        ``joint_stiffness`` (:meth:`stiffness_factor`), ``joint_shear`` (the joint's stiffness
+        along it relative to across it: a number, or ``"poisson"`` for ``1/(2(1 + nu))``),
+        ``joint_damping`` (share of critical damping of a joint on its reduced mass, for its
+        normal stiffness), ``joint_shear_damping`` (``"normal"``: the same damper along the
+        joint, or ``"own"``: a share of critical of the shear stiffness),
+        ``collision_stiffness`` (the collision's normal stiffness per unit contact width
+        relative to ``K``), ``collision_damping`` (its share of critical damping) and
+        ``unbounded`` (a reason the estimate cannot bound the law's stiffness, or ``None``).
+        The default reads the built-in laws' parameter names (``joint_damping_ratio``,
+        ``damping_ratio``, ``sqrt_area``); a law that damps or stiffens otherwise
+        overrides it, or the estimate misses its damping."""
+        p = self.p
+        return {
+            "joint_stiffness": self.stiffness_factor(),
+            "joint_shear": 1.0,
+            "joint_shear_damping": "normal",
+            "joint_damping": float(p.get("joint_damping_ratio", 0.0)) if self.uses_joints
+            else 0.0,
+            "collision_stiffness": 1.0,
+            "collision_damping": float(p.get("damping_ratio", 0.0)),
+            "unbounded": ("the sqrt_area collision stiffness K w sqrt(A_min / A) / 2 grows "
+                          "without bound as the overlap A vanishes; taken as K w"
+                          if p.get("sqrt_area", False) else None),
+        }
 
 
 # ---------------------------------------------------------------------- checks

@@ -32,6 +32,8 @@ from siku_core.contact_law import (
     G_AREA,
     G_AREA_I,
     G_AREA_J,
+    G_HI,
+    G_HJ,
     G_CX,
     G_CY,
     G_K,
@@ -265,6 +267,8 @@ def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res
         g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
         g[G_AREA_I] = area[i]
         g[G_AREA_J] = area[j]
+        g[G_HI] = h[i]
+        g[G_HJ] = h[j]
         res[0] = 0.0
         res[1] = 0.0
         res[2] = 0.0

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -34,7 +35,7 @@ from .geometry.quat import centers
 from .interfaces import BroadPhase
 from .parallel import chunks
 from .plugins import package_of
-from .state import FREE, ElementState
+from .state import FREE, MELTED, ElementState
 from .testing import switches
 
 
@@ -80,6 +81,8 @@ class ContactModel(JointBook):
         self.nu = np.array([mats[k].poisson_ratio for k in st.material], dtype=float)
         self.minv = np.where(st.flags == FREE, 1.0 / st.m, 0.0)
         self.skip = st.flags != FREE  # static and steady elements never interact with each other
+        #: elements melted away by a process (``siku_core.ice``), ``None`` while there are none
+        self.gone: np.ndarray | None = None
         skin = cfg.skin if cfg.skin is not None else 0.1 * float(np.mean(st.radius))
         self.skin = skin / R
         self.radii = st.radius / R + 0.5 * self.skin
@@ -158,6 +161,8 @@ class ContactModel(JointBook):
             return self.pairs
         c = centers(q)
         pairs = np.asarray(self.broad.pairs(c, self.radii, self.skip), dtype=np.int64)
+        if self.gone is not None and len(pairs):  # melted elements touch nothing
+            pairs = pairs[~(self.gone[pairs[:, 0]] | self.gone[pairs[:, 1]])]
         if self.exclude_jointed and self.n_joints and len(pairs):
             jk = self._keys(self.ji[self.intact], self.jj[self.intact])
             pairs = pairs[~np.isin(self._keys(pairs[:, 0], pairs[:, 1]), jk)]
@@ -253,6 +258,21 @@ class ContactModel(JointBook):
         self._jev = evaluator_of(self.law, "joint_evaluator") if self.law.uses_joints else None
         self._cev = evaluator_of(self.law, "collision_evaluator")
 
+    def ice_changed(self) -> None:
+        """The constants that follow the thickness and flags, recomputed after a process
+        changed them (``siku_core.ice``): inverse and reduced masses, the joints' eq. 9
+        stiffness (from ``E h``); melted elements leave the candidate list at once."""
+        st = self.state
+        self.minv = np.where(st.flags == FREE, 1.0 / st.m, 0.0)
+        gone = st.flags == MELTED
+        if self.n_joints:
+            self.refresh_joint_constants()
+        if gone.any() and (self.gone is None or not np.array_equal(gone, self.gone)):
+            self.gone = gone
+            self.skip = st.flags != FREE
+            self._ref_centers = None  # rebuilt at the next evaluation, without them
+        self.pmeff = pair_masses(self.minv, self.pairs)
+
     # ------------------------------------------------------------------ stability, history
     def stiffness_bound(self) -> tuple[float, int]:
         """Largest ``omega`` [rad/s] by a Gershgorin bound over each element's contacts.
@@ -294,10 +314,32 @@ class ContactModel(JointBook):
         return math.sqrt(om2[i]), i
 
     def stability_limit(self, ctx) -> tuple[float, str] | None:
+        """The smaller of two estimates of the contact phase's stable step: ``2 / omega`` of
+        :meth:`stiffness_bound` (undamped, element by element) and the stable step of the
+        contacts' stiffness *and damping* at rest (:func:`siku_core.stable_step.critical_step`:
+        joints, the collision of jointed pairs under ``jointed = "collide"``, free edges,
+        rotation, static and steady neighbours as walls; the explicit damping lowers the
+        step). ``None`` without a free element in contact."""
+        from .stable_step import critical_step
+
         om, i = self.stiffness_bound()
         if om <= 0:
             return None
-        return 2.0 / om, f"stiffest contact of element {i} under law '{self.law.name}'"
+        rates = self.law.stability_rates()
+        dt_l, il, d = critical_step(self, rates)
+        self.stable_step_details = {**d, "undamped_bound": 2.0 / om, "linear": dt_l}
+        if dt_l < 2.0 / om:
+            why = (f"stiffest mode at element {il} under law '{self.law.name}' (omega = "
+                   f"{d['omega']:.4g} rad/s with damping rate {d['gamma']:.4g} 1/s)")
+            dt_c = dt_l
+        else:
+            why = f"stiffest contact of element {i} under law '{self.law.name}'"
+            dt_c = 2.0 / om
+        if rates.get("unbounded"):
+            warnings.warn(f"{self.where}: the stable-step estimate cannot be sure: "
+                          f"{rates['unbounded']}", stacklevel=2)
+            why += "; not sure: " + rates["unbounded"]
+        return dt_c, why
 
     def describe(self) -> dict:
         return {"name": self.law.name, "params": dict(self.law.p), "joints": self.n_joints,

@@ -26,7 +26,11 @@ registry                  ``registry`` (look-ups by kind and name),
 joints and contacts       ``contacts``: the run's contact model or ``None`` (joint lines,
                           floes, ``break_joints``)
 diagnostics and fields    ``diagnostics()``, ``element_fields()``, ``timings``
-                          (seconds per phase, :data:`~siku_core.simulation.PHASES`)
+                          (seconds per phase, :data:`~siku_core.simulation.PHASES`),
+                          ``fields`` (the declared per-element fields by name, arrays
+                          their owners change in place), ``field_catalogue()`` (units,
+                          long name and grid reduction of every field a writer writes)
+changing the ice          ``melt(elements)`` (processes: an element melted away)
 what writers record       ``run_record()``, ``history()``, ``component_descriptions()``,
                           ``plugin_versions()``, ``snapshot_every``, ``diagnostics_every``
                           (steps), ``restarted_from``, ``restart_path`` (where a restart
@@ -156,6 +160,23 @@ class Context:
     def element_fields(self) -> dict[str, "np.ndarray"]:
         """Per-element fields for maps and outputs (speed, damage, stress)."""
         return self._sim.element_fields()
+
+    @property
+    def fields(self) -> dict[str, "np.ndarray"]:
+        """The per-element fields components declared (``owned_fields``), by name: one value
+        per element, in the declared dtype and units; the owner changes them in place."""
+        return self._sim.ice.values
+
+    def field_catalogue(self) -> dict[str, tuple[str, str, str]]:
+        """``{name: (units, long_name, grid)}`` of the declared fields and, with processes, of
+        the changing ``thickness``, ``mass`` and ``flags`` (what writers label them with;
+        ``grid``: ``mean``, ``sum`` or ``none``, how ``siku grid`` reduces them per cell)."""
+        return self._sim.ice.catalogue()
+
+    def melt(self, elements) -> int:
+        """Flag ``elements`` (indices) as melted away: they stop, leave the contact phase and
+        their joints break (``siku_core.ice``). Returns how many were not already melted."""
+        return self._sim.ice.melt(elements)
 
     @property
     def timings(self) -> dict[str, float]:

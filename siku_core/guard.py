@@ -72,8 +72,11 @@ class Guard:
         sim.step_index = self._good_step
         saved = ""
         if sim._opened and sim.writers:
-            saved = (f"; {sim.output_path} holds the snapshots to the last good state "
-                     f"(step {self._good_step}, t = {sim.time:g} s)")
+            if all(getattr(w, "published", True) for w in sim.writers):
+                saved = (f"; {sim.output_path} holds the snapshots to the last good state "
+                         f"(step {self._good_step}, t = {sim.time:g} s)")
+            else:  # stopped before its first snapshot: the writer left nothing
+                saved = f"; nothing was written to {sim.output_path}"
         raise NonFiniteError(f"{what} at step {step} (t = {step * sim.dt:g} s){saved}")
 
 
@@ -90,3 +93,12 @@ def check_initial_state(sim: "Simulation") -> None:
                    else sim.scene.where("elements"))
             raise SceneError(f"{src}: element {i} starts with a non-finite {what} "
                              f"{arr[i].tolist()}; the run needs finite numbers")
+    vmax = sim.scene.cfg.run.max_speed
+    speed = np.hypot(st.V[:, 0], st.V[:, 1]) if st.n else np.zeros(0)
+    if speed.size and speed.max() > vmax:
+        i = int(np.argmax(speed))
+        src = (f"restart file {sim.restart_path}" if sim.restart_path is not None
+               else sim.scene.where("elements"))
+        raise SceneError(f"{src}: element {i} starts with a speed of {speed[i]:.3g} m/s, above "
+                         f"[run] max_speed = {vmax:g} m/s; give a smaller velocity (or raise "
+                         "max_speed)")

@@ -10,8 +10,9 @@ and ``dt``, scene, registry look-ups, joints, diagnostics), never the run loop i
 optional capability is declared here with its default, so the engine calls it on every
 component without looking for it: ``setup(ctx)``, ``stability_limit(ctx)`` (no limit),
 ``history()`` / ``set_history(arrays)`` (no history), ``diagnostics(ctx)`` (none declared in
-``diagnostic_units``), ``scene_tables`` and ``required_one_of``; per kind: a forcing source's
-``field``, ``field_required`` and ``py_add``; a writer's ``path`` and ``read_restart``.
+``diagnostic_units``), ``scene_tables``, ``required_one_of`` and ``owned_fields`` (none);
+per kind: a forcing source's ``field``, ``field_required`` and ``py_add``; a writer's ``path``
+and ``read_restart``; a process's ``conserves`` and ``budget``.
 
 Kinds and their entry points:
 
@@ -23,6 +24,7 @@ Kinds and their entry points:
 ``contact_law``     :class:`ContactLaw` — pair forces and joint history
 ``writer``          :class:`Writer` — output files and restart
 ``element_source``  :class:`ElementSource` — makes the ice elements of a scene
+``process``         :class:`Process` — changes the ice (thickness, fields, joints)
 ==================  ================================================================
 """
 from __future__ import annotations
@@ -39,6 +41,7 @@ from .params import Param
 
 if TYPE_CHECKING:  # pragma: no cover
     from .context import Context
+    from .ice import ElementField
     from .state import ElementState
 
 #: signature of the engine's force evaluation, passed to integrators:
@@ -66,6 +69,11 @@ class Component(ABC):
     #: groups of parameters of which one must be given (e.g. ``(("file",), ("u_file",
     #: "v_file"))``); the conformance suite reads them
     required_one_of: ClassVar[tuple[tuple[str, ...], ...]] = ()
+    #: per-element fields this component owns (:class:`~siku_core.ice.ElementField`: name,
+    #: units, long name, dtype, initial value, grid reduction): the engine allocates them,
+    #: hands them out as ``ctx.fields[name]`` and every writer, the xarray engine, ``siku grid``
+    #: and restarts carry them
+    owned_fields: ClassVar[tuple["ElementField", ...]] = ()
 
     def __init__(self, params: Mapping[str, Any] | None = None):
         full = {k: p.default for k, p in self.params.items()}
@@ -199,6 +207,9 @@ class Writer(Component):
     #: the file to write, set by the engine before :meth:`open` (``[output] file`` or
     #: ``--out``); the writer never chooses another path
     path: "Path | None" = None
+    #: whether :meth:`open` continues its own file on a restart (``ctx.restarted_from`` set):
+    #: the engine then lets a restart write to an existing file of this writer
+    appends: ClassVar[bool] = False
 
     @abstractmethod
     def open(self, ctx: "Context") -> None:
@@ -216,6 +227,14 @@ class Writer(Component):
         """Flush and close."""
 
     @classmethod
+    def owns(cls, path: "Path") -> bool:
+        """Whether the existing file ``path`` is an output of this writer, identified by the
+        marks the writer writes inside it (never by its name), reading it without writing to
+        it. ``--overwrite`` replaces only such a file; the default, ``False``, replaces
+        nothing (``siku_core.outputs.check_target``)."""
+        return False
+
+    @classmethod
     def read_restart(cls, path: "Path", ctx: "Context") -> dict[str, Any]:
         """The last complete snapshot of ``path`` for a restart: ``step``, ``q``, ``V``,
         ``w`` (arrays of the state's shapes), ``history`` (``{component key: {name:
@@ -227,6 +246,43 @@ class Writer(Component):
 
         raise DataError(f"{path}: outputs of the '{cls.name}' writer cannot be restarted; "
                         "restart from an HDF5 output ([output] writer = \"hdf5\")")
+
+
+class Process(Component):
+    """Physics that changes the ice itself: thickness (mass and inertia follow), the fields it
+    declares in ``owned_fields``, joints (break, refreeze), elements that melt away.
+
+    A scene chooses processes in ``[[process]]`` tables (``name``, ``params``, ``every``). The
+    engine calls :meth:`apply` after the integrator has committed a step, every ``every``
+    seconds of model time (default: every step), in the order of the tables; ``dt`` is the
+    model time since the process last ran [s] and ``ctx.time`` the end of that interval. A
+    process changes ``ctx.state.thickness`` and its own ``ctx.fields[name]`` in place, melts
+    elements with ``ctx.melt(k)`` and changes joints through ``ctx.contacts``
+    (``break_joints``, ``refreeze_joints``). Afterwards the engine recomputes mass, inertia,
+    joint stiffness and the stable step (``siku_core.ice``). It never moves elements (only the
+    integrator does) and never writes files (writers do).
+
+    ``conserves`` names what the process keeps constant (``"volume"``: the total ice volume
+    ``sum(area h)``); ``budget(ctx)`` returns the volume it added since the start [m³]
+    (growth minus melt) for the conformance suite's volume budget.
+    """
+
+    kind = "process"
+    required = {"apply": ("ctx", "dt")}
+    #: quantities the process conserves (checked by the conformance suite)
+    conserves: ClassVar[tuple[str, ...]] = ()
+
+    @abstractmethod
+    def apply(self, ctx: "Context", dt: float) -> None:
+        """Change the ice over the last ``dt`` [s] of model time, ending at ``ctx.time``."""
+
+    def budget(self, ctx: "Context") -> float:
+        """Ice volume this process added since the start of the run [m³] (negative: removed);
+        a process that conserves volume returns 0 (the default)."""
+        return 0.0
+
+    def close(self) -> None:  # noqa: B027 - optional hook
+        """Release files (called when the run ends)."""
 
 
 @dataclass
@@ -279,5 +335,5 @@ class ElementSource(Component):
 
 KINDS: dict[str, type[Component]] = {
     c.kind: c for c in (Integrator, Field, ForcingSource, BroadPhase, ContactLaw, Writer,
-                        ElementSource)
+                        ElementSource, Process)
 }

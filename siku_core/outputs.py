@@ -13,17 +13,23 @@ The rules (``docs/explanation/outputs.md``):
   wants to replace the file, and siku's readers deciding whether the file is still being
   written, ask :func:`in_use`.
 
-The engine checks the output path (:func:`check_output_path`) before any component does work.
+The engine checks the output path (:func:`check_output_path`) before any component does work;
+every other path siku writes (grid and export files, summaries, pictures, mesh caches) passes
+the same rule, :func:`check_target`: a path naming an existing file that siku did not write
+(identified by the marks siku writes inside its files, never by the name) is never replaced,
+truncated or written to, whatever ``--overwrite`` says; nothing is written to a device, a FIFO
+or a folder given as a file.
 """
 from __future__ import annotations
 
 import errno
 import fcntl
 import os
+import stat
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
-from .errors import DataError
+from .errors import DataError, SceneError
 
 #: errno values that mean "the disk (or the quota, or the file-size limit) is full"
 DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
@@ -62,7 +68,8 @@ def input_paths(scene: Any, extra: Iterable[tuple[str, Path]] = ()) -> list[tupl
             except (OSError, ValueError):  # too long, a NUL byte...: not a file name
                 pass
 
-    walk(scene.cfg.model_dump(exclude={"output": {"file"}}), "")
+    walk(scene.cfg.model_dump(exclude={"output": {"file": True, "extra": {"__all__": {"file"}}}}),
+         "")
     found.extend(extra)
     return found
 
@@ -74,33 +81,68 @@ def _same(a: Path, b: Path) -> bool:
         return False
 
 
-def check_output_path(path: Path, inputs: list[tuple[str, Path]], *, overwrite: bool,
-                      appending_to: Path | None = None) -> None:
-    """Refuse an output path that would lose data (one-line :class:`DataError`):
+def check_target(path: str | Path, *, what: str = "output file",
+                 ours: Callable[[Path], bool] | None = None, overwrite: bool = False,
+                 inputs: Iterable[tuple[str, Path]] = (), appending_to: Path | None = None,
+                 option: str = "--out") -> Path:
+    """May siku write ``path``? The one rule for every file siku writes; refused with a
+    one-line :class:`DataError` naming the file and what to do:
 
-    * a folder, or one of the run's ``inputs`` (``(key, path)``);
-    * an existing file, unless ``overwrite`` or the run continues that file
-      (``appending_to``, the restart file);
-    * a file another process is writing (:func:`in_use`).
-    """
+    * a name with a NUL character, a folder, a device, a FIFO or a socket: never written;
+    * one of the run's ``inputs`` (``(key, path)``): never written;
+    * an existing file: only with ``overwrite`` (or when the run continues it:
+      ``appending_to``), and only when ``ours(path)`` identifies it, by reading the marks siku
+      writes inside its files, as siku's own ``what`` (without ``ours`` nothing is replaced);
+    * a file another process holds (:func:`in_use`).
+
+    ``option`` names the setting that chose the path in the messages."""
+    path = Path(path)
     if "\x00" in str(path):
-        raise DataError(f"{str(path)!r}: an output file name cannot hold a NUL character")
-    if path.is_dir():
-        raise DataError(f"{path}: is a folder; --out (or [output] file) names the output file")
+        raise DataError(f"{str(path)!r}: a file name cannot hold a NUL character")
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        st = None
+    except OSError as exc:  # a file used as a folder, a name too long, a loop of links
+        raise DataError(f"{path}: cannot be written ({exc.strerror}); choose another "
+                        f"{option}") from None
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        raise DataError(f"{path}: is a folder; {option} names the {what}")
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        raise DataError(f"{path}: is not a regular file (a device, FIFO or socket); siku "
+                        f"writes its {what} only to a regular file: choose another {option}")
     for key, p in inputs:
         if _same(path, p):
-            raise DataError(f"{path}: the output file would overwrite an input of this run "
-                            f"({key}: {p}); choose another --out")
-    if not path.exists():
-        return
+            raise DataError(f"{path}: the {what} would overwrite an input of this run "
+                            f"({key}: {p}); choose another {option}")
+    if st is None:
+        return path
     if appending_to is not None and _same(path, appending_to):
         pass
     elif not overwrite:
-        raise DataError(f"{path}: exists; choose another --out, or pass --overwrite to replace "
-                        "it (the old file stays whole until the new one holds a snapshot)")
+        raise DataError(f"{path}: exists; choose another {option}, or pass --overwrite to "
+                        f"replace it (the old file stays whole until the new one is complete)")
+    elif ours is None or not ours(path):
+        raise DataError(f"{path}: exists and is not {_a(what)} siku wrote; siku never replaces a "
+                        f"file it did not write (--overwrite replaces only its own {what}s): "
+                        f"move it away or choose another {option}")
     if in_use(path):
         raise DataError(f"{path}: is being written by another run (or held open by another "
-                        "program); wait for it to finish or choose another --out")
+                        f"program); wait for it to finish or choose another {option}")
+    return path
+
+
+def _a(noun: str) -> str:
+    return f"{'an' if noun[:1] in 'aeiou' else 'a'} {noun}"
+
+
+def check_output_path(path: Path, inputs: list[tuple[str, Path]], *, overwrite: bool,
+                      appending_to: Path | None = None,
+                      ours: Callable[[Path], bool] | None = None) -> None:
+    """The run's output path under :func:`check_target`: ``ours`` is the writer's
+    :meth:`~siku_core.interfaces.Writer.owns`."""
+    check_target(path, what="output file", ours=ours, overwrite=overwrite, inputs=inputs,
+                 appending_to=appending_to)
 
 
 def partial_path(target: Path) -> Path:
@@ -169,7 +211,9 @@ def in_use(path: Path) -> bool:
     """Whether a process holds ``path`` open with a lock (a running siku run, or an HDF5
     program): an exclusive ``flock`` cannot be taken."""
     try:
-        fd = os.open(path, os.O_RDONLY)
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return False
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except OSError:
         return False
     try:
@@ -222,5 +266,36 @@ def restart_differences(stored: dict, current: dict, ignore: Iterable[str] = ())
     return diffs
 
 
-__all__ = ["check_output_path", "input_paths", "partial_path", "publish", "RunLock", "in_use",
+def extra_output_paths(scene: Any, primary: Path | None, overwrite: bool, restart: bool,
+                       writer_class: Any) -> list[Path]:
+    """The files of the scene's ``[[output.extra]]`` writers, each checked like the primary
+    output (none when the run writes nothing): two writers never share a file. On a restart
+    a writer that continues its own file (``writer_class(name, where).appends``) may find it
+    there; any other's existing file is refused like any output."""
+    if primary is None:
+        return []
+    paths: list[Path] = []
+    seen = {primary.resolve()}
+    for k, x in enumerate(scene.cfg.output.extra):
+        p = Path(x.file)
+        if p.resolve() in seen:
+            raise SceneError(f"{scene.where(f'output.extra[{k}]')}: file '{x.file}' is "
+                             "already written by another writer of this run; give each writer "
+                             "its own file")
+        seen.add(p.resolve())
+        where = f"{scene.where(f'output.extra[{k}]')}: "
+        cls = writer_class(x.writer, where)
+        cont = restart and cls.appends
+        if restart and not cont and p.exists() and not overwrite:
+            raise DataError(f"{where}{p} exists and the '{x.writer}' writer cannot continue a "
+                            "file: give it a new file for the continuation (or --overwrite "
+                            "to replace it with the continuation alone)")
+        check_output_path(p, input_paths(scene), overwrite=overwrite,
+                          appending_to=p if cont else None, ours=cls.owns)
+        paths.append(p)
+    return paths
+
+
+__all__ = ["check_output_path", "check_target", "extra_output_paths", "input_paths",
+           "partial_path", "publish", "RunLock", "in_use",
            "is_disk_full", "restart_differences", "fsync_path", "settle", "DISK_FULL"]

@@ -51,7 +51,7 @@ class Param:
         return f"{tname} ({self.unit})" if self.unit else tname
 
 
-_STRICT = ConfigDict(extra="forbid", strict=True)
+_STRICT = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
 
 
 def _field(p: Param):

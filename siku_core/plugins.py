@@ -9,15 +9,17 @@ same entry points: a package, siku's own distribution as much as a third party's
     my_plugin = "my_package.siku_plugin"
 
 and implements hooks with :data:`siku_core.hookimpl`. The engine holds no list of plugin
-modules. ``SIKU_DISABLE_PLUGIN_AUTOLOAD=1`` skips the entry points of every other
-distribution; those of the distribution that installed ``siku_core`` (the built-in components)
-still load. A broken third-party plugin becomes a warning naming its package, and an
-error only when a scene asks for a name it would have provided. The same holds for a component
-that fails the checks made when it registers (its interface, its parameter declarations, a
-contact law's evaluators: :func:`check_component`) and for a name two packages register: a
-warning, and an error only for a scene that uses that name. Modules registered explicitly
-(:func:`register_module`, ``make_plugin_manager(extra=...)``) and siku's own components are
-held to the same checks, but a fault is an error at once.
+modules. ``SIKU_DISABLE_PLUGIN_AUTOLOAD=1`` skips the entry points of every other distribution;
+those of the distribution that installed ``siku_core`` (the built-in components) still load.
+``SIKU_SKIP_PLUGINS=dist-a,dist-b`` skips only the named distributions (a plugin that
+misbehaves; siku's own test suite skips every plugin installed before it started, so it passes
+whatever a user has installed). A broken third-party plugin becomes a warning naming its
+package, and an error only when a scene asks for a name it would have provided. The same holds
+for a component that fails the checks made when it registers (its interface, its parameter
+declarations, a contact law's evaluators: :func:`check_component`) and for a name two packages
+register: a warning, and an error only for a scene that uses that name. Modules registered
+explicitly (:func:`register_module`, ``make_plugin_manager(extra=...)``) and siku's own
+components are held to the same checks, but a fault is an error at once.
 """
 from __future__ import annotations
 
@@ -71,6 +73,10 @@ class SikuHookspecs:
         """Return element source classes (polygon, pack, mesh, floe, ...)."""
 
     @hookspec
+    def siku_register_processes(self) -> list[type]:
+        """Return process classes (physics that changes the ice: growth, ridging, ...)."""
+
+    @hookspec
     def siku_register_commands(self, subparsers: Any) -> None:
         """Add ``siku`` subcommands: ``subparsers.add_parser(name, help=...)`` from argparse;
         set ``func`` (``parser.set_defaults(func=fn)``, ``fn(args) -> exit status``)."""
@@ -107,6 +113,7 @@ _REGISTER_HOOKS = {
     "contact_law": "siku_register_contact_laws",
     "writer": "siku_register_writers",
     "element_source": "siku_register_element_sources",
+    "process": "siku_register_processes",
 }
 
 
@@ -270,6 +277,13 @@ def check_component(kind: str, cls: Any, package: str) -> None:
                 f"(reference signature: {meth}({', '.join(expected)}))"
             )
     _check_params(kind, cls, package)
+    if kind == "writer":
+        got = [p for p in inspect.signature(cls.read_restart).parameters]
+        if not isinstance(inspect.getattr_static(cls, "read_restart"), classmethod) or \
+                got != ["path", "ctx"]:
+            raise PluginError(
+                f"writer '{cls.name}' from package '{package}': read_restart must be a "
+                "classmethod read_restart(cls, path, ctx) (siku_core.interfaces.Writer)")
     if kind == "contact_law":
         from .contact_law import check_contact_law  # imported by .interfaces, after it
 
@@ -324,6 +338,17 @@ def _dist_of(module_name: str, top_map: dict[str, list[str]] | None = None) -> t
     return top, str(getattr(sys.modules.get(top), "__version__", "unknown"))
 
 
+def _canonical(dist: str) -> str:
+    return dist.strip().lower().replace("_", "-").replace(".", "-")
+
+
+def skipped_distributions() -> frozenset[str]:
+    """Distributions named in ``SIKU_SKIP_PLUGINS`` (comma-separated; siku's own is never
+    skipped)."""
+    names = os.environ.get("SIKU_SKIP_PLUGINS", "").split(",")
+    return frozenset(_canonical(n) for n in names if n.strip())
+
+
 def make_plugin_manager(autoload: bool | None = None, extra: tuple[Any, ...] = ()) -> tuple[
     pluggy.PluginManager, Registry
 ]:
@@ -334,11 +359,12 @@ def make_plugin_manager(autoload: bool | None = None, extra: tuple[Any, ...] = (
     if autoload is None:
         autoload = os.environ.get("SIKU_DISABLE_PLUGIN_AUTOLOAD", "") not in ("1", "true", "yes")
     own = own_distribution()
+    skip = skipped_distributions()
     builtin = 0
     for ep in md.entry_points(group="siku"):
         dist = ep.dist.name if ep.dist else ep.value
         mine = own is not None and dist == own
-        if not (mine or autoload):
+        if not (mine or autoload) or (not mine and _canonical(dist) in skip):
             continue
         if pm.get_plugin(ep.value) is not None or pm.is_blocked(ep.value):
             continue  # the same module named twice (two copies of one distribution)

@@ -57,10 +57,16 @@ def restart(sim: "Simulation", path: Path, force: bool = False,
         if diffs:
             warnings.warn(f"{path}: restarting with a different scene (--force): "
                           f"{'; '.join(diffs)}", stacklevel=2)
+    stored_steps = int(data.get("n_steps", sim.n_steps))
+    base = data.get("extended_from")
+    # an --extend cut short (by a kill or a full disk) is finished by a plain restart, and the
+    # same --extend again ends where it would have: it extends the end before the cut-short one
+    cut_short = base is not None and data["step"] < stored_steps
     if extend is not None:
         if not (math.isfinite(extend) and extend > 0):
             raise SceneError(f"--extend {extend!r}: give a positive duration, e.g. 6h")
-        stored_steps = int(data.get("n_steps", sim.n_steps))
+        if cut_short:
+            stored_steps = int(base)
         sim.n_steps = stored_steps + max(1, round(extend / sim.dt))
         check_limits(sim.scene, n_steps=sim.n_steps)
         note = (f"\n# siku run --extend {extend:g} s: continued from step {data['step']} "
@@ -68,6 +74,14 @@ def restart(sim: "Simulation", path: Path, force: bool = False,
                 "s)\n")
         sim.scene = Scene(sim.scene.cfg, sim.scene.text.rstrip("\n") + "\n" + note,
                            sim.scene.path)
+    elif sim.step_index >= sim.n_steps and stored_steps > sim.n_steps:
+        # a run extended beyond its scene's end: go on to the end the file records
+        sim.n_steps = stored_steps
+        if cut_short:
+            note = (f"\n# siku run --extend (resumed): continued from step {data['step']} "
+                    f"of {int(base)} to step {sim.n_steps} (t = {sim.n_steps * sim.dt:g} s)\n")
+            sim.scene = Scene(sim.scene.cfg, sim.scene.text.rstrip("\n") + "\n" + note,
+                               sim.scene.path)
     if sim.step_index >= sim.n_steps:
         raise SceneError(
             f"{path}: the run is already complete (step {sim.step_index} of "
@@ -90,3 +104,40 @@ def restore(sim: "Simulation", path: Path, data: dict[str, Any]) -> None:
     sim.restart_path = path
     sim.set_history_arrays(data.get("history", {}))
 
+
+
+def keyed_components(sim: "Simulation") -> dict[str, Any]:
+    """The run's components by the key their history is stored under: ``KIND{k}_NAME`` in
+    step order, ``contacts`` (the contact model) and ``elements`` (declared per-element fields
+    and a changing thickness, :class:`siku_core.ice.IceBook`)."""
+    out: dict[str, Any] = {f"{c.kind}{k}_{c.name}": c for k, c in enumerate(sim.components())}
+    if sim.contacts is not None:
+        out["contacts"] = sim.contacts
+    if sim.ice.active:
+        out["elements"] = sim.ice
+    return out
+
+
+def history(sim: "Simulation") -> dict[str, dict[str, np.ndarray]]:
+    """Per-component history (joint damage, contact lists, declared fields...) needed to
+    restart exactly. Components that keep history declare it with ``history() -> {name:
+    array}`` and ``set_history({name: array})`` (:class:`~siku_core.interfaces.Component`; by
+    default a component keeps none)."""
+    out = {}
+    for key, c in keyed_components(sim).items():
+        arrays = c.history()
+        if arrays is not None:
+            out[key] = arrays
+    return out
+
+
+def set_history(sim: "Simulation", hist: dict[str, dict[str, np.ndarray]]) -> None:
+    """Put what :func:`history` returned back into the run's components."""
+    comps = keyed_components(sim)
+    for key, arrays in hist.items():
+        if key not in comps or comps[key].history() is None:
+            raise SceneError(
+                f"{sim.scene.label}: restart holds history for '{key}', which this scene "
+                "does not have; restart with the scene that wrote the file"
+            )
+        comps[key].set_history(arrays)

@@ -26,7 +26,7 @@ from pydantic import (
 
 from .errors import SceneError
 from .params import format_validation_error
-from .scene_messages import explain_validation_error
+from .scene_messages import explain_validation_error, is_duration
 from .units import parse_duration
 
 Duration = Annotated[float, BeforeValidator(parse_duration), Field(gt=0)]
@@ -219,6 +219,19 @@ class ForcingCfg(_Strict):
     source: str
     params: dict[str, Any] = Field(default_factory=dict)
     field: FieldCfg | None = None
+    ramp: Duration | None = Field(None, description="spin-up time [s]: the source's force "
+                                  "grows from 0 to full over it (siku_core.ramp)")
+    ramp_shape: Literal["cosine", "linear"] = Field(
+        "cosine", description="the ramp r(t): 'cosine' (1 - cos(pi t/T))/2 or 'linear' t/T")
+
+
+class ProcessCfg(_Strict):
+    """``[[process]]``: a process that changes the ice (``siku_core.interfaces.Process``)."""
+
+    name: str
+    params: dict[str, Any] = Field(default_factory=dict)
+    every: Duration | None = Field(None, description="model time between two applications "
+                                   "[s] (a whole number of steps); default: every step")
 
 
 class ContactCfg(_Strict):
@@ -238,7 +251,7 @@ class ContactCfg(_Strict):
         "'contact' (any positive area is a contact) or 'ignore' (no force; faster packs)")
     jointed: Literal["collide", "exclude"] = Field(
         "collide", description="jointed neighbours while their joint holds: 'collide' (the "
-        "report's rule: also a collision contact) or 'exclude' (the joint alone, as in "
+        "Siku report's rule: also a collision contact) or 'exclude' (the joint alone, as in "
         "bonded-particle codes; the pair collides once the joint breaks)")
 
     @model_validator(mode="after")
@@ -248,6 +261,14 @@ class ContactCfg(_Strict):
         if self.joints != "pairs" and self.pairs:
             raise ValueError("'pairs' is only read with joints = 'pairs'")
         return self
+
+
+class WriterCfg(_Strict):
+    """``[[output.extra]]``: one more writer of the same snapshots, to its own file."""
+
+    writer: str
+    file: str
+    params: dict[str, Any] = Field(default_factory=dict)
 
 
 class OutputCfg(_Strict):
@@ -262,6 +283,8 @@ class OutputCfg(_Strict):
     grid: dict[str, Any] | None = Field(None, description="gridded fields and leads written "
                                         "after the run (keys: output.grid)")
     params: dict[str, Any] = Field(default_factory=dict)
+    extra: list[WriterCfg] = Field(default_factory=list, description="more writers of the "
+                                   "same snapshots, each to its own file")
 
 
 class RunCfg(_Strict):
@@ -288,6 +311,7 @@ class SceneCfg(_Strict):
     integrator: ComponentCfg = Field(default_factory=lambda: ComponentCfg(name="siku2"))
     forcing: list[ForcingCfg] = Field(default_factory=list)
     contact: ContactCfg | None = None
+    process: list[ProcessCfg] = Field(default_factory=list)
     output: OutputCfg = Field(default_factory=OutputCfg)
     run: RunCfg = Field(default_factory=RunCfg)
     coupling: dict[str, Any] | None = Field(None, description="exchange grid of a coupled run "
@@ -335,7 +359,7 @@ def override_value(text: str) -> Any:
     string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):
         return text
 
 
@@ -356,6 +380,18 @@ def apply_overrides(data: dict, overrides: dict[str, str], label: str) -> None:
         cur[parts[-1]] = override_value(raw)
 
 
+def refuse_unitless_durations(overrides: dict[str, str], label: str) -> None:
+    """``siku run --set time.duration=6``: 6 what? A number given for a duration key on the
+    command line is refused naming the key (in a scene or sweep file a number is seconds)."""
+    for key, raw in overrides.items():
+        value = override_value(raw)
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and is_duration(
+                SceneCfg, tuple(int(p) if p.isdigit() else p for p in key.split("."))):
+            raise SceneError(
+                f"{label}: --set {key}={raw}: a duration on the command line needs its unit "
+                f"(e.g. {key}={raw}s, {raw}min, {raw}h or {raw}d)")
+
+
 def _refuse_nul(value: Any, label: str, key: str = "") -> None:
     """A NUL character in a string (TOML allows ``\\u0000``) fits no file name, HDF5 string or
     message: refused, naming the key."""
@@ -369,6 +405,34 @@ def _refuse_nul(value: Any, label: str, key: str = "") -> None:
         raise SceneError(f"{label}: key '{key}' holds a NUL character (\\u0000)")
 
 
+def parse_toml(text: str, label: str) -> dict:
+    """TOML text as a dict; a syntax error, a byte-order mark or tables nested too deeply for
+    the parser are a :class:`SceneError` naming ``label``."""
+    if text.startswith("\ufeff"):
+        text = text[1:]  # a UTF-8 byte-order mark (some editors write one) is not content
+    deep = SceneError(f"{label}: arrays or tables nested more than {MAX_DEPTH} levels deep; "
+                      "a scene nests a few levels at most")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{label}: TOML syntax error: {exc}") from None
+    except RecursionError:
+        raise deep from None
+    todo = [(data, 0)]
+    while todo:  # (without recursion: the checks after this one recurse)
+        value, depth = todo.pop()
+        if depth > MAX_DEPTH:
+            raise deep
+        items = value.values() if isinstance(value, dict) else value if isinstance(
+            value, list) else ()
+        todo.extend((v, depth + 1) for v in items if isinstance(v, (dict, list)))
+    return data
+
+
+#: deepest nesting of arrays and tables a scene or sweep file may hold
+MAX_DEPTH = 32
+
+
 def scene_from_text(
     text: str, label: str = "<scene>", path: Path | None = None,
     overrides: dict[str, str] | None = None,
@@ -378,10 +442,7 @@ def scene_from_text(
     ``overrides`` (``{"time.duration": "6h"}``) replace keys before validation; they are
     appended to the recorded scene text as comments, so an output file says how it was run.
     """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{label}: TOML syntax error: {exc}") from None
+    data = parse_toml(text, label)
     if overrides:
         apply_overrides(data, overrides, label)
         text = text.rstrip("\n") + "\n\n# command-line overrides (siku run --set):\n" + "".join(

@@ -7,6 +7,7 @@ the packages above the engine (sweeps, grids), so that their messages read alike
 from __future__ import annotations
 
 import re
+import types
 import typing
 from typing import Annotated, Any
 
@@ -70,6 +71,25 @@ def _field_at(model: type[BaseModel], loc: tuple) -> Any:
         dict_key = any(typing.get_origin(a) is dict for a in args)
         cur = _unwrap(info.annotation)
     return info
+
+
+def is_duration(model: type[BaseModel], loc: tuple) -> bool:
+    """Whether the key at ``loc`` (``("time", "duration")``, list indices as ints) is a
+    duration (a number of seconds or a string with a unit)."""
+    info = _field_at(model, loc)
+    if info is None:
+        return False
+    found: list[Any] = list(info.metadata)
+    stack = [info.annotation]
+    while stack:
+        ann = stack.pop()
+        if typing.get_origin(ann) is Annotated:
+            found.extend(m for x in typing.get_args(ann)[1:] for m in getattr(x, "metadata", [x]))
+            found.extend(typing.get_args(ann)[1:])
+            stack.append(typing.get_args(ann)[0])
+        elif typing.get_origin(ann) in (typing.Union, types.UnionType):
+            stack.extend(typing.get_args(ann))
+    return any(getattr(c, "func", None) is parse_duration for c in found)
 
 
 def _allowed_range(model: type[BaseModel], loc: tuple) -> str:

@@ -5,10 +5,10 @@ One step (``docs/explanation/design.md``)::
     forcing sources  -> add F, T per element
     (contacts: broad phase, narrow phase, contact laws -> add F, T per pair)
     integrator       -> moves free elements; static never, steady on rails
+    processes        -> change the ice on their schedules (siku_core.ice)
     NaN guard, diagnostics and writers on their schedules
 
-Restarting is in :mod:`siku_core.restart`, the NaN guard in :mod:`siku_core.guard`, what
-components see in :mod:`siku_core.context`.
+Restarting: siku_core.restart; NaN guard: siku_core.guard; components see siku_core.context.
 """
 from __future__ import annotations
 
@@ -29,23 +29,27 @@ from .elements import build_elements
 from .guard import Guard, check_initial_state
 from . import __version__
 from .errors import SceneError, StabilityError
-from .interfaces import Component, Field, ForcingSource, Integrator, Writer
+from .ice import IceBook, apply_processes, process_schedule
+from .interfaces import Component, Field, ForcingSource, Integrator, Process, Writer
 from .limits import check_limits
-from .outputs import check_output_path, input_paths
+from .outputs import check_output_path, extra_output_paths, input_paths
 from .params import validate_params
 from .plugins import Registry, get_plugin_manager, get_registry, package_of
 from .scene import Scene, load_scene
 from .progress import CompileNotice
-from .restart import restart
+from .ramp import ForcingRamps
+from .restart import history as history_of
+from .restart import restart, set_history
 from .schedule import StepInterval, fit_time_step
 
 #: phases of a step timed in ``Simulation.timings`` [s], in step order: forcing sources; the
 #: contact joints; the broad phase (candidate-list rebuilds); narrow phase and collision law;
 #: the per-element sums of contact forces (with the rotation matrices they use, and the check
 #: whether the candidate list is due for a rebuild, done in the same pass);
-#: the integrator (its own work, without the force evaluations); the NaN guard; writers
+#: the integrator (its own work, without the force evaluations); the processes that change the
+#: ice (with what they make the engine recompute); the NaN guard; writers
 PHASES = ("forcing", "joints", "broad_phase", "collisions", "contact_sum", "integrator",
-          "guard", "output")
+          "processes", "guard", "output")
 
 
 class Simulation:
@@ -82,12 +86,20 @@ class Simulation:
         check_limits(scene)
         if extend is not None and restart is None:
             raise SceneError("--extend continues a finished run: give the file with --restart")
+        self.registry = registry or get_registry()
         self.output_path: Path | None = None
         if out is not False:
-            self.output_path = Path(out) if out not in (None, True) else Path(cfg.output.file)
+            # a restart continues its file unless --out names another
+            self.output_path = (Path(out) if out not in (None, True) else Path(restart)
+                                if restart is not None else Path(cfg.output.file))
             check_output_path(self.output_path, input_paths(scene), overwrite=overwrite,
-                              appending_to=Path(restart) if restart is not None else None)
-        self.registry = registry or get_registry()
+                              appending_to=Path(restart) if restart is not None else None,
+                              ours=self.registry.get("writer", cfg.output.writer,
+                                                     where=f"{scene.where('output')}: ").owns)
+        #: the files of the scene's further writers ([[output.extra]]), in order
+        self.extra_paths = extra_output_paths(
+            scene, self.output_path, overwrite, restart is not None,
+            lambda name, where: self.registry.get("writer", name, where=where))
         self.pm = get_plugin_manager() if registry is None else None
         if self.pm is not None:
             self.pm.hook.siku_configured(scene=scene)
@@ -97,7 +109,8 @@ class Simulation:
         # the step is fitted (never lengthened) so that the end and every output time fall on
         # steps exactly (schedule.fit_time_step); `exact_times` is False where that is impossible
         self.dt, self.exact_times = fit_time_step(
-            self.dt_requested, cfg.time.total, (cfg.output.every, cfg.output.diagnostics_every))
+            self.dt_requested, cfg.time.total,
+            (cfg.output.every, cfg.output.diagnostics_every, *(p.every for p in cfg.process)))
         self.n_steps = max(1, math.ceil(cfg.time.total / self.dt - 1e-9))
         self.start: _dt.datetime | None = cfg.time.start
         self.seed = cfg.run.seed
@@ -113,15 +126,31 @@ class Simulation:
         )  # type: ignore[assignment]
         self.forcing: list[ForcingSource] = [
             self._forcing_source(k, f) for k, f in enumerate(cfg.forcing)]
+        #: the forcing sources' spin-ups (``[[forcing]] ramp``, siku_core.ramp)
+        self._ramps = ForcingRamps(cfg.forcing)
 
         self.timings: dict[str, float] = dict.fromkeys(PHASES, 0.0)
         self.contacts = self._contact_model() if cfg.contact is not None else None
         self._commit = True
+        #: the scene's processes (``[[process]]``) and the steps between their applications
+        self.processes: list[Process] = [
+            self._component("process", p.name, p.params, f"process[{k}]")  # type: ignore
+            for k, p in enumerate(cfg.process)]
+        self._process_every = [process_schedule(p.every, self.dt, scene.where(f"process[{k}]"))
+                               for k, p in enumerate(cfg.process)]
 
         self.writers: list[Writer] = [self._writer()] if self.output_path is not None else []
+        for k, (x, path) in enumerate(zip(cfg.output.extra, self.extra_paths)):
+            w = self._component("writer", x.writer, x.params, f"output.extra[{k}]")
+            w.path = path  # type: ignore[attr-defined]
+            self.writers.append(w)  # type: ignore[arg-type]
         self.state_schedule = StepInterval.snapshots(cfg.output.every, self.dt, self.n_steps)
         self.diag_schedule = StepInterval.diagnostics(cfg.output.diagnostics_every, self.dt,
                                                       self.n_steps)
+        #: declared per-element fields and the changing thickness (siku_core.ice)
+        self.ice = IceBook(self, processes=bool(self.processes))
+        if self.processes and self.contacts is not None:
+            self.contacts.rest_state_is_history = True  # processes may refreeze joints
         for comp in self.components():
             comp.setup(self.context)
         if self.contacts is not None:
@@ -150,8 +179,8 @@ class Simulation:
         return comp
 
     def _contact_model(self) -> Any:
-        """The contact phase of the scene's ``[contact]`` table: its law and broad phase built
-        like every component, handed to a :class:`~siku_core.contact_model.ContactModel`."""
+        """The ``[contact]`` table's law and broad phase, built like every component, in a
+        :class:`~siku_core.contact_model.ContactModel`."""
         from .contact_model import ContactModel
 
         scene, cc = self.scene, self.scene.cfg.contact
@@ -170,8 +199,7 @@ class Simulation:
         return w
 
     def _forcing_source(self, k: int, f: Any) -> ForcingSource:
-        """The forcing source of the scene's ``[[forcing]]`` table ``k`` (``f``), with its
-        field built from the table's ``field`` sub-table when it takes one."""
+        """The source of ``[[forcing]]`` table ``k`` (``f``), with its ``field`` if any."""
         scene = self.scene
         src: ForcingSource = self._component(
             "forcing", f.source, f.params, f"forcing[{k}]"
@@ -207,14 +235,17 @@ class Simulation:
         if self.contacts is not None:
             out.extend([self.contacts.broad, self.contacts.law])
         out.append(self.integrator)
+        out.extend(self.processes)
         out.extend(self.writers)
         return out
 
-    def check_time_step(self) -> None:
+    def check_time_step(self, after: str = "") -> None:
         """Refuse (or warn on) a dt above ``dt_safety`` times the smallest component limit.
 
         Every component may declare ``stability_limit(ctx) -> (dt_max [s], reason) | None``
         (:meth:`~siku_core.interfaces.Component.stability_limit`; the default is no limit).
+        Checked before the run and again whenever a process (``after`` names it) has changed
+        the ice.
         """
         run = self.scene.cfg.run
         limits = []
@@ -229,9 +260,11 @@ class Simulation:
         self.critical_dt = dt_c
         safe = run.dt_safety * dt_c
         if self.dt > safe:
+            when = f" after {after} changed the ice at t = {self.time:g} s" if after else ""
             msg = (
                 f"{self.scene.where('time')}: dt = {self.dt:g} s is above the safe step "
-                f"{safe:.4g} s ({run.dt_safety:g} × critical {dt_c:.4g} s set by '{who}': {why})"
+                f"{safe:.4g} s{when} ({run.dt_safety:g} × critical {dt_c:.4g} s set by "
+                f"'{who}': {why})"
             )
             if run.allow_unstable_dt:
                 warnings.warn(msg + "; continuing because [run] allow_unstable_dt = true",
@@ -259,8 +292,7 @@ class Simulation:
         t0 = time.perf_counter()
         F.fill(0.0)
         T.fill(0.0)
-        for src in self.forcing:
-            src.add(t, q, V, w, F, T)
+        self._ramps.add(self.forcing, t, q, V, w, F, T)
         t1 = time.perf_counter()
         self.timings["forcing"] += t1 - t0
         if self.contacts is not None:
@@ -292,6 +324,11 @@ class Simulation:
         self.step_index += 1
         t1 = time.perf_counter()
         self.timings["integrator"] += t1 - t0 - self._force_time
+        if self.processes:
+            apply_processes(self)
+            t2 = time.perf_counter()
+            self.timings["processes"] += t2 - t1
+            t1 = t2
         if self.step_index % self.scene.cfg.run.nan_check_every == 0 or (
             self.step_index == self.n_steps
         ):
@@ -300,8 +337,7 @@ class Simulation:
         self.timed_steps += 1
 
     def profile(self) -> list[tuple[str, float]]:
-        """``(phase, seconds)`` for every phase of :data:`PHASES` with time spent, in step
-        order (see :meth:`step`)."""
+        """``(phase, seconds)`` of every phase of :data:`PHASES` with time spent, in order."""
         return [(k, self.timings[k]) for k in PHASES if self.timings.get(k, 0.0) > 0.0]
 
     def reset_timings(self) -> None:
@@ -327,12 +363,13 @@ class Simulation:
         return d
 
     def element_fields(self) -> dict[str, np.ndarray]:
-        """Per-element quantities for maps: ``speed`` [m/s], and with joints ``damage`` (share
-        of the element's joints that have broken, [1])."""
+        """Per-element fields: ``speed`` [m/s]; with contacts ``damage`` [1] and stresses; the
+        declared ones and, with processes, thickness, mass, flags (siku_core.ice)."""
         st = self.state
         out = {"speed": np.hypot(st.V[:, 0], st.V[:, 1])}
         if self.contacts is not None:
             out.update(self.contacts.element_fields())
+        out.update(self.ice.element_fields())
         return out
 
     # ------------------------------------------------------------------ running
@@ -436,38 +473,18 @@ class Simulation:
         for f in self.forcing:
             if isinstance(f.field, Field):
                 f.field.close()
+        for proc in self.processes:
+            proc.close()
         if self.pm is not None:
             self.pm.hook.siku_finished(simulation=self)
 
-    def _keyed_components(self) -> dict[str, Component]:
-        out = {f"{c.kind}{k}_{c.name}": c for k, c in enumerate(self.components())}
-        if self.contacts is not None:
-            out["contacts"] = self.contacts  # type: ignore[assignment]
-        return out
-
     def history_arrays(self) -> dict[str, dict[str, np.ndarray]]:
-        """Per-component history (joint damage, contact lists...) needed to restart exactly.
-
-        Components that keep history declare it with ``history() -> {name: array}`` and
-        ``set_history({name: array})`` (:class:`~siku_core.interfaces.Component`; by default a
-        component keeps none).
-        """
-        out = {}
-        for key, c in self._keyed_components().items():
-            arrays = c.history()
-            if arrays is not None:
-                out[key] = arrays
-        return out
+        """Every component's history for an exact restart (:func:`siku_core.restart.history`)."""
+        return history_of(self)
 
     def set_history_arrays(self, hist: dict[str, dict[str, np.ndarray]]) -> None:
-        comps = self._keyed_components()
-        for key, arrays in hist.items():
-            if key not in comps or comps[key].history() is None:
-                raise SceneError(
-                    f"{self.scene.label}: restart holds history for '{key}', which this scene "
-                    "does not have; restart with the scene that wrote the file"
-                )
-            comps[key].set_history(arrays)
+        """Put history back (:func:`siku_core.restart.set_history`)."""
+        set_history(self, hist)
 
     def plugin_versions(self) -> dict[str, str]:
         """Packages that provided the components of this run, with versions."""

@@ -4,9 +4,9 @@ Per element ``i``: quaternion ``q[i] (4)``, local surface velocity ``V[i] = (Vx,
 spin ``w[i]`` [rad/s], force accumulator ``F[i]`` [N] (local frame), torque ``T[i]`` [N m]
 about the local vertical, mass ``m`` [kg], polar moment ``I`` [kg m²] about the centroid, area
 [m²], thickness [m], bounding radius [m], ``flags`` (:data:`FREE`, :data:`STATIC`,
-:data:`STEADY`) and ``material`` index. Polygons are ragged (CSR): element ``i`` has vertices
-``verts[vert_offsets[i]:vert_offsets[i+1]]`` [m] in its local tangent plane, counter-clockwise,
-centroid at the origin.
+:data:`STEADY`, :data:`MELTED`) and ``material`` index. Polygons are ragged (CSR): element
+``i`` has vertices ``verts[vert_offsets[i]:vert_offsets[i+1]]`` [m] in its local tangent plane,
+counter-clockwise, centroid at the origin.
 """
 from __future__ import annotations
 
@@ -17,7 +17,12 @@ import numpy as np
 FREE = 0
 STATIC = 1
 STEADY = 2
+#: an element a process melted away (``siku_core.ice``): it neither moves nor touches anything
+MELTED = 3
+#: the kinds a scene may give an element
 FLAG_NAMES = {"free": FREE, "static": STATIC, "steady": STEADY}
+#: every flag code an output may hold (CF ``flag_meanings``)
+FLAG_MEANINGS = {**FLAG_NAMES, "melted": MELTED}
 
 #: arrays that change during a run (the rest is fixed geometry and material)
 DYNAMIC = ("q", "V", "w")

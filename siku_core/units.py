@@ -21,7 +21,11 @@ def parse_duration(value: object) -> float:
     if isinstance(value, str):
         m = _RE.match(value)
         if m:
-            unit = m.group(2) or "s"
+            unit = m.group(2)
+            if not unit:  # text without a unit: 6 of what? (a number is seconds)
+                raise ValueError(f"duration {value!r} has no unit; write {value.strip()}s, "
+                                 f"{value.strip()}min, {value.strip()}h or {value.strip()}d "
+                                 "(in a scene file a number is seconds)")
             if unit in _UNITS:
                 return float(m.group(1)) * _UNITS[unit]
         raise ValueError(

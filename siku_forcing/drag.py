@@ -21,7 +21,7 @@ from siku_core import Param, hookimpl
 from siku_core.geometry.quat import east_north_row, latlon_of
 from siku_core.interfaces import ForcingSource
 from siku_core.parallel import chunk_bounds, chunks
-from siku_core.state import STATIC
+from siku_core.state import MELTED, STATIC
 
 # ----------------------------------------------------------------- quadratic drag, shared
 # The one drag kernel of the forcing sources (water_drag, air_drag, waves, the exchange grid).
@@ -184,7 +184,8 @@ class WaterDrag(_Drag):
         st = ctx.state
         if self.p["C"] == 0 or self.p["rho"] == 0:
             return None
-        found = drag_stability_limit(st, st.flags != STATIC, self.p["rho"], self.p["C"],
+        found = drag_stability_limit(st, (st.flags != STATIC) & (st.flags != MELTED),
+                                     self.p["rho"], self.p["C"],
                                      self.p["max_relative_speed"])
         if found is None:
             return None

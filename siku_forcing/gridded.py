@@ -119,6 +119,10 @@ class Gridded(Field):
         "time": Param("", "", "time dimension name (empty: from CF attributes)", type=str),
         "fill_nan": Param("error", "", "NaN in the data: 'error', or 'zero' to use 0 m/s there",
                           type=str, choices=("error", "zero")),
+        "quantity": Param("velocity", "", "what the variables hold: 'velocity' (m/s, checked), "
+                          "or 'temperature' (a scalar read as the first component, e.g. by "
+                          "the thermodynamics process, which checks its units)", type=str,
+                          choices=("velocity", "temperature")),
     }
     #: one of these parameter groups must be given (the conformance suite skips the field
     #: without them: it has no data file to read)
@@ -150,8 +154,8 @@ class Gridded(Field):
             raise DataError(f"{self.where}: gridded fields need xarray and netCDF4 "
                             f"(pip install xarray netCDF4): {exc}") from None
         names = {"lat": p["lat"], "lon": p["lon"], "time": p["time"]}
-        self.cu = ComponentReader("u", u_paths, p["u"], names, self.where, xr)
-        self.cv = ComponentReader("v", v_paths, p["v"], names, self.where, xr)
+        self.cu = ComponentReader("u", u_paths, p["u"], names, self.where, xr, p["quantity"])
+        self.cv = ComponentReader("v", v_paths, p["v"], names, self.where, xr, p["quantity"])
         cu, cv = self.cu, self.cv
         if not (np.array_equal(cu.lat, cv.lat) and np.array_equal(cu.lon, cv.lon)):
             raise DataError(f"{self.where}: the grids of {cu.label()} ('{cu.var}') and "

@@ -78,8 +78,11 @@ class ComponentReader:
     """One velocity component: its files in time order, the variable, dims and record index."""
 
     def __init__(self, name: str, paths: list[Path], var: str, names: dict[str, str],
-                 where: str, xr: Any):
+                 where: str, xr: Any, quantity: str = "velocity"):
         self.name, self.var, self.where = name, var, where
+        #: what the variable holds: "velocity" (units checked: m/s) or "temperature" (K or
+        #: degC, checked by the reader's owner)
+        self.quantity = quantity
         self.paths: list[Path] = []
         self.arrays: list[Any] = []  # lazy DataArrays, dims (time, lat, lon) or (lat, lon)
         self.datasets: list[Any] = []
@@ -149,7 +152,8 @@ class ComponentReader:
                             f"set '{self.name} = \"...\"' in the field's params")
         da = ds[var]
         units = da.attrs.get("units", da.encoding.get("units"))
-        if units is None or norm_units(units) not in SPEED_UNITS:
+        if self.quantity == "velocity" and (units is None or norm_units(units) not in
+                                            SPEED_UNITS):
             found = "no units attribute" if units is None else f"units '{units}'"
             raise DataError(f"{where}: {path}: variable '{var}' has {found}; expected a "
                             "velocity in m/s ('m/s', 'm s-1' or 'm s**-1')")

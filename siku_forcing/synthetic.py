@@ -75,7 +75,21 @@ def write_ncep_pair(out_dir: str | Path, params: dict, start: _dt.datetime, hour
     return paths[0], paths[1]
 
 
-if __name__ == "__main__":  # pragma: no cover
-    target = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(".")
-    for p in write_ncep_pair(target, DEFAULT_ANTICYCLONE, DEFAULT_START, 48.0):
+def main(argv: list[str] | None = None) -> int:
+    """``python -m siku_forcing.synthetic [OUT_DIR]``: the default scene's wind files."""
+    import argparse
+
+    ap = argparse.ArgumentParser(
+        prog="python -m siku_forcing.synthetic",
+        description="Write the default scene's wind files (uwnd.anticyclone.nc, "
+                    "vwnd.anticyclone.nc: an anticyclone drifting east, NCEP/NCAR layout).")
+    ap.add_argument("out_dir", nargs="?", default=".", help="folder to write them in "
+                    "(default: the working directory)")
+    args = ap.parse_args(argv)
+    for p in write_ncep_pair(Path(args.out_dir), DEFAULT_ANTICYCLONE, DEFAULT_START, 48.0):
         print(p)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -85,7 +85,7 @@ def log_layer_drag(dz: float, roughness: float) -> float:
 WATER_DRAG_PARAMS = {
     "slope": Param(True, "", "surface-slope force -m g grad eta", type=bool),
     "rho": Param(1026.0, "kg/m^3", "water density rho_w", min=0.0),
-    "C": Param(-1.0, "1", "drag coefficient; -1: log layer, Orzech et al. eq. 6", min=-1.0),
+    "C": Param(-1.0, "1", "drag coefficient; -1: log layer, Orzech et al. 2018 eq. 6", min=-1.0),
     "roughness": Param(0.001, "m", "roughness height K_s of eq. 6", min=1e-9),
     "layer": Param(1.0, "m", "thickness dz of the layer below the ice in eq. 6", min=1e-9),
 }

@@ -21,10 +21,11 @@ class BruteForce(BroadPhase):
 
 
 class SweepAndPrune(BroadPhase):
-    """Sort bounding-circle projections on one global axis and sweep (report, Ericson 2004).
+    """Sort bounding circles' projections on one axis and sweep (Kulchitsky et al. 2017).
 
-    The report sweeps along x; here the axis is the one along which the centres spread most
-    (the same pairs, found faster: a pack near 0° longitude has nearly equal x everywhere, and
+    The Siku report sweeps along x (the method: Ericson 2004); here the axis is the one along
+    which the centres spread most (the same pairs, found faster: a pack near 0° longitude has
+    nearly equal x everywhere, and
     the sweep along x then degenerates towards O(N²))."""
 
     name = "sweep_and_prune"

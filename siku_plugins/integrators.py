@@ -67,7 +67,7 @@ def _siku2_one(q, V, w, F, T, m, I, flags, R, dt, i, tmp):  # noqa: E741
 
 
 class Siku2(Integrator):
-    """Report scheme: semi-implicit V, w update from the forces, then the eq. (6) rotation.
+    """Kulchitsky et al. (2017)'s scheme: semi-implicit V, w update, then the eq. (6) rotation.
 
     One force evaluation per step. Kick: ``V += dt F/m``, ``w += dt T/I`` (the body-frame
     angular momentum ``L_b = (-m R Vy, m R Vx, I w)`` gains ``dt`` times the torque about the

@@ -456,8 +456,14 @@ def _cmd_lab(args) -> int:
     tests = TESTS if args.test == "all" else (args.test,)
     tables = []
     for test in tests:
+        # the block in metres, whatever the element size: a smaller --element-size refines it
+        length = args.length or (30.0 if test == "flexure" else 24.0)
+        width = args.width or (8.0 if test == "flexure" else 12.0)
+        if min(length, width) < 4 * args.element_size:
+            raise SikuError(f"--element-size {args.element_size} m: the {test} block "
+                            f"({length:g} m × {width:g} m) needs at least 4 elements across")
         tab = strength_table(test, strengths, progress=True, element_size=args.element_size,
-                             seed=args.seed, jointed=args.jointed)
+                             length=length, width=width, seed=args.seed, jointed=args.jointed)
         tables.append(tab)
         print("\n".join(tab.rows()))
     out = Path(args.out_dir or ".") / f"siku_lab_{args.test}.png"
@@ -473,7 +479,10 @@ def siku_register_commands(subparsers):
     p.add_argument("test", choices=(*TESTS, "all"), help="which test (all: the three)")
     p.add_argument("--strength", default="0.1,0.5,1,2",
                    help="bond strengths sigma_crit = tau_crit [MPa], comma-separated")
-    p.add_argument("--element-size", type=float, default=1.0, help="mean element size D [m]")
+    p.add_argument("--element-size", type=float, default=1.0, help="mean element size D [m]; "
+                   "the block keeps its size in metres, so a smaller D refines it")
+    p.add_argument("--length", type=float, help="block length [m] (default 24; flexure 30)")
+    p.add_argument("--width", type=float, help="block width [m] (default 12; flexure 8)")
     p.add_argument("--seed", type=int, default=0, help="seed of the packing")
     p.add_argument("--jointed", choices=("collide", "exclude"), default="collide",
                    help="bonded neighbours also collide (collide, the default) or only their "

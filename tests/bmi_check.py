@@ -20,7 +20,15 @@ from bmi_tester.api import check_bmi
 
 def main(scene: str) -> int:
     root = Path(bmi_tester.__file__).parent
-    Path(".ROOT_DIR").write_text(str(Path.cwd()))
+    marker = Path(".ROOT_DIR")  # where the tester finds the scene; removed when done
+    marker.write_text(str(Path.cwd()))
+    try:
+        return _stages(root, scene)
+    finally:
+        marker.unlink(missing_ok=True)
+
+
+def _stages(root: Path, scene: str) -> int:
     stages = [root / "_bootstrap", *sorted((root / "_tests").glob("stage_*"))]
     status = 0
     for stage in stages:

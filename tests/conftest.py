@@ -13,3 +13,23 @@ def _numba_threads():
     n = numba.get_num_threads()
     yield
     numba.set_num_threads(n)
+
+
+def pytest_configure(config):
+    """The suite runs against siku's own components only, whatever plugins the user has
+    installed (``pip install -e examples/siku_example_plugin``, as the plugin guide says, or
+    any other): every distribution other than siku's own that declares a ``siku`` entry point
+    when the session starts is named in ``SIKU_SKIP_PLUGINS`` (inherited by the commands the
+    tests start). Plugins the tests install themselves (``siku_fake_install``) still load."""
+    import importlib.metadata as md
+    import os
+
+    from siku_core.plugins import _canonical, get_registry, own_distribution, \
+        skipped_distributions
+
+    own = own_distribution()
+    others = {_canonical(ep.dist.name) for ep in md.entry_points(group="siku")
+              if ep.dist is not None and ep.dist.name != own}
+    if others:
+        os.environ["SIKU_SKIP_PLUGINS"] = ",".join(sorted(others | skipped_distributions()))
+        get_registry(refresh=True)

@@ -248,3 +248,48 @@ def test_cli_rejects_bad_coupling_grid(tmp_path):
                         str(tmp_path / "o.h5")], capture_output=True, text=True, timeout=300)
     assert r.returncode == 2
     assert "[coupling.grid]" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_17_misuse_raises_exceptions_that_say_what_to_do(tmp_path):
+    """Calls before initialize() and after finalize() raise a RuntimeError naming the state
+    (they were AttributeErrors); time runs forward only and stops at the end; values, indices
+    and destinations of the wrong kind are refused naming the variable, shape and dtype."""
+    name = "sea_water_surface__elevation"
+    b = SikuBmi()
+    for call in (b.update, b.get_current_time, lambda: b.update_until(10.0),
+                 lambda: b.get_value("sea_ice__volume", np.zeros(36)),
+                 lambda: b.set_value(name, np.zeros(36)), lambda: b.get_grid_size(0)):
+        with pytest.raises(RuntimeError, match="not initialized; call initialize"):
+            call()
+    b.initialize(scene(tmp_path, BASE + EXCHANGE + GRID))
+    with pytest.raises(RuntimeError, match="already initialized"):
+        b.initialize(scene(tmp_path, BASE + EXCHANGE + GRID))
+    b.update_until(50.0)
+    with pytest.raises(ValueError, match=r"at t = 50 s and runs forward only"):
+        b.update_until(20.0)
+    assert b.get_current_time() == 50.0
+    bad = [(lambda: b.set_value(name, np.zeros(36) + 1j), "real numbers"),
+           (lambda: b.set_value_at_indices(name, np.array([-1]), np.zeros(1)),
+            r"indices must lie in \[0, 35\]"),
+           (lambda: b.set_value_at_indices(name, np.array([1.5]), np.zeros(1)),
+            "indices must be a 1-D integer array"),
+           (lambda: b.get_value_at_indices(name, np.zeros(1), np.array([36])),
+            r"indices must lie in \[0, 35\]"),
+           (lambda: b.get_value("sea_ice__volume", np.zeros(36, dtype=np.int32)),
+            r"writable float64 array of shape \(36,\); got a int32"),
+           (lambda: b.get_value("sea_ice__volume", np.zeros(35)),
+            r"float64 array of shape \(36,\)")]
+    before = b.get_value(name, np.zeros(36)).copy()
+    for call, msg in bad:
+        with pytest.raises(ValueError, match=msg):
+            call()
+    assert np.array_equal(b.get_value(name, np.zeros(36)), before)
+    b.update_until(1e9)
+    assert b.get_current_time() == b.get_end_time()
+    with pytest.raises(RuntimeError, match="at its end time"):
+        b.update()
+    assert b.get_current_time() == b.get_end_time()
+    b.finalize()
+    for call in (b.update, b.get_current_time, lambda: b.get_value(name, np.zeros(36))):
+        with pytest.raises(RuntimeError, match="finalized; create a new SikuBmi"):
+            call()

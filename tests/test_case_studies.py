@@ -15,7 +15,7 @@ from siku_core.simulation import Simulation
 
 HERE = Path(__file__).resolve().parent.parent / "examples" / "case_studies"
 SMALL = {"elements.mesh.spacing": "30e3", "elements.mesh.coast_spacing": "20e3",
-         "elements.mesh.cache": "false", "time.dt": "7", "time.duration": "3h"}
+         "elements.mesh.cache": "false", "time.dt": "3", "time.duration": "3h"}
 
 
 def _cases():

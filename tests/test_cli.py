@@ -105,7 +105,7 @@ def test_set_needs_key_equals_value(capsys):
 
 def test_set_values_are_validated_like_the_file(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert main(["run", "--set", "time.dt=-1"]) == 2
+    assert main(["run", "--set", "time.dt=-1s"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "time.dt" in err[0] and "default_scene.toml" in err[0]
 

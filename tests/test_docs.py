@@ -6,7 +6,11 @@ into ``docs/reference/scene.md`` when a key is added (then write the description
 """
 from __future__ import annotations
 
+import os
 import re
+import shutil
+import subprocess
+import sys
 import tomllib
 import types
 import typing
@@ -21,6 +25,8 @@ from pydantic_core import PydanticUndefined
 from siku_core.scene import SceneCfg, scene_from_text
 from siku_core.testing import toml_value
 from siku_core.units import parse_duration
+
+import doc_blocks  # noqa: E402  (tests/doc_blocks.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -336,6 +342,132 @@ def test_the_quickstart_scenes_run_as_written():
     assert sim2.contacts.n_intact == 1
     V = sim2.state.V
     assert np.hypot(*(V[0] - V[1])) < 1e-3 * np.hypot(*V[0])
+
+
+# ---------------------------------------------------------------------------- every block
+ALL_BLOCKS = [b for page in doc_blocks.pages() for b in doc_blocks.blocks(page)]
+RUN_PAGES = sorted({b.page for b in ALL_BLOCKS if b.runs})
+#: how a stand-in for a file a reader made with a long command is made (in the test's folder)
+STAND_INS = {
+    # `siku run` (24 h, minutes): the same default scene, 20 minutes of it
+    "siku_default.h5": ["siku", "run", "--set", "time.duration=20min", "--no-plots",
+                        "--no-progress", "--out", "siku_default.h5"],
+}
+
+
+def test_every_block_of_every_page_runs_or_says_why_not():
+    """Every fenced block of every page in docs/ has a language; a block that is neither run
+    (bash, python, a scene saved with <!-- file: -->), parsed (toml) nor a listing (text) says
+    why with <!-- not run: REASON -->."""
+    assert len(doc_blocks.pages()) >= 15
+    for b in ALL_BLOCKS:
+        assert b.lang in ("bash", "python", "toml", "text"), (
+            f"{b.where}: a block without a language (```bash, ```python, ```toml or ```text)")
+        if "not run" in b.notes:
+            assert len(b.notes["not run"]) > 15, f"{b.where}: say why the block is not run"
+            assert b.lang in ("bash", "python"), f"{b.where}: 'not run' on a {b.lang} block"
+        if b.runs and re.search(r"\bwget\b|\bcdsapi\b|\bcurl\b", b.code):
+            assert "network" in b.notes, f"{b.where}: downloads: mark it <!-- network -->"
+    assert {"docs/quickstart.md", "docs/howto/meshes.md", "docs/howto/results.md",
+            "docs/howto/coupling.md", "docs/howto/forcing_data.md"} <= set(RUN_PAGES)
+
+
+@pytest.fixture(scope="session")
+def stand_ins(tmp_path_factory) -> dict[str, Path]:
+    made: dict[str, Path] = {}
+    folder = tmp_path_factory.mktemp("stand_ins")
+
+    def get(name: str) -> Path:
+        if name not in made:
+            subprocess.run(STAND_INS[name], cwd=folder, check=True, timeout=600,
+                           capture_output=True)
+            made[name] = folder / name
+        return made[name]
+    return get
+
+
+@pytest.mark.parametrize("page", RUN_PAGES)
+def test_page_runs_as_written(page, tmp_path, monkeypatch, stand_ins):
+    """The page's blocks, in order, as a reader runs them: in a clean folder holding a copy of
+    examples/ (nothing reaches the source tree), scenes saved where the page says, bash blocks
+    through bash, python blocks in one namespace; downloads go to stand-ins."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    doc_blocks.prepare(tmp_path)
+    bin_ = doc_blocks.network_stand_ins(tmp_path, sys.executable)
+    env = {**os.environ, "MPLBACKEND": "Agg", "SIKU_NO_PROGRESS": "1",
+           "PATH": os.pathsep.join([str(bin_), str(Path(sys.executable).parent),
+                                    os.environ.get("PATH", "")])}
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(bin_))
+    # the stand-in, not an installed cdsapi that another test (bmi-era5) imported already
+    monkeypatch.delitem(sys.modules, "cdsapi", raising=False)
+    before = _source_tree_state()
+    scope: dict = {"__name__": "__docs__"}
+    for b in (b for b in ALL_BLOCKS if b.page == page):
+        for name in filter(None, re.split(r"[,\s]+", b.notes.get("stand-in", ""))):
+            shutil.copy(stand_ins(name), tmp_path / name)
+        if not b.runs:
+            continue
+        if "file" in b.notes:
+            target = tmp_path / b.notes["file"]
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_text(b.code, encoding="utf-8")
+        elif b.lang == "bash":
+            r = subprocess.run(["bash", "-e", "-c", b.code], cwd=tmp_path, env=env,
+                               capture_output=True, text=True, timeout=600)
+            assert r.returncode == 0, f"{b.where}:\n{b.code}\n{r.stdout[-3000:]}{r.stderr[-3000:]}"
+        else:
+            exec(compile(b.code, b.where, "exec"), scope)
+    assert _source_tree_state() == before, "a block wrote into the source tree"
+
+
+def _cited_texts() -> dict[str, str]:
+    texts = {p.relative_to(ROOT).as_posix(): p.read_text(encoding="utf-8")
+             for p in [ROOT / "README.md", *doc_blocks.pages()]}
+    from siku_core.cli import main
+
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        main(["plugins"])
+    texts["siku plugins"] = buf.getvalue()
+    return texts
+
+
+def test_sources_are_cited_by_author_and_year_and_listed_in_the_references():
+    """No internal labels ("seed 004") and no uncited "the report": a page names the Siku
+    report or Orzech et al. and links the references page, which lists both works in full."""
+    refs = (DOCS / "reference" / "references.md").read_text(encoding="utf-8")
+    assert "OCS Study BOEM 2017-043" in refs and "Kulchitsky, A., J. Hutchings, J. Johnson" in refs
+    assert "10.1175/JTECH-D-17-0189.1" in refs and "Orzech, M. D." in refs
+    for where, text in _cited_texts().items():
+        assert not re.search(r"\bseeds?\s*0\d\d\b", text, re.I), f"{where}: an internal label"
+        bare = re.search(r".{0,40}(?<!Siku )\b[Tt]he report\b.{0,40}", text)
+        assert not bare, f"{where}: uncited 'the report': {bare.group(0)!r}"
+        if where.endswith(".md") and where != "docs/reference/references.md" and \
+                re.search(r"Siku report|Orzech|Kulchitsky", text):
+            assert "references.md" in text, f"{where}: cites a work without linking References"
+
+
+def test_the_output_reference_lists_every_diagnostic_with_its_unit():
+    """docs/reference/output.md has a row `name` | `unit` | meaning for each diagnostic of
+    siku's catalogue (the built-in components' included)."""
+    from siku_core.diagnostics import catalogue
+
+    page = (DOCS / "reference" / "output.md").read_text(encoding="utf-8")
+    rows = dict(re.findall(r"^\| `(\w+)` \| `([^`]*)` \| .+\|$", page, re.MULTILINE))
+    for name, (unit, _meaning) in catalogue().items():
+        assert rows.get(name) == unit, f"output.md: diagnostic `{name}` [{unit}] not listed"
+
+
+def _source_tree_state() -> set[str]:
+    r = subprocess.run(["git", "status", "--porcelain", "--untracked-files=all"], cwd=ROOT,
+                       capture_output=True, text=True)
+    return set(r.stdout.splitlines()) if r.returncode == 0 else set()
 
 
 if __name__ == "__main__":  # print the generated reference tables

@@ -252,6 +252,14 @@ def test_an_existing_file_is_never_replaced_unless_told(tmp_path, monkeypatch, c
     assert main(["run", "scene.toml", "--no-progress"]) == 2
     assert "out.h5: exists" in capsys.readouterr().err
     assert (tmp_path / "out.h5").read_bytes() == b"somebody's results"
+    # --overwrite replaces only a file siku wrote (told by the marks inside it, not its name)
+    assert main(["run", "scene.toml", "--no-progress", "--overwrite"]) == 2
+    assert "out.h5: exists and is not an output file siku wrote" in capsys.readouterr().err
+    assert (tmp_path / "out.h5").read_bytes() == b"somebody's results"
+    (tmp_path / "out.h5").unlink()
+    (tmp_path / "scene.toml").write_text(scene_text(steps=20), encoding="utf-8")
+    assert main(["run", "scene.toml", "--no-progress"]) == 0
+    (tmp_path / "scene.toml").write_text(scene_text(steps=40), encoding="utf-8")
     assert main(["run", "scene.toml", "--no-progress", "--overwrite"]) == 0
     with h5py.File(tmp_path / "out.h5", "r") as f:
         assert f["states/step"][-1] == 40

@@ -7,8 +7,14 @@ huge, tiny, negative, zero, wrong types, unknown names and file names), keys del
 keys added, and now and then the TOML text cut short. Every run is bounded in time; a run past
 its budget counts as a hang.
 
+Durations and schedules at their extremes make valid scenes of up to 10⁹ steps (the limit of
+``siku_core.limits``): such a run is no hang, but would outlast any budget. Every run is bounded
+to ``MAX_STEPS`` steps (``Simulation.run`` is asked for no more), so a scene that runs at all
+ends; a hang is a run that does not get there within its budget.
+
 The default run tries ``FUZZ_EXAMPLES`` (40) scenes; ``pytest -m slow`` runs the long mode
-(``FUZZ_EXAMPLES_LONG``, 500) and prints the count.
+(``FUZZ_EXAMPLES_LONG``, 500) and prints the count. ``tests/test_fuzz_files.py`` fuzzes sweeps
+and damaged output files the same way.
 """
 from __future__ import annotations
 
@@ -37,6 +43,8 @@ FUZZ_EXAMPLES_LONG = 500
 #: wall-clock budget of one run [s]: a valid mutated scene runs at most a few thousand steps of
 #: a few elements (a second or two); far past that is a hang
 BUDGET = 60.0
+#: most steps one fuzzed run takes (a longer valid run is stopped there and counts as run)
+MAX_STEPS = 3000
 
 BASES: list[dict[str, Any]] = [
     {"title": "drift", "time": {"start": dt.datetime(2001, 2, 3, tzinfo=dt.timezone.utc),
@@ -58,6 +66,11 @@ BASES: list[dict[str, Any]] = [
      "elements": {"mesh": {"lon": [-150.0, -149.0], "lat": [72.0, 72.3], "spacing": 8e3,
                            "land": "none", "cache": False, "seed": 1}},
      "forcing": [{"source": "water_drag"}]},
+    {"title": "cached mesh", "time": {"duration": 600, "dt": 60},
+     "elements": {"mesh": {"lon": [-150.0, -149.5], "lat": [72.0, 72.2], "spacing": 6e3,
+                           "land": "none", "cache": True, "mesh_file": "m.mesh.npz",
+                           "seed": 2, "coast_spacing": 4e3, "coast_distance": 1e4}},
+     "forcing": [{"source": "water_drag"}], "output": {"every": 300, "diagnostics_every": 60}},
 ]
 
 NUMBERS = [0, -1, 1, 3, 0.5, -0.5, 1e-3, 1e-300, 1e300, 1e6, float("nan"), float("inf"),
@@ -119,8 +132,39 @@ class Hang(Exception):
     pass
 
 
+def bounded_runs():
+    """``Simulation.run`` takes at most :data:`MAX_STEPS` steps while the context is active."""
+    from siku_core.simulation import Simulation
+
+    run = Simulation.run
+
+    def bounded(self, steps=None):
+        left = self.n_steps - self.step_index if steps is None else steps
+        return run(self, min(left, MAX_STEPS))
+
+    return _patched(Simulation, "run", bounded)
+
+
+@contextlib.contextmanager
+def _patched(obj, name, value):
+    old = getattr(obj, name)
+    setattr(obj, name, value)
+    try:
+        yield
+    finally:
+        setattr(obj, name, old)
+
+
 def run_scene(text: str) -> tuple[int, str]:
     """``siku run`` on the scene text in a fresh folder; (exit status, stderr)."""
+    return run_main(["run", "scene.toml", "--out", "out.h5", "--no-progress", "--no-plots"],
+                    {"scene.toml": text})
+
+
+def run_main(args: list[str], files: dict[str, str | bytes], after=None) -> tuple[int, str]:
+    """``siku ARGS`` (in this process, runs bounded to MAX_STEPS steps) in a fresh folder
+    holding ``files``; (exit status, stderr). A run past :data:`BUDGET` raises :class:`Hang`.
+    ``after(folder)`` is called before the folder goes."""
     def alarm(signum, frame):
         raise Hang(f"no end after {BUDGET:g} s")
 
@@ -129,16 +173,22 @@ def run_scene(text: str) -> tuple[int, str]:
     old = signal.signal(signal.SIGALRM, alarm)
     with tempfile.TemporaryDirectory() as d:
         os.chdir(d)
-        Path("scene.toml").write_text(text, encoding="utf-8")
+        for name, content in files.items():
+            if isinstance(content, bytes):
+                Path(name).write_bytes(content)
+            else:
+                Path(name).write_text(content, encoding="utf-8")
         signal.setitimer(signal.ITIMER_REAL, BUDGET)
         try:
             with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()), \
-                    warnings.catch_warnings():
-                rc = main(["run", "scene.toml", "--out", "out.h5", "--no-progress", "--no-plots"])
+                    warnings.catch_warnings(), bounded_runs():
+                rc = main(args)
         finally:
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, old)
             os.chdir(cwd)
+        if after is not None:
+            after(Path(d))
     return rc, err.getvalue()
 
 
@@ -183,3 +233,14 @@ def test_fuzzed_scenes_long_count(capsys):
         print(f"\nfuzz: {COUNT['n']} generated scenes, none with a traceback or a hang: "
               f"{COUNT[0]} ran to the end (exit 0), {COUNT[2]} refused in one line (exit 2)")
     assert COUNT["n"] >= FUZZ_EXAMPLES_LONG
+
+
+@pytest.mark.parametrize("time", [{"duration": 6e8, "dt": 60},  # 10⁷ steps: 19 years
+                                  {"duration": 1e9, "dt": 1}])  # 10⁹ steps: the limit
+def test_19_scenes_of_extreme_duration_end(time):
+    """Valid scenes at the extremes of durations and schedules (the fuzzer made them and they
+    never ended within any budget) run their first MAX_STEPS steps and end."""
+    scene = copy.deepcopy(BASES[0])
+    scene["time"] = {**scene["time"], **time}
+    scene["output"] = {"every": time["dt"] * 1000, "diagnostics_every": time["dt"]}
+    assert check("\n".join(f"{k} = {toml_value(v)}" for k, v in scene.items())) == 0

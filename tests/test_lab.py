@@ -135,3 +135,26 @@ def test_lab_command_writes_table_and_picture(tmp_path, capsys):
     assert (tmp_path / "siku_lab_tension.png").stat().st_size > 10_000
     assert main(["lab", "tension", "--strength", "a,b"]) == 2
     assert "--strength" in capsys.readouterr().err
+
+
+def test_a_smaller_element_size_refines_the_same_block(monkeypatch):
+    """``siku lab --element-size D``: the block keeps its size in metres (24 m × 12 m; flexure
+    30 m × 8 m, or ``--length``/``--width``), so halving ``D`` quadruples the elements; the
+    tables are run with those sizes."""
+    import siku_plugins.lab as lab
+
+    seen = []
+
+    def fake_table(test, strengths, **kw):
+        seen.append((test, kw["element_size"], kw["length"], kw["width"]))
+        raise SystemExit(0)
+
+    monkeypatch.setattr(lab, "strength_table", fake_table)
+    for D in (1.0, 0.5):
+        with pytest.raises(SystemExit):
+            main(["lab", "flexure", "--strength", "1", "--element-size", str(D)])
+    assert seen == [("flexure", 1.0, 30.0, 8.0), ("flexure", 0.5, 30.0, 8.0)]
+    with pytest.raises(SystemExit):
+        main(["lab", "tension", "--strength", "1", "--element-size", "0.25", "--length", "10"])
+    assert seen[-1] == ("tension", 0.25, 10.0, 12.0)
+    assert main(["lab", "tension", "--strength", "1", "--element-size", "5"]) == 2

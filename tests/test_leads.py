@@ -104,3 +104,76 @@ def test_the_opening_of_a_lead_is_the_velocity_jump_across_it():
     div = np.where(m, 0.02 / 50e3, 0.0)
     leads, _ = detect(m, grid, div, min_length=3)
     assert len(leads) == 1 and leads[0].opening == pytest.approx(0.02, rel=1e-3)
+
+
+# ---------------------------------------------------------------- broken joints at coarse cells
+D = 9e3  # m: joint spacing along a crack (the default scene's elements are about 9 km across)
+CRACKS = {  # (start, end) [m] in the grid's plane
+    "crossing": [((-300e3, -100e3), (300e3, 100e3)), ((-100e3, -300e3), (150e3, 320e3))],
+    "parallel": [((-300e3, -60e3), (300e3, -60e3)), ((-300e3, 60e3), (300e3, 60e3))],
+    "far_apart": [((-500e3, -300e3), (-100e3, -300e3)), ((200e3, 50e3), (200e3, 450e3))],
+    # a web: three cracks along x crossed by three along y, 200 km apart (the old zone labels
+    # chained its junctions into one, and every pair of leads "crossed" at its middle)
+    "web": [((-310e3, y), (310e3, y)) for y in (-200e3, 0.0, 200e3)]
+    + [((x, -310e3), (x, 310e3)) for x in (-200e3, 0.0, 200e3)],
+}
+CROSSES = {"crossing": [(0, 1)], "parallel": [], "far_apart": [],
+           "web": [(a, b) for a in range(3) for b in range(3, 6)]}
+#: the finest cells [m] at which a pattern may be refused: a crossing's zone reaches two cells
+#: each side, so crossings must be more than five cells apart (the web's are 200 km apart), and
+#: the cracks several cells long beyond it (the crossing pair's 600 km are 7.5 cells of 80 km)
+REFUSED_FROM = {"crossing": 80e3, "parallel": 80e3, "far_apart": 80e3, "web": 40e3}
+
+
+def _broken_joint_mask(cracks, cell):
+    """The ``broken_joints > 0`` mask of ``siku grid`` for cracks whose joint midpoints lie every
+    ``D`` along each line, on a polar stereographic grid of ``cell`` [m]."""
+    grid = Grid(GridCfg(kind="polar_stereographic", x=(-800e3, 800e3), y=(-800e3, 800e3),
+                        resolution=cell), R)
+    m = np.zeros(grid.shape, bool)
+    for (x0, y0), (x1, y1) in cracks:
+        n = int(math.hypot(x1 - x0, y1 - y0) // D) + 1
+        x, y = np.linspace(x0, x1, n), np.linspace(y0, y1, n)
+        i = np.searchsorted(grid.x_edges, x) - 1
+        j = np.searchsorted(grid.y_edges, y) - 1
+        m[j, i] = True
+    return grid, m
+
+
+def _crossing_point(a, b):
+    (p, q), (r, s) = (np.array(a[0]), np.array(a[1])), (np.array(b[0]), np.array(b[1]))
+    t = np.linalg.solve(np.column_stack([q - p, r - s]), r - p)[0]
+    return p + t * (q - p)
+
+
+@pytest.mark.parametrize("pattern", sorted(CRACKS))
+@pytest.mark.parametrize("cell", [10e3, 20e3, 40e3, 80e3, 160e3])
+def test_broken_joint_leads_are_exact_or_refused(pattern, cell):
+    """Cracks drawn by their broken joints' midpoints, at cells no finer than the joint spacing:
+    each crack is one lead, its length within one cell (the centres of its end cells), and the
+    crossings are exactly the crossing pairs, within two cells of the true point; or the table
+    is refused (``unresolved``: the mask wider than ``MAX_CRACK_WIDTH``, or the crossings taking
+    most of the skeleton, or two crossings' zones touching). Cells finer than
+    ``REFUSED_FROM`` must resolve the pattern: a refusal everywhere would pass."""
+    from siku_io.analysis.leads import unresolved
+
+    cracks = CRACKS[pattern]
+    grid, m = _broken_joint_mask(cracks, cell)
+    if unresolved(m) is not None:
+        assert cell >= REFUSED_FROM[pattern], f"refused too fine: {unresolved(m)}"
+        return
+    leads, crossings = detect(m, grid, min_length=3)
+    assert len(leads) == len(cracks)
+    want = sorted(math.hypot(x1 - x0, y1 - y0) for (x0, y0), (x1, y1) in cracks)
+    got = sorted(f.length for f in leads)
+    for g, w in zip(got, want):
+        assert abs(g - w) <= cell * math.sqrt(2), (g, w)
+    assert len(crossings) == len(CROSSES[pattern])
+    points = [_crossing_point(cracks[a], cracks[b]) for a, b in CROSSES[pattern]]
+    for c in crossings:  # each near its own true crossing point
+        x, y = grid.to_plane(np.array([c.where[0]]), np.array([c.where[1]]))
+        d = [np.hypot(float(x[0]) - p[0], float(y[0]) - p[1]) for p in points]
+        k = int(np.argmin(d))
+        assert d[k] <= 2 * cell * math.sqrt(2), (d[k], cell)
+        points.pop(k)
+        assert 80 <= c.angle <= 90 if pattern == "web" else True

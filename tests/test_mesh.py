@@ -24,7 +24,6 @@ import importlib.util
 import json
 import math
 import time
-import warnings
 
 import numpy as np
 import pytest
@@ -409,15 +408,17 @@ def test_cache_is_reused_until_the_parameters_change(tmp_path):
     m3, built3 = load_or_build(p, path)
     assert built3 and m3.digest != m1.digest and m3.n < m1.n
     assert Mesh.load(path).digest == m3.digest
+    # a file siku did not write (or cannot tell as its cache) is never replaced
     path.write_bytes(b"not a mesh")
-    with warnings.catch_warnings(record=True) as w:
-        warnings.simplefilter("always")
-        m4, built4 = load_or_build(p, path)
-    assert built4 and any("unreadable mesh cache" in str(x.message) for x in w)
-    assert np.array_equal(m4.lonlat, m3.lonlat)
+    with pytest.raises(ValueError, match="exists and is not a mesh cache siku wrote"):
+        load_or_build(p, path)
+    assert path.read_bytes() == b"not a mesh"
+    path.unlink()
+    m4, built4 = load_or_build(p, path)
+    assert built4 and np.array_equal(m4.lonlat, m3.lonlat)
 
 
-def test_scene_mesh_is_cached_beside_the_scene(tmp_path, monkeypatch):
+def test_scene_mesh_is_cached_beside_the_scene(tmp_path, monkeypatch, capsys):
     text = """
 [time]
 duration = "1h"
@@ -435,13 +436,18 @@ velocity = [0.1, 0.0]
     st = build_elements(load_scene(path))
     cache = tmp_path / "sea.mesh.npz"
     assert cache.is_file()
+    assert "mesh built" in capsys.readouterr().err  # the first build says so
     mesh, built = mesh_for_scene(load_scene(path))
     assert not built and st.n == mesh.n
+    assert "mesh" not in capsys.readouterr().err  # read from the cache: nothing to say
     assert np.all(st.flags == FREE) and np.all(st.thickness == 2.0)
     assert np.allclose(np.hypot(*st.V.T), 0.1)
     path.write_text(text.replace("40000.0", "50000.0"), encoding="utf-8")
     mesh2, built2 = mesh_for_scene(load_scene(path))
     assert built2 and mesh2.n < mesh.n
+    err = capsys.readouterr().err  # a rebuild names the cache and says why
+    assert "[elements.mesh]" in err and "rebuilt (the cache held a mesh of other parameters)" \
+        in err and f"{mesh2.n} cells" in err and str(cache) in err
     # a scene from text and no mesh_file is not cached
     monkeypatch.chdir(tmp_path)
     _, built3 = mesh_for_scene(scene_from_text(text))
@@ -459,7 +465,8 @@ def test_scene_mesh_errors_name_the_table():
         scene_from_text(base + "lat = [70, 71]\n")
     sc = scene_from_text(base + 'lat = [70, 70.01]\nspacing = 50000.0\nland = "none"\n'
                          "cache = false\n")
-    with pytest.raises(SceneError, match=r"\[elements.mesh\].*no cells"):
+    with pytest.raises(SceneError, match=r"\[elements.mesh\]: spacing = 50000 m: the region is "
+                       r"only about 6.5e\+03 m across"):
         build_elements(sc)
 
 

@@ -67,7 +67,7 @@ def test_every_dataset_explains_itself_and_is_on_the_reference_page(outputs):
                 assert f"`/{name}`" in page, name
         assert f["states/time"].attrs["units"] == "seconds since 2001-04-06 00:00:00"
         flags = f["geometry/flags"].attrs
-        assert flags["flag_meanings"].split() == ["free", "static", "steady"]
+        assert flags["flag_meanings"].split() == ["free", "static", "steady", "melted"]
         assert flags["flag_values"].dtype == f["geometry/flags"].dtype
         assert "breaks" in f and f["breaks/time"].shape[0] > 0
         assert f["breaks/mode"].attrs["flag_meanings"].split()[1] == "strain"

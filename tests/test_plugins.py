@@ -1,6 +1,7 @@
 """Plugins: name lookup, registration checks, entry points, the example plugin, conformance."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import types
@@ -205,6 +206,52 @@ def test_disable_autoload_skips_entry_points_but_keeps_builtins(install_example,
     monkeypatch.delenv("SIKU_DISABLE_PLUGIN_AUTOLOAD")
     reg = get_registry(refresh=True)
     assert "euler" in reg.names("integrator")
+
+
+def test_the_suite_sees_only_siku_own_components():
+    """Whatever plugins the user installed, the suite's registry holds siku's own (conftest
+    names the others in SIKU_SKIP_PLUGINS, which the commands the tests start inherit)."""
+    assert set(get_registry(refresh=True).plugins) == {"siku"}
+    r = subprocess.run([sys.executable, "-c", "from siku_core.plugins import get_registry; "
+                        "print(sorted(get_registry().plugins))"],
+                       capture_output=True, text=True, timeout=120, check=True)
+    assert r.stdout.strip() == "['siku']"
+
+
+def test_skip_plugins_skips_only_the_named_distribution(install_example, monkeypatch):
+    assert "euler" in install_example().names("integrator")
+    monkeypatch.setenv("SIKU_SKIP_PLUGINS", "other-pkg, Siku_Example.Plugin")
+    reg = get_registry(refresh=True)
+    assert "euler" not in reg.names("integrator") and "siku-example-plugin" not in reg.plugins
+    assert {"siku2", "rk4"} <= set(reg.names("integrator"))
+    monkeypatch.setenv("SIKU_SKIP_PLUGINS", "siku")  # siku's own components are never skipped
+    assert "siku2" in get_registry(refresh=True).names("integrator")
+
+
+@pytest.mark.slow
+def test_the_plugin_tests_pass_with_the_example_plugin_really_installed(tmp_path):
+    """pip installs the example plugin (into a target folder put on the path), then this file's
+    tests run in a fresh interpreter that sees it through its entry point."""
+    import shutil
+
+    target, source = tmp_path / "site", tmp_path / "example"  # a copy: pip's build/ and
+    shutil.copytree(EXAMPLE, source, ignore=shutil.ignore_patterns(  # egg-info stay out of
+        "build", "*.egg-info", "__pycache__", ".benchmarks"))  # the source tree
+    r = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target",
+                        str(target), str(source)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(target), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    env.pop("SIKU_SKIP_PLUGINS", None)
+    seen = subprocess.run([sys.executable, "-c", "from siku_core.plugins import get_registry; "
+                           "print(get_registry().entry('integrator', 'euler').package)"],
+                          capture_output=True, text=True, env=env, timeout=120)
+    assert seen.stdout.strip() == "siku-example-plugin", seen.stderr[-2000:]
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                        "-k", "not Conformance", str(Path(__file__))],
+                       capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
+    assert r.returncode == 0, r.stdout[-3000:]
+    assert " passed" in r.stdout and " failed" not in r.stdout
 
 
 # ---------------------------------------------------------------------------- example plugin

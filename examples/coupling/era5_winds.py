@@ -102,7 +102,7 @@ def main():  # pragma: no cover - a demonstration
     hours = np.arange(4)
     u = np.full((4, len(lat), len(lon)), 8.0)
     v = np.full_like(u, -4.0)
-    path = write_era5(HERE / "era5_demo.nc", lon, lat, hours, u, v)
+    path = write_era5(Path("era5_demo.nc"), lon, lat, hours, u, v)  # the working directory
     ice = run(HERE / "era5_ice.toml", path)
     la, lo = latlon_of(ice.sim.state.q)
     print(f"after {ice.get_current_time() / 3600:g} h: mean ice position "

@@ -11,10 +11,12 @@ interval, held over it).
 So the ice shelters itself: floes at the ice edge surge with nearly the incident wave, floes deep
 in the pack with a wave that the pack in front of them has damped.
 
-Run ``python examples/coupling/two_way_waves.py`` (draws ``docs/gallery/two_way_waves.png``).
+Run ``python examples/coupling/two_way_waves.py [OUT.png]`` (draws ``two_way_waves.png`` in the
+working directory; ``docs/gallery/make_gallery.py`` draws the gallery's copy).
 """
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -93,7 +95,9 @@ def surge(record, x0, x1):
     return float(record["u"][half][:, sel].std())
 
 
-def main():  # pragma: no cover - a demonstration
+def main(out="two_way_waves.png"):  # pragma: no cover - a demonstration
+    """Run the coupled flume with and without damping; draw ``out`` (in the working
+    directory: nothing is written beside this file)."""
     import matplotlib.pyplot as plt
 
     _, waves, rec = run()
@@ -115,10 +119,9 @@ def main():  # pragma: no cover - a demonstration
     a2.legend()
     fig.suptitle("Waves and ice coupled through the BMI")
     fig.tight_layout()
-    out = HERE.parents[1] / "docs" / "gallery" / "two_way_waves.png"
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=150)
     print("wrote", out)
 
 
 if __name__ == "__main__":  # pragma: no cover
-    main()
+    main(*sys.argv[1:2])

@@ -13,12 +13,12 @@ Theory (module docstring of ``wave_breaking``): a piece shorter than ``L_c = (64
 between about ``L_c / 2`` and ``L_c`` (the elements' size rounds them), and shrink as
 ``a^(-1/4)``.
 
-Run ``python examples/waves/breaking.py`` (draws ``docs/gallery/wave_breaking.png``).
+Run ``python examples/waves/breaking.py [OUT.png]`` (draws ``wave_breaking.png`` in the working
+directory; ``docs/gallery/make_gallery.py`` draws the gallery's copy).
 """
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -61,7 +61,7 @@ def strip(L, D, a, period=8.0, E=1e9, eps=3e-5, phases=32):
     return cm, np.bincount(label) * D
 
 
-def main():  # pragma: no cover - a demonstration
+def main(out="wave_breaking.png"):  # pragma: no cover - a demonstration
     import matplotlib.pyplot as plt
 
     amps = np.array([0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0])
@@ -80,8 +80,7 @@ def main():  # pragma: no cover - a demonstration
     ax.set_title("A 200 m strip broken by waves (h = 1 m, E = 1 GPa, eps_c = 3e-5)")
     ax.legend()
     fig.tight_layout()
-    out = Path(__file__).resolve().parents[2] / "docs" / "gallery" / "wave_breaking.png"
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=150)
     print("wrote", out)
     for a, s in zip(amps, sizes):
         print(f"a = {a:5.2f} m: {len(s):3d} fragments, mean {s.mean():6.1f} m, "
@@ -89,4 +88,6 @@ def main():  # pragma: no cover - a demonstration
 
 
 if __name__ == "__main__":  # pragma: no cover
-    main()
+    import sys
+
+    main(*sys.argv[1:2])

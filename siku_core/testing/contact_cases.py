@@ -15,6 +15,8 @@ from ..contact_law import (
     G_AREA,
     G_AREA_I,
     G_AREA_J,
+    G_HI,
+    G_HJ,
     G_CX,
     G_CY,
     G_K,
@@ -163,18 +165,24 @@ def global_forces(q: np.ndarray, F: np.ndarray) -> np.ndarray:
     return out
 
 
-def law_registry(law_cls: type, registry: Registry | None = None) -> Registry:
-    """A registry holding ``law_cls`` (under its ``name``) next to the components of
-    ``registry`` (default: the process-wide one): lets an unregistered law run in a scene."""
+def registry_with(kind: str, cls: type, registry: Registry | None = None) -> Registry:
+    """A registry holding component ``cls`` of ``kind`` (under its ``name``) next to the
+    components of ``registry`` (default: the process-wide one): lets an unregistered component
+    (a law, a process) run in a scene."""
     base = registry or get_registry()
-    table = base.entries.get("contact_law", {})
-    if law_cls.name in table and table[law_cls.name].cls is law_cls:
+    table = base.entries.get(kind, {})
+    if cls.name in table and table[cls.name].cls is cls:
         return base
     reg = Registry(entries={k: dict(v) for k, v in base.entries.items()},
                    broken=dict(base.broken), plugins=dict(base.plugins))
-    reg.entries["contact_law"].pop(law_cls.name, None)
-    reg.add("contact_law", law_cls, law_cls.__module__.split(".")[0], "unknown")
+    reg.entries[kind].pop(cls.name, None)
+    reg.add(kind, cls, cls.__module__.split(".")[0], "unknown")
     return reg
+
+
+def law_registry(law_cls: type, registry: Registry | None = None) -> Registry:
+    """:func:`registry_with` for a contact law."""
+    return registry_with("contact_law", law_cls, registry)
 
 
 def law_simulation(law_cls: type, params: Mapping[str, Any] | None = None, **scene_kwargs: Any):
@@ -295,6 +303,7 @@ def random_collision_geometry(rng: np.random.Generator) -> np.ndarray:
     g[G_MEFF] = rng.uniform(1e6, 1e11)
     g[G_VX], g[G_VY] = rng.normal(0.0, 0.5, 2)
     g[G_AREA_I], g[G_AREA_J] = rng.uniform(1e4, 1e7, 2)
+    g[G_HI], g[G_HJ] = rng.uniform(0.1, 5.0, 2)
     return g
 
 
@@ -332,6 +341,7 @@ def degenerate_collision_geometries() -> list[tuple[str, np.ndarray]]:
     base[G_K] = 5e5
     base[G_MEFF] = 1e9
     base[G_AREA_I] = base[G_AREA_J] = 4e6
+    base[G_HI] = base[G_HJ] = 1.0
     out = []
     g = base.copy()
     out.append(("zero area, zero width, at rest", g))

@@ -1,4 +1,5 @@
-"""``siku grid`` (the gridded fields and leads of an output file), the check of
+"""``siku grid`` (the gridded fields and leads of an output file), ``siku deformation`` (its
+deformation statistics: siku_io.analysis.deformation_stats), the check of
 ``[output.grid]`` before a run and its gridded file after it."""
 from __future__ import annotations
 
@@ -21,7 +22,10 @@ def _grid_cfg(args):
     if not {"lon", "lat", "x", "y"} & set(given):
         from siku_io.analysis.regular_grid import scene_grid
 
-        base = scene_grid(args.output)
+        from siku_io.output.results import damaged
+
+        with damaged(args.output):
+            base = scene_grid(args.output)
         if base is None:
             from siku_core import DataError
 
@@ -41,13 +45,36 @@ def _cmd_grid(args) -> int:
     from siku_io.output.netcdf import write_netcdf
 
     cfg = _grid_cfg(args)
-    ds = grid_output(args.output, cfg, progress=not args.no_progress)
     out = Path(args.out) if args.out else Path(args.output).with_suffix(".grid.nc")
-    write_netcdf(ds, out, overwrite=args.overwrite)
+    inputs = [("the gridded output file", Path(args.output))]
+    from siku_io.analysis.regular_grid import Grid
+    from siku_io.output.marks import writable
+    from siku_io.output.results import damaged
+
+    Grid(cfg, 6_371_000.0)  # a grid that cannot be built says so first (any radius)
+    writable(out, "grid", overwrite=args.overwrite, inputs=inputs)  # refused before the work
+    with damaged(args.output):
+        ds = grid_output(args.output, cfg, progress=not args.no_progress)
+    write_netcdf(ds, out, overwrite=args.overwrite, inputs=inputs)
     n = int(ds.sizes.get("lead", 0))
     ny, nx = (ds.sizes[d] for d in (("lat", "lon") if cfg.kind == "lonlat" else ("y", "x")))
     print(f"{out}: {ds.sizes['time']} times on a {cfg.kind} grid of {ny} x {nx} cells; {n} "
           "leads")
+    return 0
+
+
+def _cmd_deformation(args) -> int:
+    from siku_io.analysis.deformation_stats import output_statistics
+
+    try:
+        scales = [float(v) * 1e3 for v in args.scales.split(",")]
+        steps = [int(v) for v in args.steps.split(",")]
+    except ValueError:
+        from siku_core import DataError
+
+        raise DataError(f"siku deformation: --scales {args.scales!r} / --steps {args.steps!r}: "
+                        "give comma-separated numbers (km; whole snapshot intervals)") from None
+    print(output_statistics(args.output, scales, steps, args.min_cover).table())
     return 0
 
 
@@ -76,6 +103,17 @@ def siku_register_commands(subparsers):
     g.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     g.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     g.set_defaults(func=_cmd_grid)
+    d = subparsers.add_parser(
+        "deformation", help="deformation statistics of an output file: total deformation rate "
+        "coarse-grained over length and time scales, scaling exponents, rate distribution")
+    d.add_argument("output", help="HDF5 output file of a run")
+    d.add_argument("--scales", default="10,20,40,80", help="length scales [km], comma-separated "
+                   "(the spatial fit range)")
+    d.add_argument("--steps", default="1", help="time scales in snapshot intervals, "
+                   "comma-separated (the temporal fit range)")
+    d.add_argument("--min-cover", type=float, default=0.5,
+                   help="least share of a box the hull of its elements must cover")
+    d.set_defaults(func=_cmd_deformation)
 
 
 @hookimpl
@@ -109,10 +147,16 @@ def siku_postprocess(path, scene, overwrite):
     target = Path(cfg.file) if cfg.file else path.with_suffix(".grid.nc")
     if not target.is_absolute():
         target = path.parent / target
+    from siku_core.outputs import input_paths
+    from siku_io.output.marks import writable
+
     if target.exists() and not overwrite:
         from siku_core import DataError
 
         raise DataError(f"{target}: exists, so [output.grid] was not written (the run's output "
                         f"{path} is complete); run 'siku grid {path} --out FILE', or the run "
                         "with --overwrite")
-    return [write_netcdf(grid_output(path, cfg), target, overwrite=overwrite)]
+    inputs = [(k, p) for k, p in input_paths(scene, [("the run's output file", path)])
+              if not k.startswith("[output.grid.")]  # the gridded file of an earlier run
+    writable(target, "grid", overwrite=overwrite, option="[output.grid] file", inputs=inputs)
+    return [write_netcdf(grid_output(path, cfg), target, overwrite=overwrite, inputs=inputs)]

@@ -90,10 +90,11 @@ class Snapshot:
     """What the gridding needs of one state: per element ``lon``, ``lat`` [deg] of the centre,
     ``u``, ``v`` [m/s] east/north, ``area`` [m²], ``thickness`` [m], ``mass`` [kg], stress
     east/north components [N/m] (``stress``: ``(N, 3)`` or ``None``), the polygons
-    (``node_lon``, ``node_lat`` [deg], CSR ``offsets``) and broken joints ``(i, j)``."""
+    (``node_lon``, ``node_lat`` [deg], CSR ``offsets``), broken joints ``(i, j)`` and the
+    per-element fields components declared (``extra``: name -> (values, reduction))."""
 
     def __init__(self, lon, lat, u, v, area, thickness, mass, node_lon, node_lat, offsets,
-                 stress=None, broken=None):
+                 stress=None, broken=None, extra=None):
         self.lon, self.lat = np.asarray(lon, float), np.asarray(lat, float)
         self.u, self.v = np.asarray(u, float), np.asarray(v, float)
         self.area, self.thickness = np.asarray(area, float), np.asarray(thickness, float)
@@ -102,6 +103,8 @@ class Snapshot:
         self.offsets = np.asarray(offsets, np.int64)
         self.stress = None if stress is None else np.asarray(stress, float)
         self.broken = np.zeros((0, 2), np.int64) if broken is None else np.asarray(broken)
+        #: declared per-element fields to grid: name -> (values, "mean" or "sum")
+        self.extra = extra or {}
 
 
 def snapshot_of(sim) -> Snapshot:
@@ -124,8 +127,11 @@ def snapshot_of(sim) -> Snapshot:
     if cm is not None and cm.n_joints:
         b = ~cm.intact
         broken = np.column_stack([cm.ji[b], cm.jj[b]])
+    cat = sim.context.field_catalogue()
+    extra = {k: (np.asarray(fields[k], float), g) for k, (_, _, g) in cat.items()
+             if g in ("mean", "sum")}
     return Snapshot(np.degrees(lon), np.degrees(lat), u, v, st.area, st.thickness, st.m,
-                    nodes[:, 0], nodes[:, 1], st.vert_offsets, stress, broken)
+                    nodes[:, 0], nodes[:, 1], st.vert_offsets, stress, broken, extra)
 
 
 def cell_means(cell, weights, weight_sums, values, empty: float) -> np.ndarray:
@@ -196,6 +202,11 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
         out["broken_joints"] = np.bincount(bj[ok] * nx + bi[ok], minlength=nc).astype(float)
     else:
         out["broken_joints"] = np.zeros(nc)
+    for name, (values, how) in snap.extra.items():
+        if how == "sum":  # extensive: each element's share in the cell
+            out[name] = np.bincount(cell, frac * values[el], nc)
+        else:  # intensive: the mean over the ice in the cell, weighted by its area
+            out[name] = cell_means(cell, w, ice, values[el], np.nan)
     return {k: v.reshape(ny, nx) for k, v in out.items()}
 
 
@@ -214,6 +225,7 @@ def snapshots(ds, breaks=None):
     if breaks is not None and "time" in breaks:
         bt, bi, bj = (breaks[k].values for k in ("time", "i", "j"))
     seconds = _seconds(ds)
+    extra = declared_in(ds)
     for t in range(ds.sizes["time"]):
         broken = None
         if bt is not None:
@@ -221,10 +233,23 @@ def snapshots(ds, breaks=None):
             broken = np.column_stack([bi[done], bj[done]])
         yield Snapshot(
             ds["lon"].values[t], ds["lat"].values[t], ds["u"].values[t], ds["v"].values[t],
-            ds["area"].values, ds["thickness"].values, ds["mass"].values,
+            ds["area"].values, _at(ds["thickness"], t), _at(ds["mass"], t),
             ds["node_lon"].values[t], ds["node_lat"].values[t], off,
             np.column_stack([ds[k].values[t] for k in ("stress_ee", "stress_nn", "stress_en")])
-            if stress else None, broken)
+            if stress else None, broken,
+            {k: (ds[k].values[t].astype(float), how) for k, how in extra.items()})
+
+
+def _at(var, t: int) -> np.ndarray:
+    """A per-element variable at snapshot ``t``: fixed, or changing in time (processes)."""
+    return var.values[t] if "time" in var.dims else var.values
+
+
+def declared_in(ds) -> dict[str, str]:
+    """The per-element fields of an output dataset that components declared to be gridded:
+    name -> ``mean`` or ``sum`` (their ``grid`` attribute)."""
+    return {k: str(v.attrs["grid"]) for k, v in ds.data_vars.items()
+            if v.attrs.get("grid") in ("mean", "sum") and v.dims == ("time", "element")}
 
 
 def _seconds(ds) -> np.ndarray:
@@ -273,13 +298,18 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
 
     from siku_io.analysis.leads import detect_series
 
-    names = [k for k in GRID_FIELDS if rows and k in rows[0] and (cfg.fields is None
-                                                              or k in cfg.fields)]
+    declared = {k: (str(src[k].attrs.get("units", "1")), "",
+                    f"{src[k].attrs.get('long_name', k)} ({src[k].attrs['grid']} over the "
+                    "elements in the cell)")
+                for k in declared_in(src)}
+    known = {**GRID_FIELDS, **declared}
+    names = [k for k in known if rows and k in rows[0] and (cfg.fields is None
+                                                            or k in cfg.fields)]
     if cfg.fields:
-        unknown = sorted(set(cfg.fields) - set(GRID_FIELDS))
+        unknown = sorted(set(cfg.fields) - set(known))
         if unknown:
             raise DataError(f"[output.grid] fields: unknown {', '.join(unknown)}; known: "
-                            f"{', '.join(GRID_FIELDS)}")
+                            f"{', '.join(known)}")
     dims = ("time", *grid.dims)
     from siku_io.output.netcdf import cf_time_units
 
@@ -291,7 +321,7 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
     mapping = "crs" if grid.kind != "lonlat" else None
     data = {}
     for k in names:
-        units, std, long_name = GRID_FIELDS[k]
+        units, std, long_name = known[k]
         attrs = {"units": units, "long_name": long_name}
         if std:
             attrs["standard_name"] = std

@@ -33,6 +33,17 @@ import numpy as np
 
 #: largest difference of direction [degrees] for two branches at a junction to be one lead
 MERGE_ANGLE = 25.0
+#: junctions at most this many cells apart (chessboard distance) are one crossing: the skeleton
+#: of a crossing of bands two cells wide is two forks joined by a short stub
+JOIN_CELLS = 3
+#: broken-joint leads: the widest mask, in cells (mask cells per skeleton cell), in which each
+#: lead is one crack. A crack's broken joints put their midpoints in a chain of cells one cell
+#: wide; a wider mask holds cracks side by side closer than a cell, which the skeleton merges
+#: into one lead or a web: the table of that time is refused
+MAX_CRACK_WIDTH = 1.5
+#: broken-joint leads: the largest share of the skeleton the crossings' zones may take; above
+#: it the leads are no longer than the crossings between them, and the table is refused
+MAX_ZONE_SHARE = 0.75
 LEAD_KINDS = {1: "deformation", 2: "broken_joints"}
 # the 8-neighbourhood in ring order (for the crossing number)
 _RING = ((-1, -1), (-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1))
@@ -141,7 +152,35 @@ def _branches_and_zones(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     skel = skeletonize(mask)
     junc = junctions(skel)
     zone = binary_dilation(junc, structure=np.ones((3, 3), bool), iterations=2) & skel
-    return label(skel & ~zone, connectivity=2), label(zone, connectivity=2)
+    return label(skel & ~zone, connectivity=2), _junction_zones(junc, zone)
+
+
+def _junction_zones(junc: np.ndarray, zone: np.ndarray) -> np.ndarray:
+    """Label the zone cells by junction cluster: junction cells within ``JOIN_CELLS`` of each
+    other (chessboard distance) are one crossing; every zone cell goes to its nearest junction's
+    cluster. (Labelling the connected zones instead chained the zones of a network of junctions
+    into one, which every lead of the network touched: all of them "crossed" at one point.)"""
+    from scipy.ndimage import distance_transform_cdt
+    from skimage.measure import label
+
+    lab = label(junc, connectivity=2)
+    n = int(lab.max())
+    if n == 0:
+        return np.zeros(junc.shape, np.int64)
+    cells = [np.argwhere(lab == k + 1) for k in range(n)]
+    uf = _Union(n)
+    for a in range(n):
+        for b in range(a + 1, n):
+            d = np.abs(cells[a][:, None, :] - cells[b][None, :, :]).max(axis=2).min()
+            if d <= JOIN_CELLS:
+                uf.join(a, b)
+    roots = {}
+    cluster = np.array([roots.setdefault(uf.find(k), len(roots) + 1) for k in range(n)])
+    _, idx = distance_transform_cdt(~junc, metric="chessboard", return_indices=True)
+    nearest = lab[idx[0], idx[1]]
+    out = np.zeros(junc.shape, np.int64)
+    out[zone] = cluster[nearest[zone] - 1]
+    return out
 
 
 def _planar_metres(grid):
@@ -224,22 +263,34 @@ def _lead_of(rc: np.ndarray, grid, metres, side_x: np.ndarray, side_y: np.ndarra
         ok = np.isfinite(dv)
         if ok.any():  # integral over the band / its extent along the lead
             opening = float(np.sum(dv[ok] * sx[ok] * sy[ok]) / (ok.mean() * (length + w)))
-    return Lead(rc, length, ang, (float(lon_c[tuple(rc.T)].mean()),
-                                  float(lat_c[tuple(rc.T)].mean())),
+    return Lead(rc, length, ang, _mean_lonlat(grid, rc),
                 ((float(lon_c[e0[0], e0[1]]), float(lat_c[e0[0], e0[1]])),
                  (float(lon_c[e1[0], e1[1]]), float(lat_c[e1[0], e1[1]]))), opening)
+
+
+def _mean_lonlat(grid, rc: np.ndarray) -> tuple[float, float]:
+    """Lon/lat [deg] of the mean of cells ``rc`` ``(k, 2)``: in the grid's plane (a mean of
+    longitudes is wrong near a pole and across the date line), or on a lonlat grid the mean
+    latitude and the circular mean longitude."""
+    lon_c, lat_c = grid.centres_lonlat
+    r, c = rc[:, 0], rc[:, 1]
+    if grid.kind != "lonlat":
+        X, Y = np.meshgrid(grid.x, grid.y)
+        lon, lat = grid.to_lonlat(np.array([X[r, c].mean()]), np.array([Y[r, c].mean()]))
+        return float(np.ravel(lon)[0]), float(np.ravel(lat)[0])
+    a = np.radians(lon_c[r, c])
+    return (float(np.degrees(np.arctan2(np.sin(a).mean(), np.cos(a).mean()))),
+            float(lat_c[r, c].mean()))
 
 
 def _crossings(grid, zones: np.ndarray, touch_zone: dict[int, list[int]], owner: dict[int, int],
                leads: list[Lead]) -> list[Crossing]:
     """Every pair of leads meeting at a junction zone, with the angle [degrees] between them
-    and the zone's mean lon/lat."""
-    lon_c, lat_c = grid.centres_lonlat
+    and the zone's mean position."""
     crossings: list[Crossing] = []
     for z, bs in touch_zone.items():
         ids = sorted({owner[b] for b in bs if b in owner})
-        zc = np.argwhere(zones == z)
-        where = (float(lon_c[tuple(zc.T)].mean()), float(lat_c[tuple(zc.T)].mean()))
+        where = _mean_lonlat(grid, np.argwhere(zones == z))
         for k, a in enumerate(ids):
             for b in ids[k + 1:]:
                 crossings.append(Crossing((a, b), _angle_between(
@@ -247,12 +298,52 @@ def _crossings(grid, zones: np.ndarray, touch_zone: dict[int, list[int]], owner:
     return crossings
 
 
+def crack_width(mask: np.ndarray) -> float:
+    """Mean width of a mask [cells]: its cells per cell of its skeleton (1 for a chain of
+    cells; 0 for an empty mask)."""
+    from skimage.morphology import skeletonize
+
+    m = np.asarray(mask, bool)
+    n = int(skeletonize(m).sum())
+    return float(m.sum()) / n if n else 0.0
+
+
+def unresolved(mask: np.ndarray) -> str | None:
+    """Why the broken-joint leads of ``mask`` cannot be measured on its grid, or ``None``:
+    the mask is wider than :data:`MAX_CRACK_WIDTH` cells (cracks side by side closer than a
+    cell), or the crossings' zones (the skeleton within two cells of a junction) take more than
+    :data:`MAX_ZONE_SHARE` of the skeleton (leads no longer than their crossings)."""
+    m = np.asarray(mask, bool)
+    if not m.any():
+        return None
+    width = crack_width(m)
+    if width > MAX_CRACK_WIDTH:
+        return (f"the broken-joint mask is {width:.2f} cells wide (above {MAX_CRACK_WIDTH:g}): "
+                "cracks closer than a cell cannot be told apart")
+    branches, zones = _branches_and_zones(m)
+    share = float((zones > 0).sum()) / max(int((branches > 0).sum() + (zones > 0).sum()), 1)
+    if share > MAX_ZONE_SHARE:
+        return (f"crossings take {share:.0%} of the skeleton (above {MAX_ZONE_SHARE:.0%}): the "
+                "leads are not longer than their crossings")
+    for dy, dx in _RING:  # two crossings' zones side by side: no lead between them
+        other = _shift(zones, dy, dx)
+        if np.any((zones > 0) & (other > 0) & (zones != other)):
+            return "crossings closer than five cells touch: the leads between them are lost"
+    return None
+
+
 def detect_series(grid, ds, cfg):
     """The leads of every time of a gridded dataset (``siku_io.analysis.gridded_fields``) as an
-    ``xarray.Dataset`` of tables along ``lead`` and ``intersection``."""
+    ``xarray.Dataset`` of tables along ``lead`` and ``intersection``, and per time whether the
+    broken-joint leads were resolved (``broken_joint_leads_resolved``): where :func:`unresolved`
+    gives a reason, that time's broken-joint leads are refused (left out of the table, with a
+    warning naming the time and the reason): the cells are too coarse for them."""
+    import warnings
+
     import xarray as xr
 
     rows, xrows = [], []
+    resolved = np.ones(ds.sizes["time"], bool)
     for t in range(ds.sizes["time"]):
         div = ds["divergence"].values[t] if "divergence" in ds else None
         masks = []
@@ -260,7 +351,14 @@ def detect_series(grid, ds, cfg):
             tot = ds["total_deformation"].values[t] * 86400.0
             masks.append((1, np.nan_to_num(tot, nan=0.0) >= cfg.lead_threshold))
         if "broken_joints" in ds:
-            masks.append((2, ds["broken_joints"].values[t] > 0))
+            m = ds["broken_joints"].values[t] > 0
+            why = unresolved(m)
+            if why is not None:
+                resolved[t] = False
+                warnings.warn(f"siku grid: broken-joint leads at time {ds['time'].values[t]!s} "
+                              f"refused: {why} on this grid; use finer cells", stacklevel=2)
+            else:
+                masks.append((2, m))
         for kind, m in masks:
             found, cross = detect(m, grid, div if kind == 1 else None, cfg.lead_min_length)
             base = len(rows)
@@ -318,4 +416,9 @@ def detect_series(grid, ds, cfg):
         "intersection_lat": var(X, [r[2].where[1] for r in xrows], "degrees_north",
                                 "latitude of the intersection"),
     })
+    if "broken_joints" in ds:
+        data["broken_joint_leads_resolved"] = xr.Variable("time", resolved.astype(np.int8), {
+            "long_name": "whether the broken-joint leads of this time are in the tables (0: "
+            f"refused, the mask is wider than {MAX_CRACK_WIDTH:g} cells)",
+            "flag_values": np.array([0, 1], np.int8), "flag_meanings": "refused resolved"})
     return xr.Dataset(data)

@@ -74,8 +74,25 @@ class SikuBmi(Bmi):
 
     def __init__(self) -> None:
         self.sim = None
+        self._state = "created"  # "initialized", then "finalized"
         self._out: dict[str, np.ndarray] = {}
         self._out_step = -1
+
+    def __getattr__(self, name: str):
+        # the run's attributes (grid, exchange...) exist only between initialize and finalize
+        if name in ("grid", "exchange", "_before", "_interval"):
+            self._run()
+        raise AttributeError(name)
+
+    def _run(self):
+        """The running simulation; a :class:`RuntimeError` naming the state otherwise."""
+        if self.sim is None:
+            if self.__dict__.get("_state") == "finalized":
+                raise RuntimeError("SikuBmi: the model is finalized; create a new SikuBmi and "
+                                   "call initialize(scene.toml) to run again")
+            raise RuntimeError("SikuBmi: the model is not initialized; call "
+                               "initialize(scene.toml) first")
+        return self.sim
 
     # ------------------------------------------------------------------ control
     def initialize(self, config_file: str | None = None) -> None:
@@ -83,6 +100,9 @@ class SikuBmi(Bmi):
         from siku_core.simulation import Simulation
         from siku_io.coupling.exchange import Exchange, coupling_grid, grid_velocity
 
+        if self.sim is not None:
+            raise RuntimeError("SikuBmi: the model is already initialized; call finalize() "
+                               "first, or create another SikuBmi")
         if not config_file:
             raise SceneError("SikuBmi.initialize needs a scene file (TOML with [coupling.grid])")
         scene = load_scene(Path(config_file))
@@ -99,15 +119,31 @@ class SikuBmi(Bmi):
         self._interval = 0.0
         self._out = {}
         self._out_step = -1
+        self._state = "initialized"
 
     def update(self) -> None:
+        """One time step; a :class:`RuntimeError` at the end time."""
+        sim = self._run()
+        if sim.step_index >= sim.n_steps:
+            raise RuntimeError(f"SikuBmi.update: the run is at its end time "
+                               f"({self.get_end_time():g} s); it cannot step further")
         self._advance(1)
 
     def update_until(self, time: float) -> None:
         """Step until ``time`` [s]: the last step that does not pass it (a time between two
-        steps stops at the earlier one)."""
-        sim = self.sim
-        n = int(np.floor((float(time) - sim.time) / sim.dt + 1e-9))
+        steps stops at the earlier one; a time past the end stops at the end). A time before
+        the current one is a :class:`ValueError`."""
+        sim = self._run()
+        try:
+            t = float(time)
+        except (TypeError, ValueError):
+            raise ValueError(f"SikuBmi.update_until: time {time!r} is not a number of "
+                             "seconds") from None
+        if not np.isfinite(t) or t < sim.time - 1e-9 * max(1.0, abs(sim.time)):
+            raise ValueError(f"SikuBmi.update_until({time!r}): the model is at t = "
+                             f"{sim.time:g} s and runs forward only; give a time >= "
+                             f"{sim.time:g} s")
+        n = int(np.floor((t - sim.time) / sim.dt + 1e-9))
         self._advance(max(0, min(n, sim.n_steps - sim.step_index)))
 
     def _advance(self, n: int) -> None:
@@ -127,6 +163,7 @@ class SikuBmi(Bmi):
         if self.sim is not None:
             self.sim.close()
             self.sim = None
+            self._state = "finalized"
 
     # ------------------------------------------------------------------ info
     def get_component_name(self) -> str:
@@ -180,25 +217,26 @@ class SikuBmi(Bmi):
 
     # ------------------------------------------------------------------ time
     def get_current_time(self) -> float:
-        return float(self.sim.time)
+        return float(self._run().time)
 
     def get_start_time(self) -> float:
         return 0.0
 
     def get_end_time(self) -> float:
-        return float(self.sim.n_steps * self.sim.dt)
+        sim = self._run()
+        return float(sim.n_steps * sim.dt)
 
     def get_time_units(self) -> str:
         return "s"
 
     def get_time_step(self) -> float:
-        return float(self.sim.dt)
+        return float(self._run().dt)
 
     # ------------------------------------------------------------------ values
     def _outputs(self) -> dict[str, np.ndarray]:
         from siku_io.coupling.exchange import ice_fields
 
-        sim = self.sim
+        sim = self._run()
         if self._out_step != sim.step_index:
             ex = self.exchange
             f = ice_fields(sim, self.grid, ex.fields["eta"], float(ex.p["rho"]), self._before,
@@ -213,20 +251,65 @@ class SikuBmi(Bmi):
         """The variable's array: for inputs the array the forces read (writing into it sets the
         input); for outputs the values at the current time (recomputed after an update)."""
         key, _, way, _ = self._var(name)
+        self._run()
         if way == "in":
             return self.exchange.fields[key].reshape(-1)
         return self._outputs()[key]
 
     def get_value(self, name: str, dest: np.ndarray) -> np.ndarray:
-        dest[:] = self.get_value_ptr(name)
+        src = self.get_value_ptr(name)
+        self._dest(name, dest, src.size)[:] = src
         return dest
 
     def get_value_at_indices(self, name: str, dest: np.ndarray, inds: np.ndarray) -> np.ndarray:
-        dest[:] = self.get_value_ptr(name)[np.asarray(inds, dtype=np.int64)]
+        src = self.get_value_ptr(name)
+        inds = self._indices(name, inds, src.size)
+        self._dest(name, dest, inds.size)[:] = src[inds]
         return dest
+
+    @staticmethod
+    def _dest(name: str, dest, n: int) -> np.ndarray:
+        """``dest`` as a flat view: a writable float64 array of ``n`` values, or a
+        :class:`ValueError` naming the variable, the expected shape and dtype."""
+        if (not isinstance(dest, np.ndarray) or dest.dtype != np.float64 or dest.size != n
+                or not dest.flags.writeable):
+            got = (f"{dest.dtype} array of shape {dest.shape}" if isinstance(dest, np.ndarray)
+                   else type(dest).__name__)
+            raise ValueError(f"{name}: the destination must be a writable float64 array of "
+                             f"shape ({n},); got a {got}")
+        return dest.reshape(-1)
+
+    @staticmethod
+    def _indices(name: str, inds, n: int) -> np.ndarray:
+        """Indices as int64: integers in ``[0, n)``, else a :class:`ValueError`."""
+        a = np.asarray(inds)
+        if a.dtype.kind not in "iu" or a.ndim > 1:
+            raise ValueError(f"{name}: indices must be a 1-D integer array (of shape (k,), "
+                             f"dtype int); got {a.dtype} of shape {a.shape}")
+        a = a.astype(np.int64).reshape(-1)
+        if a.size and (a.min() < 0 or a.max() >= n):
+            raise ValueError(f"{name}: indices must lie in [0, {n - 1}] (a grid of {n} "
+                             f"nodes); got {int(a.min())} to {int(a.max())}")
+        return a
+
+    @staticmethod
+    def _values(name: str, src, n: int | None) -> np.ndarray:
+        """Values to set as float64: real numbers (``n`` of them when given), all finite."""
+        a = np.asarray(src)
+        if a.dtype.kind not in "iuf":
+            raise ValueError(f"{name}: values must be real numbers (a float64 array of shape "
+                             f"({n if n is not None else 'k'},)); got {a.dtype}")
+        a = a.astype(np.float64).reshape(-1)
+        if n is not None and a.size != n:
+            raise ValueError(f"{name}: {a.size} values for a grid of {n} nodes (a float64 "
+                             f"array of shape ({n},))")
+        if not np.isfinite(a).all():
+            raise ValueError(f"{name}: values must be finite")
+        return a
 
     def _input(self, name: str) -> np.ndarray:
         key, _, way, _ = self._var(name)
+        self._run()
         if way != "in":
             raise ValueError(f"{name} is an output of siku; its inputs are: "
                              + ", ".join(INPUT_NAMES))
@@ -234,20 +317,13 @@ class SikuBmi(Bmi):
 
     def set_value(self, name: str, src: np.ndarray) -> None:
         a = self._input(name)
-        src = np.asarray(src, dtype=float).reshape(-1)
-        if src.shape != a.shape:
-            raise ValueError(f"{name}: {src.size} values for a grid of {a.size} nodes")
-        if not np.isfinite(src).all():
-            raise ValueError(f"{name}: values must be finite")
-        a[:] = src
+        a[:] = self._values(name, src, a.size)
         self.exchange.inputs_changed()
 
     def set_value_at_indices(self, name: str, inds: np.ndarray, src: np.ndarray) -> None:
         a = self._input(name)
-        src = np.asarray(src, dtype=float).reshape(-1)
-        if not np.isfinite(src).all():
-            raise ValueError(f"{name}: values must be finite")
-        a[np.asarray(inds, dtype=np.int64)] = src
+        inds = self._indices(name, inds, a.size)
+        a[inds] = self._values(name, src, inds.size)
         self.exchange.inputs_changed()
 
     # ------------------------------------------------------------------ grid

@@ -39,8 +39,9 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from siku_core import __version__
-from siku_core.errors import SceneError, SikuError
-from siku_io.ensemble.summary import SUMMARY_KIND, summarize, write_summary
+from siku_core.errors import DataError, SceneError, SikuError
+from siku_core.outputs import check_target
+from siku_io.ensemble.summary import summarize, write_summary
 from siku_io.ensemble.sweep import Member, Sweep, load_sweep, sweep_from_text
 
 
@@ -125,6 +126,36 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
+def _connect(client_cls, address: str, timeout: float, where: str):
+    """A client of the Dask scheduler at ``address``, within ``timeout`` [s] whatever answers
+    there: the connection is made in a thread given up after the timeout (a server that accepts
+    and never speaks Dask's protocol would hold it for ever), and any failure, a reply read as
+    an absurd size included, is a one-line :class:`SceneError` naming ``where``."""
+    import threading
+
+    box: dict[str, Any] = {}
+
+    def connect() -> None:
+        try:
+            box["client"] = client_cls(address, timeout=timeout)
+        except BaseException as exc:  # noqa: BLE001 - reported below, in one line
+            box["error"] = exc
+
+    t = threading.Thread(target=connect, name="siku-dask-connect", daemon=True)
+    t.start()
+    t.join(timeout + 2.0)
+    why = None
+    if t.is_alive():
+        why = "no answer in Dask's protocol: is it a Dask scheduler?"
+    elif "error" in box:
+        exc = box["error"]
+        why = f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
+    if why is not None:
+        raise SceneError(f"{where}: cannot reach the Dask scheduler at {address!r} within "
+                         f"{timeout:g} s ({why})")
+    return box["client"]
+
+
 class _Cluster:
     """A Dask client on a local cluster or at ``scheduler``; closed on exit."""
 
@@ -138,14 +169,8 @@ class _Cluster:
         address = scheduler or cfg.scheduler
         self.cluster = None
         if address:
-            try:
-                self.client = Client(address, timeout=cfg.timeout)
-            except (OSError, TimeoutError, ValueError) as exc:
-                where = ("--scheduler" if scheduler else f"{sweep.label} [cluster] key "
-                         "'scheduler'")
-                raise SceneError(f"{where}: cannot reach the Dask scheduler at {address!r} "
-                                 f"within {cfg.timeout:g} s ({type(exc).__name__}: "
-                                 f"{' '.join(str(exc).split())[:200]})") from None
+            self.client = _connect(Client, address, cfg.timeout, "--scheduler" if scheduler
+                                   else f"{sweep.label} [cluster] key 'scheduler'")
             self.threads = threads or cfg.threads or 1
             return
         n = workers or cfg.workers or _cores()
@@ -219,22 +244,42 @@ def _as_sweep(sweep: Sweep | str | Path | Mapping[str, Any], out_dir) -> Sweep:
 
 
 def _check_summary_target(sweep: Sweep) -> None:
-    """The summary file may be replaced only if it is an earlier summary of this sweep."""
+    """The summary file may be replaced only if it is an earlier summary of this very sweep
+    (the same sweep text, base scene and folder); never a device, FIFO or folder."""
+    from siku_io.output.marks import netcdf_kind
+
     path = sweep.summary_path
+    where = f"{sweep.label} [summary] key 'file'"
+    try:
+        check_target(path, what="summary", option=where)
+    except DataError as exc:
+        if not path.is_file():  # a folder, a device, a FIFO
+            raise SceneError(f"{where}: {exc}") from None
     if not path.exists():
         return
     ok = False
-    try:
-        import netCDF4
+    if netcdf_kind(path) == "summary":
+        try:
+            import netCDF4
 
-        with netCDF4.Dataset(path) as nc:
-            ok = (getattr(nc, "kind", "") == SUMMARY_KIND
-                  and getattr(nc, "sweep_out_dir", "") == str(sweep.out_dir))
-    except (OSError, RuntimeError):
-        ok = False
+            with netCDF4.Dataset(path) as nc:
+                ok = (getattr(nc, "sweep_out_dir", "") == str(sweep.out_dir)
+                      and getattr(nc, "sweep", "") == sweep.text
+                      and getattr(nc, "scene", "") == sweep.scene_text)
+        except (OSError, RuntimeError):
+            ok = False
     if not ok:
-        raise SceneError(f"{sweep.label} [summary] key 'file': {path} exists and is not a "
-                         "summary of this sweep; move it away or name another file")
+        raise SceneError(f"{where}: {path} exists and is not a summary of this sweep (the "
+                         "sweep or its base scene changed, or siku did not write it); move it "
+                         "away or name another file")
+
+
+def _make_out_dir(sweep: Sweep) -> None:
+    try:
+        sweep.out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SceneError(f"{sweep.label} [out_dir]: {sweep.out_dir}: cannot be made a folder "
+                         f"({exc.strerror}); name a folder (or give --out-dir)") from None
 
 
 def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None = None,
@@ -256,7 +301,7 @@ def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None 
     sw = _as_sweep(sweep, out_dir)
     if write:
         _check_summary_target(sw)
-    sw.out_dir.mkdir(parents=True, exist_ok=True)
+    _make_out_dir(sw)
     todo = plan(sw)
     results: dict[str, dict[str, Any]] = {}
     for m in sw.members:

@@ -11,8 +11,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from siku_core import __version__
-from siku_core.errors import DataError, SikuError
-from siku_core.outputs import partial_path, publish
+from siku_core.errors import SikuError
 from siku_io.ensemble.sweep import DERIVED, Sweep
 
 SUMMARY_KIND = "siku ensemble summary"
@@ -202,14 +201,10 @@ def _summary_attrs(sw: Sweep, results: Mapping[str, Mapping[str, Any]]) -> dict[
 
 
 def write_summary(ds, path: Path) -> Path:
-    """Write the summary dataset as NetCDF-4, built beside ``path`` and renamed into place."""
-    path = Path(path)
-    part = partial_path(path)
-    try:
-        enc = {k: {"dtype": str} for k, v in ds.variables.items() if v.dtype == object}
-        ds.to_netcdf(part, engine="netcdf4", encoding=enc)
-        publish(part, path, replace=True)
-    except OSError as exc:
-        part.unlink(missing_ok=True)
-        raise DataError(f"{path}: cannot write the summary: {exc}") from None
-    return path
+    """Write the summary dataset as NetCDF-4, built beside ``path`` and renamed into place (a
+    full disk leaves no partial file and an earlier summary whole)."""
+    from siku_io.output.marks import write_whole
+
+    enc = {k: {"dtype": str} for k, v in ds.variables.items() if v.dtype == object}
+    return write_whole(Path(path), lambda part: ds.to_netcdf(part, engine="netcdf4",
+                                                             encoding=enc), "summary")

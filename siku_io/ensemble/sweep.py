@@ -62,7 +62,6 @@ import json
 import math
 import re
 import shlex
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -84,6 +83,10 @@ from siku_io.ensemble.sweep_cfg import DERIVED, RESERVED, SweepCfg
 
 
 # ---------------------------------------------------------------------------- values
+#: most members one sweep may have (each is a run and a file)
+MAX_MEMBERS = 100_000
+
+
 def toml_value(v: Any) -> str:
     """``v`` as a TOML value, read back by ``--set`` to the same value (floats exactly)."""
     if isinstance(v, bool):
@@ -330,10 +333,9 @@ def sweep_from_text(text: str, label: str = "<sweep>", base_dir: Path | None = N
     the working directory); errors name ``label`` and the key. ``out_dir`` overrides the
     file's."""
     base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{label}: TOML syntax error: {exc}") from None
+    from siku_core.scene import parse_toml
+
+    data = parse_toml(text, label)
     try:
         cfg = SweepCfg.model_validate(data)
     except ValidationError as err:
@@ -343,10 +345,16 @@ def sweep_from_text(text: str, label: str = "<sweep>", base_dir: Path | None = N
         raise SceneError(f"{label}: key 'scene': scene file {scene_path} not found")
     try:
         scene_text = scene_path.read_text(encoding="utf-8")
-        base = tomllib.loads(scene_text)
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        base = parse_toml(scene_text, str(scene_path))
+    except (OSError, UnicodeDecodeError, SceneError) as exc:
         raise SceneError(f"{label}: key 'scene': cannot read {scene_path}: {exc}") from None
     axes = _axes(cfg, label)
+    count = math.prod(len(a) for a in axes)
+    if count > MAX_MEMBERS:
+        raise SceneError(f"{label}: the axes make {count:.3g} members ("
+                         + " x ".join(f"{a.dim} {len(a)}" for a in axes)
+                         + f"), above the limit of {MAX_MEMBERS:.0e}; shorten the axes or "
+                         "split the sweep")
     fixed = {k: toml_value(v) for k, v in _flatten(cfg.set).items()}
     if out_dir is None:
         out_dir = cfg.out_dir if cfg.out_dir is not None else Path(label).stem or "ensemble"

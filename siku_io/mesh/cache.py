@@ -1,9 +1,11 @@
 """Meshes reused from a file whose parameter hash matches (stage 4), and the mesh of a scene."""
 from __future__ import annotations
 
+import sys
 import warnings
 from pathlib import Path
 
+from siku_core.errors import DataError
 from siku_core.kernel_cache import user_cache_dir
 
 from .build import build_mesh
@@ -16,11 +18,22 @@ from .params import MeshParams
 def load_or_build(params: MeshParams, path: str | Path | None, **build_kw) -> tuple[Mesh, bool]:
     """The mesh of ``params``: loaded from ``path`` when it holds the same parameter hash,
     else built (and saved to ``path``). Returns ``(mesh, built)``."""
+    from siku_core.outputs import check_target, is_disk_full
+    from siku_io.output.marks import is_mesh_cache
+
     digest = params.digest()
+    if path is not None and not build_kw:
+        # a file that is not a mesh cache siku wrote (a scene, a wind file, a damaged cache)
+        # is never replaced: ValueError, which the scene's loader names with its key
+        try:
+            check_target(path, what="mesh cache", ours=is_mesh_cache, overwrite=True,
+                         option="mesh_file")
+        except DataError as exc:
+            raise ValueError(f"mesh_file: {exc}") from None
     if path is not None and Path(path).is_file() and not build_kw:
         try:
             m = Mesh.load(path)
-        except Exception as exc:  # noqa: BLE001 - an unreadable cache is rebuilt, not fatal
+        except Exception as exc:  # noqa: BLE001 - an older siku's cache is rebuilt
             warnings.warn(f"{path}: unreadable mesh cache ({exc}); rebuilding it", stacklevel=2)
         else:
             if m.digest == digest:
@@ -30,6 +43,9 @@ def load_or_build(params: MeshParams, path: str | Path | None, **build_kw) -> tu
         try:
             m.save(path)
         except OSError as exc:  # a read-only folder: run on, rebuild next time
+            if is_disk_full(exc):
+                raise DataError(f"{path}: disk full while writing the mesh cache; nothing "
+                                "written (an existing file is untouched)") from None
             warnings.warn(f"{path}: cannot write the mesh cache ({exc})", stacklevel=2)
     return m, True
 
@@ -87,10 +103,20 @@ def mesh_for_scene(scene, mc=None, where: str | None = None) -> tuple[Mesh, bool
             path = Path(scene.path).with_suffix(".mesh.npz")
         else:
             path = None
+        existed = path is not None and Path(path).is_file()
         mesh, built = load_or_build(params, path)
     except (ValueError, ImportError, FileNotFoundError, OSError) as exc:
         raise SceneError(f"{where}: {exc}") from None
+    except RuntimeError as exc:  # scipy's QhullError: seeds too few or too close for a mesh
+        raise SceneError(f"{where}: no mesh can be built from these keys (spacing too large or "
+                         f"too small for the region: {' '.join(str(exc).split())[:200]})"
+                         ) from None
     if mesh.n == 0:
         raise SceneError(f"{where}: the mesh has no cells (region too small for the spacing, "
                          "or all land)")
+    if built:  # say so: a build takes seconds, and a rebuilt cache means changed parameters
+        how = ("rebuilt (the cache held a mesh of other parameters)" if existed else "built")
+        saved = f", saved to {path}" if path is not None else ""
+        secs = (mesh.stats.get("seconds") or {}).get("total", float("nan"))
+        print(f"{where}: mesh {how}: {mesh.n} cells in {secs:.1f} s{saved}", file=sys.stderr)
     return mesh, built

@@ -74,9 +74,17 @@ class MeshParams:
         return hashlib.sha256(text.encode()).hexdigest()
 
     def check(self) -> None:
-        Region.box(self.lon, self.lat)
+        import math
+
+        r = Region.box(self.lon, self.lat)
         if not self.spacing > 0:
             raise ValueError("spacing must be > 0")
+        area = self.radius ** 2 * math.radians(r.width) * abs(
+            math.sin(math.radians(r.lat1)) - math.sin(math.radians(r.lat0)))
+        if not self.spacing < math.sqrt(area) / 2:
+            raise ValueError(f"spacing = {self.spacing:g} m: the region is only about "
+                             f"{math.sqrt(area):.3g} m across; choose a spacing below "
+                             f"{math.sqrt(area) / 2:.3g} m (a mesh needs several cells)")
         if self.coast_spacing is not None and not self.coast_spacing > 0:
             raise ValueError("coast_spacing must be > 0")
         if not self.coast_distance >= 0:

@@ -1,4 +1,5 @@
-"""``siku export``: an output file in another format (CF-NetCDF)."""
+"""``siku export``: an output file in another format (CF-NetCDF); ``siku info``: a run's
+summary from its output file."""
 from __future__ import annotations
 
 from siku_core import hookimpl
@@ -20,5 +21,8 @@ def siku_register_commands(subparsers):
     e.add_argument("--out", help="file to write (default: OUTPUT.nc beside the output)")
     e.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     e.set_defaults(func=_cmd_export)
+    from siku_io.output.info import add_info_command
+
+    add_info_command(subparsers)
 
 

@@ -16,10 +16,9 @@ File layout (``layout`` = 2)::
     /geometry          vert_offsets, verts [m], m [kg], I [kg m²], area [m²], thickness [m],
                        radius [m], flags, material, floe (floe index of each element, -1: none)
     /states            the snapshots: step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N)
-                       [rad/s], lat, lon (T,N) [deg], fields/NAME (T,N) per-element quantities
-                       for maps (speed [m/s], damage [1]), history/KEY/NAME (T,...) every
-                       component's history (joint state, break modes): a restart reads the
-                       last row
+                       [rad/s], lat, lon (T,N) [deg], fields/NAME (T,N) per-element fields
+                       (speed, damage, stress, declared ones), history/KEY/NAME (T,...) every
+                       component's history (joints, declared fields): restarts read the last
     /diagnostics       step, time [s] and one series per diagnostic, attrs units and
                        long_name (siku_core.diagnostics.DIAGNOSTICS); its rows are written
                        with the snapshots, so they end where the snapshots end
@@ -71,7 +70,6 @@ from siku_core.outputs import (
 from .results import (
     LAYOUT,
     clear_open_mark,
-    last_snapshot,
     n_snapshots,
     open_results,
 )
@@ -136,6 +134,7 @@ class HDF5Writer(Writer):
     written so that no fault corrupts it (module docstring)."""
 
     name = "hdf5"
+    appends = True  # a restart continues the file
     params = {
         "compression": Param("none", "", "compression of the per-snapshot datasets (gzip, lzf: "
                              "smaller files, slower writes)", type=str,
@@ -271,19 +270,25 @@ class HDF5Writer(Writer):
         """``units`` and ``long_name`` on every dataset (``siku_io.output.layout``), CF flag
         meanings on the coded ones, and the epoch of the time axes when the scene has a start."""
         from siku_core.contact_law import BREAK_MODES
-        from siku_core.state import FLAG_NAMES
+        from siku_core.state import FLAG_MEANINGS
         from siku_io.output.layout import describe, flag_attrs
 
         epoch = ctx.start.strftime("%Y-%m-%d %H:%M:%S") if ctx.start else None
+        declared = ctx.field_catalogue()
         for path in _leaves(self.f):
             ds = self.f[path]
             units, long_name = describe(path, diagnostics)
+            if path[14:] in declared and path.startswith("states/fields/"):  # siku_core.ice
+                units, long_name, ds.attrs["grid"] = declared[path[14:]]
             if path.endswith("time") and path.count("/") == 1 and epoch:
                 units = f"seconds since {epoch}"
             ds.attrs["units"] = units
             ds.attrs["long_name"] = long_name
-        flags = self.f["geometry/flags"]
-        flags.attrs.update(flag_attrs({v: k for k, v in FLAG_NAMES.items()}, flags.dtype))
+        meanings = {v: k for k, v in FLAG_MEANINGS.items()}
+        for path in ("geometry/flags", "states/fields/flags"):
+            if path in self.f:
+                flags = self.f[path]
+                flags.attrs.update(flag_attrs(meanings, flags.dtype))
         if self.breaks is not None:
             self.breaks["mode"].attrs.update(flag_attrs(BREAK_MODES, np.int8))
 
@@ -460,23 +465,21 @@ class HDF5Writer(Writer):
         self.f = None
         settle(self)
 
+    @classmethod
+    def owns(cls, path) -> bool:
+        from .marks import is_hdf5_output
+
+        return is_hdf5_output(path)
+
     # -------------------------------------------------------------- restart
     @classmethod
     def read_restart(cls, path, ctx) -> dict:
         """The last complete snapshot of ``path``: ``step``, ``q``, ``V``, ``w``, every
         component's ``history``, and the file's ``record`` and ``n_steps`` (the engine puts
         them into the run: :meth:`siku_core.interfaces.Writer.read_restart`)."""
-        path = Path(path)
-        if not path.is_file():
-            raise DataError(f"{path}: restart file not found")
-        try:
-            last = last_snapshot(path)
-        except OSError as exc:
-            raise DataError(f"{path}: cannot read restart file: {exc}") from None
-        N = last["q"].shape[0]
-        if N != ctx.state.n:
-            raise DataError(f"{path}: restart has {N} elements but the scene builds {ctx.state.n}")
-        return {k: last[k] for k in ("step", "q", "V", "w", "history", "record", "n_steps")}
+        from .results import restart_snapshot
+
+        return restart_snapshot(Path(path), ctx.state.n, ctx.history())
 
 
 def _leaves(group, prefix: str = "") -> list[str]:

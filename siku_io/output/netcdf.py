@@ -42,6 +42,8 @@ from siku_core import DataError, Param, hookimpl
 from siku_core.interfaces import Writer
 
 FILL_INT = np.int32(-2147483647)
+#: files given up after a failed write that the library could not close (kept to the end)
+_SEALED: list = []
 #: per-element data variables: name in the siku dataset -> CF attributes added
 _STANDARD = {
     "u": {"standard_name": "eastward_sea_ice_velocity"},
@@ -51,6 +53,16 @@ _STANDARD = {
 _STATIC = {"area": "area", "thickness": "thickness", "mass": "mass",
            "moment_of_inertia": "moment_of_inertia", "flags": "flags", "material": "material",
            "floe": "floe"}
+
+
+def _flag_attrs() -> dict:
+    """CF ``flag_values`` (int32) and ``flag_meanings`` of the element kinds."""
+    from siku_core.state import FLAG_MEANINGS
+
+    codes = sorted(FLAG_MEANINGS.values())
+    names = {c: n for n, c in FLAG_MEANINGS.items()}
+    return {"flag_values": np.array(codes, dtype=np.int32),
+            "flag_meanings": " ".join(names[c] for c in codes)}
 
 
 def cf_time_units(start: str) -> tuple[str, str]:
@@ -113,11 +125,17 @@ def cf_dataset(path):
     for k in per:
         a = dict(src[k].attrs)
         a.update(_STANDARD.get(k, {}))
+        if k == "thickness":  # changed by processes: time-dependent
+            a["standard_name"] = "sea_ice_thickness"
+        if "flag_values" in a:
+            a["flag_values"] = np.asarray(a["flag_values"], dtype=src[k].dtype)
         a["coordinates"] = "time lat lon"
         a["geometry"] = "outline"
         data[k] = xr.Variable((E, T), src[k].values.T, a)
     for k, name in _STATIC.items():
         v = src[k]
+        if v.dims != (E,):  # time-dependent here (processes): written with the records
+            continue
         a = dict(v.attrs)
         if k == "thickness":
             a["standard_name"] = "sea_ice_thickness"
@@ -152,22 +170,34 @@ def cf_dataset(path):
 
 def export(path, target=None, overwrite: bool = False) -> Path:
     """Write the CF-NetCDF form of a siku HDF5 output file (default: beside it, ``.nc``)."""
+    from .marks import is_hdf5_output, netcdf_kind, writable
+    from .results import damaged
+
     path = Path(path)
     target = Path(target) if target else path.with_suffix(".nc")
-    if target.resolve() == path.resolve():
-        raise DataError(f"{target}: the export would overwrite its input; choose another --out")
-    return write_netcdf(cf_dataset(path), target, overwrite=overwrite)
+    inputs = [("the exported file", path)]
+    if target.resolve() != path.resolve():  # the output first: refused before any work
+        writable(target, "export", overwrite=overwrite, inputs=inputs)
+    if not path.is_file():
+        raise DataError(f"{path}: output file not found")
+    if not is_hdf5_output(path):
+        kind = netcdf_kind(path)
+        what = (f"a {kind} file of siku, already NetCDF" if kind else
+                "not a siku HDF5 output file")
+        raise DataError(f"{path}: is {what}; siku export reads the HDF5 output of a run")
+    with damaged(path):
+        ds = cf_dataset(path)
+    return write_netcdf(ds, target, overwrite=overwrite, kind="export", inputs=inputs)
 
 
-def write_netcdf(ds, target: Path, overwrite: bool = False) -> Path:
+def write_netcdf(ds, target: Path, overwrite: bool = False, kind: str = "grid",
+                 inputs=()) -> Path:
     """Write a dataset to ``target`` as NetCDF-4, built beside it and put in place atomically;
-    an existing file is replaced only with ``overwrite``."""
-    from siku_core.outputs import fsync_path, partial_path, publish
+    an existing file is replaced only with ``overwrite``, and only when it is siku's own file
+    of ``kind`` (``siku_io.output.marks``); never one of ``inputs`` (``(key, path)``)."""
+    from .marks import writable, write_whole
 
-    target = Path(target)
-    if target.exists() and not overwrite:
-        raise DataError(f"{target}: exists; choose another --out, or pass --overwrite")
-    part = partial_path(target)
+    target = writable(target, kind, overwrite=overwrite, inputs=inputs)
     enc = {}
     for k, v in ds.variables.items():
         if np.issubdtype(v.dtype, np.floating):
@@ -176,17 +206,9 @@ def write_netcdf(ds, target: Path, overwrite: bool = False) -> Path:
             start = str(ds.attrs.get("start", ""))[:19].replace("T", " ") or "1970-01-01"
             enc[k] = {"units": f"seconds since {start}", "calendar": "proleptic_gregorian",
                       "dtype": "float64"}
-    try:
-        ds.to_netcdf(part, format="NETCDF4", engine="netcdf4", encoding=enc)
-        publish(part, target, replace=overwrite)
-    except OSError as exc:
-        try:
-            part.unlink()
-        except OSError:
-            pass
-        raise DataError(f"{target}: cannot write: {exc}") from None
-    fsync_path(target)
-    return target
+    return write_whole(target, lambda part: ds.to_netcdf(part, format="NETCDF4",
+                                                          engine="netcdf4", encoding=enc),
+                       f"{kind} file", replace=overwrite)
 
 
 def complete_records(path) -> int:
@@ -295,19 +317,27 @@ class NetCDFWriter(Writer):
                "v": ("m s-1", "northward_sea_ice_velocity",
                      "northward velocity of the centroid"),
                "spin": ("rad s-1", "", "spin about the local vertical")}
+        declared = ctx.field_catalogue()
         for k in self.fields:
             u, ln = ELEMENT_FIELDS.get(k, ("1", f"per-element field '{k}'"))
+            if k in declared:  # declared by a component, or changed by processes
+                u, ln = declared[k][:2]
             per[k] = (u, _STANDARD.get(k, {}).get("standard_name", ""), ln)
         for k, (u, std, ln) in per.items():
-            v = self.nc.createVariable(k, "f8", ("time", "element"), fill_value=np.nan)
+            if k == "flags":  # changed by processes (an element melted away)
+                v = self.nc.createVariable(k, "i4", ("time", "element"), fill_value=FILL_INT)
+                v.setncatts(_flag_attrs())
+            else:
+                v = self.nc.createVariable(k, "f8", ("time", "element"), fill_value=np.nan)
             v.setncatts({"units": u, "long_name": ln, **({"standard_name": std} if std else {})})
+            if k in declared and declared[k][2] != "none":
+                v.setncatts({"grid": declared[k][2]})
             if k not in ("lon", "lat"):
                 v.setncatts({"coordinates": "time lat lon", "geometry": "outline"})
 
     def _define_geometry(self, ctx) -> None:
         """The fixed per-element values: area [m2], thickness [m], mass [kg], moment of inertia
         [kg m2], and the integer flags (with their meanings), material and floe."""
-        from siku_core.state import FLAG_NAMES
         from siku_io.output.layout import describe
 
         nc, st = self.nc, ctx.state
@@ -317,20 +347,21 @@ class NetCDFWriter(Writer):
                "moment_of_inertia": (st.I, "kg m2", "polar moment of inertia about the "
                                      "centroid")}
         for k, (val, u, ln) in geo.items():
+            if k in self.fields:  # changed by processes: a record variable instead
+                continue
             v = nc.createVariable(k, "f8", ("element",))
             v.setncatts({"units": u, "long_name": ln})
             if k == "thickness":
                 v.standard_name = "sea_ice_thickness"
             v[:] = val
         for k, val in (("flags", st.flags), ("material", st.material), ("floe", st.floe)):
+            if k in self.fields:
+                continue
             v = nc.createVariable(k, "i4", ("element",))
             units, ln = describe(f"geometry/{k}")
             v.setncatts({"units": units, "long_name": ln})
             if k == "flags":
-                codes = sorted(FLAG_NAMES.values())
-                names = {c: n for n, c in FLAG_NAMES.items()}
-                v.flag_values = np.array(codes, dtype=np.int32)
-                v.flag_meanings = " ".join(names[c] for c in codes)
+                v.setncatts(_flag_attrs())
             v[:] = np.asarray(val).astype(np.int32)
 
     def _define_outlines(self, ctx) -> None:
@@ -371,8 +402,8 @@ class NetCDFWriter(Writer):
         lat, lon = latlon_of(st.q)
         u, v = east_north(st.q, st.V)
         rows = {"lon": np.degrees(lon), "lat": np.degrees(lat), "u": u, "v": v, "spin": st.w}
-        rows.update({k: np.asarray(a, float) for k, a in ctx.element_fields().items()
-                     if k in self.fields})
+        rows.update({k: np.asarray(a, np.int32 if k == "flags" else float)
+                     for k, a in ctx.element_fields().items() if k in self.fields})
         if self.p["outlines"]:
             ll = polygons_lonlat(st.q, st.vert_offsets, st.verts, ctx.radius)
             flat = np.concatenate(ll) if ll else np.zeros((0, 2))
@@ -403,25 +434,35 @@ class NetCDFWriter(Writer):
         from siku_core.outputs import is_disk_full
 
         why = "disk full" if is_disk_full(exc) else f"write failed ({exc})"
-        try:
-            self.nc.close()
-        except Exception:  # noqa: BLE001 - the file is given up
-            pass
+        self._seal()
         self.nc = None
         if not self.published:
             self._discard()
             raise DataError(f"{self.target}: {why}; nothing written (an existing file is "
                             "untouched)") from None
         raise DataError(f"{self.target}: {why} at step {ctx.step_index}; the file holds "
-                        f"{self.t} complete snapshots") from None
+                        f"{self.t} complete snapshots (outputs of the NetCDF writer cannot be "
+                        "restarted: run the scene again, with [output] writer = \"hdf5\" to "
+                        "be able to restart)") from None
+
+    def _seal(self) -> None:
+        """Close the file after a failed write. When the library cannot close it, it has
+        already freed the file's state, and freeing the Python object would close it a second
+        time and crash the process: the object is kept alive (a reference the collector never
+        takes back) until the process ends."""
+        nc, self.nc = self.nc, None
+        if nc is None:
+            return
+        try:
+            nc.close()
+        except Exception:  # noqa: BLE001 - the file is given up
+            import ctypes
+
+            _SEALED.append(nc)
+            ctypes.pythonapi.Py_IncRef(ctypes.py_object(nc))
 
     def _discard(self) -> None:
-        if self.nc is not None:
-            try:
-                self.nc.close()
-            except Exception:  # noqa: BLE001
-                pass
-            self.nc = None
+        self._seal()
         try:
             self.partial.unlink()
         except OSError:
@@ -431,17 +472,20 @@ class NetCDFWriter(Writer):
         from siku_core.outputs import settle
 
         if getattr(self, "nc", None) is not None:
-            try:
-                self.nc.close()
-            except (OSError, RuntimeError):
-                pass
-            self.nc = None
+            self._seal()
         settle(self)
 
     @classmethod
+    def owns(cls, path) -> bool:
+        from .marks import netcdf_kind
+
+        return netcdf_kind(path) == "netcdf output"
+
+    @classmethod
     def read_restart(cls, path, ctx) -> dict:
-        raise DataError(f"{path}: a restart reads an HDF5 output ([output] writer = \"hdf5\"); "
-                        "the NetCDF writer keeps no component history")
+        raise DataError(f"{path}: outputs of the NetCDF writer cannot be restarted (they keep "
+                        "no component history); a restart reads an HDF5 output ([output] "
+                        "writer = \"hdf5\"): run the scene again")
 
 
 @hookimpl

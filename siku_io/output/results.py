@@ -6,6 +6,7 @@ the writer keeps it so); a killed writer leaves HDF5's "open for writing" mark, 
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import struct
@@ -15,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from siku_core import DataError
+from siku_core.errors import SikuError
 from siku_core.geometry.sphere import lonlat_to_xyz
 from siku_core.outputs import in_use
 
@@ -115,17 +117,81 @@ def clear_open_mark(path: str | Path) -> bool:
         os.close(fd)
 
 
+def _cleared(head: bytes, size: int) -> bytes | None:
+    """The first 48 bytes of an HDF5 file (version 2/3 superblock) with the "open for writing"
+    flags cleared and the end of the file fitted to ``size``, as :func:`clear_open_mark`
+    writes them; ``None`` when ``head`` is no such superblock or its checksum is wrong."""
+    if len(head) < 48 or head[:8] != _SIGNATURE or head[8] not in (2, 3) or head[9] != 8:
+        return None
+    if struct.unpack("<I", head[44:48])[0] != _lookup3(head[:44]):
+        return None
+    new = bytearray(head[:48])
+    if size < struct.unpack("<Q", head[28:36])[0]:
+        new[28:36] = struct.pack("<Q", size)
+    new[11] = 0
+    new[44:48] = struct.pack("<I", _lookup3(bytes(new[:44])))
+    return bytes(new)
+
+
+class MarkedReader:
+    """A read-only file object over an HDF5 file a killed writer left marked "open for
+    writing", showing its superblock with the mark cleared: h5py opens it (``driver="fileobj"``)
+    without anything written to the file and without SWMR's retries (which wait minutes on a
+    damaged file)."""
+
+    def __init__(self, path: str | Path):
+        self.fh = open(path, "rb")
+        size = os.fstat(self.fh.fileno()).st_size
+        self.head = _cleared(self.fh.read(48), size)
+        if self.head is None:
+            self.fh.close()
+            raise OSError(f"{path}: not an HDF5 file with a version 2/3 superblock")
+        self.fh.seek(0)
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return self.fh.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self.fh.tell()
+
+    def read(self, n: int = -1) -> bytes:
+        at = self.fh.tell()
+        data = self.fh.read(n)
+        if at < 48 and data:
+            k = min(48 - at, len(data))
+            data = self.head[at:at + k] + data[k:]
+        return data
+
+    def readinto(self, buf) -> int:
+        data = self.read(len(buf))
+        memoryview(buf)[:len(data)] = data
+        return len(data)
+
+    def close(self) -> None:
+        self.fh.close()
+
+
 def open_results(path: str | Path):
     """Open a siku HDF5 output file for reading (an ``h5py.File``).
 
-    A file a killed run left behind is opened after :func:`clear_open_mark`; a file a run is
-    still writing is opened in SWMR read mode. Use :func:`n_snapshots` for the number of
+    The file is first identified as siku's (``siku_io.output.marks``), reading only: any other
+    file is refused untouched. A file a killed run left behind is opened after
+    :func:`clear_open_mark` when no process holds it; a file a run is still writing is opened
+    in SWMR read mode. Use :func:`n_snapshots` for the number of
     complete snapshots."""
     import h5py
+
+    from .marks import is_hdf5_output, netcdf_kind
 
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{path}: output file not found")
+    if not is_hdf5_output(path):  # identified before anything else is done to it
+        kind = netcdf_kind(path)
+        raise DataError(f"{path}: " + (f"is a {kind} file of siku (NetCDF), not the HDF5 "
+                                       "output of a run" if kind else
+                                       "not a siku HDF5 output file (no siku attributes, or "
+                                       "damaged); give the HDF5 output of a run"))
     try:
         return h5py.File(path, "r")
     except OSError as exc:
@@ -138,6 +204,22 @@ def open_results(path: str | Path):
         return h5py.File(path, "r")
     except OSError as exc:
         raise DataError(f"{path}: not a readable HDF5 file: {exc}") from None
+
+
+@contextlib.contextmanager
+def damaged(path: str | Path, what: str = "siku output file"):
+    """Reading ``path``: an error the reading code did not foresee (a damaged or cut file whose
+    datasets, attributes or values are not what siku writes) becomes one :class:`DataError`
+    naming the file, never a traceback."""
+    try:
+        yield
+    except (SikuError, KeyboardInterrupt, MemoryError, SystemExit):
+        raise
+    except Exception as exc:  # noqa: BLE001 - any library's error on a damaged file
+        text = " ".join(str(exc).split())[:200]
+        raise DataError(f"{path}: damaged or incomplete {what}, it cannot be read "
+                        f"({type(exc).__name__}: {text}); rerun the scene that wrote it"
+                        ) from None
 
 
 def n_snapshots(f) -> int:
@@ -172,7 +254,20 @@ def last_snapshot(path: str | Path) -> dict[str, Any]:
                           for key, g in s["history"].items()} if "history" in s else {}
         out["record"] = json.loads(f["run_record"][()])
         out["n_steps"] = int(f.attrs["n_steps"])
+        out["extended_from"] = extended_from(f)
         return out
+
+
+def extended_from(f) -> int | None:
+    """The end (in steps) of the run before the last ``--extend`` of an open output file (the
+    note an extended run adds to the scene it stores), ``None`` for a run never extended."""
+    import re
+
+    text = f["scene"][()] if "scene" in f else b""
+    text = text.decode("utf-8", "replace") if isinstance(text, bytes) else str(text)
+    found = re.findall(r"^# siku run --extend .*continued from step \d+ of (\d+) to step \d+",
+                       text, flags=re.M)
+    return int(found[-1]) if found else None
 
 
 def run_progress(path: str | Path) -> dict[str, Any]:
@@ -222,3 +317,28 @@ def snapshot_drift(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     cross = np.sqrt((y * z[0] - z * y[0]) ** 2 + (z * x[0] - x * z[0]) ** 2
                     + (x * y[0] - y * x[0]) ** 2)
     return time, radius * np.arctan2(cross, dot).mean(axis=1)
+
+
+def restart_snapshot(path: Path, n: int, history: dict) -> dict[str, Any]:
+    """What a restart reads from ``path`` (``HDF5Writer.read_restart``): its last complete
+    snapshot, checked against the scene's ``n`` elements and ``history`` arrays (by shape)."""
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path}: restart file not found")
+    try:
+        with damaged(path, "restart file"):
+            last = last_snapshot(path)
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read restart file: {exc}") from None
+    N = last["q"].shape[0] if np.ndim(last["q"]) == 2 else -1
+    if N != n:
+        raise DataError(f"{path}: restart has {N} elements but the scene builds {n}")
+    for key, arrays in history.items():
+        for name, arr in arrays.items():
+            got = np.shape(last["history"].get(key, {}).get(name))
+            if got != np.shape(arr):
+                raise DataError(f"{path}: restart holds history {key}/{name} of shape "
+                                f"{got}, the scene builds {np.shape(arr)}; restart with "
+                                "the scene that wrote the file")
+    return {k: last[k] for k in ("step", "q", "V", "w", "history", "record", "n_steps",
+                                 "extended_from")}

@@ -9,7 +9,9 @@ order):
   ``step``, ``element``, ``lon``/``lat`` (time, element) of the centroids [degrees];
 * ``u``/``v`` (time, element): eastward and northward velocity of the centroid [m/s],
   ``spin`` [rad/s], ``q`` (time, element, quaternion) and every per-element field of the file
-  (``speed``, ``damage``, ``stress_ee``... with units);
+  (``speed``, ``damage``, ``stress_ee``..., the fields components declare, with units, and
+  their ``grid`` reduction: ``mean`` or ``sum``; under processes ``thickness``, ``mass`` and
+  ``flags`` are among them, varying in time, in place of the fixed values);
 * geometry per element: ``area``, ``thickness``, ``mass``, ``moment_of_inertia``, ``flags``
   (with CF ``flag_values``/``flag_meanings``), ``material``, ``floe``, ``node_count``;
 * with ``outlines=True`` (default) the polygons: ``node_lon``/``node_lat`` (time, node)
@@ -49,7 +51,7 @@ def _time_coord(time_s: np.ndarray, start: str, decode_times: bool):
 
 def _attrs(ds) -> dict:
     return {k: v for k, v in ds.attrs.items() if k in ("units", "long_name", "flag_values",
-                                                      "flag_meanings")}
+                                                      "flag_meanings", "grid")}
 
 
 def open_output(path: str | os.PathLike, group: str | None = None, outlines: bool = True,
@@ -82,7 +84,8 @@ def open_output(path: str | os.PathLike, group: str | None = None, outlines: boo
         s, geo = f["states"], f["geometry"]
         q = s["q"][:n]
         offsets = geo["vert_offsets"][...]
-        data = {**_state_variables(s, q, n), **_geometry_variables(geo, offsets)}
+        # a field that changes (thickness, mass, flags under processes) replaces the fixed one
+        data = {**_geometry_variables(geo, offsets), **_state_variables(s, q, n)}
         coords = _state_coords(s, n, int(root["n_elements"]), start, decode_times)
         if outlines:
             data.update(_outline_variables(q, offsets, geo["verts"][...], float(root["radius"])))
@@ -197,8 +200,24 @@ def _drop(ds, names):
     return ds.drop_vars([k for k in (names or ()) if k in ds.variables]) if names else ds
 
 
-def outlines_at(ds, t: int = -1) -> list[np.ndarray]:
-    """Polygons ``[lon, lat]`` (degrees, ``(k, 2)`` each) of every element at snapshot ``t``."""
+def outlines_at(ds, t=-1) -> list[np.ndarray]:
+    """Polygons ``[lon, lat]`` (degrees, ``(k, 2)`` each) of every element at snapshot ``t``: an
+    index (``-1``, the last) or a time (``ds.time[-1]``, ``"2001-04-06T12:00"``: the nearest
+    snapshot)."""
+    n = ds.sizes["time"]
+    if hasattr(t, "values"):  # a DataArray such as ds.time[-1]
+        t = t.values
+    if not isinstance(t, (int, np.integer)):
+        times = ds["time"].values
+        try:
+            want = np.atleast_1d(np.asarray(t).astype(times.dtype))
+            t = int(ds.indexes["time"].get_indexer(want, method="nearest")[0])
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"outlines_at: {t!r} is neither a snapshot index nor a time like "
+                             f"the dataset's ({times.dtype}): {exc}") from None
+    if not -n <= t < n:
+        raise IndexError(f"outlines_at: snapshot {t} is out of range: the dataset has {n} "
+                         f"snapshots (0 to {n - 1}, or -1 for the last)")
     lon = ds["node_lon"].values[t]
     lat = ds["node_lat"].values[t]
     off = ds["node_offset"].values
@@ -223,8 +242,11 @@ class SikuBackend(BackendEntrypoint):
 
     def open_dataset(self, filename_or_obj, *, drop_variables=None, group=None, outlines=True,
                      decode_times=True):
-        return open_output(filename_or_obj, group=group, outlines=outlines,
-                           decode_times=decode_times, drop_variables=drop_variables)
+        from siku_io.output.results import damaged
+
+        with damaged(filename_or_obj):
+            return open_output(filename_or_obj, group=group, outlines=outlines,
+                               decode_times=decode_times, drop_variables=drop_variables)
 
     def guess_can_open(self, filename_or_obj) -> bool:
         try:

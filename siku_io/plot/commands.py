@@ -9,8 +9,12 @@ def _cmd_plot(args) -> int:
     from siku_io.plot.element_maps import plot_all
     from siku_io.plot.grid_maps import is_grid_file, plot_grid
 
-    draw = plot_grid if is_grid_file(args.output) else plot_all
-    files = draw(args.output, args.out_dir, args.field, animation=not args.no_animation)
+    from siku_io.output.results import damaged
+
+    grid = is_grid_file(args.output)
+    draw = plot_grid if grid else plot_all
+    with damaged(args.output, "gridded file" if grid else "siku output file"):
+        files = draw(args.output, args.out_dir, args.field, animation=not args.no_animation)
     for f in files:
         print(f)
     return 0
@@ -19,9 +23,11 @@ def _cmd_plot(args) -> int:
 @hookimpl
 def siku_draw(path, field):
     """The maps and animation of ``siku plot`` after a run that asks for them."""
+    from siku_io.output.results import damaged
     from siku_io.plot.element_maps import plot_all
 
-    return plot_all(path, field=field)
+    with damaged(path):
+        return plot_all(path, field=field)
 
 
 @hookimpl

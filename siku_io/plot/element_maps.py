@@ -105,19 +105,29 @@ class MapPainter:
         self.land = out.has_coast if land is None else land
         self.land_level = (mapdeco.draw_land(self.ax, self.proj, self.box) if self.land
                            else None)
-        mapdeco.graticule(self.ax)
+        mapdeco.graticule(self.ax, self.proj, self.box)
         mapdeco.scale_bar(self.ax, self.proj, self.box, out.radius)
         self.static = out.flags == STATIC
         mapdeco.legend(self.ax, land=self.land_level is not None, static=bool(self.static.any()))
-        vmax = vmax if vmax is not None else (1.0 if field == "damage" else
-                                              float(np.nanmax(self.values)) or 1.0)
-        levels = _levels(vmax, field)
-        cmap = matplotlib.colormaps["viridis" if field != "damage" else "magma_r"]
+        # a signed field (stress, a velocity component) on a diverging scale centred on zero:
+        # compression and tension alike stand out from the unstressed ice
+        self.signed = field != "damage" and bool(np.nanmin(self.values) < 0)
+        if self.signed:
+            levels = (mapdeco.signed_levels(self.values) if vmax is None
+                      else mapdeco.signed_levels(np.array([vmax])))
+            cmap = matplotlib.colormaps["RdBu_r"]
+        else:
+            vmax = vmax if vmax is not None else (1.0 if field == "damage" else
+                                                  float(np.nanmax(self.values)) or 1.0)
+            levels = _levels(vmax, field)
+            cmap = matplotlib.colormaps["viridis" if field != "damage" else "magma_r"]
+        self.levels = levels
         cmap = cmap.resampled(len(levels) - 1).with_extremes(bad=mapdeco.STATIC_GREY)
         self.coll = PolyCollection([], cmap=cmap, norm=BoundaryNorm(levels, len(levels) - 1),
                                    edgecolors="0.25", linewidths=0.15, zorder=2)
         self.ax.add_collection(self.coll)
-        cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.8, pad=0.03, ticks=levels[::2])
+        self.colorbar = cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.8, pad=0.03,
+                                               ticks=levels[::2])
         cb.set_label(f"{field} [{COLORBAR_UNITS.get(field, '')}]")
 
     def draw(self, index: int) -> None:
@@ -143,12 +153,14 @@ def draw_map(path: str | Path, out_png: str | Path, index: int = -1,
     out = Output(path)
     painter = MapPainter(out, field)
     painter.draw(index if index >= 0 else len(out.time) + index)
-    out_png = Path(out_png)
-    painter.fig.savefig(out_png, bbox_inches="tight")
     import matplotlib.pyplot as plt
 
-    plt.close(painter.fig)
-    return out_png
+    from siku_io.plot.mapdeco import DPI, save_png
+
+    try:
+        return save_png(painter.fig, Path(out_png), bbox_inches="tight", dpi=DPI)
+    finally:
+        plt.close(painter.fig)
 
 
 def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: int = 6) -> Path:
@@ -168,15 +180,18 @@ def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: i
 def plot_all(path: str | Path, out_dir: str | Path | None = None, field: str | None = None,
              animation: bool = True) -> list[Path]:
     """Maps of the first and last snapshots and an animation; returns the files written."""
+    from siku_io.plot.mapdeco import picture_targets
+
     path = Path(path)
     out_dir = Path(out_dir) if out_dir else path.parent
-    out_dir.mkdir(parents=True, exist_ok=True)
     out = Output(path)
     if field is None:
         field = "damage" if "damage" in out.fields else "speed"
     stem = path.stem
-    files = [draw_map(path, out_dir / f"{stem}_{field}_first.png", 0, field),
-             draw_map(path, out_dir / f"{stem}_{field}_last.png", -1, field)]
+    names = [f"{stem}_{field}_first.png", f"{stem}_{field}_last.png"]
+    first, last, *gif = picture_targets(out_dir, names + ([f"{stem}_{field}.gif"]
+                                                          if animation else []))
+    files = [draw_map(path, first, 0, field), draw_map(path, last, -1, field)]
     if animation:
-        files.append(animate(path, out_dir / f"{stem}_{field}.gif", field))
+        files.append(animate(path, gif[0], field))
     return files

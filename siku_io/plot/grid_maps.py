@@ -80,12 +80,21 @@ class GridPainter:
         self.box = mapdeco.frame_for(self.ax, self.proj, self.lon.ravel(), lat.ravel(),
                                      pad=0.02)
         land = mapdeco.scene_has_coast(str(self.ds.attrs.get("scene", "")))
-        self.land_level = mapdeco.draw_land(self.ax, self.proj, self.box) if land else None
-        mapdeco.graticule(self.ax)
+        # land over the cells: a cell is ocean or ice, never land coloured as a value
+        self.land_level = (mapdeco.draw_land(self.ax, self.proj, self.box, zorder=1.2)
+                           if land else None)
+        mapdeco.graticule(self.ax, self.proj, self.box)
         mapdeco.scale_bar(self.ax, self.proj, self.box, float(self.ds.attrs["earth_radius"]))
         values = self.ds[field].values.astype(float)
         if field != "concentration" and "concentration" in self.ds:  # open water shows through
             values = np.where(self.ds["concentration"].values > 0, values, np.nan)
+        elif field == "concentration" and land:  # no ice on land: land, not zero concentration
+            values = np.where(self.on_land()[None] & (values == 0), np.nan, values)
+        attrs = dict(self.ds[field].attrs)
+        self.units = str(attrs.get("units", ""))
+        if self.units == "s-1":  # strain rates per day, the unit of the lead threshold
+            values = values * 86400.0
+            self.units = "day-1"
         self.values = values
         scale = float(np.nanmax(np.abs(values))) if np.isfinite(values).any() else 1.0
         scale = scale or 1.0
@@ -95,11 +104,17 @@ class GridPainter:
         self.mesh = self.ax.pcolormesh(self.lon, self.lat, np.ma.masked_invalid(values[0]),
                                        cmap=cmap, vmin=-scale if signed else 0.0, vmax=scale,
                                        transform=ccrs.PlateCarree(), zorder=1, shading="flat")
-        attrs = self.ds[field].attrs
-        cb = self.fig.colorbar(self.mesh, ax=self.ax, shrink=0.8)
-        cb.set_label(f"{field} [{attrs.get('units', '')}]\n{attrs.get('long_name', '')}",
-                     fontsize=8)
+        self.colorbar = cb = self.fig.colorbar(self.mesh, ax=self.ax, shrink=0.8)
+        cb.set_label(f"{field} [{self.units}]\n{attrs.get('long_name', '')}", fontsize=8)
         self.lines = []
+
+    def on_land(self) -> np.ndarray:
+        """``(ny, nx)``: whether each cell's centre is on land (the 1 km GLOBE mask)."""
+        from global_land_mask import globe
+
+        X, Y = np.meshgrid(self.grid.x, self.grid.y)
+        lon, lat = self.grid.to_lonlat(X, Y)
+        return globe.is_land(np.clip(lat, -90.0, 90.0), (lon + 180.0) % 360.0 - 180.0)
 
     def draw(self, index: int) -> None:
         import cartopy.crs as ccrs
@@ -145,22 +160,27 @@ def draw_grid_map(path, out_png, field: str, index: int = -1) -> Path:
     p = GridPainter(path, field)
     n = p.ds.sizes["time"]
     p.draw(index if index >= 0 else n + index)
-    out_png = Path(out_png)
-    p.fig.savefig(out_png, bbox_inches="tight")
-    plt.close(p.fig)
-    return out_png
+    from siku_io.plot.mapdeco import DPI, save_png
+
+    try:
+        return save_png(p.fig, Path(out_png), bbox_inches="tight", dpi=DPI)
+    finally:
+        plt.close(p.fig)
 
 
 def plot_grid(path, out_dir=None, field: str | None = None, animation: bool = True
               ) -> list[Path]:
     """Maps of the first and last times of a gridded file and an animation."""
+    from siku_io.plot.mapdeco import picture_targets
+
     path = Path(path)
     out_dir = Path(out_dir) if out_dir else path.parent
-    out_dir.mkdir(parents=True, exist_ok=True)
     field = field or "total_deformation"
     stem = path.name.removesuffix(".nc").replace(".", "_")
-    files = [draw_grid_map(path, out_dir / f"{stem}_{field}_first.png", field, 0),
-             draw_grid_map(path, out_dir / f"{stem}_{field}_last.png", field, -1)]
+    first, last, *gif = picture_targets(
+        out_dir, [f"{stem}_{field}_first.png", f"{stem}_{field}_last.png"]
+        + ([f"{stem}_{field}.gif"] if animation else []))
+    files = [draw_grid_map(path, first, field, 0), draw_grid_map(path, last, field, -1)]
     if animation:
         import matplotlib.pyplot as plt
 
@@ -168,8 +188,7 @@ def plot_grid(path, out_dir=None, field: str | None = None, animation: bool = Tr
 
         p = GridPainter(path, field)
         try:
-            files.append(save_gif(p.fig, p.draw, p.ds.sizes["time"],
-                                  out_dir / f"{stem}_{field}.gif", fps=4))
+            files.append(save_gif(p.fig, p.draw, p.ds.sizes["time"], gif[0], fps=4))
         finally:
             plt.close(p.fig)
     return files

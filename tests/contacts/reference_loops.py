@@ -18,6 +18,8 @@ from siku_core.contact_law import (
     G_AREA,
     G_AREA_I,
     G_AREA_J,
+    G_HI,
+    G_HJ,
     G_CX,
     G_CY,
     G_K,
@@ -254,6 +256,8 @@ def _collision_loop(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F
         g[G_VX], g[G_VY] = relative_velocity(q, V, w, i, j, cx, cy, R)
         g[G_AREA_I] = area[i]
         g[G_AREA_J] = area[j]
+        g[G_HI] = h[i]
+        g[G_HJ] = h[j]
         out[:] = 0.0
         evaluate(g, pars, out)
         apply_pair(q, i, j, out[0], out[1], cx, cy, out[2], R, F, T)

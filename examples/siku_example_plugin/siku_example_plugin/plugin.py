@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from siku_core import hookimpl
 
+from .centres_csv import CentresCSV
 from .euler import Euler
 from .laws import BrittleBond
 from .tilt import SeaSurfaceTilt
@@ -26,3 +27,8 @@ def siku_register_integrators():
 @hookimpl
 def siku_register_contact_laws():
     return [BrittleBond]
+
+
+@hookimpl
+def siku_register_writers():
+    return [CentresCSV]

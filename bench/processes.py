@@ -1,0 +1,100 @@
+"""What processes cost: the whole step with and without each built-in process, alternated in
+one window.
+
+``python -m bench.processes`` (from the repository root) runs the bonded 10 000-element pack of
+:mod:`bench.scenes` (law ``ridging`` for every variant, so that only the process differs) and
+one hour of the shipped default scene, each as: no process; ``thermodynamics`` every step
+(uniform -20 °C); ``ridging`` every step and every ``--every`` steps. Variants alternate,
+``--rounds`` times, each after a first step that compiles its kernels; each prints its best
+wall time per element-step [ns], the share of the step spent
+in the ``processes`` phase (``Simulation.timings``), and its ratio to the run without
+processes. Targets (issue: ice that changes): thermodynamics at most 5 % of the step, ridging at
+most 10 %, the run without processes as fast as before (``bench.fingerprint`` checks it is also
+bit for bit the same).
+
+    python -m bench.processes --rounds 3 --steps 50
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+from bench.scenes import text as bench_text
+from siku_core.cli import default_scene_path
+from siku_core.scene import scene_from_text
+from siku_core.simulation import Simulation
+
+#: ridging law parameters on top of the pack's joint parameters
+RIDGING = {"tensile_strain": 0.05, "strength": 2.75e4}
+VARIANTS = {
+    "none": "",
+    "thermodynamics": ('[[process]]\nname = "thermodynamics"\n'
+                       'params = { surface_temperature = -20.0 }\n'),
+    "ridging": '[[process]]\nname = "ridging"\n',
+    "ridging/N": '[[process]]\nname = "ridging"\nevery = EVERY\n',
+}
+
+
+def _table(variant: str, dt: float, every: int) -> str:
+    return VARIANTS[variant].replace("EVERY", repr(every * dt))
+
+
+def pack_scene(variant: str, n: int, steps: int, every: int):
+    from bench.scenes import DT_BONDED
+
+    text = bench_text("bonded", n, "distributed_spring", steps)
+    text = text.replace('law = "distributed_spring"', 'law = "ridging"')
+    text = text.replace("tensile_strain = 0.05", "tensile_strain = 0.05, strength = 2.75e4")
+    return scene_from_text(text + "\n" + _table(variant, DT_BONDED, every),
+                           f"<bench processes {variant}>")
+
+
+def default_scene(variant: str, hours: float, every: int):
+    """The shipped default scene for ``hours`` under the ridging law, with the variant's
+    process table (its data files resolved from its own folder)."""
+    path = default_scene_path()
+    dt = float(path.read_text(encoding="utf-8").split("dt = ")[1].split()[0])
+    text = path.read_text(encoding="utf-8") + "\n" + _table(variant, dt, every)
+    return scene_from_text(text, f"<default {variant}>", path.resolve(),
+                           {"time.duration": f"{hours}h", "contact.law": "ridging",
+                            "output.plots": "false"})
+
+
+def run_once(scene) -> tuple[float, float, int]:
+    sim = Simulation(scene, out=False, progress=False)
+    sim.run(steps=1)  # compile outside the timing
+    sim.reset_timings()
+    t0 = time.perf_counter()
+    sim.run()
+    wall = time.perf_counter() - t0
+    return wall, sim.timings.get("processes", 0.0), (sim.step_index - 1) * sim.state.n
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench.processes", description=__doc__)
+    ap.add_argument("--elements", type=int, default=10_000)
+    ap.add_argument("--steps", type=int, default=50)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--hours", type=float, default=1.0, help="of the default scene")
+    ap.add_argument("--every", type=int, default=60, help="steps between ridging applications")
+    args = ap.parse_args(argv)
+    cases = {f"pack {v}": (lambda v=v: pack_scene(v, args.elements, args.steps, args.every))
+             for v in VARIANTS}
+    for v in VARIANTS:
+        cases[f"default {v}"] = (lambda v=v: default_scene(v, args.hours, args.every))
+    best: dict[str, tuple[float, float]] = {}
+    for _ in range(args.rounds):
+        for name, make in cases.items():
+            wall, proc, work = run_once(make())
+            ns = wall / work * 1e9
+            if name not in best or ns < best[name][0]:
+                best[name] = (ns, proc / wall)
+    print(f"{'case':<24} {'ns/element-step':>16} {'processes share':>16} {'ratio':>7}")
+    for name, (ns, share) in best.items():
+        ref = best[name.split()[0] + " none"][0]
+        print(f"{name:<24} {ns:16.1f} {100 * share:15.1f}% {ns / ref:7.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,63 @@
+"""The overlaps of the colliding pairs of the current state, for components that act on them
+outside the force evaluation (the ridging process): overlap area [m²] and contact width [m] by
+the same clip as the contact loop, and the force each pair carried in the last evaluation."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .contact_frames import _width, j_to_i, relative_matrix
+from .geometry.clip import make_overlap_scratch, overlap_inline
+
+
+@njit(cache=True)
+def pair_overlaps(rm, offsets, verts, pairs, ks, R, nmax):
+    """Per candidate pair ``pairs[ks[a]]``: overlap area [m²] and contact width [m] for the
+    rotation matrices ``rm`` of the state (``(len(ks), 2)``; 0 where they do not overlap)."""
+    xy, tag = make_overlap_scratch(nmax, nmax)
+    proj = np.empty((nmax, 2))
+    out = np.zeros((ks.shape[0], 2))
+    inv_r = 1.0 / R
+    for a in range(ks.shape[0]):
+        k = ks[a]
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        M = relative_matrix(rm, i, j)
+        oj = offsets[j]
+        nj = offsets[j + 1] - oj
+        for v in range(nj):
+            proj[v, 0], proj[v, 1] = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
+        pi = verts[offsets[i]:offsets[i + 1]]
+        pj = proj[:nj]
+        c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
+        area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x,
+                                                                           c2y, False)
+        if area > 0.0:
+            out[a, 0] = area
+            out[a, 1] = _width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
+    return out
+
+
+def overlaps(cm) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The colliding pairs of contact model ``cm`` (those that carried force in the last
+    evaluation): ``(pairs (K, 2), area [m²], width [m], force [N])``, geometry of the current
+    state, force magnitude of the last evaluation (the generalised force on ``i``: equal to the
+    contact force to order (size / R)²)."""
+    from .contact_frames import ROW_FIX, ROW_FIY, rotation_matrices
+    from .parallel import chunks
+
+    ks = np.flatnonzero(cm.pair_active == 1) if len(cm.pair_active) == len(cm.pairs) else \
+        np.zeros(0, np.int64)
+    if not len(ks):
+        z = np.zeros(0)
+        return np.zeros((0, 2), np.int64), z, z, z
+    st = cm.state
+    rm = np.empty((st.n, 3, 3))
+    rotation_matrices(st.q, rm, chunks(st.n))
+    nmax = int(np.max(np.diff(st.vert_offsets)))
+    got = pair_overlaps(rm, st.vert_offsets, st.verts, cm.pairs, ks, float(cm.radius), nmax)
+    force = np.hypot(cm.pair_rows[ks, ROW_FIX], cm.pair_rows[ks, ROW_FIY])
+    return cm.pairs[ks], got[:, 0], got[:, 1], force
+
+
+__all__ = ["overlaps", "pair_overlaps"]

@@ -1,0 +1,275 @@
+"""Ice that changes: per-element fields declared by components, and what follows a change of
+thickness (mass, inertia, joint stiffness, the stable step).
+
+A component declares the per-element fields it owns in ``owned_fields`` (a tuple of
+:class:`ElementField`: name, units, long name, dtype, initial value, how a grid reduces it).
+The engine allocates them once (:class:`IceBook`), hands them out by name
+(``ctx.fields[name]``, a numpy array of one value per element that the owner changes in place)
+and writes, restarts and grids them without further code: every writer writes them with their
+units, the xarray engine reads them, ``siku grid`` puts them on grids (the cell mean weighted by
+ice area, or the sum, as declared), ``siku plugins`` lists them.
+
+A scene with processes (``[[process]]`` tables, :class:`~siku_core.interfaces.Process`) has a
+time-dependent ``thickness`` [m], ``mass`` [kg] and ``flags`` in its outputs; after the processes
+of a step have run, :meth:`IceBook.after_processes` recomputes what depends on the thickness:
+mass ``m = rho h A`` and polar moment ``I = rho h J`` (``J`` the polygon's polar second moment
+of area), the contact model's reduced masses and eq. 9 joint stiffnesses (from ``E h``), and
+the stable step (again once some element's thickness has changed by more than :data:`RECHECK`
+since the last check), which stops the run with one line naming the element if ``dt`` is no
+longer safe. A scene with neither declared fields nor processes allocates nothing here and runs as
+before.
+
+An element that melts away (a process calls ``ctx.melt(elements)``) is flagged ``melted``
+(flag code 3 in the outputs), stops moving, leaves the contact phase (its joints break with
+mode ``MELT`` and it is never a collision candidate again) and keeps its last thickness so that
+its mass stays positive.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Iterable
+
+import numpy as np
+
+from .errors import PluginError, SceneError, StabilityError
+from .state import MELTED
+from .stress import STRESS_FIELDS
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .simulation import Simulation
+
+#: how a grid reduces a declared field over the elements in a cell: ``mean`` (weighted by the
+#: ice area in the cell: intensive quantities, e.g. a temperature), ``sum`` (weighted by the
+#: share of each element in the cell: extensive quantities, e.g. a volume), ``none`` (not
+#: gridded)
+GRID_REDUCTIONS = ("mean", "sum", "none")
+
+#: relative change of an element's thickness since the last stable-step check that triggers the
+#: next one (the limits scale with the thickness at most linearly, so between checks the
+#: critical step moves by less than this share: well inside the safety factor ``dt_safety``)
+RECHECK = 0.01
+
+#: per-element names the engine and its writers use themselves: no component may declare them
+RESERVED_FIELDS = frozenset({"speed", "damage", *STRESS_FIELDS, "thickness", "mass", "flags", "lon",
+                      "lat", "u", "v", "spin", "q", "V", "w", "area", "moment_of_inertia",
+                      "material", "floe", "bounding_radius", "time", "step", "element"})
+
+_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class ElementField:
+    """A per-element field a component owns.
+
+    ``name`` (a Python identifier, unique in a run), ``units`` (a UDUNITS string, ``"1"`` for
+    none), ``long_name`` (what it is, for files and plots), ``dtype`` (numpy dtype name,
+    ``float64`` by default), ``initial`` (value of every element at the start), ``grid`` (one of
+    :data:`GRID_REDUCTIONS`) and an optional CF ``standard_name``.
+    """
+
+    name: str
+    units: str
+    long_name: str
+    dtype: str = "float64"
+    initial: float = 0.0
+    grid: str = "mean"
+    standard_name: str = ""
+
+    def check(self, owner: str) -> None:
+        """Refuse a declaration that cannot be written (:class:`PluginError`, one line)."""
+        what = f"{owner}: declared field {self.name!r}"
+        if not isinstance(self.name, str) or not _NAME.match(self.name):
+            raise PluginError(f"{what}: the name must be an identifier (letters, digits, _)")
+        if self.name in RESERVED_FIELDS:
+            raise PluginError(f"{what}: the name is siku's own; choose another")
+        if not isinstance(self.units, str) or not self.units:
+            raise PluginError(f"{what}: give its units (a UDUNITS string, '1' for none)")
+        if not isinstance(self.long_name, str) or not self.long_name:
+            raise PluginError(f"{what}: give a long_name saying what it is")
+        if self.grid not in GRID_REDUCTIONS:
+            raise PluginError(f"{what}: grid = {self.grid!r}; one of "
+                              f"{', '.join(GRID_REDUCTIONS)}")
+        try:
+            dt = np.dtype(self.dtype)
+        except TypeError:
+            raise PluginError(f"{what}: unknown dtype {self.dtype!r}") from None
+        if dt.kind not in "fiub":
+            raise PluginError(f"{what}: dtype {self.dtype!r} is not numeric")
+
+
+def declared_fields(components: Iterable[Any]) -> dict[str, tuple[str, ElementField]]:
+    """``{name: (owner, field)}`` of every field the components declare; a name declared twice
+    is a :class:`SceneError` naming both owners."""
+    out: dict[str, tuple[str, ElementField]] = {}
+    for comp in components:
+        owner = f"{comp.kind} '{comp.name}'"
+        if comp.table:
+            owner += f" ([{comp.table}])"
+        for f in comp.owned_fields:
+            f.check(owner)
+            if f.name in out:
+                raise SceneError(f"per-element field '{f.name}' is declared by both "
+                                 f"{out[f.name][0]} and {owner}; a field has one owner")
+            out[f.name] = (owner, f)
+    return out
+
+
+#: the fields the engine writes itself for a scene with processes: name -> (units, long name,
+#: grid reduction)
+CHANGING = {
+    "thickness": ("m", "ice thickness (changed by the scene's processes)", "none"),
+    "mass": ("kg", "element mass (follows its thickness)", "none"),
+    "flags": ("1", "element kind (free, static, steady, melted)", "none"),
+}
+
+
+class IceBook:
+    """The declared per-element fields of a run and the changing thickness (module
+    docstring). ``history()`` holds them for snapshots, the NaN guard and restarts."""
+
+    kind = "engine"
+    name = "elements"
+
+    def __init__(self, sim: "Simulation", processes: bool):
+        self._sim = sim
+        st = sim.state
+        self.specs = declared_fields(sim.components())
+        self.values: dict[str, np.ndarray] = {
+            name: np.full(st.n, f.initial, dtype=np.dtype(f.dtype))
+            for name, (_, f) in self.specs.items()}
+        #: whether the scene's processes may change thickness, flags and joints
+        self.processes = processes
+        self.active = processes or bool(self.specs)
+        if processes:
+            mats = list(sim.scene.cfg.materials.values())
+            self.rho = np.array([mats[k].density for k in st.material], dtype=float)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                #: polar second moment of area of each polygon [m^4], I / (rho h)
+                self.J = st.I / (self.rho * st.thickness)
+            self._h_seen = st.thickness.copy()
+            self._flags_seen = st.flags.copy()
+            #: thickness at the last stable-step check
+            self._h_checked = st.thickness.copy()
+
+    # ------------------------------------------------------------------ fields
+    def element_fields(self) -> dict[str, np.ndarray]:
+        """The declared fields and, with processes, ``thickness``, ``mass`` and ``flags``."""
+        out = dict(self.values)
+        if self.processes:
+            st = self._sim.state
+            out.update(thickness=st.thickness, mass=st.m, flags=st.flags)
+        return out
+
+    def catalogue(self) -> dict[str, tuple[str, str, str]]:
+        """``{name: (units, long_name, grid)}`` of every field :meth:`element_fields` gives."""
+        out = {n: (f.units, f.long_name, f.grid) for n, (_, f) in self.specs.items()}
+        if self.processes:
+            out.update(CHANGING)
+        return out
+
+    # ------------------------------------------------------------------ history (restart)
+    def history(self) -> dict[str, np.ndarray] | None:
+        if not self.active:
+            return None
+        out = {k: v.copy() for k, v in self.values.items()}
+        if self.processes:
+            st = self._sim.state
+            out["thickness"] = st.thickness.copy()
+            out["flags"] = st.flags.copy()
+        return out
+
+    def set_history(self, arrays: dict[str, np.ndarray]) -> None:
+        st = self._sim.state
+        for name, arr in arrays.items():
+            arr = np.asarray(arr)
+            if arr.shape != (st.n,):
+                raise SceneError(f"restart holds per-element '{name}' of shape {arr.shape}; "
+                                 f"the scene builds {st.n} elements")
+            if name in self.values:
+                self.values[name][:] = arr
+            elif name == "thickness" and self.processes:
+                st.thickness[:] = arr
+            elif name == "flags" and self.processes:
+                st.flags[:] = arr
+            else:
+                raise SceneError(f"restart holds per-element '{name}', which this scene does "
+                                 "not declare; restart with the scene that wrote the file")
+        if self.processes:
+            self.refresh(check=False)
+
+    # ------------------------------------------------------------------ changes
+    def after_processes(self, who: str) -> None:
+        """After processes ran: if a thickness or flag changed, recompute what depends on it
+        and check the step (``who`` names the processes for the message)."""
+        st = self._sim.state
+        h_changed = not np.array_equal(st.thickness, self._h_seen)
+        f_changed = not np.array_equal(st.flags, self._flags_seen)
+        if not (h_changed or f_changed):
+            return
+        bad = ~(np.isfinite(st.thickness) & (st.thickness > 0))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise StabilityError(
+                f"{who} set the thickness of element {i} to {st.thickness[i]!r} m at t = "
+                f"{self._sim.time:g} s; a thickness must stay finite and positive (melt an "
+                "element with ctx.melt instead)")
+        # the stable step moves with the thickness (mass, stiffness): checked again once some
+        # element's thickness has changed by more than RECHECK since the last check
+        drift = np.abs(st.thickness - self._h_checked) > RECHECK * self._h_checked
+        self.refresh(check=h_changed and bool(drift.any()), who=who)
+
+    def refresh(self, check: bool = True, who: str = "") -> None:
+        """Mass, inertia and the contact model's constants from the thickness and flags; then
+        (``check``) the stable step."""
+        sim = self._sim
+        st = sim.state
+        np.multiply(self.rho * st.thickness, st.area, out=st.m)
+        np.multiply(self.rho * st.thickness, self.J, out=st.I)
+        self._h_seen[:] = st.thickness
+        self._flags_seen[:] = st.flags
+        if sim.contacts is not None:
+            sim.contacts.ice_changed()
+        if check:
+            sim.check_time_step(after=who)
+            self._h_checked[:] = st.thickness
+
+    def melt(self, elements: np.ndarray) -> int:
+        """Flag ``elements`` as melted (module docstring); returns how many were not already."""
+        sim = self._sim
+        st = sim.state
+        k = np.asarray(elements, dtype=np.int64).reshape(-1)
+        k = k[st.flags[k] != MELTED]
+        if not len(k):
+            return 0
+        st.flags[k] = MELTED
+        st.V[k] = 0.0
+        st.w[k] = 0.0
+        if sim.contacts is not None:
+            sim.contacts.remove_elements(k, sim.time)
+        return len(k)
+
+
+def apply_processes(sim: "Simulation") -> None:
+    """The processes due at this step, in scene order, then what their changes imply
+    (:meth:`IceBook.after_processes`)."""
+    ran = []
+    for proc, every in zip(sim.processes, sim._process_every):
+        if sim.step_index % every == 0:
+            proc.apply(sim.context, every * sim.dt)
+            ran.append(f"process '{proc.name}'")
+    if ran:
+        sim.ice.after_processes(" and ".join(ran))
+
+
+def process_schedule(every: float | None, dt: float, where: str) -> int:
+    """Steps between two applications of a process that runs ``every`` [s] (``None``: every
+    step); ``every`` must be a whole number of steps (to 1e-9)."""
+    if every is None:
+        return 1
+    k = every / dt
+    n = int(round(k))
+    if n < 1 or abs(k - n) > 1e-9 * max(1.0, k):
+        raise SceneError(f"{where}: every = {every:g} s is not a whole number of steps of "
+                         f"dt = {dt:g} s; give a multiple of dt")
+    return n

@@ -1,0 +1,243 @@
+"""The stable time step of the contact phase: every stiffness and every damper an element feels.
+
+The integrator (semi-implicit Euler: velocities from the forces of the old state, positions from
+the new velocities) is stable for a linear system ``M x'' + C x' + K x = 0`` in a mode of
+frequency ``omega`` and damping rate ``gamma = 2 zeta omega`` when
+
+    omega² dt² + 2 gamma dt < 4,     i.e.  dt < dt_c = 4 / (gamma + sqrt(gamma² + 4 omega²))
+
+(the Jury conditions of the mode's 2×2 amplification matrix: trace ``2 - gamma dt - omega²
+dt²``, determinant ``1 - gamma dt``); without damping ``dt_c = 2 / omega``, with ``zeta = 1``
+``0.83 / omega``. The damping is explicit (it acts on the old velocity), so it *lowers* the
+stable step.
+
+:func:`contact_matrices` assembles the contact phase's stiffness ``K`` and damping ``C`` about
+the state at rest, for the three degrees of freedom ``(x, y, theta)`` of every free element
+(static and steady elements are walls):
+
+* a joint: a spring of ``f K w`` along the joint's normal and ``s f K w`` along it (``f`` the
+  law's ``stiffness_factor()``, ``s`` its ``joint_shear``: 1 for the distributed spring,
+  ``1/(2(1 + nu))`` for Mohr–Coulomb and the bond) spread along the joint, exactly as two point
+  springs of half that at the joint's Gauss points
+  (which integrate the linear displacement profile of §5 of the contacts page exactly: force
+  ``K w (s1 + s2)/2`` and couple ``K w³ theta / 12``), damped with ``2 zeta_j sqrt(f K w m)``
+  spread the same way (``zeta_j`` the law's joint damping ratio, ``m`` the pair's reduced mass);
+* under ``contact.jointed = "collide"`` the same pair also collides when pressed: a normal spring
+  ``K w`` at the joint's middle, damped with ``2 zeta_c sqrt(K w m)``; the collision damping acts
+  on touching faces as well (``touching = "contact"``). This is the mode the element-wise bound
+  used before missed: a jointed pair under compression is twice as stiff as its joint, and its
+  two dampers add;
+* every edge of an element without a joint: a collision budget ``h E`` along the edge's normal
+  at its middle, against an unknown partner (taken as a wall: the reduced mass is the element's
+  own), damped with ``zeta_c``.
+
+The largest eigenvalues ``omega_max²`` of ``M^-1/2 K M^-1/2`` and ``gamma_max`` of ``M^-1/2 C
+M^-1/2`` (Lanczos, or dense for small systems) give ``dt_c`` by the formula above. Where ``K`` and
+``C`` share their modes (proportional damping, the joints alone) that is the exact limit of the
+linear system, and taking the two maxima separately can only lower it; where they do not, it is
+an estimate, checked against the exact spectral radius of the amplification matrix on small
+packs (``tests/contacts/test_stable_step.py``). The engine then applies ``[run] dt_safety``
+(default 0.5) for what the linearisation at rest leaves out: contact widths that grow with the
+overlap, the water drag's own limit (a separate component), damage.
+
+Not covered, and said by the law: the ``sqrt_area`` collision law has no bounded stiffness
+(``dF/d(depth)`` grows without bound as the overlap vanishes); the estimate then takes the
+linear law's ``K w`` and the engine warns.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .state import FREE
+
+#: systems with at most this many degrees of freedom are solved densely
+DENSE_DOF = 600
+#: Gauss points of a joint (z along the joint, from end a to end b)
+_GAUSS = (0.5 - 0.5 / math.sqrt(3.0), 0.5 + 0.5 / math.sqrt(3.0))
+
+
+def _perp(p: np.ndarray) -> np.ndarray:
+    """``k × p`` for rows of 2-vectors: the displacement of point ``p`` per unit rotation."""
+    return np.stack([-p[:, 1], p[:, 0]], axis=1)
+
+
+class _Assembler:
+    """Triplets of a symmetric matrix over the 3 DOF per element; rows of walls are dropped."""
+
+    def __init__(self, n: int, free: np.ndarray):
+        self.n = n
+        self.free = free
+        self.rows: list[np.ndarray] = []
+        self.cols: list[np.ndarray] = []
+        self.vals: list[np.ndarray] = []
+
+    def add_vectors(self, coef: np.ndarray, entries: list[tuple[np.ndarray, int, np.ndarray]]):
+        """Add ``coef[k] b_k b_k^T`` where ``b_k`` has value ``v[k]`` at DOF ``3 e[k] + d`` for
+        every ``(e, d, v)`` of ``entries``; entries on walls are left out (fixed DOF)."""
+        for (ea, da, va) in entries:
+            for (eb, db, vb) in entries:
+                keep = self.free[ea] & self.free[eb]
+                self.rows.append((3 * ea + da)[keep])
+                self.cols.append((3 * eb + db)[keep])
+                self.vals.append((coef * va * vb)[keep])
+
+    def matrix(self):
+        from scipy.sparse import coo_matrix
+
+        n3 = 3 * self.n
+        if not self.rows:
+            return coo_matrix((n3, n3)).tocsr()
+        return coo_matrix((np.concatenate(self.vals), (np.concatenate(self.rows),
+                                                        np.concatenate(self.cols))),
+                          shape=(n3, n3)).tocsr()
+
+
+def _point_entries(i, j, p_i, p_j, rot, d_i):
+    """Entries of ``b = d · (relative displacement of j's point p_j against i's point p_i)``,
+    ``d_i`` a direction in ``i``'s frame, ``rot`` the rotation (cos, sin) taking ``j``'s frame
+    to ``i``'s. Returns the ``(element, dof, value)`` list."""
+    c, s = rot
+    # the direction in j's frame: R^T d
+    dj = np.stack([c * d_i[:, 0] + s * d_i[:, 1], -s * d_i[:, 0] + c * d_i[:, 1]], axis=1)
+    pi_perp = _perp(p_i)
+    pj_perp = _perp(p_j)
+    return [
+        (i, 0, -d_i[:, 0]), (i, 1, -d_i[:, 1]), (i, 2, -np.sum(d_i * pi_perp, axis=1)),
+        (j, 0, dj[:, 0]), (j, 1, dj[:, 1]), (j, 2, np.sum(dj * pj_perp, axis=1)),
+    ]
+
+
+def contact_matrices(model, rates: dict, edges: bool = True):
+    """Stiffness and damping matrices (scipy CSR, ``3 n`` square, N/m, N m/rad, ...) of the
+    contact phase of ``model`` (a :class:`~siku_core.contact_model.ContactModel`) at rest.
+
+    ``rates`` are the law's :meth:`~siku_core.contact_law.ContactLaw.stability_rates`. Joints
+    that have broken count as free edges (their pair collides as independent elements);
+    ``edges = False`` leaves the free edges' collision budget out (the contacts of the state at
+    rest alone)."""
+    st = model.state
+    n = st.n
+    free = st.flags == FREE
+    KA = _Assembler(n, free)
+    CA = _Assembler(n, free)
+    zc = float(rates.get("collision_damping", 0.0))
+    zj = float(rates.get("joint_damping", 0.0))
+    fj = float(rates.get("joint_stiffness", 1.0))
+    fc = float(rates.get("collision_stiffness", 1.0))
+    collide = not model.exclude_jointed
+    joints = model.n_joints and model.law.uses_joints
+    jointed_edges = np.zeros(n, dtype=np.int64)
+    if joints:
+        k = np.flatnonzero(model.intact)
+        ji, jj = model.ji[k], model.jj[k]
+        ei, ej = model.ends_i[k], model.ends_j[k]
+        w = model.width[k]
+        K = model.jK[k]
+        meff = model.jmeff[k]
+        ti, tj = ei[:, 1] - ei[:, 0], ej[:, 1] - ej[:, 0]
+        ang = np.arctan2(ti[:, 1], ti[:, 0]) - np.arctan2(tj[:, 1], tj[:, 0])
+        rot = (np.cos(ang), np.sin(ang))
+        kj = fj * K * w
+        cj = 2.0 * zj * np.sqrt(kj * meff)
+        shear = rates.get("joint_shear", 1.0)
+        share = 1.0 / (2.0 * (1.0 + model.nu[ji])) if shear == "poisson" else float(shear)
+        cshare = (np.sqrt(share) if rates.get("joint_shear_damping", "normal") == "own"
+                  else 1.0) * np.ones(len(k))
+        tan = ti / np.maximum(w, 1e-300)[:, None]
+        nrm = np.stack([tan[:, 1], -tan[:, 0]], axis=1)
+        for z in _GAUSS:
+            pi = ei[:, 0] + z * ti
+            pj = ej[:, 0] + z * tj
+            for d, sk, sc in ((nrm, 1.0, 1.0), (tan, share, cshare)):
+                ent = _point_entries(ji, jj, pi, pj, rot, d)
+                KA.add_vectors(0.5 * kj * sk, ent)
+                CA.add_vectors(0.5 * cj * sc, ent)
+        if collide:
+            ent = _point_entries(ji, jj, ei[:, 0] + 0.5 * ti, ej[:, 0] + 0.5 * tj, rot, nrm)
+            kc = fc * K * w
+            KA.add_vectors(kc, ent)
+            CA.add_vectors(2.0 * zc * np.sqrt(kc * meff), ent)
+        np.add.at(jointed_edges, ji, 1)
+        np.add.at(jointed_edges, jj, 1)
+    # free edges: a collision budget h E against a wall at the edge's middle, along its normal
+    off = st.vert_offsets
+    nedge = np.diff(off)
+    budget = np.maximum(nedge - jointed_edges, 0)
+    e_rows = np.flatnonzero(free & (budget > 0)) if edges else np.zeros(0, dtype=np.int64)
+    if len(e_rows):
+        # the budget goes on the element's edges of largest lever arm (the worst for rotation):
+        # h E on each of its (edges - joints) edges
+        owner = np.repeat(np.arange(n), nedge)
+        nxt = np.arange(len(st.verts)) + 1
+        last = off[1:] - 1
+        nxt[last[nedge > 0]] = off[:-1][nedge > 0]
+        va, vb = st.verts, st.verts[nxt]
+        mid_all = 0.5 * (va + vb)
+        t = vb - va
+        ln = np.hypot(t[:, 0], t[:, 1])
+        nn_all = np.stack([t[:, 1], -t[:, 0]], axis=1) / np.maximum(ln, 1e-300)[:, None]
+        lever = np.abs(mid_all[:, 0] * nn_all[:, 1] - mid_all[:, 1] * nn_all[:, 0])
+        order = np.lexsort((np.arange(len(lever)), -lever, owner))
+        rank = np.arange(len(order)) - off[owner[order]]
+        take = order[(rank < budget[owner[order]]) & (free & (budget > 0))[owner[order]]]
+        el = owner[take]
+        mid = mid_all[take]
+        nrm = nn_all[take]
+        kb = fc * st.thickness[el] * model.E[el]
+        ent = [(el, 0, nrm[:, 0]), (el, 1, nrm[:, 1]),
+               (el, 2, np.sum(nrm * _perp(mid), axis=1))]
+        KA.add_vectors(kb, ent)
+        CA.add_vectors(2.0 * zc * np.sqrt(kb * st.m[el]), ent)
+    return KA.matrix(), CA.matrix()
+
+
+def _largest(A, dof: np.ndarray) -> tuple[float, np.ndarray]:
+    """Largest eigenvalue of the symmetric positive semi-definite ``A`` restricted to ``dof``,
+    and its eigenvector (zeros where ``A`` is empty)."""
+    sub = A[dof][:, dof]
+    m = len(dof)
+    if m == 0 or sub.nnz == 0:
+        return 0.0, np.zeros(m)
+    if m <= DENSE_DOF:
+        vals, vecs = np.linalg.eigh(sub.toarray())
+        return float(max(vals[-1], 0.0)), vecs[:, -1]
+    from scipy.sparse.linalg import ArpackNoConvergence, eigsh
+
+    # Gershgorin's bound, a start vector and the fallback
+    gersh = float(np.max(np.asarray(abs(sub).sum(axis=1)).ravel()))
+    try:
+        vals, vecs = eigsh(sub, k=1, which="LA", tol=1e-6, maxiter=min(20 * m, 3000))
+        # Lanczos approaches the largest eigenvalue from below: add its tolerance
+        return float(vals[0]) * (1.0 + 1e-6), vecs[:, 0]
+    except ArpackNoConvergence:
+        return gersh, np.ones(m)
+
+
+def critical_step(model, rates: dict) -> tuple[float, int, dict]:
+    """``(dt_c [s], element, details)`` of the contact phase of ``model``: the stable step of
+    its linearisation at rest (module docstring), the element that moves most in the stiffest
+    mode, and ``details`` (``omega`` [rad/s], ``gamma`` [1/s], the mode's element)."""
+    st = model.state
+    free = st.flags == FREE
+    if not free.any():
+        return math.inf, -1, {"omega": 0.0, "gamma": 0.0}
+    K, C = contact_matrices(model, rates)
+    mass = np.stack([st.m, st.m, st.I], axis=1).ravel()
+    dof = np.flatnonzero(np.repeat(free, 3))
+    s = 1.0 / np.sqrt(mass)
+    from scipy.sparse import diags
+
+    D = diags(s)
+    om2, vec = _largest(D @ K @ D, dof)
+    gam, cvec = _largest(D @ C @ D, dof)
+    if om2 <= 0.0 and gam <= 0.0:
+        return math.inf, -1, {"omega": 0.0, "gamma": 0.0}
+    dt_c = 4.0 / (gam + math.sqrt(gam * gam + 4.0 * om2))
+    # the element of the stiffest mode (of the damping's, when the damping sets the step)
+    v = vec if om2 * dt_c * dt_c >= 2.0 * gam * dt_c else cvec
+    share = np.zeros(3 * st.n)
+    share[dof] = v * v
+    elem = int(np.argmax(share.reshape(-1, 3).sum(axis=1)))
+    return dt_c, elem, {"omega": math.sqrt(om2), "gamma": gam}

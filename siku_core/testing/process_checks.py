@@ -1,0 +1,177 @@
+"""The process conformance suite: checks any process (``siku_core.interfaces.Process``),
+built-in or third-party, must pass.
+
+.. code-block:: python
+
+    from siku_core.testing.process_checks import check_process
+
+    def test_my_growth_process_conforms(tmp_path):
+        check_process(MyGrowth, {"rate": 1e-6}, tmp_path)
+
+Each check runs the process in a small bonded pack (12 elements of 2 km, jointed by
+``distributed_spring`` or the ``law`` given, at rest, no forcing; 40 steps of 0.4 s, the
+process every step unless ``every`` is given) and raises ``AssertionError`` saying what
+failed:
+
+* :func:`check_process_finite`: thickness finite and positive, declared fields finite, every
+  run's state finite;
+* :func:`check_process_conservation`: a process that ``conserves`` ``"volume"`` keeps the total
+  ice volume ``sum(area h)`` of the elements not melted to 1e-12 relative; any other process
+  changes it by exactly its ``budget`` (growth minus melt) to 1e-10 relative;
+* :func:`check_process_idempotent`: applied over no time (``dt = 0``) it changes nothing, and
+  two runs of the same scene end bit for bit equal;
+* :func:`check_process_restart`: a run restarted from a mid-run snapshot ends bit for bit equal
+  to an uninterrupted one (state, thickness, declared fields, history).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..plugins import Registry
+from ..scene import scene_from_text
+from ..state import MELTED
+from .contact_cases import registry_with, square_pack
+from .scenes import scene_text, toml_value
+
+#: the conformance scene: steps and step [s]
+STEPS, DT = 40, 0.4
+
+
+def process_registry(cls: type, registry: Registry | None = None) -> Registry:
+    """A registry holding process ``cls`` (under its ``name``) next to the components of
+    ``registry`` (default: the process-wide one)."""
+    return registry_with("process", cls, registry)
+
+
+def process_scene_text(name: str, params: Mapping[str, Any] | None = None,
+                       every: float | None = None, steps: int = STEPS, dt: float = DT,
+                       out: str | None = None, thickness: float = 0.5,
+                       law: str = "distributed_spring") -> str:
+    """The conformance scene (module docstring) with process ``name`` and ``params``; ``out``
+    writes an HDF5 file every 10 steps; ``law``: the contact law (a process that needs one,
+    e.g. ``ridging``)."""
+    proc = f'[[process]]\nname = "{name}"\n'
+    if params:
+        proc += f"params = {toml_value(dict(params))}\n"
+    if every is not None:
+        proc += f"every = {every!r}\n"
+    output = (f'\n[output]\nfile = {toml_value(out)}\nevery = {10 * dt!r}\n'
+              if out is not None else "")
+    return scene_text([], packs=[square_pack(0.0, 80.0, 4, 3, size=2000.0)], dt=dt,
+                      duration=steps * dt, thickness=thickness,
+                      extra=f'[contact]\nlaw = "{law}"\n\n' + proc + output)
+
+
+def process_simulation(cls: type, params: Mapping[str, Any] | None = None, *,
+                       out: Path | None = None, restart: Path | None = None, **kwargs: Any):
+    """A :class:`~siku_core.simulation.Simulation` of the conformance scene with ``cls``."""
+    from ..simulation import Simulation
+
+    text = process_scene_text(cls.name, params, out=None if out is None else str(out), **kwargs)
+    scene = scene_from_text(text, f"<process conformance {cls.name}>")
+    return Simulation(scene, out=False if out is None else out, restart=restart,
+                      progress=False, registry=process_registry(cls))
+
+
+def ice_volume(sim: Any) -> float:
+    """Total ice volume ``sum(area h)`` of the elements not melted [m³]."""
+    st = sim.state
+    live = st.flags != MELTED
+    return math.fsum(st.area[live] * st.thickness[live])
+
+
+def _procs(sim: Any, cls: type) -> list:
+    return [p for p in sim.processes if isinstance(p, cls)]
+
+
+def check_process_finite(cls: type, params: Mapping[str, Any] | None = None,
+                         **kwargs: Any) -> None:
+    sim = process_simulation(cls, params, **kwargs)
+    sim.run()
+    st = sim.state
+    assert np.isfinite(st.thickness).all() and (st.thickness > 0).all(), (
+        f"process '{cls.name}': thickness not finite and positive: {st.thickness}")
+    for name, arr in sim.context.fields.items():
+        assert np.isfinite(arr).all(), f"process '{cls.name}': field '{name}' not finite"
+    for k in ("q", "V", "w", "m", "I"):
+        assert np.isfinite(getattr(st, k)).all(), f"process '{cls.name}': {k} not finite"
+
+
+def check_process_conservation(cls: type, params: Mapping[str, Any] | None = None,
+                               **kwargs: Any) -> None:
+    sim = process_simulation(cls, params, **kwargs)
+    v0 = ice_volume(sim)
+    sim.run()
+    v1 = ice_volume(sim)
+    procs = _procs(sim, cls)
+    scale = max(abs(v0), abs(v1))
+    if "volume" in cls.conserves:
+        assert abs(v1 - v0) <= 1e-12 * scale, (
+            f"process '{cls.name}' declares that it conserves volume, but the ice volume went "
+            f"from {v0!r} to {v1!r} m³")
+        return
+    budget = math.fsum(p.budget(sim.context) for p in procs)
+    assert abs((v1 - v0) - budget) <= 1e-10 * scale, (
+        f"process '{cls.name}': the ice volume changed by {v1 - v0!r} m³ but its budget says "
+        f"{budget!r} m³")
+
+
+def _snapshot(sim: Any) -> dict[str, np.ndarray]:
+    st = sim.state
+    out = {k: getattr(st, k).copy() for k in ("q", "V", "w", "thickness", "m", "I", "flags")}
+    out.update({f"field:{k}": v.copy() for k, v in sim.context.fields.items()})
+    for key, arrays in sim.history_arrays().items():
+        out.update({f"{key}/{k}": np.array(v) for k, v in arrays.items()})
+    return out
+
+
+def _assert_same(a: dict, b: dict, what: str) -> None:
+    assert a.keys() == b.keys(), f"{what}: different arrays {sorted(a)} vs {sorted(b)}"
+    for k in a:
+        assert np.array_equal(a[k], b[k], equal_nan=True), f"{what}: '{k}' differs"
+
+
+def check_process_idempotent(cls: type, params: Mapping[str, Any] | None = None,
+                             **kwargs: Any) -> None:
+    sim = process_simulation(cls, params, **kwargs)
+    sim.run(steps=STEPS // 2)
+    before = _snapshot(sim)
+    for p in _procs(sim, cls):
+        p.apply(sim.context, 0.0)
+    sim.ice.after_processes(f"process '{cls.name}'")
+    after = _snapshot(sim)
+    for k in before:
+        if k.startswith("field:") or k in ("thickness", "m", "I", "flags", "q", "V", "w"):
+            assert np.array_equal(before[k], after[k], equal_nan=True), (
+                f"process '{cls.name}' applied over dt = 0 changed '{k}'")
+    a = process_simulation(cls, params, **kwargs).run()
+    b = process_simulation(cls, params, **kwargs).run()
+    _assert_same(_snapshot(a), _snapshot(b), f"process '{cls.name}': two runs of one scene")
+
+
+def check_process_restart(cls: type, params: Mapping[str, Any] | None, tmp_path: Path,
+                          **kwargs: Any) -> None:
+    tmp_path = Path(tmp_path)
+    whole = process_simulation(cls, params, out=tmp_path / "whole.h5", **kwargs).run()
+    part = tmp_path / "part.h5"
+    process_simulation(cls, params, out=part, **kwargs).run(steps=STEPS // 2)
+    again = process_simulation(cls, params, out=part, restart=part, **kwargs)
+    assert again.step_index == STEPS // 2, f"restart began at step {again.step_index}"
+    again.run()
+    _assert_same(_snapshot(whole), _snapshot(again),
+                 f"process '{cls.name}': restart from step {STEPS // 2}")
+
+
+def check_process(cls: type, params: Mapping[str, Any] | None = None,
+                  tmp_path: Path | None = None, **kwargs: Any) -> None:
+    """Every check of the suite (the restart check only with a ``tmp_path`` to write in)."""
+    check_process_finite(cls, params, **kwargs)
+    check_process_conservation(cls, params, **kwargs)
+    check_process_idempotent(cls, params, **kwargs)
+    if tmp_path is not None:
+        check_process_restart(cls, params, tmp_path, **kwargs)

@@ -1,0 +1,201 @@
+"""Which files siku wrote, told by the marks siku writes inside them, and writing a file so
+that a full disk leaves nothing half-written (``docs/explanation/outputs.md``).
+
+Every test here only reads: a file is opened read-only (HDF5 and NetCDF files through their
+libraries, pictures through Pillow, meshes as ``.npz``) and never changed, whatever it is. The
+marks, by kind of file:
+
+* ``output`` (the HDF5 writer): root attributes ``siku_version`` and ``layout`` and the group
+  ``/states``;
+* ``netcdf output`` (the NetCDF writer): global attributes ``siku_siku_version`` and
+  ``siku_scene``, an unlimited ``time`` dimension and the variable ``step``;
+* ``export`` (``siku export``): global attribute ``siku_siku_version`` and the dimension
+  ``obs``;
+* ``grid`` (``siku grid``, ``[output.grid]``): global attributes ``grid`` and a ``source``
+  ending ``(siku grid)``;
+* ``summary`` (an ensemble's): global attribute ``kind = "siku ensemble summary"``;
+* ``picture`` (PNG maps, GIF animations): the PNG text ``Software`` or the GIF comment
+  starting ``siku``;
+* ``mesh`` (a mesh cache): the array ``format = "siku-mesh"``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+from siku_core.errors import DataError
+from siku_core.outputs import check_target, fsync_path, is_disk_full, partial_path, publish
+
+_HDF5 = b"\x89HDF\r\n\x1a\n"
+_NETCDF = (b"CDF\x01", b"CDF\x02", b"CDF\x05")
+PICTURE_MARK = "siku"
+
+
+def _head(path: Path, n: int = 8) -> bytes:
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(n)
+    except OSError:
+        return b""
+
+
+def is_hdf5_output(path: str | Path) -> bool:
+    """An HDF5 output file of siku's HDF5 writer (also one a killed run left marked "open for
+    writing", read in SWMR mode)."""
+    path = Path(path)
+    if not path.is_file() or _head(path) != _HDF5:
+        return False
+    import h5py
+
+    def ours(f) -> bool:
+        return "siku_version" in f.attrs and "layout" in f.attrs and "states" in f
+
+    try:
+        with h5py.File(path, "r") as f:
+            return ours(f)
+    except Exception as exc:  # noqa: BLE001 - anything unreadable is not identified
+        if "already open for write" not in str(exc):
+            return False
+    # marked "open for writing" (a killed writer, or a run writing it now): read through a
+    # view of the file with the mark cleared, never SWMR's retries on a damaged file
+    from .results import MarkedReader
+
+    try:
+        reader = MarkedReader(path)
+    except OSError:
+        return False
+    try:
+        with h5py.File(reader, "r", driver="fileobj") as f:
+            return ours(f)
+    except Exception:  # noqa: BLE001
+        from siku_core.outputs import in_use
+
+        if not in_use(path):
+            return False
+    finally:
+        reader.close()
+    try:  # a file a run is writing now: SWMR reads it as it is
+        with h5py.File(path, "r", swmr=True) as f:
+            return ours(f)
+    except Exception:  # noqa: BLE001
+        return False
+
+
+def netcdf_kind(path: str | Path) -> str | None:
+    """``"netcdf output"``, ``"export"``, ``"grid"`` or ``"summary"`` for a NetCDF file siku
+    wrote, else ``None``."""
+    path = Path(path)
+    head = _head(path)
+    if not path.is_file() or not (head == _HDF5 or head[:4] in _NETCDF):
+        return None
+    try:
+        import netCDF4
+
+        with netCDF4.Dataset(path, "r") as nc:
+            a = set(nc.ncattrs())
+            if "kind" in a and nc.getncattr("kind") == "siku ensemble summary":
+                return "summary"
+            if "grid" in a and str(nc.getncattr("source") if "source" in a else ""
+                                   ).endswith("(siku grid)"):
+                return "grid"
+            if "siku_siku_version" in a:
+                if "obs" in nc.dimensions:
+                    return "export"
+                if ("time" in nc.dimensions and nc.dimensions["time"].isunlimited()
+                        and "step" in nc.variables and "siku_scene" in a):
+                    return "netcdf output"
+    except Exception:  # noqa: BLE001 - anything unreadable is not identified
+        return None
+    return None
+
+
+def is_picture(path: str | Path) -> bool:
+    """A PNG map or GIF animation siku drew (its ``Software`` text or GIF comment)."""
+    path = Path(path)
+    if not path.is_file():
+        return False
+    try:
+        from PIL import Image
+
+        with Image.open(path) as im:
+            mark = im.info.get("Software", im.info.get("comment", b""))
+    except Exception:  # noqa: BLE001
+        return False
+    if isinstance(mark, bytes):
+        mark = mark.decode("latin-1")
+    return str(mark).startswith(PICTURE_MARK)
+
+
+def is_mesh_cache(path: str | Path) -> bool:
+    """A mesh cache siku wrote (``siku_io.mesh.mesh_file``), of any format version."""
+    path = Path(path)
+    if not path.is_file() or _head(path, 4) != b"PK\x03\x04":
+        return False
+    try:
+        import numpy as np
+
+        from siku_io.mesh.mesh_file import FORMAT
+
+        with np.load(path, allow_pickle=False) as z:
+            return "format" in z.files and str(z["format"]) == FORMAT
+    except Exception:  # noqa: BLE001
+        return False
+
+
+def kind_test(kind: str) -> Callable[[Path], bool]:
+    """The test that a file is siku's of ``kind`` (module docstring)."""
+    if kind == "output":
+        return is_hdf5_output
+    if kind == "picture":
+        return is_picture
+    if kind == "mesh":
+        return is_mesh_cache
+    return lambda p: netcdf_kind(p) == kind
+
+
+def writable(path: str | Path, kind: str, *, overwrite: bool, what: str | None = None,
+             option: str = "--out", inputs=()) -> Path:
+    """:func:`siku_core.outputs.check_target` for a file of ``kind``."""
+    return check_target(path, what=what or f"{kind} file", ours=kind_test(kind),
+                        overwrite=overwrite, option=option, inputs=inputs)
+
+
+def write_whole(target: str | Path, write: Callable[[Path], object], what: str,
+                replace: bool = True) -> Path:
+    """Write ``target`` through ``write(partial)``: built beside it, put in place in one
+    rename when complete. A failure (a full disk first of all) removes the partial file,
+    leaves an old ``target`` whole and raises a one-line :class:`DataError`."""
+    target = Path(target)
+    part = partial_path(target)
+    try:
+        write(part)
+        publish(part, target, replace=replace)
+    except DataError:
+        part.unlink(missing_ok=True)
+        raise
+    except Exception as exc:  # noqa: BLE001 - every library's error of a failed write
+        part.unlink(missing_ok=True)
+        why = "disk full" if is_disk_full(exc) or _disk_full_now(target) else (
+            f"cannot write: {' '.join(str(exc).split())[:300]}")
+        raise DataError(f"{target}: {why} while writing the {what}; nothing written (an "
+                        "existing file is untouched)") from None
+    fsync_path(target)
+    return target
+
+
+def _disk_full_now(target: Path) -> bool:
+    """Whether the disk (or the file-size limit) has no room left: libraries that report a
+    failed write without its errno (NetCDF's "HDF error") leave this the only test."""
+    import resource
+    import shutil
+
+    try:
+        free = shutil.disk_usage(target.parent).free
+    except OSError:
+        return False
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    return free < 1 << 20 or (limit != resource.RLIM_INFINITY and limit < 1 << 40)
+
+
+__all__ = ["is_hdf5_output", "netcdf_kind", "is_picture", "is_mesh_cache", "kind_test",
+           "writable", "write_whole", "PICTURE_MARK"]

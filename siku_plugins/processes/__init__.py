@@ -1,0 +1,18 @@
+"""Built-in processes (physics that changes the ice, ``siku_core.interfaces.Process``):
+``thermodynamics`` (zero-layer growth and melt), ``ridging`` (overlap of ice pressed beyond
+its plastic limit becomes thicker ice) and ``refreeze`` (broken joints that freeze again).
+One module each; this package registers them."""
+from __future__ import annotations
+
+from siku_core import hookimpl
+
+from .refreeze import Refreeze
+from .ridging import Ridging
+from .thermodynamics import Thermodynamics
+
+__all__ = ["Refreeze", "Ridging", "Thermodynamics"]
+
+
+@hookimpl
+def siku_register_processes():
+    return [Thermodynamics, Ridging, Refreeze]

@@ -1,0 +1,179 @@
+"""``thermodynamics``: zero-layer growth and melt of the ice (Semtner 1976).
+
+Each element's ice (thickness ``h`` [m]; snow of fixed depth ``h_s`` [m] on top, if given)
+conducts heat from its base, held at the freezing temperature of sea water ``T_f`` [°C], to its
+surface at ``T_s`` [°C] (uniform, or a gridded air temperature, e.g. NCEP/NCAR ``air.sig995``,
+read through the ``gridded`` reader). With no heat stored in the ice (zero layers) the
+conductive flux ``Q = (T_f - T_s) / (h / k_i + h_s / k_s)`` [W/m²] freezes ice at the base and
+an ocean heat flux ``F_w`` [W/m²] melts it:
+
+    rho_i L_f dh/dt = (T_f - T_s) / (h / k_i + h_s / k_s) - F_w
+
+(``k_i``, ``k_s`` conductivities [W/(m K)], ``rho_i`` the element's density [kg/m³], ``L_f``
+latent heat of fusion [J/kg]). A surface warmer than ``T_f`` conducts nothing (the surface is
+at the melting point; surface melt is not modelled). Over an interval ``dt`` the conduction
+part is integrated exactly (Stefan's law: ``h²/(2 k_i) + h h_s/k_s`` grows by ``(T_f - T_s)
+dt / (rho_i L_f)``) and the ocean flux part is linear; the two are combined by Strang splitting
+(half the melt, the growth, half the melt: second order in ``dt``, exact when either part is
+zero). An element thinner than ``min_thickness`` has melted away: the engine flags it
+``melted`` (it stops, its joints break, it touches nothing) and its volume leaves the budget.
+
+Declared per-element fields: ``grown_volume`` [m³], the ice volume this process added to the
+element since the start (negative: melted; summed on grids) and ``growth_rate`` [m/s], the
+thickness change per second over the last interval (a cell mean on grids).
+
+Reference: Semtner, A. J. (1976), A model for the thermodynamic growth of sea ice in numerical
+investigations of climate, J. Phys. Oceanogr. 6, 379-389.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from siku_core.errors import DataError, SceneError
+from siku_core.ice import ElementField
+from siku_core.interfaces import Process
+from siku_core.params import Param
+from siku_core.state import MELTED
+
+#: temperature units a file may declare, by what they mean
+KELVIN = {"k", "kelvin", "degk", "deg_k", "degrees_k", "kelvins"}
+CELSIUS = {"degc", "celsius", "deg_c", "degrees_c", "c", "degree_celsius", "degrees_celsius",
+           "°c"}
+#: 0 °C in kelvin
+T0 = 273.15
+
+
+def stefan_thickness(h, hs, ki, ks, dT, dt, rho, L):
+    """Thickness [m] after ``dt`` [s] of conduction-driven growth from ``h`` [m] under snow
+    ``hs`` [m] (conductivities ``ki``, ``ks`` [W/(m K)]) with a temperature difference ``dT``
+    [K] >= 0 across ice and snow: the exact solution of ``rho L dh/dt = dT / (h/ki + hs/ks)``."""
+    a = 0.5 / ki
+    b = hs / ks
+    c = a * h * h + b * h + dT * dt / (rho * L)
+    return (-b + np.sqrt(b * b + 4.0 * a * c)) / (2.0 * a)
+
+
+class Thermodynamics(Process):
+    """Zero-layer growth and melt of the ice (Semtner 1976).
+
+    Conduction through ice and snow, an ocean heat flux, elements that melt away (module
+    docstring)."""
+
+    name = "thermodynamics"
+    params: ClassVar[dict[str, Param]] = {
+        "surface_temperature": Param(-20.0, "degC", "ice (or snow) surface temperature, uniform "
+                                     "(without temperature_file)", min=-100.0, max=50.0),
+        "temperature_file": Param("", "", "NetCDF file of the surface air temperature (relative "
+                                  "to the scene; glob patterns join files along time)", type=str),
+        "temperature_variable": Param("air", "", "name of the temperature variable", type=str),
+        "temperature_units": Param("", "", "units of the file's temperature: 'K' or 'degC'; "
+                                   "empty: from the variable's units attribute", type=str,
+                                   choices=("", "K", "degC")),
+        "freezing_temperature": Param(-1.8, "degC", "temperature of the ice base (freezing "
+                                      "point of sea water)", min=-10.0, max=0.0),
+        "conductivity": Param(2.03, "W m-1 K-1", "thermal conductivity of the ice k_i",
+                              min=1e-3),
+        "snow_thickness": Param(0.0, "m", "snow depth on the ice h_s (fixed)", min=0.0),
+        "snow_conductivity": Param(0.31, "W m-1 K-1", "thermal conductivity of snow k_s",
+                                   min=1e-3),
+        "latent_heat": Param(3.34e5, "J kg-1", "latent heat of fusion of the ice L_f", min=1.0),
+        "ocean_heat_flux": Param(0.0, "W m-2", "heat flux from the ocean into the ice base F_w "
+                                 "(positive: melts)"),
+        "min_thickness": Param(0.05, "m", "an element thinner than this has melted away",
+                               min=0.0),
+    }
+    owned_fields = (
+        ElementField("grown_volume", "m3", "ice volume added by thermodynamics since the start "
+                     "(negative: melted)", grid="sum"),
+        ElementField("growth_rate", "m s-1", "thickness change by thermodynamics per second over "
+                     "its last interval", grid="mean"),
+    )
+
+    def setup(self, ctx) -> None:
+        self.ctx = ctx
+        st = ctx.state
+        mats = list(ctx.scene.cfg.materials.values())
+        #: element density [kg/m³]
+        self.rho = np.array([mats[k].density for k in st.material], dtype=float)
+        self.air = None
+        if self.p["temperature_file"]:
+            self.air = self._temperature_field(ctx)
+        bad = st.thickness < self.p["min_thickness"]
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise SceneError(f"{ctx.where(self.table)}: element {i} starts {st.thickness[i]:g} m "
+                             f"thick, below min_thickness = {self.p['min_thickness']:g} m")
+
+    def _temperature_field(self, ctx) -> Any:
+        """The gridded air temperature, read as the first component of a ``gridded`` field,
+        and the scale that turns its values into °C (from its units)."""
+        p = self.p
+        var = p["temperature_variable"]
+        field = ctx.component("field", "gridded", {"file": p["temperature_file"], "u": var,
+                                                   "v": var, "quantity": "temperature"},
+                              self.table)
+        field.setup(ctx)
+        found = str(field.cu.arrays[0].attrs.get("units", "")).strip()
+        key = found.lower().replace(" ", "_")
+        found_as = "K" if key in KELVIN else "degC" if key in CELSIUS else ""
+        declared = p["temperature_units"]
+        where = f"{ctx.where(self.table)}: {field.cu.label()} ('{var}')"
+        if found and not found_as:
+            raise DataError(f"{where}: units '{found}' are not a temperature siku reads; "
+                            "K or degC")
+        if declared and found_as and declared != found_as:
+            raise DataError(f"{where}: the file's units are '{found}' but temperature_units = "
+                            f"'{declared}' is declared; fix the file's units or the declaration")
+        units = declared or found_as
+        if not units:
+            raise DataError(f"{where}: the variable has no units attribute; declare "
+                            "temperature_units = 'K' or 'degC'")
+        self.offset = -T0 if units == "K" else 0.0
+        return field
+
+    def surface_temperature(self, t: float) -> np.ndarray | float:
+        """Surface temperature [°C] of every element at model time ``t`` [s]."""
+        if self.air is None:
+            return float(self.p["surface_temperature"])
+        from siku_core.geometry.quat import latlon_of
+
+        lat, lon = latlon_of(self.ctx.state.q)
+        T, _ = self.air.sample(t, lat, lon)
+        return T + self.offset
+
+    def apply(self, ctx, dt: float) -> None:
+        st = ctx.state
+        p = self.p
+        if dt <= 0.0:  # no time: no change
+            return
+        live = st.flags != MELTED
+        h0 = st.thickness.copy()
+        # the temperature at the middle of the interval (exact for a constant one)
+        Ts = self.surface_temperature(ctx.time - 0.5 * dt)
+        dT = np.maximum(p["freezing_temperature"] - Ts, 0.0)
+        melt = 0.5 * p["ocean_heat_flux"] * dt / (self.rho * p["latent_heat"])
+        h = h0 - melt
+        h = np.where(h > 0.0, h, 0.0)
+        h = stefan_thickness(h, p["snow_thickness"], p["conductivity"],
+                             p["snow_conductivity"], dT, dt, self.rho, p["latent_heat"])
+        h = h - melt
+        gone = live & (h < p["min_thickness"])
+        grown = np.where(live, st.area * (h - h0), 0.0)
+        grown[gone] = -st.area[gone] * h0[gone]
+        h = np.where(live & ~gone, h, h0)
+        st.thickness[:] = h
+        ctx.fields["grown_volume"][:] += grown
+        ctx.fields["growth_rate"][:] = np.where(live, (h - h0) / dt, 0.0)
+        ctx.fields["growth_rate"][gone] = -h0[gone] / dt
+        if gone.any():
+            ctx.melt(np.flatnonzero(gone))
+
+    def budget(self, ctx) -> float:
+        return math.fsum(ctx.fields["grown_volume"])
+
+    def close(self) -> None:
+        if self.air is not None:
+            self.air.close()

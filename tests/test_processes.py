@@ -1,0 +1,567 @@
+"""Processes that change the ice (siku_core.ice, siku_plugins.processes): Stefan growth,
+ocean-flux melt, the volume budget, what follows a thickness change, refreezing, restarts,
+outputs, bad input and the process conformance suite."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from siku_core.errors import PluginError, SceneError, SikuError, StabilityError
+from siku_core.ice import ElementField
+from siku_core.interfaces import Process
+from siku_core.scene import scene_from_text
+from siku_core.simulation import Simulation
+from siku_core.state import MELTED
+from siku_core.testing import scene_text
+from siku_core.testing.contact_cases import square_pack
+from siku_core.testing.process_checks import (
+    check_process,
+    check_process_conservation,
+    check_process_finite,
+    check_process_idempotent,
+    check_process_restart,
+    ice_volume,
+    process_registry,
+)
+from siku_plugins.processes import Refreeze, Ridging, Thermodynamics
+from siku_plugins.processes.refreeze import refrozen_strength
+
+K_I, L_F, T_F = 2.03, 3.34e5, -1.8
+
+
+def one_floe(process: str, dt=3600.0, steps=240, thickness=0.5, every=None, extra=""):
+    table = f'[[process]]\nname = "thermodynamics"\nparams = {process}\n'
+    if every is not None:
+        table += f"every = {every!r}\n"
+    txt = scene_text([(0.0, 80.0)], dt=dt, duration=steps * dt, thickness=thickness,
+                     extra=table + extra)
+    return Simulation(scene_from_text(txt, "<floe>"), out=False, progress=False)
+
+
+@pytest.mark.parametrize("Ts,every", [(-30.0, None), (-10.0, 6 * 3600.0), (-25.0, 86400.0)])
+def test_growth_follows_stefans_law(Ts, every):
+    sim = one_floe(f"{{ surface_temperature = {Ts} }}", every=every)
+    h0 = sim.state.thickness[0]
+    rho = sim.ice.rho[0]
+    sim.run()
+    exact = math.sqrt(h0**2 + 2 * K_I * (T_F - Ts) * sim.time / (rho * L_F))
+    assert sim.state.thickness[0] == pytest.approx(exact, rel=1e-6)
+
+
+def test_growth_under_snow_is_the_exact_two_layer_solution():
+    hs, ks = 0.2, 0.31
+    sim = one_floe(f"{{ surface_temperature = -30.0, snow_thickness = {hs}, "
+                   f"snow_conductivity = {ks} }}")
+    h0, rho = sim.state.thickness[0], sim.ice.rho[0]
+    sim.run()
+    h = sim.state.thickness[0]
+    # h²/(2 k_i) + h h_s/k_s grows by dT t / (rho L)
+    lhs = h**2 / (2 * K_I) + h * hs / ks - (h0**2 / (2 * K_I) + h0 * hs / ks)
+    assert lhs == pytest.approx((T_F + 30.0) * sim.time / (rho * L_F), rel=1e-9)
+
+
+def test_melt_under_an_ocean_heat_flux_is_linear_to_round_off():
+    F = 40.0
+    sim = one_floe(f"{{ surface_temperature = 0.0, ocean_heat_flux = {F} }}", thickness=2.0)
+    rho = sim.ice.rho[0]
+    sim.run(steps=100)
+    expected = 2.0 - F * sim.time / (rho * L_F)
+    assert sim.state.thickness[0] == pytest.approx(expected, rel=1e-13)
+    rate = sim.context.fields["growth_rate"][0]
+    assert rate == pytest.approx(-F / (rho * L_F), rel=1e-9)
+
+
+def test_mass_inertia_and_joint_stiffness_follow_the_thickness():
+    pack = [square_pack(0.0, 80.0, 3, 2, size=2000.0)]
+
+    def build(h, process):
+        extra = '[contact]\nlaw = "distributed_spring"\n'
+        if process:
+            extra += ('\n[[process]]\nname = "thermodynamics"\nparams = { surface_temperature '
+                      '= -40.0 }\n')
+        txt = scene_text([], packs=pack, dt=0.4, duration=4.0, thickness=h, extra=extra)
+        return Simulation(scene_from_text(txt, "<pack>"), out=False, progress=False)
+
+    grown = build(0.5, True)
+    grown.run(steps=1)
+    h = grown.state.thickness.copy()
+    assert (h > 0.5).all()
+    fresh = build(float(h[0]), False)
+    assert np.allclose(h, h[0], rtol=0, atol=0)  # uniform growth of a uniform pack
+    for name in ("m", "I"):
+        np.testing.assert_allclose(getattr(grown.state, name), getattr(fresh.state, name),
+                                   rtol=4e-16 * 8)
+    np.testing.assert_allclose(grown.contacts.jK, fresh.contacts.jK, rtol=1e-15 * 8)
+    np.testing.assert_allclose(grown.contacts.jmeff, fresh.contacts.jmeff, rtol=1e-15 * 8)
+
+
+def test_an_element_that_melts_away_leaves_the_contact_phase_and_the_budget():
+    txt = scene_text([], packs=[square_pack(0.0, 80.0, 2, 1, size=2000.0)], dt=0.4,
+                     duration=40.0, thickness=0.3, extra=(
+                         '[contact]\nlaw = "distributed_spring"\n\n[[process]]\nname = '
+                         '"thermodynamics"\nparams = { surface_temperature = 0.0, '
+                         'ocean_heat_flux = 2e6, min_thickness = 0.1 }\n'))
+    sim = Simulation(scene_from_text(txt, "<melt>"), out=False, progress=False)
+    v0 = ice_volume(sim)
+    sim.run()
+    assert (sim.state.flags == MELTED).all()
+    assert not sim.contacts.intact.any()
+    assert set(sim.contacts.break_mode.tolist()) == {7}  # BreakMode.MELT
+    assert ice_volume(sim) == 0.0
+    assert sim.processes[0].budget(sim.context) == pytest.approx(-v0, rel=1e-12)
+
+
+def test_volume_budget_with_growth_and_melt_to_1e10():
+    # thin and thick ice side by side under a strong ocean heat flux: the thin melts away
+    txt = scene_text([], packs=[square_pack(0.0, 80.0, 3, 2, size=2000.0, thickness=0.12),
+                                square_pack(0.5, 80.0, 3, 2, size=2000.0, thickness=1.5)],
+                     dt=0.4, duration=400.0, extra=(
+                         '[contact]\nlaw = "distributed_spring"\n\n[[process]]\nname = '
+                         '"thermodynamics"\nparams = { surface_temperature = -20.0, '
+                         'ocean_heat_flux = 3e5, min_thickness = 0.1 }\nevery = 4.0\n'))
+    sim = Simulation(scene_from_text(txt, "<budget>"), out=False, progress=False)
+    v0 = ice_volume(sim)
+    sim.run()
+    melted = sim.state.flags == MELTED
+    assert melted.sum() == 6 and not melted[6:].any()
+    budget = sim.processes[0].budget(sim.context)
+    assert (ice_volume(sim) - v0) == pytest.approx(budget, rel=1e-10)
+
+
+def test_a_melt_that_makes_dt_unstable_stops_the_run_in_one_line(tmp_path):
+    # water drag is stable for dt < rho_i h / (rho_w C_w |dU|): 0.5 m at dU = 2 m/s: 41 s
+    scene = tmp_path / "melt.toml"
+    scene.write_text(scene_text(
+        [(0.0, 80.0)], dt=30.0, duration=86400.0, thickness=0.5, extra=(
+            '[[forcing]]\nsource = "water_drag"\nparams = { max_relative_speed = 2.0 }\n'
+            'field = { type = "uniform", params = { u = 0.1 } }\n\n'
+            '[[process]]\nname = "thermodynamics"\nparams = { surface_temperature = 0.0, '
+            'ocean_heat_flux = 1000.0, min_thickness = 0.01 }\nevery = "1 h"\n'
+            '\n[run]\ndt_safety = 1.0\n')))
+    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(scene), "--out",
+                        str(tmp_path / "o.h5")], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 2, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("siku: error")]
+    assert len(lines) == 1 and "Traceback" not in r.stderr
+    assert "after process 'thermodynamics' changed the ice" in lines[0]
+    assert "element 0" in lines[0] and "safe step" in lines[0]
+    import h5py  # the snapshots before the stop are kept and open
+
+    with h5py.File(tmp_path / "o.h5", "r") as f:
+        assert f["states/step"].shape[0] >= 1
+
+
+def test_a_scene_without_processes_allocates_nothing():
+    txt = scene_text([(0.0, 80.0)], dt=60.0, duration=600.0)
+    sim = Simulation(scene_from_text(txt, "<plain>"), out=False, progress=False)
+    assert not sim.ice.active and sim.ice.values == {}
+    assert "elements" not in sim.history_arrays()
+    assert set(sim.element_fields()) == {"speed"}
+
+
+# ---------------------------------------------------------------------------- refreezing
+def pair_scene(freeze_time=20.0, gap=0.5, steps=200, strength=1e4, strength_time=40.0):
+    # two jointed 2 km elements, at rest
+    pack = square_pack(0.0, 80.0, 2, 1, size=2000.0)
+    txt = scene_text([], packs=[pack], dt=0.4, duration=steps * 0.4, thickness=1.0, extra=(
+        '[contact]\nlaw = "distributed_spring"\nparams = { tensile_strain = 1.0 }\n\n'
+        '[[process]]\nname = "refreeze"\n'
+        f'params = {{ freeze_time = {freeze_time}, gap = {gap}, strength = {strength}, '
+        f'strength_time = {strength_time} }}\n'))
+    return Simulation(scene_from_text(txt, "<pair>"), out=False, progress=False)
+
+
+def test_a_broken_joint_held_closed_refreezes_after_the_set_time_to_one_step():
+    sim = pair_scene(freeze_time=20.0)
+    cm = sim.contacts
+    sim.run(steps=5)
+    cm.break_joints(np.arange(cm.n_joints), 5, sim.time)  # BreakMode.EXTERNAL
+    t_break = sim.time
+    refrozen = None
+    for _ in range(80):
+        sim.step()
+        if cm.intact.all():
+            refrozen = sim.time
+            break
+    # the first check after the break finds it closed (at t_break + dt): 20 s later it holds
+    assert refrozen == pytest.approx(t_break + sim.dt + 20.0, abs=0.5 * sim.dt)
+    assert np.isnan(cm.break_time).all() and (cm.break_mode == 0).all()
+
+
+def test_a_broken_joint_held_open_never_refreezes():
+    sim = pair_scene(freeze_time=4.0, gap=0.5)
+    cm = sim.contacts
+    cm.break_joints(np.arange(cm.n_joints), 5, 0.0)
+    # move the right element 5 m east (a turn about the polar axis at 80 N): its side of
+    # the joint is 5 m from the left's
+    from siku_core.geometry.quat import qmul
+    ang = 5.0 / (sim.radius * math.cos(math.radians(80.0)))
+    axis = np.array([0.0, 0.0, 1.0])
+    rot = np.array([math.cos(ang / 2), *(math.sin(ang / 2) * axis)])
+    sim.state.q[1] = qmul(rot, sim.state.q[1])
+    assert cm.joint_gaps(np.arange(cm.n_joints)).min() > 4.0
+    for _ in range(100):
+        sim.step()
+    assert not cm.intact.any()
+
+
+def test_a_refrozen_joint_breaks_when_its_tension_exceeds_the_stated_strength():
+    sim = pair_scene(freeze_time=0.0, strength=2e4, strength_time=400.0, steps=2000)
+    cm = sim.contacts
+    cm.break_joints(np.arange(cm.n_joints), 5, 0.0)
+    sim.step()  # closed at once: refreezes at the first check
+    assert cm.intact.all()
+    proc = sim.processes[0]
+    t_frozen = float(proc.refrozen_at[0])
+    # pull the elements apart with opposite velocities (the joint opens steadily)
+    from siku_core.geometry.quat import east_north_local
+    for i, u in ((0, -0.02), (1, 0.02)):  # east [m/s]
+        ex, ey, _, _ = east_north_local(sim.state.q[i])
+        sim.state.V[i] = u * ex, u * ey
+    broke_at = None
+    for _ in range(1500):
+        tension_before = float(cm.joint_tension(np.array([0]))[0]) if cm.intact[0] else None
+        sim.step()
+        if not cm.intact[0]:
+            broke_at = sim.time
+            break
+    assert broke_at is not None
+    assert cm.break_mode[0] == 2  # tension
+    limit = refrozen_strength(broke_at - t_frozen, 2e4, 400.0)
+    # it held while the traction was below the law, and broke when it was above it
+    assert float(cm.joint_tension(np.array([0]))[0]) > limit
+    assert tension_before <= refrozen_strength(broke_at - sim.dt - t_frozen, 2e4, 400.0)
+    assert broke_at - t_frozen < 400.0  # before full strength: the refrozen law, not the law's
+
+
+# ---------------------------------------------------------------------------- conformance
+@pytest.mark.parametrize("cls,params,law", [
+    (Thermodynamics, {"surface_temperature": -30.0, "ocean_heat_flux": 5.0}, None),
+    (Refreeze, {"freeze_time": 2.0}, None),
+    (Ridging, {}, "ridging"),
+])
+def test_built_in_processes_pass_the_conformance_suite(cls, params, law, tmp_path):
+    check_process(cls, params, tmp_path, **({"law": law} if law else {}))
+
+
+class _Growth(Process):
+    """A growth process for the planted faults: every element grows at ``rate``."""
+
+    name = "test_growth"
+    owned_fields = (ElementField("test_grown", "m3", "volume grown", grid="sum"),)
+
+    def apply(self, ctx, dt):
+        st = ctx.state
+        dh = 1e-4 * dt
+        st.thickness += dh
+        ctx.fields["test_grown"] += st.area * dh
+
+    def budget(self, ctx):
+        return math.fsum(ctx.fields["test_grown"])
+
+
+class _NaNThickness(_Growth):
+    name = "test_nan"
+
+    def apply(self, ctx, dt):
+        ctx.state.thickness[0] = np.nan
+
+
+class _WrongBudget(_Growth):
+    name = "test_wrong_budget"
+
+    def budget(self, ctx):
+        return 0.5 * super().budget(ctx)
+
+
+class _GrowsOnNothing(_Growth):
+    name = "test_dt_zero"
+
+    def apply(self, ctx, dt):
+        super().apply(ctx, dt + 1.0)
+
+
+class _Forgetful(_Growth):
+    """Keeps a counter it does not declare as history: restarts differ."""
+
+    name = "test_forgetful"
+
+    def setup(self, ctx):
+        self.calls = 0
+
+    def apply(self, ctx, dt):
+        self.calls += 1
+        super().apply(ctx, dt * self.calls)
+
+
+def test_a_correct_growth_process_passes_and_planted_faults_fail(tmp_path):
+    check_process(_Growth, None, tmp_path / "ok")
+    with pytest.raises((AssertionError, SikuError)):
+        check_process_finite(_NaNThickness)
+    with pytest.raises(AssertionError, match="budget"):
+        check_process_conservation(_WrongBudget)
+    with pytest.raises(AssertionError, match="dt = 0"):
+        check_process_idempotent(_GrowsOnNothing)
+    (tmp_path / "f").mkdir()
+    with pytest.raises(AssertionError, match="restart"):
+        check_process_restart(_Forgetful, None, tmp_path / "f")
+
+
+# ---------------------------------------------------------------------------- bad input
+def run_cli(tmp_path, text, *args):
+    scene = tmp_path / "s.toml"
+    scene.write_text(text)
+    return subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(scene),
+                           "--out", str(tmp_path / "o.h5"), *args],
+                          capture_output=True, text=True, cwd=tmp_path)
+
+
+def _one_line(r, *words):
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr
+    lines = [ln for ln in r.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1, r.stderr
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+def test_unknown_process_and_a_field_declared_twice_are_refused(tmp_path):
+    base = scene_text([(0.0, 80.0)], dt=60.0, duration=600.0)
+    _one_line(run_cli(tmp_path, base + '\n[[process]]\nname = "growht"\n'),
+              "growht", "thermodynamics")
+    twice = '\n[[process]]\nname = "thermodynamics"\n' * 2
+    _one_line(run_cli(tmp_path, base + twice), "grown_volume", "declared by both")
+
+
+def test_negative_thickness_is_refused(tmp_path):
+    base = scene_text([(0.0, 80.0)], dt=60.0, duration=600.0, thickness=-1.0)
+    assert "thickness = -1.0" in base
+    _one_line(run_cli(tmp_path, base), "thickness")
+
+
+@pytest.mark.parametrize("file_units,declared,ok", [
+    ("K", "degC", False), ("degC", "K", False), ("K", "", True), ("degC", "degC", True)])
+def test_a_temperature_file_in_the_wrong_units_is_refused(tmp_path, file_units, declared, ok):
+    import xarray as xr
+
+    lat = np.array([70.0, 75.0, 80.0, 85.0])
+    lon = np.array([-10.0, 0.0, 10.0])
+    value = 243.15 if file_units == "K" else -30.0
+    air = xr.DataArray(np.full((4, 3), value), dims=("lat", "lon"),
+                       coords={"lat": ("lat", lat, {"units": "degrees_north"}),
+                               "lon": ("lon", lon, {"units": "degrees_east"})},
+                       attrs={"units": file_units})
+    xr.Dataset({"air": air}).to_netcdf(tmp_path / "air.nc")
+    params = '{ temperature_file = "air.nc"' + (
+        f', temperature_units = "{declared}"' if declared else "") + " }"
+    text = scene_text([(0.0, 80.0)], dt=3600.0, duration=86400.0, thickness=0.5,
+                      extra=f'[[process]]\nname = "thermodynamics"\nparams = {params}\n')
+    r = run_cli(tmp_path, text)
+    if not ok:
+        _one_line(r, "air.nc", file_units, declared)
+        return
+    assert r.returncode == 0, r.stderr
+    import xarray as xr2
+
+    ds = xr2.open_dataset(tmp_path / "o.h5", engine="siku")
+    h = float(ds.thickness[-1, 0])
+    rho = 910.0  # the default material's density [kg/m3]
+    exact = math.sqrt(0.25 + 2 * K_I * (T_F + 30.0) * 86400.0 / (rho * L_F))
+    assert h == pytest.approx(exact, rel=1e-6)
+
+
+def test_a_bad_field_declaration_is_one_line():
+    class Bad(_Growth):
+        name = "test_bad_field"
+        owned_fields = (ElementField("thickness", "m", "clash"),)
+
+    with pytest.raises(PluginError, match="siku's own"):
+        Simulation(scene_from_text(scene_text([(0.0, 80.0)], dt=60.0, duration=600.0) +
+                                   '\n[[process]]\nname = "test_bad_field"\n', "<bad>"),
+                   out=False, progress=False, registry=process_registry(Bad))
+
+
+def test_every_must_be_a_whole_number_of_steps():
+    txt = scene_text([(0.0, 80.0)], dt=60.0, duration=600.0) + (
+        '\n[[process]]\nname = "thermodynamics"\nevery = 61.7\n')
+    with pytest.raises(SceneError, match="whole number of steps"):
+        Simulation(scene_from_text(txt, "<every>"), out=False, progress=False)
+
+
+def test_stability_error_is_a_siku_error():
+    assert issubclass(StabilityError, SikuError)
+
+
+def test_the_growth_process_of_the_plugin_guide_passes_the_conformance_suite(tmp_path):
+    """The how-to page's code, run as written: its process passes the suite."""
+    import re
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "howto" / "processes.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", page, flags=re.S)
+    assert len(blocks) == 3
+    ns: dict = {}
+    exec(compile(blocks[0], "processes.md[0]", "exec"), ns)
+    exec(compile(blocks[1], "processes.md[1]", "exec"), ns)
+    assert ns["siku_register_processes"]() == [ns["ConstantGrowth"]]
+    exec(compile(blocks[2], "processes.md[2]", "exec"), ns)  # runs check_process
+    # and a planted fault in the same class fails it
+    grow = ns["ConstantGrowth"]
+
+    class Liar(grow):
+        name = "constant_growth_liar"
+
+        def budget(self, ctx):
+            return 0.0
+
+    with pytest.raises(AssertionError, match="budget"):
+        check_process_conservation(Liar, {"rate": 1e-4})
+
+
+# ---------------------------------------------------------------------------- ridging
+def _clip_area(P, Q):
+    """Area [m²] of the intersection of convex polygons ``P`` and ``Q`` (counter-clockwise
+    ``(k, 2)`` arrays), by Sutherland–Hodgman and the shoelace formula."""
+    out = [tuple(p) for p in P]
+    for a, b in zip(Q, np.roll(Q, -1, axis=0)):
+        src, out = out, []
+        if not src:
+            break
+
+        def inside(p):
+            return (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]) >= 0.0
+
+        for p, q in zip(src, src[1:] + src[:1]):
+            if inside(q):
+                if not inside(p):
+                    out.append(_cross(p, q, a, b))
+                out.append(q)
+            elif inside(p):
+                out.append(_cross(p, q, a, b))
+    if len(out) < 3:
+        return 0.0
+    x, y = np.array(out).T
+    return 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def _cross(p, q, a, b):
+    d1 = np.subtract(q, p)
+    d2 = np.subtract(b, a)
+    t = ((a[0] - p[0]) * d2[1] - (a[1] - p[1]) * d2[0]) / (d1[0] * d2[1] - d1[1] * d2[0])
+    return (p[0] + t * d1[0], p[1] + t * d1[1])
+
+
+def _overlap_in_plane(sim, i, j):
+    """Overlap area of elements ``i`` and ``j`` [m²]: ``j``'s vertices put in ``i``'s tangent
+    plane (gnomonic, as the model's geometry is) and clipped here, independently of the
+    engine's clip."""
+    from siku_core.geometry.quat import from_tangent, to_tangent
+
+    st, R = sim.state, sim.radius
+    pj = np.array([to_tangent(st.q[i], from_tangent(st.q[j], x, y, R), R)
+                   for x, y in st.polygon(j)])
+    return _clip_area(st.polygon(i), pj)
+
+
+def ridging_scene(steps=400):
+    size = 2000.0
+    dlon = math.degrees(size / 6371000.0) / math.cos(math.radians(80.0))
+    els = [{"center": (-dlon, 80.0), "flag": "static", "thickness": 5.0},  # a thick wall
+           {"center": (0.0, 80.0), "thickness": 2.0},  # the carrier, pressed on the wall
+           {"center": (dlon * 1.0005, 80.0), "flag": "steady", "velocity": (-0.05, 0.0),
+            "thickness": 0.5}]  # thin ice driven west at 5 cm/s
+    txt = scene_text(els, size=size, dt=0.25, duration=steps * 0.25, extra=(
+        '[contact]\nlaw = "ridging"\njoints = "none"\n\n[[process]]\nname = "ridging"\n'))
+    return Simulation(scene_from_text(txt, "<ridging>"), out=False, progress=False)
+
+
+def test_ridging_caps_the_force_conserves_volume_and_converts_the_overlap():
+    from siku_core.contact_overlaps import overlaps
+
+    sim = ridging_scene()
+    st = sim.state
+    v0 = ice_volume(sim)
+    P = 2.75e4
+    expected = 0.0  # the ridged volume, by hand: sum of dA h_thin over the plastic steps
+    converted = 0.0
+    h_thin = 0.5
+    plastic_steps = 0
+    for _ in range(400):
+        sim.step()
+        ridged = sim.context.fields["ridged_volume"][1]
+        if ridged == 0.0:
+            continue
+        pairs, area, width, force = overlaps(sim.contacts)
+        k = [n for n, (a, b) in enumerate(pairs) if {a, b} == {1, 2}][0]
+        # once reached, the force stays at the plastic limit P* h w (to 1 %)
+        assert force[k] == pytest.approx(P * h_thin * width[k], rel=0.01)
+        plastic_steps += 1
+        A = _overlap_in_plane(sim, 1, 2)
+        plastic = force[k] >= (1 - 1e-6) * P * h_thin * width[k]
+        if plastic and A > converted:
+            dV = (A - converted) * h_thin
+            expected += dV
+            h_thin -= dV / st.area[2]
+            converted = A
+        assert ridged == pytest.approx(expected, rel=1e-9)
+        assert st.thickness[2] == pytest.approx(h_thin, rel=1e-12)
+    assert plastic_steps > 100 and expected > 2e3  # m3: a real ridge
+    assert sim.context.fields["ridged_volume"][2] == 0.0  # the thin ice carries nothing
+    assert ice_volume(sim) == pytest.approx(v0, rel=1e-12)  # ridging alone conserves volume
+    assert st.thickness[1] > 2.0  # the ridge: thicker ice on the carrier
+
+
+def test_ridging_needs_the_ridging_law():
+    txt = scene_text([(0.0, 80.0)], dt=60.0, duration=600.0) + (
+        '\n[contact]\nlaw = "collision"\n\n[[process]]\nname = "ridging"\n')
+    with pytest.raises(SceneError, match='law = "ridging"'):
+        Simulation(scene_from_text(txt, "<no law>"), out=False, progress=False)
+
+
+def test_ridging_leaves_an_element_melted_earlier_in_the_step_alone():
+    """A process that runs before ridging melts the thin ice while it is ridging: ridging in
+    the same step moves nothing from or to it (its volume has left the budget)."""
+    sim = ridging_scene()
+    for _ in range(400):  # to a step at which the thin ice is ridging
+        before = float(sim.context.fields["ridged_volume"][1])
+        sim.step()
+        if sim.context.fields["ridged_volume"][1] > before > 0:
+            break
+    ridging = sim.processes[0]
+    h, ridged = sim.state.thickness.copy(), sim.context.fields["ridged_volume"].copy()
+    # applied again to the same state, ridging would convert the thin ice's whole overlap
+    # again if it had converted none of it yet: forget the pair (1, 2) (key 1 * 3 + 2)
+    ridging.converted[ridging.keys == 5] = 0.0
+    sim.context.melt([2])  # an earlier process of this step melted the thin ice
+    ridging.apply(sim.context, sim.dt)
+    assert np.array_equal(sim.state.thickness, h)
+    assert np.array_equal(sim.context.fields["ridged_volume"], ridged)
+
+
+def test_refreezing_after_an_element_beside_a_static_one_melted():
+    """Thin ice jointed to a static cell melts away; elsewhere a thick floe's joint breaks and
+    refreezes: every joint's constants are recomputed then, those of the melted element's
+    joint with a static one included (they stay finite), and no joint of a melted element
+    refreezes, even in the step it melted."""
+    thin = square_pack(0.0, 80.0, 2, 1, size=2000.0, left="static", thickness=0.3)
+    thick = square_pack(0.5, 80.0, 2, 1, size=2000.0, thickness=2.0)
+    txt = scene_text([], packs=[thin, thick], dt=0.4, duration=40.0, extra=(
+        '[contact]\nlaw = "distributed_spring"\n\n[[process]]\nname = "thermodynamics"\n'
+        'params = { surface_temperature = 0.0, ocean_heat_flux = 2e6, min_thickness = 0.1 }\n'
+        '\n[[process]]\nname = "refreeze"\nparams = { freeze_time = 0.0 }\n'))
+    sim = Simulation(scene_from_text(txt, "<static melt>"), out=False, progress=False)
+    cm = sim.contacts
+    assert cm.n_joints == 2
+    while sim.state.flags[1] != MELTED:
+        sim.step()
+    melted = [k for k in range(2) if 1 in (cm.ji[k], cm.jj[k])]
+    other = [k for k in range(2) if k not in melted]
+    assert not cm.intact[melted].any()  # broken when it melted, not refrozen
+    cm.break_joints(np.array(other), 5, sim.time)
+    sim.step()  # the thick floe's joint refreezes at once
+    assert cm.intact[other].all() and not cm.intact[melted].any()
+    assert np.isfinite(cm.jK).all() and np.isfinite(cm.jmeff).all()

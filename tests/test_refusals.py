@@ -1,0 +1,173 @@
+"""Bad input ends in one ``siku: error:`` line naming the file and key, exit status 2: never a
+traceback, never a hang, never memory without bound (the cases a second round of fuzzing and
+fault injection found: mesh spacings, nesting, folders named by files, schedulers that are not
+Dask's, sweeps and packs past the memory, messages that named the wrong thing)."""
+from __future__ import annotations
+
+import socket
+import threading
+import time
+
+import pytest
+
+from siku_core.cli import main
+from siku_core.testing.scenes import scene_text
+
+
+def one_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("siku: error:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.fixture
+def here(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def small() -> str:
+    return scene_text([(-150.0, 75.0)], forcing=[{"source": "water_drag"}], duration=600, dt=60,
+                      output={"file": "out.h5", "every": 120})
+
+
+MESH = ('[time]\nduration = "10min"\ndt = 60\n[elements.mesh]\nlon = [-150.0, -149.0]\n'
+        'lat = [72.0, 72.3]\nspacing = {}\nland = "none"\ncache = false\n')
+
+
+# ------------------------------------------------------------------ 13
+@pytest.mark.parametrize("spacing, says", [
+    ("1e-200", "[elements]: the scene would build about inf elements"),
+    ("1e300", "[elements.mesh]: spacing = 1e+300 m: the region is only about"),
+    ("3e4", "[elements.mesh]: spacing = 30000 m: the region is only about")])
+def test_13_mesh_spacings_the_region_cannot_hold(here, capsys, spacing, says):
+    (here / "m.toml").write_text(MESH.format(spacing), encoding="utf-8")
+    assert main(["run", "m.toml", "--no-progress", "--out", "o.h5"]) == 2
+    assert f"m.toml {says}" in one_error(capsys)
+
+
+@pytest.mark.parametrize("text", ["a = " + "[" * 3000 + "]" * 3000,
+                                  "x = " + "{a = " * 2000 + "1" + "}" * 2000,
+                                  '[integrator]\nparams = {x = ' + "[" * 600 + "]" * 600 + "}"])
+def test_13_deeply_nested_toml(here, capsys, text):
+    (here / "deep.toml").write_text(text, encoding="utf-8")
+    assert main(["run", "deep.toml", "--no-progress"]) == 2
+    assert "deep.toml: arrays or tables nested more than 32 levels deep" in one_error(capsys)
+    (here / "sweep.toml").write_text(text, encoding="utf-8")
+    assert main(["ensemble", "sweep.toml", "--no-progress"]) == 2
+    assert "sweep.toml: arrays or tables nested" in one_error(capsys)
+
+
+# ------------------------------------------------------------------ 15
+def test_15_a_folder_argument_naming_a_file(here, capsys):
+    (here / "scene.toml").write_text(small(), encoding="utf-8")
+    assert main(["run", "scene.toml", "--no-progress", "--no-plots"]) == 0
+    capsys.readouterr()
+    (here / "afile").write_text("mine", encoding="utf-8")
+    assert main(["plot", "out.h5", "--out-dir", "afile", "--no-animation"]) == 2
+    assert "afile: cannot be made a folder for the pictures" in one_error(capsys)
+    (here / "sweep.toml").write_text('scene = "scene.toml"\nout_dir = "afile"\n[cluster]\n'
+                                     'scheduler = "serial"\n[[axis]]\nkey = "run.max_speed"\n'
+                                     'values = [100.0]\n', encoding="utf-8")
+    assert main(["ensemble", "sweep.toml", "--no-progress"]) == 2
+    msg = one_error(capsys)
+    assert "sweep.toml" in msg and "afile" in msg, msg
+    assert (here / "afile").read_text(encoding="utf-8") == "mine"
+
+
+# ------------------------------------------------------------------ 16
+@pytest.fixture
+def silent_server():
+    """A TCP server that accepts connections and never says a word."""
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    held = []
+    stop = threading.Event()
+
+    def serve():
+        srv.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                held.append(srv.accept()[0])
+            except OSError:
+                continue
+
+    t = threading.Thread(target=serve, daemon=True)
+    t.start()
+    yield f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+    stop.set()
+    t.join()
+    for c in held:
+        c.close()
+    srv.close()
+
+
+def test_16_a_scheduler_that_is_not_dask_is_given_up_after_the_timeout(here, capsys,
+                                                                        silent_server):
+    pytest.importorskip("distributed")
+    (here / "scene.toml").write_text(small(), encoding="utf-8")
+    (here / "sweep.toml").write_text('scene = "scene.toml"\n[cluster]\ntimeout = 2\n[[axis]]\n'
+                                     'key = "run.max_speed"\nvalues = [100.0]\n',
+                                     encoding="utf-8")
+    t0 = time.monotonic()
+    assert main(["ensemble", "sweep.toml", "--scheduler", silent_server, "--no-progress"]) == 2
+    assert time.monotonic() - t0 < 30
+    assert "cannot reach the Dask scheduler" in one_error(capsys)
+
+
+def test_16_a_sweep_of_too_many_members_is_refused_before_it_makes_them(here, capsys):
+    (here / "scene.toml").write_text(small(), encoding="utf-8")
+    draw = ('[[axis]]\nn = 1000000\ndraw = {{ "{}" = {{ distribution = "uniform", low = 1.0, '
+            'high = 2.0 }} }}\n')
+    (here / "sweep.toml").write_text('scene = "scene.toml"\n' + draw.format("run.max_speed")
+                                     + draw.format("planet.rotation_rate"), encoding="utf-8")
+    assert main(["ensemble", "sweep.toml", "--no-progress"]) == 2
+    assert "sweep.toml: the axes make 1e+12 members" in one_error(capsys)
+
+
+def test_16_long_thin_pack_cells_count_in_the_memory_estimate(monkeypatch):
+    from siku_core import SceneError, limits
+    from siku_core.testing.scenes import make_scene
+
+    def pack(lon_width: float, lat_width: float):
+        return make_scene([], packs=[{"lon": [0.0, lon_width], "lat": [0.0, lat_width],
+                                      "nx": 400, "ny": 400}])
+
+    monkeypatch.setattr(limits, "physical_memory", lambda: 4 * 2**30)
+    limits.check_limits(pack(4.0, 4.0))  # 160 000 square cells: about 0.66 GB
+    with pytest.raises(SceneError, match=r"about 1.6e\+05 elements need about 9.\d+ GiB"):
+        limits.check_limits(pack(40.0, 0.04))  # 1000:1
+
+
+# ------------------------------------------------------------------ 18
+def test_18_messages_name_the_file_key_and_what_happened(here, capsys):
+    from siku_core.testing.contact_conformance import contact_scene_text, square_pack
+
+    text = contact_scene_text("distributed_spring", {"tensile_strain": float("inf")},
+                              packs=[square_pack(30.0, 72.0, 3, 2, 2000.0, seed=7)], dt=0.1,
+                              steps=10, output={"file": "out.h5"})
+    (here / "ts.toml").write_text(text, encoding="utf-8")
+    assert main(["run", "ts.toml", "--no-progress"]) == 2
+    msg = one_error(capsys)
+    assert "ts.toml [contact] (distributed_spring): key 'tensile_strain' = inf" in msg, msg
+    (here / "v.toml").write_text(small().replace('[integrator]', '[integrator]').replace(
+        "vertices", "velocity = [1e300, 0.0]\nvertices"), encoding="utf-8")
+    assert main(["run", "v.toml", "--no-progress"]) == 2
+    msg = one_error(capsys)
+    assert "v.toml [elements]: element 0 starts with a speed of 1e+300 m/s" in msg, msg
+    assert "holds the snapshots" not in msg and not (here / "out.h5").exists()
+    # a UTF-8 byte-order mark is not a syntax error
+    (here / "bom.toml").write_bytes(b"\xef\xbb\xbf" + small().encode())
+    assert main(["run", "bom.toml", "--no-progress", "--no-plots"]) == 0
+    capsys.readouterr()
+    # siku export of a NetCDF file says what the file is
+    (here / "w.toml").write_text(small().replace('file = "out.h5"', 'file = "w.nc"\n'
+                                                 'writer = "netcdf"'), encoding="utf-8")
+    assert main(["run", "w.toml", "--no-progress", "--no-plots"]) == 0
+    capsys.readouterr()
+    assert main(["export", "w.nc"]) == 2
+    msg = one_error(capsys)
+    assert "w.nc: is a netcdf output file of siku, already NetCDF" in msg, msg

@@ -1,0 +1,94 @@
+"""The Python scene API (siku_core.scene_api): the same checks and messages as a scene file, TOML
+both ways, and the default scene built in Python runs bit for bit as the shipped file."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from siku_core.cli import default_scene_path
+from siku_core.errors import SceneError, SikuError
+from siku_core.scene import load_scene, scene_from_text
+from siku_core.scene_api import SceneBuilder, to_toml
+from siku_core.simulation import Simulation
+
+SHORT = "2min"
+
+
+def default_scene_in_python() -> SceneBuilder:
+    """The shipped default scene (siku_core/data/default_scene.toml), written in Python."""
+    s = SceneBuilder("Beaufort-Chukchi lead formation", start="2001-04-06T00:00:00Z",
+                     duration="24h", dt=0.75, base_dir=default_scene_path().parent,
+                     name="default_scene")
+    s.material("ice", youngs_modulus=0.5e9)
+    s.elements(thickness=1.5)
+    s.mesh(lon=[-168.0, -141.0], lat=[69.0, 75.0], spacing=8.5e3, coast_spacing=6e3,
+           coast_distance=100e3, land="gshhg", seed=3,
+           landfast=[[-156.9, 71.45], [-155.0, 71.3], [-152.0, 71.05], [-150.0, 70.85],
+                     [-148.0, 70.6], [-146.0, 70.4], [-143.0, 70.3], [-141.5, 70.2],
+                     [-141.5, 69.0], [-156.9, 69.0]])
+    s.forcing("air_drag", field={"type": "gridded", "params": {
+        "u_file": "uwnd.anticyclone.nc", "v_file": "vwnd.anticyclone.nc"}}, ramp="6h")
+    s.forcing("water_drag")
+    s.forcing("coriolis")
+    s.contact("distributed_spring", params={"tensile_strain": 3e-4, "damping_ratio": 0.5,
+                                            "joint_damping_ratio": 0.5})
+    s.output(file="siku_default.h5", every="1h", plots=True)
+    return s
+
+
+def test_the_default_scene_built_in_python_runs_bit_for_bit_as_the_file():
+    built = default_scene_in_python().set("time.duration", SHORT)
+    assert built.validate().cfg == load_scene(default_scene_path(),
+                                              {"time.duration": SHORT}).cfg
+    a = built.run(out=False, progress=False)
+    b = Simulation(load_scene(default_scene_path(), {"time.duration": SHORT}), out=False,
+                   progress=False).run()
+    assert a.step_index == b.step_index == a.n_steps > 60
+    assert a.state.n == b.state.n > 5000
+    for name in ("q", "V", "w"):
+        x, y = getattr(a.state, name), getattr(b.state, name)
+        assert x.tobytes() == y.tobytes(), name
+    # the wind moved the ice (2 min into its 6 h spin-up it blows at 7.6e-5 of full strength:
+    # speeds of about 1e-6 m/s), so the check compares motion
+    assert np.abs(b.state.V).max() > 1e-7
+    assert a.contacts.n_intact == b.contacts.n_intact
+
+
+@pytest.mark.parametrize("change, expect", [
+    (lambda s: s.time(step=1), "unknown key 'time.step'; allowed keys here: dt, duration, end, "
+                               "start"),
+    (lambda s: s.run_options(dt_safety=1.5), "allowed range: 0 < dt_safety <= 1"),
+    (lambda s: s.integrator("verlet"), "unknown integrator 'verlet'; known: "),
+    (lambda s: s.set("time.duration", "6"), "has no unit"),
+])
+def test_mistakes_give_the_messages_of_the_toml_path(change, expect, tmp_path):
+    file = tmp_path / "my.toml"
+    s = SceneBuilder("two floes", duration="10min", dt=60, label=str(file))
+    s.polygon([[-150.0, 75.0], [-149.9, 75.0], [-149.9, 75.05], [-150.0, 75.05]])
+    s.forcing("water_drag")
+    change(s)
+    file.write_text(s.to_toml(), encoding="utf-8")
+    with pytest.raises(SikuError) as built:
+        s.simulation(out=False)
+    with pytest.raises(SikuError) as read:
+        Simulation(file, out=False)
+    assert str(built.value) == str(read.value) and type(built.value) is type(read.value)
+    assert expect in str(built.value) and str(built.value).startswith(str(file))
+    assert "\n" not in str(built.value)
+
+
+def test_toml_both_ways_and_save_writes_only_a_valid_scene(tmp_path):
+    s = SceneBuilder.load(default_scene_path())
+    again = scene_from_text(s.to_toml(), "again", default_scene_path())
+    assert again.cfg == load_scene(default_scene_path()).cfg
+    assert SceneBuilder.from_toml(to_toml(s.data)).data == s.data
+    one = SceneBuilder("one floe", duration="1h", dt="1min")
+    one.polygon([[-150.0, 75.0], [-149.9, 75.0], [-149.9, 75.05], [-150.0, 75.05]])
+    one.forcing("air_drag", field={"type": "uniform", "params": {"u": 10.0, "v": 0.0}})
+    path = one.save(tmp_path / "one.toml")
+    sim = Simulation(path, out=False, progress=False).run()
+    assert sim.step_index == 60 and sim.state.V[0, 0] > 0.01  # blown east
+    one.set("time.dt", -1)
+    with pytest.raises(SceneError, match="dt"):
+        one.save(tmp_path / "bad.toml")
+    assert not (tmp_path / "bad.toml").exists()

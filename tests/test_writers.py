@@ -1,0 +1,120 @@
+"""Several writers per run ([[output.extra]]), the writer interface checked at load, and the
+plugin guide's CSV writer run as written."""
+from __future__ import annotations
+
+import csv
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from siku_core.errors import DataError, PluginError, SceneError
+from siku_core.interfaces import Writer
+from siku_core.plugins import Registry, check_component, get_registry
+from siku_core.scene import scene_from_text
+from siku_core.simulation import Simulation
+from siku_core.testing import scene_text
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def guide_writer():
+    page = (ROOT / "docs" / "howto" / "plugins.md").read_text()
+    block = [b for b in re.findall(r"```python\n(.*?)```", page, flags=re.S)
+             if "class CentresCSV" in b]
+    assert len(block) == 1
+    ns: dict = {}
+    exec(compile(block[0], "plugins.md (CentresCSV)", "exec"), ns)
+    return ns["CentresCSV"]
+
+
+def registry_with(cls) -> Registry:
+    base = get_registry()
+    reg = Registry(entries={k: dict(v) for k, v in base.entries.items()},
+                   broken=dict(base.broken), plugins=dict(base.plugins))
+    reg.add("writer", cls, "guide", "0")
+    return reg
+
+
+def scene(tmp_path, steps=20, nc="run.nc"):
+    text = scene_text([(0.0, 80.0), (0.2, 80.0)], dt=60.0, duration=steps * 60.0,
+                      thickness=0.5, extra=(
+                          '[[process]]\nname = "thermodynamics"\nparams = { surface_temperature'
+                          ' = -30.0 }\n\n[output]\nfile = "run.h5"\nevery = 300.0\n\n'
+                          '[[output.extra]]\nwriter = "centres_csv"\nfile = "run.csv"\n\n'
+                          f'[[output.extra]]\nwriter = "netcdf"\nfile = "{nc}"\n'))
+    return scene_from_text(text, "<writers>")
+
+
+def test_a_run_writes_every_writer_and_restarts_from_the_first(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    reg = registry_with(guide_writer())
+    Simulation(scene(tmp_path), out=tmp_path / "run.h5", progress=False,
+               registry=reg).run(steps=10)
+    # the NetCDF writer cannot continue its file: a restart asks for a new one
+    with pytest.raises(DataError, match="cannot continue a file"):
+        Simulation(scene(tmp_path), out=tmp_path / "run.h5", restart=tmp_path / "run.h5",
+                   progress=False, registry=reg)
+    assert (tmp_path / "run.nc").stat().st_size > 0
+    sim = Simulation(scene(tmp_path, nc="more.nc"), out=tmp_path / "run.h5",
+                     restart=tmp_path / "run.h5", progress=False, registry=reg)
+    assert sim.restarted_from == 10
+    sim.run()
+    h5 = xr.open_dataset(tmp_path / "run.h5", engine="siku")
+    nc = xr.open_dataset(tmp_path / "run.nc")
+    assert list(h5["step"].values) == [0, 5, 10, 15, 20]
+    assert np.array_equal(h5["thickness"].values[:3], nc["thickness"].values)
+    more = xr.open_dataset(tmp_path / "more.nc")
+    assert np.array_equal(h5["thickness"].values[2:], more["thickness"].values)
+    rows = list(csv.reader(open(tmp_path / "run.csv")))
+    assert rows[0][2:] == ["lat [deg]", "lon [deg]", "flags [1]", "grown_volume [m3]",
+                           "growth_rate [m s-1]", "mass [kg]", "thickness [m]"]
+    assert len(rows) == 1 + 2 * h5.sizes["time"]
+    last = [r for r in rows[1:] if float(r[0]) == sim.time]
+    np.testing.assert_allclose([float(r[5]) for r in last], h5["grown_volume"].values[-1],
+                               rtol=1e-15)
+
+
+def test_two_writers_never_share_a_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    text = scene_text([(0.0, 80.0)], dt=60.0, duration=600.0, extra=(
+        '[output]\nfile = "run.h5"\n\n[[output.extra]]\nwriter = "netcdf"\nfile = "run.h5"\n'))
+    with pytest.raises(SceneError, match="already written by another writer"):
+        Simulation(scene_from_text(text, "<same>"), progress=False)
+
+
+class _NoWriteState(Writer):
+    name = "broken_writer"
+
+    def open(self, ctx):
+        pass
+
+    def close(self, ctx):
+        pass
+
+
+class _InstanceRestart(Writer):
+    name = "instance_restart_writer"
+
+    def open(self, ctx):
+        pass
+
+    def write_state(self, ctx):
+        pass
+
+    def close(self, ctx):
+        pass
+
+    def read_restart(self, path, ctx):  # not a classmethod
+        return {}
+
+
+def test_a_writer_missing_a_method_is_refused_at_load_in_one_line():
+    with pytest.raises(PluginError, match=r"does not implement write_state\(\)") as e:
+        check_component("writer", _NoWriteState, "bad_pkg")
+    assert "\n" not in str(e.value)
+    with pytest.raises(PluginError, match="read_restart must be a classmethod"):
+        check_component("writer", _InstanceRestart, "bad_pkg")
+    check_component("writer", guide_writer(), "guide")  # the guide's writer passes
