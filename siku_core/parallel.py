@@ -16,6 +16,9 @@ atomic add until none are left: a fast thread simply takes more chunks.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numba
 from numba import njit, types
 from numba.core import cgutils
@@ -30,6 +33,26 @@ CHUNK_MIN = 512
 def threads() -> int:
     """The numba threads loops may use now."""
     return numba.get_num_threads()
+
+
+@contextmanager
+def threads_for(n: int) -> Iterator[int]:
+    """Run the enclosed phases on one thread when ``n`` (the scene's elements) is below
+    :data:`PARALLEL_MIN`, else on the threads set; yields the threads used.
+
+    Every loop of such a scene runs in one chunk anyway (:func:`chunks`), but a parallel
+    region of one chunk still wakes the other threads; with one thread set none is woken, so
+    a small run on all cores costs what it costs on one (``bench/threads.py``).
+    """
+    before = numba.get_num_threads()
+    if before > 1 and n < PARALLEL_MIN:
+        numba.set_num_threads(1)
+        try:
+            yield 1
+        finally:
+            numba.set_num_threads(before)
+    else:
+        yield before
 
 
 def chunks(n: int) -> int:

@@ -247,8 +247,9 @@ class ContactCfg(_Strict):
     broad_phase: str = "sweep_and_prune"
     skin: float | None = Field(None, ge=0, description="candidate-list skin distance [m]")
     touching: Literal["contact", "ignore"] = Field(
-        "contact", description="overlaps within the clip's tolerance (area <= 1e-9 L^2): "
-        "'contact' (any positive area is a contact) or 'ignore' (no force; faster packs)")
+        "ignore", description="overlaps within the clip's tolerance (area <= 1e-9 L^2, "
+        "round-off): 'ignore' (no contact: no force, no damping) or 'contact' (any positive "
+        "area is a contact, as in the Siku report)")
     jointed: Literal["collide", "exclude"] = Field(
         "collide", description="jointed neighbours while their joint holds: 'collide' (the "
         "Siku report's rule: also a collision contact) or 'exclude' (the joint alone, as in "

@@ -19,7 +19,6 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-import numba
 import numpy as np
 
 from . import parallel
@@ -310,16 +309,7 @@ class Simulation:
         t0 = time.perf_counter()
         self._commit = True
         self._force_time = 0.0
-        threads = numba.get_num_threads()
-        if threads > 1 and self.state.n < parallel.PARALLEL_MIN:
-            # a small scene: its loops run on one thread anyway (parallel.chunks), and no
-            # other thread is woken (or waited for, on a busy machine)
-            numba.set_num_threads(1)
-            try:
-                self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
-            finally:
-                numba.set_num_threads(threads)
-        else:
+        with parallel.threads_for(self.state.n):
             self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
         self.step_index += 1
         t1 = time.perf_counter()
@@ -404,6 +394,12 @@ class Simulation:
         self._write(force=True, diagnostics=self.restarted_from is None)
 
     def _write(self, force: bool = False, diagnostics: bool = True) -> None:
+        """Write what the schedules ask for at this step, on the threads the scene's size
+        warrants (:func:`~siku_core.parallel.threads_for`)."""
+        with parallel.threads_for(self.state.n):
+            self._write_due(force, diagnostics)
+
+    def _write_due(self, force: bool, diagnostics: bool) -> None:
         """Write what the schedules ask for at this step. A snapshot is the last good state:
         the guard checks it first (if it has not at this step), then it is remembered."""
         t0 = time.perf_counter()

@@ -23,10 +23,10 @@ the state at rest, for the three degrees of freedom ``(x, y, theta)`` of every f
   ``K w (s1 + s2)/2`` and couple ``K w³ theta / 12``), damped with ``2 zeta_j sqrt(f K w m)``
   spread the same way (``zeta_j`` the law's joint damping ratio, ``m`` the pair's reduced mass);
 * under ``contact.jointed = "collide"`` the same pair also collides when pressed: a normal spring
-  ``K w`` at the joint's middle, damped with ``2 zeta_c sqrt(K w m)``; the collision damping acts
-  on touching faces as well (``touching = "contact"``). This is the mode the element-wise bound
-  used before missed: a jointed pair under compression is twice as stiff as its joint, and its
-  two dampers add;
+  ``K w`` at the joint's middle, damped with ``2 zeta_c sqrt(K w m)``, counted under either
+  ``touching`` rule (a pressed pair overlaps by more than round-off). This is the mode the
+  element-wise bound used before missed: a jointed pair under compression is twice as stiff
+  as its joint, and its two dampers add;
 * every edge of an element without a joint: a collision budget ``h E`` along the edge's normal
   at its middle, against an unknown partner (taken as a wall: the reduced mass is the element's
   own), damped with ``zeta_c``.

@@ -111,7 +111,8 @@ class _Drag(ForcingSource):
 
     def _add_stress(self, t, q, V, F, subtract_ice):
         """Stress from ``self.field`` (``None``: still air or water); a field that says it is
-        uniform (``Field.uniform``) is not sampled per element."""
+        uniform (``Field.uniform``) is not sampled per element, and one that has ``add_drag``
+        (``gridded``) adds the stress itself in one pass instead of being sampled."""
         rho, C = float(self.p["rho"]), float(self.p["C"])
         theta = math.radians(self.p["turning_angle"])
         nch = chunks(q.shape[0])
@@ -120,7 +121,10 @@ class _Drag(ForcingSource):
         else:
             uniform = getattr(self.field, "uniform", None)
             uv = uniform(t) if uniform is not None else None
-        if uv is not None:
+        fused = getattr(self.field, "add_drag", None) if uv is None else None
+        if fused is not None:  # the field interpolates and the drag follows in one pass
+            fused(t, q, V, self.st.area, rho, C, theta, subtract_ice, F, nch)
+        elif uv is not None:
             _stress_uniform(q, V, float(uv[0]), float(uv[1]), self.st.area, rho, C, theta,
                             subtract_ice, F, nch)
         else:

@@ -85,9 +85,11 @@ import numpy as np
 
 from siku_core import Param, hookimpl
 from siku_core.errors import DataError, SceneError
+from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Field
 
 from .cf import SPEED_UNITS, classic_size, iso_seconds
+from .gridded_drag import gridded_stress
 from .gridded_kernel import interpolate, pole_vector
 from .gridded_reader import ComponentReader, KernelGrid
 
@@ -275,9 +277,9 @@ class Gridded(Field):
         return k, k + 1, min(alpha, 1.0)
 
     # ------------------------------------------------------------------ sampling
-    def sample(self, t, lat, lon):
-        lat = np.ascontiguousarray(lat, dtype=np.float64)
-        lon = np.ascontiguousarray(lon, dtype=np.float64)
+    def _records_at(self, t):
+        """The two records around ``t`` [s] and the weight of the second (the cache keeps the
+        three nearest records)."""
         k0, k1, alpha = self.bracket(float(t))
         U0, V0, P0 = self._record(k0)
         U1, V1, P1 = (U0, V0, P0) if k1 is None else self._record(k1)
@@ -286,19 +288,41 @@ class Gridded(Field):
                 if key not in (k0, k1):
                     del self._cache[key]
         g = self.grid
-        n = lat.shape[0]
-        u = np.empty(n)
-        v = np.empty(n)
-        nout, first = interpolate(lat, lon, g.ylat, g.xoff, math.radians(g.lon0_deg), g.periodic,
-                              g.cap_s, g.cap_n, U0, V0, P0, U1, V1, P1, float(alpha), u, v)
+        return (g.ylat, g.xoff, math.radians(g.lon0_deg), g.periodic, g.cap_s, g.cap_n,
+                U0, V0, P0, U1, V1, P1, float(alpha))
+
+    def _warn_outside(self, nout, t, lat, lon) -> None:
         if nout and not self._warned:
             self._warned = True
             warnings.warn(
                 f"{self.where}: {nout} point(s) outside the grid of {self.cu.label()} "
-                f"({g.describe()}), the first at lat {math.degrees(lat[first]):.4g}, lon "
-                f"{math.degrees(lon[first]):.4g} at t = {float(t):g} s: the velocity is zero "
-                "there (said once)", stacklevel=2)
+                f"({self.grid.describe()}), the first at lat {math.degrees(lat):.4g}, lon "
+                f"{math.degrees(lon):.4g} at t = {float(t):g} s: the velocity is zero "
+                "there (said once)", stacklevel=3)
+
+    def sample(self, t, lat, lon):
+        lat = np.ascontiguousarray(lat, dtype=np.float64)
+        lon = np.ascontiguousarray(lon, dtype=np.float64)
+        n = lat.shape[0]
+        u = np.empty(n)
+        v = np.empty(n)
+        nout, first = interpolate(lat, lon, *self._records_at(t), u, v)
+        if nout:
+            self._warn_outside(nout, t, lat[first], lon[first])
         return u, v
+
+    def add_drag(self, t, q, V, area, rho, C, theta, subtract_ice, F, nch) -> None:
+        """Add the quadratic drag of this field on every element to ``F`` [N] in one pass
+        (:func:`siku_forcing.gridded_drag.gridded_stress`: the same forces as sampling the
+        field at the centres, bit for bit); the drag sources call it."""
+        nout = np.zeros(nch, dtype=np.int64)
+        first = np.full(nch, -1, dtype=np.int64)
+        gridded_stress(q, V, area, rho, C, theta, subtract_ice, *self._records_at(t), F, nch,
+                       nout, first)
+        if nout.any():
+            k = int(first[np.flatnonzero(nout)[0]])
+            lat, lon = latlon_of(q[k:k + 1])
+            self._warn_outside(int(nout.sum()), t, float(lat[0]), float(lon[0]))
 
     def close(self) -> None:
         for comp in (getattr(self, "cu", None), getattr(self, "cv", None)):

@@ -31,110 +31,115 @@ def locate(a, x):
     return i
 
 
+@njit(cache=True, inline="always")
+def interpolate_one(y, lon_k, ylat, xoff, lon0, periodic, cap_s, cap_n, U0, V0, P0, U1, V1, P1,
+                    alpha):
+    """The field at one point, latitude ``y`` and longitude ``lon_k`` [rad]: ``(u, v, inside)``
+    (``0, 0, False`` outside the grid). Arguments as :func:`interpolate`."""
+    twopi = 2.0 * math.pi
+    halfpi = 0.5 * math.pi
+    ny = ylat.shape[0]
+    nx = xoff.shape[0]
+    x = lon_k - lon0
+    x = x - twopi * math.floor(x / twopi)
+    if x >= twopi:
+        x = 0.0
+    # ---- longitude cell j0, j1 and weight fx
+    inside = True
+    j0 = 0
+    j1 = 1
+    fx = 0.0
+    xl = xoff[nx - 1]
+    if x > xl and periodic:  # the wrap-around cell: last column -> first column + 2 pi
+        j0 = nx - 1
+        j1 = 0
+        fx = (x - xl) / (twopi - xl)
+    else:
+        if x > xl:  # regional grid: on its edge or outside
+            if x - xl <= _EDGE:
+                x = xl
+            elif twopi - x <= _EDGE:
+                x = 0.0
+            else:
+                inside = False
+        if inside:
+            j0 = locate(xoff, x)
+            j1 = j0 + 1
+            fx = (x - xoff[j0]) / (xoff[j1] - xoff[j0])
+    # ---- latitude: interior cell, polar cap or outside
+    cap = 0  # -1 south cap, +1 north cap
+    if inside:
+        if y < ylat[0]:
+            if cap_s:
+                cap = -1
+            elif ylat[0] - y <= _EDGE:
+                y = ylat[0]
+            else:
+                inside = False
+        elif y > ylat[ny - 1]:
+            if cap_n:
+                cap = 1
+            elif y - ylat[ny - 1] <= _EDGE:
+                y = ylat[ny - 1]
+            else:
+                inside = False
+    if not inside:
+        return 0.0, 0.0, False
+    if cap == 0:
+        i0 = locate(ylat, y)
+        fy = (y - ylat[i0]) / (ylat[i0 + 1] - ylat[i0])
+        w00 = (1.0 - fy) * (1.0 - fx)
+        w01 = (1.0 - fy) * fx
+        w10 = fy * (1.0 - fx)
+        w11 = fy * fx
+        a0 = w00 * U0[i0, j0] + w01 * U0[i0, j1] + w10 * U0[i0 + 1, j0] + w11 * U0[i0 + 1, j1]
+        b0 = w00 * V0[i0, j0] + w01 * V0[i0, j1] + w10 * V0[i0 + 1, j0] + w11 * V0[i0 + 1, j1]
+        a1 = w00 * U1[i0, j0] + w01 * U1[i0, j1] + w10 * U1[i0 + 1, j0] + w11 * U1[i0 + 1, j1]
+        b1 = w00 * V1[i0, j0] + w01 * V1[i0, j1] + w10 * V1[i0 + 1, j0] + w11 * V1[i0 + 1, j1]
+    else:
+        r = 0 if cap < 0 else ny - 1
+        side = 0 if cap < 0 else 1
+        sp = float(cap)
+        s = (y - ylat[r]) / (sp * halfpi - ylat[r])
+        s = min(s, 1.0)
+        sl = math.sin(lon_k)
+        cl = math.cos(lon_k)
+        # pole vector W in the east/north frame of this longitude at the pole
+        pu0 = -P0[side, 0] * sl + P0[side, 1] * cl
+        pv0 = -sp * (P0[side, 0] * cl + P0[side, 1] * sl)
+        pu1 = -P1[side, 0] * sl + P1[side, 1] * cl
+        pv1 = -sp * (P1[side, 0] * cl + P1[side, 1] * sl)
+        a0 = (1.0 - s) * ((1.0 - fx) * U0[r, j0] + fx * U0[r, j1]) + s * pu0
+        b0 = (1.0 - s) * ((1.0 - fx) * V0[r, j0] + fx * V0[r, j1]) + s * pv0
+        a1 = (1.0 - s) * ((1.0 - fx) * U1[r, j0] + fx * U1[r, j1]) + s * pu1
+        b1 = (1.0 - s) * ((1.0 - fx) * V1[r, j0] + fx * V1[r, j1]) + s * pv1
+    if alpha == 0.0:
+        return a0, b0, True
+    return (1.0 - alpha) * a0 + alpha * a1, (1.0 - alpha) * b0 + alpha * b1, True
+
+
 @njit(cache=True)
 def interpolate(lat, lon, ylat, xoff, lon0, periodic, cap_s, cap_n, U0, V0, P0, U1, V1, P1, alpha,
-            u, v):
+                u, v):
     """Bilinear-in-space, linear-in-time interpolation; returns (points outside, first one).
 
     ``ylat (ny)`` ascending latitudes [rad]; ``xoff (nx)`` ascending longitude offsets from
     ``lon0`` in ``[0, 2 pi)`` [rad]; ``U0, V0 (ny, nx)`` / ``U1, V1`` the two records, weights
     ``1 - alpha`` and ``alpha``; ``P0, P1 (2, 2)`` pole vectors ``(W_x, W_y)`` south [0], north [1].
-
-    It stays one function: one compiled pass over the points, and splitting it would cost numba's
-    inlining or change the order of the floating-point operations (results are bit-for-bit).
+    Each point is :func:`interpolate_one` (inlined: the same arithmetic as the fused drag
+    kernel of :mod:`siku_forcing.gridded_drag`, bit for bit).
     """
-    twopi = 2.0 * math.pi
-    halfpi = 0.5 * math.pi
-    ny = ylat.shape[0]
-    nx = xoff.shape[0]
     nout = 0
     first = -1
     for k in range(lat.shape[0]):
-        y = lat[k]
-        x = lon[k] - lon0
-        x = x - twopi * math.floor(x / twopi)
-        if x >= twopi:
-            x = 0.0
-        # ---- longitude cell j0, j1 and weight fx
-        inside = True
-        j0 = 0
-        j1 = 1
-        fx = 0.0
-        xl = xoff[nx - 1]
-        if x > xl and periodic:  # the wrap-around cell: last column -> first column + 2 pi
-            j0 = nx - 1
-            j1 = 0
-            fx = (x - xl) / (twopi - xl)
-        else:
-            if x > xl:  # regional grid: on its edge or outside
-                if x - xl <= _EDGE:
-                    x = xl
-                elif twopi - x <= _EDGE:
-                    x = 0.0
-                else:
-                    inside = False
-            if inside:
-                j0 = locate(xoff, x)
-                j1 = j0 + 1
-                fx = (x - xoff[j0]) / (xoff[j1] - xoff[j0])
-        # ---- latitude: interior cell, polar cap or outside
-        cap = 0  # -1 south cap, +1 north cap
-        if inside:
-            if y < ylat[0]:
-                if cap_s:
-                    cap = -1
-                elif ylat[0] - y <= _EDGE:
-                    y = ylat[0]
-                else:
-                    inside = False
-            elif y > ylat[ny - 1]:
-                if cap_n:
-                    cap = 1
-                elif y - ylat[ny - 1] <= _EDGE:
-                    y = ylat[ny - 1]
-                else:
-                    inside = False
+        a, b, inside = interpolate_one(lat[k], lon[k], ylat, xoff, lon0, periodic, cap_s, cap_n,
+                                       U0, V0, P0, U1, V1, P1, alpha)
+        u[k] = a
+        v[k] = b
         if not inside:
-            u[k] = 0.0
-            v[k] = 0.0
             if nout == 0:
                 first = k
             nout += 1
-            continue
-        if cap == 0:
-            i0 = locate(ylat, y)
-            fy = (y - ylat[i0]) / (ylat[i0 + 1] - ylat[i0])
-            w00 = (1.0 - fy) * (1.0 - fx)
-            w01 = (1.0 - fy) * fx
-            w10 = fy * (1.0 - fx)
-            w11 = fy * fx
-            a0 = w00 * U0[i0, j0] + w01 * U0[i0, j1] + w10 * U0[i0 + 1, j0] + w11 * U0[i0 + 1, j1]
-            b0 = w00 * V0[i0, j0] + w01 * V0[i0, j1] + w10 * V0[i0 + 1, j0] + w11 * V0[i0 + 1, j1]
-            a1 = w00 * U1[i0, j0] + w01 * U1[i0, j1] + w10 * U1[i0 + 1, j0] + w11 * U1[i0 + 1, j1]
-            b1 = w00 * V1[i0, j0] + w01 * V1[i0, j1] + w10 * V1[i0 + 1, j0] + w11 * V1[i0 + 1, j1]
-        else:
-            r = 0 if cap < 0 else ny - 1
-            side = 0 if cap < 0 else 1
-            sp = float(cap)
-            s = (y - ylat[r]) / (sp * halfpi - ylat[r])
-            s = min(s, 1.0)
-            sl = math.sin(lon[k])
-            cl = math.cos(lon[k])
-            # pole vector W in the east/north frame of this longitude at the pole
-            pu0 = -P0[side, 0] * sl + P0[side, 1] * cl
-            pv0 = -sp * (P0[side, 0] * cl + P0[side, 1] * sl)
-            pu1 = -P1[side, 0] * sl + P1[side, 1] * cl
-            pv1 = -sp * (P1[side, 0] * cl + P1[side, 1] * sl)
-            a0 = (1.0 - s) * ((1.0 - fx) * U0[r, j0] + fx * U0[r, j1]) + s * pu0
-            b0 = (1.0 - s) * ((1.0 - fx) * V0[r, j0] + fx * V0[r, j1]) + s * pv0
-            a1 = (1.0 - s) * ((1.0 - fx) * U1[r, j0] + fx * U1[r, j1]) + s * pu1
-            b1 = (1.0 - s) * ((1.0 - fx) * V1[r, j0] + fx * V1[r, j1]) + s * pv1
-        if alpha == 0.0:
-            u[k] = a0
-            v[k] = b0
-        else:
-            u[k] = (1.0 - alpha) * a0 + alpha * a1
-            v[k] = (1.0 - alpha) * b0 + alpha * b1
     return nout, first
 
 

@@ -40,7 +40,6 @@ import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -367,80 +366,17 @@ def measure(sim, sigma_crit: float = math.nan, tau_crit: float = math.nan,
                      sim.step_index, sim.dt, e_aff, c11)
 
 
-@dataclass
-class StrengthTable:
-    """Macro strength against bond strength for one test (Orzech et al. Fig. 3)."""
-
-    test: str
-    results: list[LabResult]
-    slope: float  # macro strength per bond strength [1]
-    intercept: float  # [Pa]
-    r2: float  # coefficient of determination of the linear fit
-
-    def rows(self) -> list[str]:
-        out = [f"{self.test}: bond strength [MPa] | macro strength [MPa] | ratio | modulus "
-               "[GPa] | bonds broken (tension/shear) | elements"]
-        for r in self.results:
-            out.append(f"  {r.sigma_crit / 1e6:8.3f} | {r.strength / 1e6:8.4f} | {r.ratio:6.3f} "
-                       f"| {r.modulus / 1e9:6.3f} | {r.broken.get('tension', 0)}/"
-                       f"{r.broken.get('shear', 0)} | {r.n_elements}")
-        out.append(f"  linear fit: macro = {self.slope:.4f} × bond + {self.intercept / 1e6:.4f} "
-                   f"MPa, R² = {self.r2:.4f}")
-        return out
-
-
-def strength_table(test: str, strengths: list[float], progress: bool = False,
-                   **kwargs: Any) -> StrengthTable:
-    """:func:`virtual_test` at each bond strength [Pa] (``sigma_crit = tau_crit``), and the
-    least-squares line through the macro strengths."""
-    results = []
-    for s in strengths:
-        if progress:
-            print(f"siku lab: {test} at bond strength {s / 1e6:g} MPa ...", file=sys.stderr)
-        results.append(virtual_test(test, s, **kwargs))
-    x = np.array([r.sigma_crit for r in results])
-    y = np.array([r.strength for r in results])
-    if len(x) >= 2:
-        slope, intercept = np.polyfit(x, y, 1)
-        pred = slope * x + intercept
-        ss = float(((y - y.mean()) ** 2).sum())
-        r2 = 1.0 - float(((y - pred) ** 2).sum()) / ss if ss > 0 else 1.0
-    else:
-        slope, intercept, r2 = y[0] / x[0], 0.0, math.nan
-    return StrengthTable(test, results, float(slope), float(intercept), r2)
-
-
-def plot_curves(tables: list[StrengthTable], path: Path) -> Path:
-    """Stress–strain curves of every run (one panel per test) and the strength lines."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, len(tables) + 1, figsize=(4.2 * (len(tables) + 1), 3.6),
-                             constrained_layout=True)
-    for ax, tab in zip(axes, tables):
-        for r in tab.results:
-            ax.plot(r.strain * 1e3, r.stress / 1e6, label=f"bond {r.sigma_crit / 1e6:g} MPa")
-        ax.set_xlabel("macro strain [10⁻³]")
-        ax.set_ylabel("macro stress [MPa]")
-        ax.set_title(f"virtual {tab.test} test")
-        ax.legend(fontsize=7)
-    ax = axes[-1]
-    for tab in tables:
-        x = np.array([r.sigma_crit for r in tab.results]) / 1e6
-        y = np.array([r.strength for r in tab.results]) / 1e6
-        ax.plot(x, y, "o", label=f"{tab.test} (slope {tab.slope:.2f}, R² {tab.r2:.3f})")
-        ax.plot(x, tab.slope * x + tab.intercept / 1e6, "-", lw=0.8)
-    lim = max(r.sigma_crit for t in tables for r in t.results) / 1e6
-    ax.plot([0, lim], [0, lim], "k:", lw=0.8, label="macro = bond")
-    ax.set_xlabel("bond strength [MPa]")
-    ax.set_ylabel("macro strength [MPa]")
-    ax.set_title("strength against bond strength")
-    ax.legend(fontsize=7)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+def block_extent(test: str, element_size: float, length: float | None = None,
+                 width: float | None = None) -> tuple[float, float]:
+    """The block of ``siku lab``: ``length × width`` [m] (default 24 × 12, flexure 30 × 8),
+    whatever the element size (a smaller ``element_size`` refines it); at least 4 elements
+    across, or a one-line error."""
+    length = length or (30.0 if test == "flexure" else 24.0)
+    width = width or (8.0 if test == "flexure" else 12.0)
+    if min(length, width) < 4 * element_size:
+        raise SikuError(f"--element-size {element_size} m: the {test} block ({length:g} m × "
+                        f"{width:g} m) needs at least 4 elements across")
+    return length, width
 
 
 def _cmd_lab(args) -> int:
@@ -453,15 +389,14 @@ def _cmd_lab(args) -> int:
         raise SikuError(f"--strength {args.strength!r}: strengths must be positive MPa")
     if not 0 < args.element_size < 1e5:
         raise SikuError(f"--element-size {args.element_size}: must be in (0, 1e5) m")
+    from .lab_report import cmd_calibrate, plot_curves, strength_table
+
+    if args.test == "calibrate":
+        return cmd_calibrate(args)
     tests = TESTS if args.test == "all" else (args.test,)
     tables = []
     for test in tests:
-        # the block in metres, whatever the element size: a smaller --element-size refines it
-        length = args.length or (30.0 if test == "flexure" else 24.0)
-        width = args.width or (8.0 if test == "flexure" else 12.0)
-        if min(length, width) < 4 * args.element_size:
-            raise SikuError(f"--element-size {args.element_size} m: the {test} block "
-                            f"({length:g} m × {width:g} m) needs at least 4 elements across")
+        length, width = block_extent(test, args.element_size, args.length, args.width)
         tab = strength_table(test, strengths, progress=True, element_size=args.element_size,
                              length=length, width=width, seed=args.seed, jointed=args.jointed)
         tables.append(tab)
@@ -476,7 +411,9 @@ def _cmd_lab(args) -> int:
 def siku_register_commands(subparsers):
     p = subparsers.add_parser(
         "lab", help="virtual ice tests of a bonded block: tension, compression, flexure")
-    p.add_argument("test", choices=(*TESTS, "all"), help="which test (all: the three)")
+    p.add_argument("test", choices=(*TESTS, "all", "calibrate"),
+                   help="which test (all: the three; calibrate: the bond strength that puts "
+                        "the three macro strengths in the ranges given)")
     p.add_argument("--strength", default="0.1,0.5,1,2",
                    help="bond strengths sigma_crit = tau_crit [MPa], comma-separated")
     p.add_argument("--element-size", type=float, default=1.0, help="mean element size D [m]; "
@@ -488,6 +425,9 @@ def siku_register_commands(subparsers):
                    help="bonded neighbours also collide (collide, the default) or only their "
                         "bond acts until it breaks (exclude): contact.jointed")
     p.add_argument("--out-dir", help="where the stress-strain picture goes (default: here)")
+    from .lab_report import add_arguments
+
+    add_arguments(p)
     p.set_defaults(func=_cmd_lab)
 
 

@@ -21,9 +21,27 @@ SHORT = {"time.duration": "6h"}
 
 @pytest.fixture(scope="module")
 def run6h():
+    """The first 6 h; ``sim.hourly``: the broken joints gridded on :func:`lead_grid` at the
+    end of every hour (for the leads' growth)."""
+    from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
+
     sim = Simulation(load_scene(default_scene_path(), SHORT), out=False, progress=False)
-    sim.run()
+    per_hour = round(3600.0 / sim.dt)
+    grid = lead_grid(sim.radius)
+    sim.hourly = []
+    while sim.step_index < sim.n_steps:
+        sim.advance(min(per_hour, sim.n_steps - sim.step_index))
+        sim.hourly.append(grid_snapshot(grid, snapshot_of(sim))["broken_joints"])
+    sim.close()
     return sim
+
+
+def lead_grid(radius):
+    """The 10 km polar stereographic grid of the lead tests (about the element size)."""
+    from siku_io.analysis.regular_grid import Grid, GridCfg
+
+    return Grid(GridCfg(kind="polar_stereographic", central_longitude=-155.0,
+                        x=(-800e3, 800e3), y=(-2400e3, -1200e3), resolution=10e3), radius)
 
 
 def test_default_scene_runs_from_the_command_line_with_pictures(tmp_path, monkeypatch, capsys):
@@ -198,3 +216,36 @@ def test_without_wind_the_default_scene_stays_still_for_an_hour():
     free = st.flags == FREE
     # round-off forces of touching faces move elements by far less than a micrometre per second
     assert np.hypot(*st.V[free].T).max() < 1e-6
+
+
+def test_lead_length_grows_with_the_broken_joints(run6h):
+    """Joints only break in the default scene (no process refreezes them), so the leads drawn
+    from the broken joints lengthen or stay: from one hour to the next the total lead length
+    of ``siku_io.analysis.leads`` falls by no more than its discretisation on the 10 km grid
+    (each lead's length is measured between its end cells' centres, within sqrt(2) cells of
+    the true length: ``tests/test_leads.py``; the pack drifts across the fixed grid, so a lead
+    may lose up to that much from one hour to the next without any lead closing). Hours whose
+    mask is too wide to resolve at this cell size are refused by the lead table (stated, and
+    at most half of them)."""
+    import math
+
+    from siku_io.analysis.leads import detect, unresolved
+
+    grid = lead_grid(run6h.radius)
+    cell = 10e3
+    rows, counts, refused = [], [], []
+    for k, bj in enumerate(run6h.hourly):
+        m = bj > 0
+        counts.append(int(bj.sum()))
+        if unresolved(m) is not None:  # the table is refused at this cell size (stated)
+            refused.append((k + 1, unresolved(m)))
+            continue
+        leads, _ = detect(m, grid, min_length=3)
+        rows.append((k + 1, sum(f.length for f in leads), len(leads)))
+    km = [(h, round(t / 1e3), n) for h, t, n in rows]
+    report = (f"broken joints per hour {counts}; (hour, lead length [km], leads) {km}; "
+              f"refused {refused}")
+    assert all(b >= a for a, b in zip(counts, counts[1:])), report
+    assert len(rows) >= 3 and rows[-1][1] > 0, report
+    for (h0, t0, n0), (h1, t1, n1) in zip(rows, rows[1:]):
+        assert t1 >= t0 - math.sqrt(2) * cell * max(n0, n1), report

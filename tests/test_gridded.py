@@ -627,3 +627,52 @@ def test_a_file_cut_short_is_refused_by_name(tmp_path, fmt):
         match = r"cannot read .*uwnd\.nc as NetCDF: .*cut short or corrupt"
     with pytest.raises(DataError, match=match):
         field(tmp_path, u_file="uwnd.nc", v_file="vwnd.nc")
+
+
+# --------------------------------------------------------------------------- drag in one pass
+@pytest.mark.parametrize("grid", ["global", "regional"])
+def test_drag_in_one_pass_is_sampling_then_drag_bit_for_bit(tmp_path, grid):
+    """``Gridded.add_drag`` (centres, interpolation and stress fused per element, on chunks)
+    adds the same forces, bit for bit, as sampling the field at the centres and applying the
+    drag kernel to the samples, on any number of chunks: everywhere on the globe (pole caps,
+    the wrap-around column), between two records, and outside a regional grid (zero field,
+    the same count of outside points)."""
+    from siku_core.geometry.quat import latlon_of, q_from_latlon
+    from siku_forcing.drag import _stress
+
+    if grid == "global":
+        ncep_pair(tmp_path)
+        f = field(tmp_path, u_file="uwnd.nc", v_file="vwnd.nc")
+    else:
+        lat, lon = np.arange(80.0, 59.9, -2.5), np.arange(170.0, 210.1, 2.5)
+        LON, LAT = np.meshgrid(lon, lat)
+        for name, c in (("u", CU), ("v", CV)):
+            write_nc(tmp_path / f"{name}.nc", name, bilinear(LAT, LON, c)[None].repeat(2, 0),
+                     lat, lon, hours(0, 12))
+        f = field(tmp_path, u_file="u.nc", v_file="v.nc", u="u", v="v")
+    rng = np.random.default_rng(7)
+    n = 3000
+    lat = np.degrees(np.arcsin(rng.uniform(-1, 1, n)))
+    lat[:4] = [90.0, -90.0, 89.99, -89.0]
+    lon = rng.uniform(-180, 180, n)
+    q = np.array([q_from_latlon(math.radians(a), math.radians(b)) for a, b in zip(lat, lon)])
+    V = rng.normal(0, 0.3, (n, 2))
+    area = rng.uniform(1e6, 1e8, n)
+    for t in (0.0, 5000.0):
+        lat_r, lon_r = latlon_of(q)
+        with warnings.catch_warnings(record=True) as rec_s:
+            warnings.simplefilter("always")
+            u, v = f.sample(t, lat_r, lon_r)
+        expected = np.zeros((n, 2))
+        _stress(q, V, u, v, area, 1.3, 0.0016, math.radians(20.0), 1.0, expected, 1)
+        for nch in (1, 5):
+            f._warned = False
+            got = np.zeros((n, 2))
+            with warnings.catch_warnings(record=True) as rec_f:
+                warnings.simplefilter("always")
+                f.add_drag(t, q, V, area, 1.3, 0.0016, math.radians(20.0), 1.0, got, nch)
+            np.testing.assert_array_equal(got, expected)
+            assert [str(w.message) for w in rec_f] == [str(w.message) for w in rec_s]
+        f._warned = False
+    if grid == "regional":
+        assert rec_s, "the regional case must put points outside the grid"

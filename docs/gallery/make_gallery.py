@@ -36,7 +36,8 @@ def default(work: Path, out: Path, hours: float) -> list[Path]:
     from siku_io.plot.element_maps import draw_map
     from siku_io.plot.grid_maps import draw_grid_map
 
-    _run(["siku", "run", "--no-plots", "--set", f"time.duration={hours:g}h"], work)
+    # --profile: the run's wall time and where it goes (bench/RESULTS.md quotes it)
+    _run(["siku", "run", "--no-plots", "--profile", "--set", f"time.duration={hours:g}h"], work)
     h5 = work / "siku_default.h5"
     tag = f"{hours:g}h"
     pics = [draw_map(h5, out / "default_damage_0h.png", 0, "damage"),
@@ -93,14 +94,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="+", choices=NAMES, default=list(NAMES))
     ap.add_argument("--out", type=Path, default=HERE, help="folder for the pictures")
     ap.add_argument("--hours", type=float, default=24.0, help="model hours of the runs")
+    ap.add_argument("--keep", type=Path, help="run in this new folder and keep the runs' "
+                    "outputs there (e.g. siku_default.h5 for siku deformation)")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     out = args.out.resolve()
     steps = {"default": default, "case": case, "waves": waves, "two_way": two_way,
              "ice_life": ice_life}
     with tempfile.TemporaryDirectory(prefix="siku_gallery_") as tmp:
+        base = Path(tmp)
+        if args.keep is not None:
+            args.keep.mkdir(parents=True)  # a new folder: never one that holds other files
+            base = args.keep.resolve()
         for name in args.only:
-            work = Path(tmp) / name
+            work = base / name
             work.mkdir()
             for p in steps[name](work, out, args.hours):
                 print("picture:", p, flush=True)

@@ -24,19 +24,21 @@ PARAMS = {
 }
 
 
-def scene(law, jointed="collide"):
+def scene(law, jointed="collide", touching="contact"):
     pack = square_pack(30.0, 72.0, 5, 2, 2000.0, jitter=0.2, seed=7, left="static",
                        right="steady", right_velocity=[1.0, 0.3])
     return contact_scene(law, PARAMS[law], packs=[pack], dt=DT, steps=2 * N,
-                         output={"every": N * DT}, jointed=jointed)
+                         output={"every": N * DT}, jointed=jointed, touching=touching)
 
 
 # under contact.jointed = "exclude" a joint that breaks adds its pair to the candidate list
 # then and there; the restarted run builds the list afresh: the same contacts in the same order
-@pytest.mark.parametrize("law, jointed", [(law, "collide") for law in PARAMS]
-                         + [("distributed_spring", "exclude")])
-def test_restart_after_joints_broke_continues_bit_for_bit(tmp_path, law, jointed):
-    sc = scene(law, jointed)
+@pytest.mark.parametrize("law, jointed, touching",
+                         [(law, "collide", "contact") for law in PARAMS]
+                         + [("distributed_spring", "exclude", "contact"),
+                            ("distributed_spring", "collide", "ignore")])
+def test_restart_after_joints_broke_continues_bit_for_bit(tmp_path, law, jointed, touching):
+    sc = scene(law, jointed, touching)
     whole = Simulation(sc, out=False, progress=False).run()
     assert whole.step_index == 2 * N
 

@@ -42,10 +42,12 @@ DYN = ("q", "V", "w")
 
 
 def pulled_pack(law="distributed_spring", steps=30, nx=12, ny=8, jitter=0.2, gap=0.0,
-                touching=None):
+                touching="contact"):
     """A jittered jointed pack at 70°N, west column static, east column pulled north-east at
     2 m/s: joints stretch and (distributed_spring) break near the handle, and broken and
-    compressed neighbours collide."""
+    compressed neighbours collide. ``touching = "contact"`` (not the default): the neighbours
+    that touch to round-off are contacts too, so every path of the collision loop runs, and
+    the serial reference loops (which know no other rule) apply."""
     params = {"distributed_spring": {"tensile_strain": 1e-4, "damage_onset": 0.5},
               "mohr_coulomb": {"break_share": 0.8}, "collision": {}}[law]
     pack = square_pack(10.0, 70.0, nx, ny, 2000.0, jitter=jitter, gap=gap, seed=3,

@@ -163,11 +163,12 @@ def _forces(sim, face_path):
 
 def test_the_engine_puts_a_touching_face_at_the_middle_of_its_joint():
     # a jointed pack at 70°N, east column pulled north-east: stretched, sheared and touching
-    # joints (the packs of test_engine_kernels, unjittered)
+    # joints (the packs of test_engine_kernels, unjittered); touching faces are contacts
+    # under touching = "contact" only
     pack = square_pack(10.0, 70.0, 12, 8, 2000.0, jitter=0.0, seed=3, left="static",
                        right="steady", right_velocity=[2.0, 0.7])
     sc = contact_scene("distributed_spring", {"tensile_strain": 1e-4, "damage_onset": 0.5},
-                       packs=[pack], dt=0.05, steps=10)
+                       packs=[pack], dt=0.05, steps=10, touching="contact")
     sim = Simulation(sc, out=False, progress=False)
     sim.run(10)
     cm = sim.contacts

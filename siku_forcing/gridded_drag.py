@@ -1,0 +1,54 @@
+"""Quadratic drag from a gridded velocity field in one pass over the elements.
+
+The drag sources (``air_drag``, ``water_drag``; :mod:`siku_forcing.drag`) with a ``gridded``
+field (:mod:`siku_forcing.gridded`) would otherwise make three passes: the element centres'
+latitude and longitude (``latlon_of``), the interpolated field at them (``interpolate``), and
+the stress (``_stress``), with two pairs of temporary arrays between them. :func:`gridded_stress`
+does the three for each element in turn, on the engine's chunks (``siku_core.parallel``): the
+same arithmetic in the same order (every piece is the same inlined function), so the forces
+are the same bit for bit, and the field is read where the element is.
+"""
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+
+from siku_core.parallel import chunk_bounds
+
+from .drag import _stress_one
+from .gridded_kernel import interpolate_one
+
+
+@njit(cache=True, parallel=True)
+def gridded_stress(q, V, area, rho, C, theta, subtract_ice, ylat, xoff, lon0, periodic, cap_s,
+                   cap_n, U0, V0, P0, U1, V1, P1, alpha, F, nch, nout, first):
+    """Add the drag ``S rho C |D| (D cos th + k × D sin th)``, ``D = U_field - subtract_ice U``
+    [N], of the field interpolated at each element's centre (records ``U0, V0`` and ``U1, V1``
+    [m/s] with weights ``1 - alpha`` and ``alpha``; grid as :func:`interpolate_one`).
+
+    ``nout[c]``, ``first[c]``: points of chunk ``c`` outside the grid (field zero there) and the
+    first of them (-1: none).
+    """
+    ct, st = math.cos(theta), math.sin(theta)
+    n = q.shape[0]
+    for c in prange(nch):
+        lo, hi = chunk_bounds(c, nch, n)
+        no = 0
+        fi = -1
+        for i in range(lo, hi):
+            w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+            cx = 2 * (x * z + w * y)  # as siku_core.geometry.quat.latlon_of
+            cy = 2 * (y * z - w * x)
+            cz = 1 - 2 * (x * x + y * y)
+            lat = math.atan2(cz, math.hypot(cx, cy))
+            lon = math.atan2(cy, cx)
+            u, v, inside = interpolate_one(lat, lon, ylat, xoff, lon0, periodic, cap_s, cap_n,
+                                           U0, V0, P0, U1, V1, P1, alpha)
+            if not inside:
+                if no == 0:
+                    fi = i
+                no += 1
+            _stress_one(q, V, i, u, v, area, rho, C, ct, st, subtract_ice, F)
+        nout[c] = no
+        first[c] = fi
