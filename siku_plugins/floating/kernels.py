@@ -1,0 +1,110 @@
+"""Kernels of the ``floating`` process: where each element is on the wave field's plane, the
+Froude–Krylov load of the incident wave on its bottom, and the time stepping of heave and the
+two tilts (``siku_plugins.floating.process`` gives the equations)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from siku_core.geometry.quat import east_north_row
+
+
+@njit(cache=True)
+def centres_and_frames(q):
+    """``lat, lon`` [rad] of each element's centre and ``e0, e1``: the east unit vector in the
+    element's local frame (north is ``(-e1, e0)``)."""
+    n = q.shape[0]
+    lat = np.empty(n)
+    lon = np.empty(n)
+    e0 = np.empty(n)
+    e1 = np.empty(n)
+    for i in range(n):
+        z = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])
+        x3 = 2.0 * (q[i, 1] * q[i, 3] + q[i, 0] * q[i, 2])
+        y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
+        lat[i] = math.asin(max(-1.0, min(1.0, z)))
+        lon[i] = math.atan2(y3, x3)
+        ex, ey, _, _ = east_north_row(q, i)
+        e0[i] = ex
+        e1[i] = ey
+    return lat, lon, e0, e1
+
+
+@njit(cache=True, inline="always")
+def _attenuation(k, d, depth):
+    """Pressure of a linear wave at depth ``d`` over that at the surface: ``e^{-k d}`` in deep
+    water (``depth`` = inf), ``cosh(k (H - d)) / cosh(k H)`` otherwise (written without
+    overflow)."""
+    if not math.isfinite(depth):
+        return math.exp(-k * d)
+    if d >= depth:
+        d = depth
+    return math.exp(-k * d) * (1.0 + math.exp(-2.0 * k * (depth - d))) / (
+        1.0 + math.exp(-2.0 * k * depth))
+
+
+@njit(cache=True, inline="always")
+def _excite(t, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att):
+    """``(∫ eta' dA [m³], ∫ u eta' dA, ∫ v eta' dA [m⁴])`` over the element's bottom, ``eta'``
+    the incident elevation attenuated to the draft (``att`` per component), ``u, v`` the
+    principal coordinates of the quadrature points."""
+    f = 0.0
+    g1 = 0.0
+    g2 = 0.0
+    for p in range(lo, hi):
+        xe = xc + qa[p] * e0 + qb[p] * e1
+        yn = yc - qa[p] * e1 + qb[p] * e0
+        eta = 0.0
+        for j in range(amp.shape[0]):
+            eta += amp[j] * att[j] * math.cos(kx[j] * xe + ky[j] * yn - om[j] * t + ph[j])
+        w = qw[p] * eta
+        f += w
+        g1 += qu[p] * w
+        g2 += qv[p] * w
+    return f, g1, g2
+
+
+@njit(cache=True)
+def advance(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw,
+            amp, kx, ky, om, ph, kk, depth, rho_g, draft, h, area,
+            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, s1, v1, s2, v2):
+    """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
+    the damping taken half explicitly (first half step) and half implicitly (second), so that
+    the scheme is second order and, for the linear oscillator, stable for ``omega dt < 2``.
+    Arrays ``z, vz, s1, v1, s2, v2`` change in place."""
+    natt = amp.shape[0]
+    att = np.empty(natt)
+    for i in range(z.shape[0]):
+        if not free[i]:
+            continue
+        d = draft[i]
+        for j in range(natt):
+            att[j] = _attenuation(kk[j], d, depth)
+        lo, hi = qoff[i], qoff[i + 1]
+        ka = rho_g * area[i]
+        f, g1, g2 = _excite(t0, xc[i], yc[i], e0[i], e1[i], lo, hi, qa, qb, qu, qv, qw,
+                            amp, kx, ky, om, ph, att)
+        zi, vzi, s1i, v1i, s2i, v2i = z[i], vz[i], s1[i], v1[i], s2[i], v2[i]
+        m3, b3, m1, c1, b1, m2, c2, b2 = M3[i], B3[i], M1[i], C1[i], B1[i], M2[i], C2[i], B2[i]
+        hd = 0.5 * dt
+        den3 = 1.0 + hd * b3 / m3
+        den1 = 1.0 + hd * b1 / m1
+        den2 = 1.0 + hd * b2 / m2
+        for k in range(n_sub):
+            # buoyancy saturates out of the water (0) and once submerged (rho_w g A h)
+            fh = ka * (min(max(d - zi, 0.0), h[i]) - d)
+            vzh = vzi + hd * (fh + rho_g * f - b3 * vzi) / m3
+            v1h = v1i + hd * (-c1 * s1i + rho_g * g1 - b1 * v1i) / m1
+            v2h = v2i + hd * (-c2 * s2i + rho_g * g2 - b2 * v2i) / m2
+            zi += dt * vzh
+            s1i += dt * v1h
+            s2i += dt * v2h
+            f, g1, g2 = _excite(t0 + (k + 1) * dt, xc[i], yc[i], e0[i], e1[i], lo, hi, qa,
+                                qb, qu, qv, qw, amp, kx, ky, om, ph, att)
+            fh = ka * (min(max(d - zi, 0.0), h[i]) - d)
+            vzi = (vzh + hd * (fh + rho_g * f) / m3) / den3
+            v1i = (v1h + hd * (-c1 * s1i + rho_g * g1) / m1) / den1
+            v2i = (v2h + hd * (-c2 * s2i + rho_g * g2) / m2) / den2
+        z[i], vz[i], s1[i], v1[i], s2[i], v2[i] = zi, vzi, s1i, v1i, s2i, v2i

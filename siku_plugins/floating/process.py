@@ -1,0 +1,280 @@
+"""``floating``: elements that float, with heave, roll and pitch in still water and in waves.
+
+Linear seakeeping of each element as a rigid prism of its polygon (area ``A`` [m²], thickness
+``h`` [m], density ``rho_i``) floating in water of density ``rho_w``: draft ``d = h rho_i /
+rho_w``, mass ``m = rho_i h A``. The vertical degrees of freedom are decoupled, in linear
+theory, from the horizontal motion the engine integrates, so this process owns them as declared
+per-element fields and advances them itself after each step (sub-stepping, below):
+
+* ``heave`` ζ [m], the rise of the element's centre of mass above its floating position in
+  still water, and ``heave_rate`` [m/s]:
+
+      (m + A33) ζ'' = rho_w g A [clamp(d - ζ, 0, h) - d] - B33 ζ' + rho_w g ∫ eta_d dA
+
+  (buoyancy saturates when the element leaves the water or is submerged: released from any
+  height it falls and settles at draft ``d``);
+* the tilts ``roll`` and ``pitch`` [rad] about the element's local x and y axes (right-handed,
+  z up: positive roll raises the +y side, positive pitch lowers the +x side), and their rates
+  [rad/s]. They are integrated as the slopes ``s_k`` of the element along the principal axes
+  ``k = 1, 2`` of its waterplane (second moments ``J_k``, ``siku_plugins.floating.geometry``):
+
+      (rho_i h J_k + m h²/12 + A_k) s_k'' = -C_k s_k - B_k s_k' + rho_w g ∫ u_k eta_d dA,
+      C_k = rho_w g [J_k - A d (h - d) / 2]
+
+  (``C_k`` the hydrostatic restoring with the centre of buoyancy ``d/2`` below the water line
+  and the centre of gravity ``h/2 - d`` above it; an element with ``C_k <= 0`` capsizes alone
+  and is refused).
+
+``eta_d`` is the Froude–Krylov pressure head of the incident wave at the draft, from the wave
+field of the scene's first ``[[forcing]]`` table that has one (``linear_wave``, ``jonswap``;
+``wave = "none"``: still water): ``eta_d = sum a_j att_j cos(psi_j)``, ``att_j = e^{-k_j d}``
+in deep water, ``cosh(k_j (H - d)) / cosh(k_j H)`` in water of depth ``H``, integrated over the
+element's bottom by quadrature at its present horizontal position. Side-wall pressures and
+diffraction are not included (the wave's load is Froude–Krylov only).
+
+Added mass and damping: with ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
+``A_k = added_inertia rho_w A^{1/2} J_k`` and the damping as a fraction of critical, ``B33 = 2
+damping_ratio sqrt((m + A33) rho_w g A)``, ``B_k = 2 tilt_damping_ratio sqrt(M_k C_k)``; the
+defaults are capytaine's values for a 10 m × 10 m × 1 m block at its natural frequencies
+(``docs/explanation/floating.md``). With ``coefficients = "capytaine"`` (the optional extra
+``siku[hydro]``) they are capytaine's A(omega), B(omega) of each element's prism at the natural
+frequency of each mode, computed once per shape and cached on disk
+(``siku_plugins.floating.hydro``). Constant coefficients: the radiation memory of a transient
+(Cummins' equation) is not modelled.
+
+Time stepping: velocity Verlet with the damping half explicit, half implicit
+(``siku_plugins.floating.kernels.advance``), in sub-steps of at most ``T_min /
+steps_per_period``, ``T_min`` the shortest natural period of any free element's three modes,
+so the process sets no limit on the scene's ``dt`` (the period error is ``(2 pi /
+steps_per_period)² / 24``, 0.04 % by default). The wave load is evaluated at every sub-step
+with the element's horizontal position at the end of the engine's step.
+
+Only free elements float; static, steady and melted ones keep zero heave and tilt.
+"""
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+
+from siku_core.errors import SceneError
+from siku_core.ice import ElementField
+from siku_core.interfaces import Process
+from siku_core.params import Param
+from siku_core.state import FREE
+
+from .geometry import principal, quadrature, second_moments
+from .kernels import advance, centres_and_frames
+
+FIELDS = (
+    ElementField("heave", "m", "rise of the element's centre of mass above its floating "
+                 "position in still water"),
+    ElementField("heave_rate", "m s-1", "vertical velocity of the element"),
+    ElementField("roll", "rad", "tilt about the element's local x axis (+y side up)"),
+    ElementField("roll_rate", "rad s-1", "rate of roll"),
+    ElementField("pitch", "rad", "tilt about the element's local y axis (+x side down)"),
+    ElementField("pitch_rate", "rad s-1", "rate of pitch"),
+)
+
+
+class Floating(Process):
+    """Heave, roll and pitch of floating elements: buoyancy, added mass, radiation damping and
+    the Froude–Krylov load of the scene's waves (linear, per element)."""
+
+    name = "floating"
+    owned_fields = FIELDS
+    params: ClassVar[dict[str, Param]] = {
+        "rho_water": Param(1026.0, "kg/m^3", "water density rho_w", min=1e-6),
+        "g": Param(9.81, "m/s^2", "gravitational acceleration", min=1e-6),
+        "coefficients": Param("scene", "", "added mass and damping from these parameters "
+                              "('scene') or from capytaine, cached ('capytaine')", type=str,
+                              choices=("scene", "capytaine")),
+        "added_mass": Param(0.243, "1", "heave added mass A33 / (rho_w A^1.5)", min=0.0),
+        "damping_ratio": Param(0.169, "1", "heave radiation damping as a fraction of "
+                               "critical, B33 / (2 sqrt((m + A33) rho_w g A))", min=0.0),
+        "added_inertia": Param(0.133, "1", "tilt added inertia A_k / (rho_w A^0.5 J_k)",
+                               min=0.0),
+        "tilt_damping_ratio": Param(0.125, "1", "tilt radiation damping as a fraction of "
+                                    "critical", min=0.0),
+        "wave": Param("auto", "", "the incident wave: 'auto' (the field of the first "
+                      "[[forcing]] table with a wave field; still water if none) or 'none'",
+                      type=str, choices=("auto", "none")),
+        "initial_heave": Param(0.0, "m", "heave of every free element at the start"),
+        "initial_roll": Param(0.0, "rad", "roll of every free element at the start"),
+        "initial_pitch": Param(0.0, "rad", "pitch of every free element at the start"),
+        "steps_per_period": Param(64, "1", "sub-steps per shortest natural period", type=int,
+                                  min=8),
+        "quadrature": Param(4, "1", "subdivisions of each edge triangle for the wave load",
+                            type=int, min=1, max=64),
+        "frequency": Param("natural", "", "capytaine's coefficients at each mode's natural "
+                           "frequency ('natural') or at the frequency of the wave field's "
+                           "largest component ('wave': exact for a monochromatic sea)",
+                           type=str, choices=("natural", "wave")),
+        "hydro_cache": Param("", "", "folder of capytaine's cached coefficients ('': the user "
+                             "cache, siku/hydro)", type=str),
+        "mesh_size": Param(0.0, "m", "largest panel of capytaine's mesh (0: a sixteenth of "
+                           "the element's smallest width)", min=0.0),
+    }
+
+    # ------------------------------------------------------------------ set-up
+    def setup(self, ctx) -> None:
+        st = ctx.state
+        p = self.p
+        where = f"{ctx.where(self.table)}: process 'floating'"
+        n = st.n
+        mats = list(ctx.scene.cfg.materials.items())
+        rho_w, g = float(p["rho_water"]), float(p["g"])
+        self.free = st.flags == FREE
+        self.rho_g = rho_w * g
+        rho_i = np.array([mats[k][1].density for k in st.material], dtype=float)
+        for k in np.unique(st.material[self.free]) if n else ():
+            name, mat = mats[k]
+            if not mat.density < rho_w:
+                raise SceneError(f"{where}: material '{name}' has density {mat.density:g} "
+                                 f"kg/m3, not below the water's {rho_w:g} kg/m3: it cannot "
+                                 "float")
+        h = st.thickness.astype(float)
+        self.h = h
+        self.draft = h * rho_i / rho_w
+        if np.any(self.free & ~(self.draft > 0)):
+            i = int(np.flatnonzero(self.free & ~(self.draft > 0))[0])
+            raise SceneError(f"{where}: element {i} has draft {self.draft[i]:g} m; a floating "
+                             "element needs a positive thickness and density")
+        # waterplane: principal axes and second moments, quadrature points
+        self.area = st.area.astype(float)
+        self.phi = np.zeros(n)
+        self.J1 = np.zeros(n)
+        self.J2 = np.zeros(n)
+        qa, qb, qw, off = [], [], [], [0]
+        for i in range(n):
+            poly = st.polygon(i)
+            _, ixx, iyy, ixy = second_moments(poly)
+            self.phi[i], self.J1[i], self.J2[i] = principal(ixx, iyy, ixy)
+            if self.free[i]:
+                pts, w = quadrature(poly, int(p["quadrature"]))
+                qa.append(pts[:, 0])
+                qb.append(pts[:, 1])
+                qw.append(w)
+                off.append(off[-1] + len(w))
+            else:
+                off.append(off[-1])
+        self.qa, self.qb, self.qw = (np.concatenate(x) if x else np.zeros(0)
+                                     for x in (qa, qb, qw))
+        self.qoff = np.array(off, dtype=np.int64)
+        c, s = np.cos(self.phi), np.sin(self.phi)
+        elem = np.repeat(np.arange(n), np.diff(self.qoff))
+        self.qu = self.qa * c[elem] + self.qb * s[elem]
+        self.qv = -self.qa * s[elem] + self.qb * c[elem]
+        self._wave(ctx)
+        self._coefficients(ctx, rho_i, rho_w, g, where)
+        # the start: every free element at the scene's initial heave and tilts
+        f = ctx.fields
+        for key in ("heave", "roll", "pitch"):
+            f[key][self.free] = p[f"initial_{key}"]
+
+    def _coefficients(self, ctx, rho_i, rho_w, g, where) -> None:
+        p = self.p
+        st = ctx.state
+        A, h, d = self.area, self.h, self.draft
+        m = rho_i * h * A
+        C3 = rho_w * g * A
+        C1 = rho_w * g * (self.J1 - A * d * (h - d) / 2.0)
+        C2 = rho_w * g * (self.J2 - A * d * (h - d) / 2.0)
+        bad = self.free & ~((C1 > 0) & (C2 > 0))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise SceneError(f"{where}: element {i} (thickness {h[i]:g} m, area {A[i]:g} m2) "
+                             "would capsize alone: its metacentric height is not positive; "
+                             "use elements wider than about twice their thickness")
+        I1 = rho_i * h * self.J1 + m * h * h / 12.0
+        I2 = rho_i * h * self.J2 + m * h * h / 12.0
+        if p["coefficients"] == "capytaine":
+            from .hydro import element_coefficients
+
+            omega = None
+            if p["frequency"] == "wave":
+                if self.field is None:
+                    raise SceneError(f"{where}: frequency = 'wave' needs a wave field in a "
+                                     "[[forcing]] table")
+                omega = float(self.field.omega[np.argmax(self.field.amp)])
+            A33, B33, A1, B1, A2, B2 = element_coefficients(
+                st, self.free, self.phi, h, d, m, I1, I2, C3, C1, C2, rho_w, g,
+                p["hydro_cache"], p["mesh_size"], omega, ctx.scene.base_dir, where)
+        else:
+            A33 = p["added_mass"] * rho_w * A ** 1.5
+            A1 = p["added_inertia"] * rho_w * np.sqrt(A) * self.J1
+            A2 = p["added_inertia"] * rho_w * np.sqrt(A) * self.J2
+            B33 = 2 * p["damping_ratio"] * np.sqrt((m + A33) * C3)
+            B1 = 2 * p["tilt_damping_ratio"] * np.sqrt((I1 + A1) * C1)
+            B2 = 2 * p["tilt_damping_ratio"] * np.sqrt((I2 + A2) * C2)
+        self.M3, self.B3 = m + A33, B33
+        self.M1, self.C1, self.B1 = I1 + A1, C1, B1
+        self.M2, self.C2, self.B2 = I2 + A2, C2, B2
+        self.C3 = C3
+        free = self.free
+        if free.any():
+            w2 = np.concatenate([(C3 / self.M3)[free], (C1 / self.M1)[free],
+                                 (C2 / self.M2)[free]])
+            #: shortest natural period of any free element's modes [s]
+            self.period_min = float(2 * math.pi / math.sqrt(w2.max()))
+        else:
+            self.period_min = math.inf
+
+    def _wave(self, ctx) -> None:
+        """The wave field of the first ``[[forcing]]`` table that has one (module docstring),
+        built from the same table (so the same sea the horizontal forcing feels)."""
+        self.field = None
+        if self.p["wave"] == "none":
+            return
+        for k, f in enumerate(ctx.scene.cfg.forcing):
+            if f.field is None:
+                continue
+            field = ctx.component("field", f.field.type, f.field.params,
+                                  f"forcing[{k}].field")
+            if not hasattr(field, "components") or not hasattr(field, "plane"):
+                continue
+            field.setup(ctx)
+            self.field = field
+            return
+
+    # ------------------------------------------------------------------ the step
+    def apply(self, ctx, dt: float) -> None:
+        if dt <= 0.0 or not self.free.any():
+            return
+        f = ctx.fields
+        n_sub = max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
+        h_sub = dt / n_sub
+        st = ctx.state
+        fld = self.field
+        if fld is not None:
+            lat, lon, e0, e1 = centres_and_frames(st.q)
+            xc, yc = fld.plane(lat, lon)
+            wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h))
+        else:
+            xc = yc = e0 = e1 = np.zeros(st.n)
+            z0 = np.zeros(0)
+            wave = (z0, z0, z0, z0, z0, z0, math.inf)
+        c, s = np.cos(self.phi), np.sin(self.phi)
+        # tilts as slopes along the principal axes: (sx, sy) = (-pitch, roll) in local axes
+        sx, sy = -f["pitch"], f["roll"]
+        vx, vy = -f["pitch_rate"], f["roll_rate"]
+        s1, s2 = sx * c + sy * s, -sx * s + sy * c
+        v1, v2 = vx * c + vy * s, -vx * s + vy * c
+        z = f["heave"].copy()
+        vz = f["heave_rate"].copy()
+        advance(n_sub, h_sub, float(ctx.time - dt), self.free, xc, yc, e0, e1, self.qoff,
+                self.qa, self.qb, self.qu, self.qv, self.qw, *wave, self.rho_g, self.draft,
+                self.h, self.area, self.M3, self.B3, self.M1, self.C1, self.B1, self.M2,
+                self.C2, self.B2, z, vz, s1, v1, s2, v2)
+        f["heave"][:] = z
+        f["heave_rate"][:] = vz
+        f["pitch"][:] = -(s1 * c - s2 * s)
+        f["roll"][:] = s1 * s + s2 * c
+        f["pitch_rate"][:] = -(v1 * c - v2 * s)
+        f["roll_rate"][:] = v1 * s + v2 * c
+
+    def describe(self):
+        out = super().describe()
+        out["period_min"] = self.period_min if hasattr(self, "period_min") else None
+        return out
