@@ -8,7 +8,8 @@ quadrilaterals from the centroid, each wall in a grid of quadrilaterals, panels 
 about the centre of mass ``(0, 0, h/2 - d)``, and solved with ``capytaine.BEMSolver`` for
 ``RadiationProblem``s (infinite depth, the scene's ``rho_w`` and ``g``). For each mode the
 coefficients are taken at the mode's natural frequency, found by the fixed point ``omega =
-sqrt(C / (M + A(omega)))`` from ``A = 0`` (:data:`ITERATIONS` solves), or at a given frequency.
+sqrt(C / (M + A(omega)))`` from ``A = 0`` until omega changes by less than :data:`OMEGA_TOL`
+(A depends little on omega: a few solves), or at a given frequency.
 The slope along principal axis 1 is capytaine's ``Pitch`` (rotation about the y axis), the
 slope along axis 2 its ``Roll``.
 
@@ -29,8 +30,10 @@ import numpy as np
 
 from siku_core.errors import SceneError
 
-#: fixed-point solves for a mode's natural frequency
-ITERATIONS = 3
+#: most fixed-point solves for a mode's natural frequency, and their tolerance (relative
+#: change of omega between two solves)
+ITERATIONS = 12
+OMEGA_TOL = 1e-6
 #: the mark a cache file carries
 MARK = "siku floating hydro cache"
 
@@ -44,7 +47,7 @@ def _cpt(where: str):
                          "coefficients in the scene") from None
     import logging
 
-    logging.getLogger("capytaine").setLevel(logging.WARNING)
+    logging.getLogger("capytaine").setLevel(logging.ERROR)
     return cpt
 
 
@@ -62,12 +65,12 @@ def prism_mesh(poly: np.ndarray, draft: float, size: float) -> tuple[np.ndarray,
 
     k = len(poly)
     r = float(np.max(np.hypot(poly[:, 0], poly[:, 1])))
-    nr = max(1, math.ceil(r / size))
-    nz = max(1, math.ceil(draft / size))
+    nr = max(1, math.ceil(r / size - 1e-9))
+    nz = max(1, math.ceil(draft / size - 1e-9))
     z0 = -draft
     for e in range(k):
         a, b = poly[e], poly[(e + 1) % k]
-        na = max(1, math.ceil(float(np.hypot(*(b - a))) / size))
+        na = max(1, math.ceil(float(np.hypot(*(b - a))) / size - 1e-9))
         # bottom: grid (i radial, j along the edge) of the fan triangle (0, a, b)
         grid = [[vid((0.0, 0.0, z0))] * (na + 1)]
         for i in range(1, nr + 1):
@@ -125,15 +128,18 @@ def excitation(bod, omega: float, rho: float, g: float, direction: float = 0.0,
 
 def mode_coefficients(bod, dof, M, C, rho, g, omega=None, where="capytaine"):
     """``(A, B, omega)`` of ``dof`` at ``omega`` or, when ``None``, at the natural frequency
-    (fixed point of ``sqrt(C / (M + A))``, :data:`ITERATIONS` solves)."""
+    (fixed point of ``sqrt(C / (M + A))`` to :data:`OMEGA_TOL`)."""
     if omega is not None:
         return (*radiation(bod, dof, omega, rho, g, where), float(omega))
     w = math.sqrt(C / M)
-    A = B = 0.0
     for _ in range(ITERATIONS):
         A, B = radiation(bod, dof, w, rho, g, where)
-        w = math.sqrt(C / (M + A))
-    return A, B, w
+        new = math.sqrt(C / (M + A))
+        if abs(new - w) <= OMEGA_TOL * w:
+            return A, B, w
+        w = new
+    raise SceneError(f"{where}: the natural frequency of {dof} did not settle in "
+                     f"{ITERATIONS} capytaine solves")
 
 
 def _cache_dir(cache: str, base: Path, where: str) -> Path:
@@ -152,16 +158,10 @@ def _cache_dir(cache: str, base: Path, where: str) -> Path:
     return d
 
 
-def shape_coefficients(poly, h, d, M, C, rho, g, size, omega, cache_dir: Path, where):
-    """``{"heave"|"slope1"|"slope2": (A, B, omega)}`` for one shape, from the cache or
-    computed and cached (module docstring). ``M, C``: the three modes' masses and
-    stiffnesses without added mass; ``omega``: a frequency or ``None`` (natural)."""
-    key = {"poly": np.round(np.asarray(poly), 3).tolist(), "draft": round(float(d), 6),
-           "thickness": round(float(h), 6), "rho": rho, "g": g, "size": round(size, 6),
-           "omega": omega, "M": [float(f"{x:.9g}") for x in M],
-           "C": [float(f"{x:.9g}") for x in C], "iterations": ITERATIONS}
+def _cached(cache_dir: Path, prefix: str, key: dict, compute, where: str):
+    """The value cached under ``key`` (module docstring), or ``compute()`` written there."""
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
-    path = cache_dir / f"hydro-{digest}.json"
+    path = cache_dir / f"{prefix}-{digest}.json"
     if path.exists():
         try:
             data = json.loads(path.read_text())
@@ -172,12 +172,8 @@ def shape_coefficients(poly, h, d, M, C, rho, g, size, omega, cache_dir: Path, w
             raise SceneError(f"{where}: {path} exists and is not a cache file siku wrote; "
                              "move it or choose another hydro_cache")
         if data.get("key") == key:
-            return {k: tuple(v) for k, v in data["values"].items()}
-    bod = body(poly, d, h, size, where)
-    out = {}
-    for mode, dof, m, c in (("heave", "Heave", M[0], C[0]), ("slope1", "Pitch", M[1], C[1]),
-                            ("slope2", "Roll", M[2], C[2])):
-        out[mode] = mode_coefficients(bod, dof, m, c, rho, g, omega, where)
+            return data["values"]
+    out = compute()
     try:
         path.write_text(json.dumps({"mark": MARK, "key": key, "values": out}))
     except OSError as exc:
@@ -185,6 +181,106 @@ def shape_coefficients(poly, h, d, M, C, rho, g, size, omega, cache_dir: Path, w
 
         warnings.warn(f"{path}: cannot write capytaine's cache ({exc})", stacklevel=2)
     return out
+
+
+def _shape_key(poly, h, d, rho, g, size) -> dict:
+    return {"poly": np.round(np.asarray(poly), 3).tolist(), "draft": round(float(d), 6),
+            "thickness": round(float(h), 6), "rho": rho, "g": g, "size": round(size, 6)}
+
+
+def shape_coefficients(poly, h, d, M, C, rho, g, size, omega, cache_dir: Path, where):
+    """``{"heave"|"slope1"|"slope2": (A, B, omega)}`` for one shape, from the cache or
+    computed and cached (module docstring). ``M, C``: the three modes' masses and
+    stiffnesses without added mass; ``omega``: a frequency or ``None`` (natural)."""
+    key = {**_shape_key(poly, h, d, rho, g, size), "omega": omega,
+           "M": [float(f"{x:.9g}") for x in M], "C": [float(f"{x:.9g}") for x in C],
+           "iterations": ITERATIONS, "tol": OMEGA_TOL}
+
+    def compute():
+        bod = body(poly, d, h, size, where)
+        return {mode: mode_coefficients(bod, dof, m, c, rho, g, omega, where)
+                for mode, dof, m, c in (("heave", "Heave", M[0], C[0]),
+                                        ("slope1", "Pitch", M[1], C[1]),
+                                        ("slope2", "Roll", M[2], C[2]))}
+
+    return {k: tuple(v) for k, v in _cached(cache_dir, "hydro", key, compute, where).items()}
+
+
+def shape_excitation(poly, h, d, rho, g, size, omega, beta, depth, cache_dir, where):
+    """Capytaine's Froude–Krylov plus diffraction excitation of one shape by a unit wave of
+    ``omega`` [rad/s] travelling at ``beta`` [rad] from principal axis 1, as the model's
+    modes: ``{"heave": N/m, "slope1": -Pitch, "slope2": Roll [N m/m]}``, complex, cached."""
+    key = {**_shape_key(poly, h, d, rho, g, size), "omega": float(omega),
+           "beta": round(float(beta), 9), "depth": None if math.isinf(depth) else depth}
+
+    def compute():
+        cpt = _cpt(where)
+        bod = body(poly, d, h, size, where)
+        pb = cpt.DiffractionProblem(body=bod, wave_direction=float(beta), omega=float(omega),
+                                    rho=rho, g=g, water_depth=depth)
+        fk = cpt.bem.airy_waves.froude_krylov_force(pb)
+        r = cpt.BEMSolver().solve(pb)
+        tot = {k: complex(fk[k]) + complex(r.forces[k]) for k in ("Heave", "Pitch", "Roll")}
+        return {"heave": [tot["Heave"].real, tot["Heave"].imag],
+                "slope1": [-tot["Pitch"].real, -tot["Pitch"].imag],
+                "slope2": [tot["Roll"].real, tot["Roll"].imag]}
+
+    out = _cached(cache_dir, "hydro-exc", key, compute, where)
+    return {k: complex(*v) for k, v in out.items()}
+
+
+#: most (shape, wave component) pairs the diffraction load is computed for
+MAX_DIFFRACTION = 64
+
+
+def diffraction_factors(proc, ctx, rho, g, where) -> np.ndarray:
+    """``kap (n, M, 3, 2)``: per free element, wave component and mode, capytaine's excitation
+    over the model's Froude–Krylov integral (real, imaginary), at the element's heading at the
+    start (``siku_plugins.floating.kernels._excite``). A mode the wave does not load (an
+    integral below 1e-9 of ``rho g A sqrt(A)``) keeps the factor 1."""
+    from .kernels import _attenuation, centres_and_frames
+
+    st = ctx.state
+    fld = proc.field
+    p = proc.p
+    _, _, e0, e1 = centres_and_frames(st.q)
+    cache_dir = _cache_dir(p["hydro_cache"], ctx.scene.base_dir, where)
+    nm = len(fld.amp)
+    kap = np.zeros((st.n, nm, 3, 2))
+    kap[..., 0] = 1.0
+    done: dict = {}
+    for i in np.flatnonzero(proc.free):
+        c, s = math.cos(proc.phi[i]), math.sin(proc.phi[i])
+        poly = st.polygon(i) @ np.array([[c, -s], [s, c]])
+        width = 2 * float(np.min(np.abs(poly).max(axis=0)))
+        sz = p["mesh_size"] if p["mesh_size"] > 0 else width / 16.0
+        lo, hi = proc.qoff[i], proc.qoff[i + 1]
+        u, v, w = proc.qu[lo:hi], proc.qv[lo:hi], proc.qw[lo:hi]
+        for j in range(nm):
+            ka = fld.kx[j] * e0[i] - fld.ky[j] * e1[i]   # wavenumber in local axes
+            kb = fld.kx[j] * e1[i] + fld.ky[j] * e0[i]
+            ku, kv = ka * c + kb * s, -ka * s + kb * c
+            beta = math.atan2(kv, ku)
+            key = (tuple(np.round(poly, 3).ravel()), round(proc.h[i], 6),
+                   round(proc.draft[i], 6), float(fld.omega[j]), round(beta, 9))
+            if key not in done:
+                if len(done) >= MAX_DIFFRACTION:
+                    raise SceneError(f"{where}: diffraction = true needs capytaine for more "
+                                     f"than {MAX_DIFFRACTION} (shape, wave component) pairs; "
+                                     "use it with monochromatic waves and few shapes")
+                done[key] = shape_excitation(poly, proc.h[i], proc.draft[i], rho, g, sz,
+                                             fld.omega[j], beta, float(fld.h), cache_dir,
+                                             where)
+            tot = done[key]
+            e = np.exp(1j * (ku * u + kv * v))
+            att = _attenuation(fld.k[j], proc.draft[i], float(fld.h))
+            small = 1e-9 * rho * g * proc.area[i] ** 1.5
+            for mode, lever in enumerate((np.ones_like(u), u, v)):
+                model = rho * g * att * np.sum(w * lever * e)
+                if abs(model) > small:
+                    q = tot[("heave", "slope1", "slope2")[mode]] / model
+                    kap[i, j, mode] = (q.real, q.imag)
+    return kap
 
 
 def element_coefficients(st, free, phi, h, d, m, I1, I2, C3, C1, C2, rho, g, cache, size,

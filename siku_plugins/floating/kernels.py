@@ -46,29 +46,53 @@ def _attenuation(k, d, depth):
 
 
 @njit(cache=True, inline="always")
-def _excite(t, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att):
-    """``(∫ eta' dA [m³], ∫ u eta' dA, ∫ v eta' dA [m⁴])`` over the element's bottom, ``eta'``
-    the incident elevation attenuated to the draft (``att`` per component), ``u, v`` the
-    principal coordinates of the quadrature points."""
+def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap):
+    """``(∫ eta' dA [m³], ∫ u eta' dA, ∫ v eta' dA [m⁴])`` over element ``i``'s bottom,
+    ``eta'`` the incident elevation attenuated to the draft (``att`` per component), ``u, v``
+    the principal coordinates of the quadrature points. With ``kap`` (``(n, M, 3, 2)``, not
+    empty) each component's three complex loads are multiplied by ``kap[i, j, mode]`` (real,
+    imaginary): the ratio of capytaine's Froude–Krylov plus diffraction excitation to this
+    Froude–Krylov integral (``siku_plugins.floating.hydro.diffraction_factors``)."""
     f = 0.0
     g1 = 0.0
     g2 = 0.0
-    for p in range(lo, hi):
-        xe = xc + qa[p] * e0 + qb[p] * e1
-        yn = yc - qa[p] * e1 + qb[p] * e0
-        eta = 0.0
-        for j in range(amp.shape[0]):
-            eta += amp[j] * att[j] * math.cos(kx[j] * xe + ky[j] * yn - om[j] * t + ph[j])
-        w = qw[p] * eta
-        f += w
-        g1 += qu[p] * w
-        g2 += qv[p] * w
+    use = kap.shape[0] > 0
+    for j in range(amp.shape[0]):
+        c0 = 0.0
+        c1 = 0.0
+        c2 = 0.0
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for p in range(lo, hi):
+            xe = xc + qa[p] * e0 + qb[p] * e1
+            yn = yc - qa[p] * e1 + qb[p] * e0
+            psi = kx[j] * xe + ky[j] * yn - om[j] * t + ph[j]
+            w = qw[p]
+            cs = math.cos(psi)
+            c0 += w * cs
+            c1 += qu[p] * w * cs
+            c2 += qv[p] * w * cs
+            if use:
+                sn = math.sin(psi)
+                s0 += w * sn
+                s1 += qu[p] * w * sn
+                s2 += qv[p] * w * sn
+        aa = amp[j] * att[j]
+        if use:
+            f += aa * (kap[i, j, 0, 0] * c0 - kap[i, j, 0, 1] * s0)
+            g1 += aa * (kap[i, j, 1, 0] * c1 - kap[i, j, 1, 1] * s1)
+            g2 += aa * (kap[i, j, 2, 0] * c2 - kap[i, j, 2, 1] * s2)
+        else:
+            f += aa * c0
+            g1 += aa * c1
+            g2 += aa * c2
     return f, g1, g2
 
 
 @njit(cache=True)
 def advance(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, rho_g, draft, h, area,
+            amp, kx, ky, om, ph, kk, depth, kap, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, s1, v1, s2, v2):
     """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
     the damping taken half explicitly (first half step) and half implicitly (second), so that
@@ -84,8 +108,8 @@ def advance(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw,
             att[j] = _attenuation(kk[j], d, depth)
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
-        f, g1, g2 = _excite(t0, xc[i], yc[i], e0[i], e1[i], lo, hi, qa, qb, qu, qv, qw,
-                            amp, kx, ky, om, ph, att)
+        f, g1, g2 = _excite(t0, i, xc[i], yc[i], e0[i], e1[i], lo, hi, qa, qb, qu, qv, qw,
+                            amp, kx, ky, om, ph, att, kap)
         zi, vzi, s1i, v1i, s2i, v2i = z[i], vz[i], s1[i], v1[i], s2[i], v2[i]
         m3, b3, m1, c1, b1, m2, c2, b2 = M3[i], B3[i], M1[i], C1[i], B1[i], M2[i], C2[i], B2[i]
         hd = 0.5 * dt
@@ -101,8 +125,8 @@ def advance(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw,
             zi += dt * vzh
             s1i += dt * v1h
             s2i += dt * v2h
-            f, g1, g2 = _excite(t0 + (k + 1) * dt, xc[i], yc[i], e0[i], e1[i], lo, hi, qa,
-                                qb, qu, qv, qw, amp, kx, ky, om, ph, att)
+            f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc[i], yc[i], e0[i], e1[i], lo, hi,
+                                qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap)
             fh = ka * (min(max(d - zi, 0.0), h[i]) - d)
             vzi = (vzh + hd * (fh + rho_g * f) / m3) / den3
             v1i = (v1h + hd * (-c1 * s1i + rho_g * g1) / m1) / den1

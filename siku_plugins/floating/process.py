@@ -111,6 +111,9 @@ class Floating(Process):
                            "frequency ('natural') or at the frequency of the wave field's "
                            "largest component ('wave': exact for a monochromatic sea)",
                            type=str, choices=("natural", "wave")),
+        "diffraction": Param(False, "", "add the diffraction load to the Froude–Krylov one: "
+                             "capytaine's excitation of each element's prism for each wave "
+                             "component, at the element's heading at the start", type=bool),
         "hydro_cache": Param("", "", "folder of capytaine's cached coefficients ('': the user "
                              "cache, siku/hydro)", type=str),
         "mesh_size": Param(0.0, "m", "largest panel of capytaine's mesh (0: a sixteenth of "
@@ -168,6 +171,14 @@ class Floating(Process):
         self.qv = -self.qa * s[elem] + self.qb * c[elem]
         self._wave(ctx)
         self._coefficients(ctx, rho_i, rho_w, g, where)
+        self.kap = np.zeros((0, 0, 3, 2))
+        if p["diffraction"]:
+            if p["coefficients"] != "capytaine" or self.field is None:
+                raise SceneError(f"{where}: diffraction = true needs coefficients = "
+                                 "'capytaine' and a wave field in a [[forcing]] table")
+            from .hydro import diffraction_factors
+
+            self.kap = diffraction_factors(self, ctx, rho_w, g, where)
         # the start: every free element at the scene's initial heave and tilts
         f = ctx.fields
         for key in ("heave", "roll", "pitch"):
@@ -250,11 +261,12 @@ class Floating(Process):
         if fld is not None:
             lat, lon, e0, e1 = centres_and_frames(st.q)
             xc, yc = fld.plane(lat, lon)
-            wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h))
+            wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
+                    self.kap)
         else:
             xc = yc = e0 = e1 = np.zeros(st.n)
             z0 = np.zeros(0)
-            wave = (z0, z0, z0, z0, z0, z0, math.inf)
+            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)))
         c, s = np.cos(self.phi), np.sin(self.phi)
         # tilts as slopes along the principal axes: (sx, sy) = (-pitch, roll) in local axes
         sx, sy = -f["pitch"], f["roll"]
