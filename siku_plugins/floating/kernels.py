@@ -117,9 +117,10 @@ def advance(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw,
         den1 = 1.0 + hd * b1 / m1
         den2 = 1.0 + hd * b2 / m2
         for k in range(n_sub):
-            # buoyancy saturates out of the water (0) and once submerged (rho_w g A h)
-            fh = ka * (min(max(d - zi, 0.0), h[i]) - d)
-            vzh = vzi + hd * (fh + rho_g * f - b3 * vzi) / m3
+            # buoyancy and wave load together saturate once the element is out of the water
+            # (0) or under it (rho_w g A h): the submergence is d - ζ + (wave load)/(rho_w g A)
+            fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
+            vzh = vzi + hd * (fh - b3 * vzi) / m3
             v1h = v1i + hd * (-c1 * s1i + rho_g * g1 - b1 * v1i) / m1
             v2h = v2i + hd * (-c2 * s2i + rho_g * g2 - b2 * v2i) / m2
             zi += dt * vzh
@@ -127,8 +128,8 @@ def advance(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw,
             s2i += dt * v2h
             f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc[i], yc[i], e0[i], e1[i], lo, hi,
                                 qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap)
-            fh = ka * (min(max(d - zi, 0.0), h[i]) - d)
-            vzi = (vzh + hd * (fh + rho_g * f) / m3) / den3
+            fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
+            vzi = (vzh + hd * fh / m3) / den3
             v1i = (v1h + hd * (-c1 * s1i + rho_g * g1) / m1) / den1
             v2i = (v2h + hd * (-c2 * s2i + rho_g * g2) / m2) / den2
         z[i], vz[i], s1[i], v1[i], s2[i], v2[i] = zi, vzi, s1i, v1i, s2i, v2i

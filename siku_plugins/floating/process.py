@@ -9,10 +9,12 @@ per-element fields and advances them itself after each step (sub-stepping, below
 * ``heave`` ζ [m], the rise of the element's centre of mass above its floating position in
   still water, and ``heave_rate`` [m/s]:
 
-      (m + A33) ζ'' = rho_w g A [clamp(d - ζ, 0, h) - d] - B33 ζ' + rho_w g ∫ eta_d dA
+      (m + A33) ζ'' = rho_w g A [clamp(d - ζ + ∫ eta_d dA / A, 0, h) - d] - B33 ζ'
 
-  (buoyancy saturates when the element leaves the water or is submerged: released from any
-  height it falls and settles at draft ``d``);
+  (linear: ``-rho_w g A ζ + rho_w g ∫ eta_d dA``, the hydrostatic restoring and the wave's
+  load, as long as the element is neither out of the water nor under it; beyond, buoyancy and
+  wave load saturate: released from any height it falls and settles at draft ``d``, and a
+  floe overtopped by a wave feels at most its whole volume's buoyancy);
 * the tilts ``roll`` and ``pitch`` [rad] about the element's local x and y axes (right-handed,
   z up: positive roll raises the +y side, positive pitch lowers the +x side), and their rates
   [rad/s]. They are integrated as the slopes ``s_k`` of the element along the principal axes
