@@ -162,7 +162,7 @@ def test_heave_in_waves_is_the_oscillator_with_the_froude_krylov_load(T):
     A = L * L
     d = RHO_I / RHO_W
     m = RHO_I * A
-    A33 = 0.243 * RHO_W * A**1.5
+    A33 = 0.244 * RHO_W * A**1.5
     B33 = 2 * 0.2 * math.sqrt((m + A33) * RHO_W * G * A)
     F = RHO_W * G * a * math.exp(-k * d) * A * math.sin(k * L / 2) / (k * L / 2)
     X = F / (RHO_W * G * A - w * w * (m + A33) - 1j * w * B33)

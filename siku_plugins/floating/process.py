@@ -92,12 +92,12 @@ class Floating(Process):
         "coefficients": Param("scene", "", "added mass and damping from these parameters "
                               "('scene') or from capytaine, cached ('capytaine')", type=str,
                               choices=("scene", "capytaine")),
-        "added_mass": Param(0.243, "1", "heave added mass A33 / (rho_w A^1.5)", min=0.0),
-        "damping_ratio": Param(0.169, "1", "heave radiation damping as a fraction of "
+        "added_mass": Param(0.244, "1", "heave added mass A33 / (rho_w A^1.5)", min=0.0),
+        "damping_ratio": Param(0.172, "1", "heave radiation damping as a fraction of "
                                "critical, B33 / (2 sqrt((m + A33) rho_w g A))", min=0.0),
-        "added_inertia": Param(0.133, "1", "tilt added inertia A_k / (rho_w A^0.5 J_k)",
+        "added_inertia": Param(0.139, "1", "tilt added inertia A_k / (rho_w A^0.5 J_k)",
                                min=0.0),
-        "tilt_damping_ratio": Param(0.125, "1", "tilt radiation damping as a fraction of "
+        "tilt_damping_ratio": Param(0.100, "1", "tilt radiation damping as a fraction of "
                                     "critical", min=0.0),
         "wave": Param("auto", "", "the incident wave: 'auto' (the field of the first "
                       "[[forcing]] table with a wave field; still water if none) or 'none'",
