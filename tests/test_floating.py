@@ -226,3 +226,110 @@ def test_the_process_conformance_suite(tmp_path):
 
     check_process(Floating, {"initial_heave": 0.1, "initial_roll": 1e-3,
                              "initial_pitch": -1e-3}, tmp_path)
+
+
+# ---------------------------------------------------------------------------- bonds that bend
+M_DEG = 1.0 / 111194.92664455873   # one metre of longitude at the equator [deg]
+
+
+def strip(n, a, h=0.5, E=1e9, nu=0.3, params="", dt=0.01, duration=0.02, unstable=False):
+    """A 1-element-wide strip of ``n`` squares of side ``a`` along the equator, jointed."""
+    lon = n * a * M_DEG / 2
+    txt = f"""
+title = "floating strip"
+[time]
+duration = {duration}
+dt = {dt}
+[materials.ice]
+density = {RHO_I}
+youngs_modulus = {E}
+poisson_ratio = {nu}
+[elements]
+thickness = {h}
+[[elements.pack]]
+lon = [{-lon}, {lon}]
+lat = [{-a * M_DEG / 2}, {a * M_DEG / 2}]
+nx = {n}
+ny = 1
+[contact]
+law = "distributed_spring"
+[run]
+allow_unstable_dt = {str(unstable).lower()}
+[[process]]
+name = "floating"
+params = {{ bending = true, {params} }}
+"""
+    return Simulation(scene_from_text(txt, "<strip>"), out=False, progress=False)
+
+
+def set_state(sim, u):
+    """Heave, pitch and roll from ``u`` (heave and slopes along the principal axes)."""
+    p = sim.processes[0]
+    c, s = p.cphi, p.sphi
+    f = sim.context.fields
+    f["heave"][:] = u[:, 0]
+    f["pitch"][:] = -(u[:, 1] * c - u[:, 2] * s)
+    f["roll"][:] = u[:, 1] * s + u[:, 2] * c
+
+
+def test_a_loaded_floating_beam_is_hetenyis():
+    """A point load on a floating strip (1 m elements, below a quarter of the characteristic
+    length l = (D / rho_w g)^(1/4) = 5.8 m): the deflection and the bending
+    stress at the joints are Hetényi's beam on an elastic foundation, w = P lam / (2 k)
+    e^{-lam x} (cos lam x + sin lam x) (P < 0: downwards), M = EI w'' = -P / (4 lam) e^{-lam x}
+    (cos lam x - sin lam x),
+    k = rho_w g b, lam = 1 / (sqrt(2) l), within 3 %."""
+    n, a, h, E, nu, P = 121, 1.0, 0.5, 1e9, 0.3, -1000.0
+    sim = strip(n, a, h, E, nu, f"loads = [[{n // 2}, {P}]]", unstable=True)
+    proc = sim.processes[0]
+    u = proc.equilibrium(sim.context)
+    D = E * h**3 / (12 * (1 - nu**2))
+    ell = (D / (RHO_W * G)) ** 0.25
+    assert a <= ell / 4
+    lam = 1 / (math.sqrt(2) * ell)
+    k = RHO_W * G * a
+    x = np.abs(np.arange(n) - n // 2) * a
+    near = x <= 3 * ell          # where the deflection is not small
+    w = P * lam / (2 * k) * np.exp(-lam * x) * (np.cos(lam * x) + np.sin(lam * x))
+    np.testing.assert_allclose(u[near, 0], w[near], rtol=3e-2)
+    set_state(sim, u)
+    sig = proc.stresses(sim.context)
+    cm = sim.contacts
+    xj = np.abs(0.5 * (cm.ji + cm.jj) - n // 2) * a
+    # M = EI w'' (sagging positive) of the w above
+    M = -P / (4 * lam) * np.exp(-lam * xj) * (np.cos(lam * xj) - np.sin(lam * xj))
+    big = xj <= ell
+    np.testing.assert_allclose(sig[big], (6 * M / (a * h * h))[big], rtol=3e-2)
+
+
+def test_a_damped_loaded_beam_settles_at_its_equilibrium():
+    """Stepped in time (the engine's stable step), a damped loaded strip settles at the static
+    solution of the same stiffness, to 1e-6 relative."""
+    sim = strip(5, 2.0, params="loads = [[2, -500.0]], damping_ratio = 1.0, "
+                "tilt_damping_ratio = 1.0", dt=4e-4, duration=6.0)
+    sim.run()
+    u = sim.processes[0].equilibrium(sim.context)
+    np.testing.assert_allclose(sim.context.fields["heave"], u[:, 0], rtol=1e-6)
+
+
+@pytest.mark.parametrize("factor,broken", [(0.5, 0), (1.5, 2)])
+def test_joints_break_in_flexure_where_the_stress_exceeds_the_strength(factor, broken):
+    """A load whose static bending stress at the two joints beside it is ``factor`` times the
+    flexural strength: below, nothing breaks; above, those two break, with mode flexure."""
+    from siku_core.contact_law import BreakMode
+
+    probe = strip(5, 2.0, params="loads = [[2, -500.0]]", dt=4e-4)
+    pr = probe.processes[0]
+    u = pr.equilibrium(probe.context)
+    set_state(probe, u)
+    strength = float(np.max(np.abs(pr.stresses(probe.context)))) / factor
+    sim = strip(5, 2.0, params=f"loads = [[2, -500.0]], damping_ratio = 1.0, "
+                f"tilt_damping_ratio = 1.0, flexural_strength = {strength}", dt=4e-4,
+                duration=3.0)
+    sim.run()
+    cm = sim.contacts
+    gone = np.flatnonzero(~cm.intact)
+    assert len(gone) == broken
+    if broken:
+        assert set(gone) == {k for k in range(cm.n_joints) if 2 in (cm.ji[k], cm.jj[k])}
+        assert np.all(cm.break_mode[gone] == int(BreakMode.FLEXURE))

@@ -120,6 +120,13 @@ class Floating(Process):
         "diffraction": Param(False, "", "add the diffraction load to the Froude–Krylov one: "
                              "capytaine's excitation of each element's prism for each wave "
                              "component, at the element's heading at the start", type=bool),
+        "bending": Param(False, "", "the intact joints are beams that carry vertical shear "
+                         "and bending moments between their elements, and break in flexure "
+                         "(siku_plugins.floating.bending; needs a [contact] table)", type=bool),
+        "flexural_strength": Param(1e6, "Pa", "bending stress 6 M / (w h²) that breaks a "
+                                   "joint (with bending = true)", min=0.0),
+        "loads": Param([], "N", "constant vertical forces [[element, F_z], ...] on elements, "
+                       "upward positive (a load on the ice)", type=list),
         "hydro_cache": Param("", "", "folder of capytaine's cached coefficients ('': the user "
                              "cache, siku/hydro)", type=str),
         "mesh_size": Param(0.0, "m", "largest panel of capytaine's mesh (0: a sixteenth of "
@@ -191,6 +198,23 @@ class Floating(Process):
             from .hydro import diffraction_factors
 
             self.kap = diffraction_factors(self, ctx, rho_w, g, where)
+        self.load = np.zeros(n)
+        for item in p["loads"]:
+            ok = (isinstance(item, list) and len(item) == 2 and isinstance(item[0], int)
+                  and 0 <= item[0] < n and isinstance(item[1], (int, float)))
+            if not ok:
+                raise SceneError(f"{where}: loads: each item is [element index, force in N] "
+                                 f"with an index below {n}; got {item!r}")
+            self.load[item[0]] += float(item[1])
+        self.beams = None
+        if p["bending"]:
+            if ctx.contacts is None or not ctx.contacts.n_joints:
+                raise SceneError(f"{where}: bending = true needs jointed elements (a "
+                                 "[contact] table whose elements are frozen together)")
+            from .bending import Beams
+
+            self.beams = Beams(self, ctx)
+            self.period_min = min(self.period_min, self.beams.period_min)
         # the start: every free element at the scene's initial heave and tilts
         f = ctx.fields
         for key in ("heave", "roll", "pitch"):
@@ -265,6 +289,8 @@ class Floating(Process):
     def apply(self, ctx, dt: float) -> None:
         if dt <= 0.0 or not self.free.any():
             return
+        if self.beams is not None or self.load.any():
+            return self._apply_coupled(ctx, dt)
         f = ctx.fields
         n_sub = max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
         st = ctx.state
@@ -283,6 +309,82 @@ class Floating(Process):
                 *wave, self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
                 self.C1, self.B1, self.M2, self.C2, self.B2, f["heave"], f["heave_rate"],
                 f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"])
+
+    def _apply_coupled(self, ctx, dt: float) -> None:
+        """:meth:`apply` with beams between jointed elements or loads
+        (``siku_plugins.floating.bending``): all elements together in each sub-step."""
+        from .bending import advance_bonded
+        from .kernels import centres_and_frames
+
+        st = ctx.state
+        f = ctx.fields
+        bm = self.beams
+        if bm is not None and not np.array_equal(bm.seen, bm.cm.intact):
+            bm.assemble(self)       # joints broke (the law, a restart) since the last step
+            self.period_min = min(self.period_min, bm.period_min)
+        n_sub = max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
+        fld = self.field
+        if fld is not None:
+            lat, lon, e0, e1 = centres_and_frames(st.q)
+            xc, yc = fld.plane(lat, lon)
+            wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
+                    self.kap)
+        else:
+            xc = yc = e1 = np.zeros(st.n)
+            e0 = np.ones(st.n)
+            z0 = np.zeros(0)
+            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)))
+        if bm is not None:
+            csr = (bm.indptr, bm.indices, bm.data)
+        else:
+            csr = (np.zeros(3 * st.n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+                   np.zeros(0))
+        c, s = self.cphi, self.sphi
+        sx, sy = -f["pitch"], f["roll"]
+        wx, wy = -f["pitch_rate"], f["roll_rate"]
+        u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
+        v = np.column_stack([f["heave_rate"], wx * c + wy * s, -wx * s + wy * c]).ravel()
+        advance_bonded(n_sub, dt / n_sub, float(ctx.time - dt), self.free, xc, yc, e0, e1,
+                       self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw, *wave,
+                       self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
+                       self.C1, self.B1, self.M2, self.C2, self.B2, self.load, *csr, u, v)
+        U, W = u.reshape(-1, 3), v.reshape(-1, 3)
+        f["heave"][:] = U[:, 0]
+        f["heave_rate"][:] = W[:, 0]
+        f["pitch"][:] = -(U[:, 1] * c - U[:, 2] * s)
+        f["roll"][:] = U[:, 1] * s + U[:, 2] * c
+        f["pitch_rate"][:] = -(W[:, 1] * c - W[:, 2] * s)
+        f["roll_rate"][:] = W[:, 1] * s + W[:, 2] * c
+        if bm is not None:
+            if bm.break_overstressed(self, u, self.p["flexural_strength"], ctx.time):
+                self.period_min = min(self.period_min, bm.period_min)
+
+    def equilibrium(self, ctx) -> np.ndarray:
+        """The static state ``(n, 3)`` (heave [m], principal slopes) under the scene's
+        ``loads`` in still water, linear: ``(K_beams + C) u = F`` (scipy's sparse solver):
+        what a damped run settles to."""
+        from scipy.sparse import csr_matrix, diags
+        from scipy.sparse.linalg import spsolve
+
+        n = ctx.state.n
+        C = np.column_stack([self.C3, self.C1, self.C2]).ravel()
+        K = diags(C)
+        if self.beams is not None:
+            b = self.beams
+            K = K + csr_matrix((b.data, b.indices, b.indptr), shape=(3 * n, 3 * n))
+        F = np.column_stack([self.load, np.zeros(n), np.zeros(n)]).ravel()
+        keep = np.repeat(self.free, 3)
+        u = np.zeros(3 * n)
+        u[keep] = spsolve(K.tocsr()[keep][:, keep].tocsc(), F[keep])
+        return u.reshape(n, 3)
+
+    def stresses(self, ctx) -> np.ndarray:
+        """Bending stress [Pa] at every joint line now (``bending = true``)."""
+        f = ctx.fields
+        c, s = self.cphi, self.sphi
+        sx, sy = -f["pitch"], f["roll"]
+        u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
+        return self.beams.stress(u)
 
     def describe(self):
         out = super().describe()
