@@ -44,7 +44,11 @@ def second_moments(poly: np.ndarray) -> tuple[float, float, float, float]:
 def principal(ixx: float, iyy: float, ixy: float) -> tuple[float, float, float]:
     """``(phi [rad], J1, J2 [m⁴])``: the angle of principal axis 1 from local x and the second
     moments ``∫u² dA`` along axis 1 and ``∫v² dA`` along axis 2 (``ixx = ∫x²``, ``iyy =
-    ∫y²``, ``ixy = ∫xy``)."""
+    ∫y²``, ``ixy = ∫xy``). A waterplane whose two moments are equal to 1e-4 (a square, a
+    regular polygon: every axis is principal, or nearly) keeps the local axes, ``phi = 0``,
+    rather than an angle that round-off would choose."""
+    if abs(2.0 * ixy) + abs(ixx - iyy) <= 1e-4 * (ixx + iyy):
+        return 0.0, ixx, iyy
     phi = 0.5 * math.atan2(2.0 * ixy, ixx - iyy)
     c, s = math.cos(phi), math.sin(phi)
     j1 = c * c * ixx + 2 * c * s * ixy + s * s * iyy

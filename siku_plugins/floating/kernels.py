@@ -47,13 +47,15 @@ def _attenuation(k, d, depth):
 
 
 @njit(cache=True, inline="always")
-def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap):
+def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap,
+            ramp):
     """``(∫ eta' dA [m³], ∫ u eta' dA, ∫ v eta' dA [m⁴])`` over element ``i``'s bottom,
     ``eta'`` the incident elevation attenuated to the draft (``att`` per component), ``u, v``
     the principal coordinates of the quadrature points. With ``kap`` (``(n, M, 3, 2)``, not
     empty) each component's three complex loads are multiplied by ``kap[i, j, mode]`` (real,
     imaginary): the ratio of capytaine's Froude–Krylov plus diffraction excitation to this
-    Froude–Krylov integral (``siku_plugins.floating.hydro.diffraction_factors``)."""
+    Froude–Krylov integral (``siku_plugins.floating.hydro.diffraction_factors``). ``ramp`` [s]
+    > 0: the loads grow as ``(1 - cos(pi t / ramp)) / 2`` until ``t = ramp``."""
     f = 0.0
     g1 = 0.0
     g2 = 0.0
@@ -88,13 +90,18 @@ def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, p
             f += aa * c0
             g1 += aa * c1
             g2 += aa * c2
+    if ramp > 0.0 and t < ramp:
+        r = 0.5 * (1.0 - math.cos(math.pi * max(t, 0.0) / ramp))
+        f *= r
+        g1 *= r
+        g2 *= r
     return f, g1, g2
 
 
 @njit(cache=True)
 def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                    qa, qb, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, rho_g, draft, h, area,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     """Elements ``lo_e`` to ``hi_e`` of :func:`advance`."""
     natt = amp.shape[0]
@@ -128,7 +135,7 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
         f, g1, g2 = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw,
-                            amp, kx, ky, om, ph, att, kap)
+                            amp, kx, ky, om, ph, att, kap, ramp)
         c = cphi[i]
         s = sphi[i]
         # tilts as slopes along the principal axes: (sx, sy) = (-pitch, roll) locally
@@ -157,7 +164,7 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
             s2i += dt * v2h
             if wave:
                 f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa,
-                                    qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap)
+                                    qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap, ramp)
             fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
             vzi = (vzh + hd * fh / m3) / den3
             v1i = (v1h + hd * (-c1 * s1i + rho_g * g1) / m1) / den1
@@ -173,19 +180,19 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
 @njit(cache=True, parallel=True)
 def _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                       qa, qb, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, rho_g, draft, h, area,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     n = z.shape[0]
     for ch in prange(nch):
         lo_e, hi_e = chunk_bounds(ch, nch, n)
         _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
                        qoff, qa, qb, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, rho_g, draft, h, area,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
 
 
 def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, rho_g, draft, h, area,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
     the damping taken half explicitly (first half step) and half implicitly (second), so that
@@ -198,10 +205,10 @@ def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb
     if nch > 1:
         _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                           qa, qb, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, rho_g, draft, h, area,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
     else:
         _advance_range(0, z.shape[0], n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
                        qoff, qa, qb, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, rho_g, draft, h, area,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)

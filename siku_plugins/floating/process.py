@@ -104,6 +104,8 @@ class Floating(Process):
         "wave": Param("auto", "", "the incident wave: 'auto' (the field of the first "
                       "[[forcing]] table with a wave field; still water if none) or 'none'",
                       type=str, choices=("auto", "none")),
+        "ramp": Param(0.0, "s", "the wave's loads grow from 0 as (1 - cos(pi t / ramp)) / 2 "
+                      "over the first ramp seconds (0: from the start)", min=0.0),
         "initial_heave": Param(0.0, "m", "heave of every free element at the start"),
         "initial_roll": Param(0.0, "rad", "roll of every free element at the start"),
         "initial_pitch": Param(0.0, "rad", "pitch of every free element at the start"),
@@ -299,11 +301,11 @@ class Floating(Process):
             fld._args()
             geo = (fld.lat0, fld.lon0, float(fld.radius))
             wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
-                    self.kap)
+                    self.kap, float(self.p["ramp"]))
         else:
             z0 = np.zeros(0)
             geo = (0.0, 0.0, 1.0)
-            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)))
+            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0)
         advance(chunks(st.n), n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *geo,
                 self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw,
                 *wave, self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
@@ -328,12 +330,12 @@ class Floating(Process):
             lat, lon, e0, e1 = centres_and_frames(st.q)
             xc, yc = fld.plane(lat, lon)
             wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
-                    self.kap)
+                    self.kap, float(self.p["ramp"]))
         else:
             xc = yc = e1 = np.zeros(st.n)
             e0 = np.ones(st.n)
             z0 = np.zeros(0)
-            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)))
+            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0)
         if bm is not None:
             csr = (bm.indptr, bm.indices, bm.data)
         else:
