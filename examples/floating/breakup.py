@@ -86,8 +86,8 @@ def main() -> None:
     print(f"strip {N * A_EL:g} m of {A_EL:g} m elements, l = {ell:.1f} m, waves {PERIOD:g} s "
           f"(wavelength {2 * math.pi / k:.0f} m), amplitude up to {AMP:g} m over {RAMP:g} s")
     print(f"thin plate following the wave reaches {STRENGTH / 1e3:g} kPa at t = "
-          f"{when(1.0):.2f} s; with its stiffness, 1 / (1 + (k l)^4) = "
-          f"{1 / (1 + (k * ell) ** 4):.3f}: t = {when(1 / (1 + (k * ell) ** 4)):.2f} s")
+          f"{when(1.0):.3f} s; with its stiffness, 1 / (1 + (k l)^4) = "
+          f"{1 / (1 + (k * ell) ** 4):.3f}: t = {when(1 / (1 + (k * ell) ** 4)):.3f} s")
     if first is None:
         print("no joint broke")
         return
