@@ -1,0 +1,199 @@
+"""Bonds that bend: the intact joints of a floating floe as beams between element centres.
+
+With ``bending = true`` the ``floating`` process couples the heave and tilts of jointed
+elements. Joint ``k`` between elements ``i`` and ``j`` is an Euler–Bernoulli beam from the
+centre of ``i`` to the centre of ``j`` (length ``L = a_i + a_j``, ``a`` the distance from a
+centre to the joint line), of flexural rigidity ``EI = D w``, ``w`` the joint's length and ``D
+= E h³ / (12 (1 − ν²))`` (``h`` the thinner side, ``E`` and ``ν`` the mean of the two
+materials'). Its degrees of freedom are the heaves ``ζ_i, ζ_j`` and the slopes of the two
+elements along the beam, ``θ = s · n`` (``n`` the unit normal of the joint line, from ``i`` to
+``j``, in each element's principal axes), and its stiffness is the cubic (Hermite) beam's:
+
+    K = EI / L³ [[12, 6L, −12, 6L], [6L, 4L², −6L, 2L²], [−12, −6L, 12, −6L],
+                 [6L, 2L², −6L, 4L²]]
+
+so a floe carries vertical shear and bending moments between its elements, and with the
+buoyancy of each element it is a beam (a plate, by a grid of beams) on an elastic foundation:
+a point load ``P`` on a strip of width ``b`` deflects it as Hetényi's ``w(x) = P λ / (2 k)
+e^{−λ|x|} (cos λx + sin λx)``, ``k = ρ_w g b``, ``λ = 1 / (√2 ℓ)``, ``ℓ = (D / ρ_w g)^{1/4}``
+(``tests/test_floating.py``). Torsion and Poisson coupling across beams are not modelled.
+
+The bending moment at the joint line is ``M = EI w''(a_i)`` of the beam's cubic, the bending
+stress ``σ = 6 M / (w h²)``; a joint whose ``|σ|`` exceeds ``flexural_strength`` breaks with
+mode ``flexure`` after the step (and carries nothing from then on).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from siku_core.contact_law import BreakMode
+
+from .kernels import _attenuation, _excite
+
+
+class Beams:
+    """The beams of the intact joints (module docstring), their stiffness in the process's
+    degrees of freedom ``(ζ, s_1, s_2)`` per element (index ``3 i + mode``, slopes along the
+    principal axes) as a CSR matrix, and the joints' bending stresses."""
+
+    def __init__(self, proc, ctx):
+        cm = ctx.contacts
+        st = ctx.state
+        self.cm = cm
+        ji, jj = cm.ji, cm.jj
+        ends_i, ends_j = cm.ends_i, cm.ends_j
+        n = st.n
+
+        def normal(ends, elem):
+            m = 0.5 * (ends[:, 0] + ends[:, 1])
+            t = ends[:, 1] - ends[:, 0]
+            t = t / np.hypot(t[:, 0], t[:, 1])[:, None]
+            nrm = np.column_stack([t[:, 1], -t[:, 0]])
+            a = np.sum(nrm * m, axis=1)
+            flip = a < 0
+            nrm[flip] *= -1
+            a = np.abs(a)
+            c, s = proc.cphi[elem], proc.sphi[elem]
+            # in principal coordinates of the element
+            return np.column_stack([nrm[:, 0] * c + nrm[:, 1] * s,
+                                    -nrm[:, 0] * s + nrm[:, 1] * c]), a
+
+        self.pi, self.ai = normal(ends_i, ji)     # from i towards the joint, i.e. towards j
+        pj, self.aj = normal(ends_j, jj)
+        self.pj = -pj                             # the same direction, i to j, in j's axes
+        self.L = self.ai + self.aj
+        h = np.minimum(st.thickness[ji], st.thickness[jj])
+        E = 0.5 * (cm.E[ji] + cm.E[jj])
+        nu = 0.5 * (cm.nu[ji] + cm.nu[jj])
+        self.h = h
+        self.D = E * h**3 / (12.0 * (1.0 - nu**2))
+        self.w = cm.width
+        self.EI = self.D * self.w
+        self.ji, self.jj, self.n = ji, jj, n
+        self.assemble(proc)
+
+    def _t(self):
+        """Per joint, the 4 × 6 map from ``(ζ_i, s1_i, s2_i, ζ_j, s1_j, s2_j)`` to the beam's
+        ``(ζ_i, θ_i, ζ_j, θ_j)``."""
+        nj = len(self.ji)
+        T = np.zeros((nj, 4, 6))
+        T[:, 0, 0] = 1.0
+        T[:, 1, 1:3] = self.pi
+        T[:, 2, 3] = 1.0
+        T[:, 3, 4:6] = self.pj
+        return T
+
+    def local(self):
+        """Per joint the beam's 4 × 4 stiffness."""
+        L = self.L
+        k = (self.EI / L**3)[:, None, None]
+        one = np.ones_like(L)
+        rows = [[12 * one, 6 * L, -12 * one, 6 * L], [6 * L, 4 * L**2, -6 * L, 2 * L**2],
+                [-12 * one, -6 * L, 12 * one, -6 * L], [6 * L, 2 * L**2, -6 * L, 4 * L**2]]
+        return k * np.stack([np.stack(r, axis=-1) for r in rows], axis=1)
+
+    def assemble(self, proc) -> None:
+        """The CSR stiffness of the intact joints, and the highest frequency it allows
+        (Gershgorin's bound on the mass-normalised stiffness with the hydrostatic one)."""
+        from scipy.sparse import coo_matrix
+
+        keep = np.flatnonzero(self.cm.intact)
+        T = self._t()[keep]
+        K6 = np.einsum("kai,kab,kbj->kij", T, self.local()[keep], T)
+        dof = np.column_stack([3 * self.ji[keep] + m for m in range(3)]
+                              + [3 * self.jj[keep] + m for m in range(3)])
+        r = np.repeat(dof, 6, axis=1).ravel()
+        c = np.tile(dof, (1, 6)).ravel()
+        K = coo_matrix((K6.ravel(), (r, c)), shape=(3 * self.n, 3 * self.n)).tocsr()
+        K.sum_duplicates()
+        K.sort_indices()
+        self.seen = self.cm.intact.copy()
+        self.indptr = K.indptr.astype(np.int64)
+        self.indices = K.indices.astype(np.int64)
+        self.data = K.data.astype(float)
+        M = np.column_stack([proc.M3, proc.M1, proc.M2]).ravel()
+        C = np.column_stack([proc.C3, proc.C1, proc.C2]).ravel()
+        rs = np.sqrt(M)
+        rows = np.repeat(np.arange(3 * self.n), np.diff(self.indptr))
+        bound = np.zeros(3 * self.n)
+        np.add.at(bound, rows, np.abs(self.data) / (rs[rows] * rs[self.indices]))
+        free3 = np.repeat(proc.free, 3)
+        w2 = np.max(((C / M) + bound)[free3]) if free3.any() else 0.0
+        self.period_min = 2 * math.pi / math.sqrt(w2) if w2 > 0 else math.inf
+
+    def stress(self, u: np.ndarray) -> np.ndarray:
+        """Bending stress ``6 M / (w h²)`` [Pa] at every joint line for the state ``u``
+        (``3 n``: heave and principal slopes), from the beam's cubic at ``x = a_i``."""
+        U = u.reshape(-1, 3)
+        wi, wj = U[self.ji, 0], U[self.jj, 0]
+        ti = np.sum(self.pi * U[self.ji, 1:], axis=1)
+        tj = np.sum(self.pj * U[self.jj, 1:], axis=1)
+        L = self.L
+        xi = self.ai / L
+        curv = ((12 * xi - 6) * wi / L**2 + (6 * xi - 4) * ti / L
+                + (-12 * xi + 6) * wj / L**2 + (6 * xi - 2) * tj / L)
+        M = self.EI * curv
+        return 6.0 * M / (self.w * self.h**2)
+
+    def break_overstressed(self, proc, u: np.ndarray, strength: float, t: float) -> int:
+        """Break (mode ``flexure``) the intact joints whose ``|σ|`` exceeds ``strength``."""
+        sig = np.abs(self.stress(u))
+        k = np.flatnonzero(self.cm.intact & (sig > strength))
+        if not len(k):
+            return 0
+        n = self.cm.break_joints(k, BreakMode.FLEXURE, t)
+        self.assemble(proc)
+        return n
+
+
+@njit(cache=True)
+def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw, amp, kx, ky,
+                   om, ph, kk, depth, kap, ramp, rho_g, draft, h, area, M3, B3, M1, C1, B1, M2, C2,
+                   B2, load, indptr, indices, data, u, v):
+    """:func:`siku_plugins.floating.kernels.advance` with the beams' stiffness (CSR over the
+    ``3 n`` degrees of freedom ``u``, velocities ``v``, both in place) and constant vertical
+    loads ``load`` [N]: the same velocity Verlet, every element at once per sub-step."""
+    n = free.shape[0]
+    natt = amp.shape[0]
+    att = np.empty((n, natt))
+    for i in range(n):
+        for j in range(natt):
+            att[i, j] = _attenuation(kk[j], draft[i], depth)
+    F = np.zeros(3 * n)
+    M = np.empty(3 * n)
+    B = np.empty(3 * n)
+    for i in range(n):
+        M[3 * i], M[3 * i + 1], M[3 * i + 2] = M3[i], M1[i], M2[i]
+        B[3 * i], B[3 * i + 1], B[3 * i + 2] = B3[i], B1[i], B2[i]
+    hd = 0.5 * dt
+
+    def forces(t):
+        for i in range(n):
+            if not free[i]:
+                continue
+            f, g1, g2 = _excite(t, i, xc[i], yc[i], e0[i], e1[i], qoff[i], qoff[i + 1], qa,
+                                qb, qu, qv, qw, amp, kx, ky, om, ph, att[i], kap, ramp)
+            d = draft[i]
+            ka = rho_g * area[i]
+            F[3 * i] = ka * (min(max(d - u[3 * i] + f / area[i], 0.0), h[i]) - d) + load[i]
+            F[3 * i + 1] = -C1[i] * u[3 * i + 1] + rho_g * g1
+            F[3 * i + 2] = -C2[i] * u[3 * i + 2] + rho_g * g2
+        for r in range(3 * n):
+            acc = 0.0
+            for p in range(indptr[r], indptr[r + 1]):
+                acc += data[p] * u[indices[p]]
+            F[r] -= acc
+
+    forces(t0)
+    for k in range(n_sub):
+        for r in range(3 * n):
+            if free[r // 3]:
+                v[r] += hd * (F[r] - B[r] * v[r]) / M[r]
+                u[r] += dt * v[r]
+        forces(t0 + (k + 1) * dt)
+        for r in range(3 * n):
+            if free[r // 3]:
+                v[r] = (v[r] + hd * F[r] / M[r]) / (1.0 + hd * B[r] / M[r])

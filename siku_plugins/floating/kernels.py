@@ -1,0 +1,214 @@
+"""Kernels of the ``floating`` process: where each element is on the wave field's plane, the
+Froude–Krylov load of the incident wave on its bottom, and the time stepping of heave and the
+two tilts (``siku_plugins.floating.process`` gives the equations)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from siku_core.geometry.quat import east_north_row
+from siku_core.parallel import chunk_bounds
+
+
+@njit(cache=True)
+def centres_and_frames(q):
+    """``lat, lon`` [rad] of each element's centre and ``e0, e1``: the east unit vector in the
+    element's local frame (north is ``(-e1, e0)``)."""
+    n = q.shape[0]
+    lat = np.empty(n)
+    lon = np.empty(n)
+    e0 = np.empty(n)
+    e1 = np.empty(n)
+    for i in range(n):
+        z = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])
+        x3 = 2.0 * (q[i, 1] * q[i, 3] + q[i, 0] * q[i, 2])
+        y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
+        lat[i] = math.asin(max(-1.0, min(1.0, z)))
+        lon[i] = math.atan2(y3, x3)
+        ex, ey, _, _ = east_north_row(q, i)
+        e0[i] = ex
+        e1[i] = ey
+    return lat, lon, e0, e1
+
+
+@njit(cache=True, inline="always")
+def _attenuation(k, d, depth):
+    """Pressure of a linear wave at depth ``d`` over that at the surface: ``e^{-k d}`` in deep
+    water (``depth`` = inf), ``cosh(k (H - d)) / cosh(k H)`` otherwise (written without
+    overflow)."""
+    if not math.isfinite(depth):
+        return math.exp(-k * d)
+    if d >= depth:
+        d = depth
+    return math.exp(-k * d) * (1.0 + math.exp(-2.0 * k * (depth - d))) / (
+        1.0 + math.exp(-2.0 * k * depth))
+
+
+@njit(cache=True, inline="always")
+def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap,
+            ramp):
+    """``(∫ eta' dA [m³], ∫ u eta' dA, ∫ v eta' dA [m⁴])`` over element ``i``'s bottom,
+    ``eta'`` the incident elevation attenuated to the draft (``att`` per component), ``u, v``
+    the principal coordinates of the quadrature points. With ``kap`` (``(n, M, 3, 2)``, not
+    empty) each component's three complex loads are multiplied by ``kap[i, j, mode]`` (real,
+    imaginary): the ratio of capytaine's Froude–Krylov plus diffraction excitation to this
+    Froude–Krylov integral (``siku_plugins.floating.hydro.diffraction_factors``). ``ramp`` [s]
+    > 0: the loads grow as ``(1 - cos(pi t / ramp)) / 2`` until ``t = ramp``."""
+    f = 0.0
+    g1 = 0.0
+    g2 = 0.0
+    use = kap.shape[0] > 0
+    for j in range(amp.shape[0]):
+        c0 = 0.0
+        c1 = 0.0
+        c2 = 0.0
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for p in range(lo, hi):
+            xe = xc + qa[p] * e0 + qb[p] * e1
+            yn = yc - qa[p] * e1 + qb[p] * e0
+            psi = kx[j] * xe + ky[j] * yn - om[j] * t + ph[j]
+            w = qw[p]
+            cs = math.cos(psi)
+            c0 += w * cs
+            c1 += qu[p] * w * cs
+            c2 += qv[p] * w * cs
+            if use:
+                sn = math.sin(psi)
+                s0 += w * sn
+                s1 += qu[p] * w * sn
+                s2 += qv[p] * w * sn
+        aa = amp[j] * att[j]
+        if use:
+            f += aa * (kap[i, j, 0, 0] * c0 - kap[i, j, 0, 1] * s0)
+            g1 += aa * (kap[i, j, 1, 0] * c1 - kap[i, j, 1, 1] * s1)
+            g2 += aa * (kap[i, j, 2, 0] * c2 - kap[i, j, 2, 1] * s2)
+        else:
+            f += aa * c0
+            g1 += aa * c1
+            g2 += aa * c2
+    if ramp > 0.0 and t < ramp:
+        r = 0.5 * (1.0 - math.cos(math.pi * max(t, 0.0) / ramp))
+        f *= r
+        g1 *= r
+        g2 *= r
+    return f, g1, g2
+
+
+@njit(cache=True)
+def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
+                   qa, qb, qu, qv, qw,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
+    """Elements ``lo_e`` to ``hi_e`` of :func:`advance`."""
+    natt = amp.shape[0]
+    wave = natt > 0
+    c0 = math.cos(lat0)
+    att = np.empty(natt)
+    for i in range(lo_e, hi_e):
+        if not free[i]:
+            continue
+        xc = 0.0
+        yc = 0.0
+        e0 = 1.0
+        e1 = 0.0
+        if wave:
+            zq = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])
+            x3 = 2.0 * (q[i, 1] * q[i, 3] + q[i, 0] * q[i, 2])
+            y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
+            lat = math.asin(max(-1.0, min(1.0, zq)))
+            lon = math.atan2(y3, x3)
+            dl = lon - lon0
+            if dl > math.pi:
+                dl -= 2.0 * math.pi
+            elif dl < -math.pi:
+                dl += 2.0 * math.pi
+            xc = R * c0 * dl
+            yc = R * (lat - lat0)
+            e0, e1, _, _ = east_north_row(q, i)
+        d = draft[i]
+        for j in range(natt):
+            att[j] = _attenuation(kk[j], d, depth)
+        lo, hi = qoff[i], qoff[i + 1]
+        ka = rho_g * area[i]
+        f, g1, g2 = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw,
+                            amp, kx, ky, om, ph, att, kap, ramp)
+        c = cphi[i]
+        s = sphi[i]
+        # tilts as slopes along the principal axes: (sx, sy) = (-pitch, roll) locally
+        sx = -pitch[i]
+        sy = roll[i]
+        wx = -pitch_rate[i]
+        wy = roll_rate[i]
+        zi, vzi = z[i], vz[i]
+        s1i, s2i = sx * c + sy * s, -sx * s + sy * c
+        v1i, v2i = wx * c + wy * s, -wx * s + wy * c
+        m3, b3, m1, c1, b1, m2, c2, b2 = (M3[i], B3[i], M1[i], C1[i], B1[i], M2[i], C2[i],
+                                          B2[i])
+        hd = 0.5 * dt
+        den3 = 1.0 + hd * b3 / m3
+        den1 = 1.0 + hd * b1 / m1
+        den2 = 1.0 + hd * b2 / m2
+        for k in range(n_sub):
+            # buoyancy and wave load together saturate once the element is out of the
+            # water (0) or under it (rho_w g A h): submergence d - ζ + (wave load)/(rho_w g A)
+            fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
+            vzh = vzi + hd * (fh - b3 * vzi) / m3
+            v1h = v1i + hd * (-c1 * s1i + rho_g * g1 - b1 * v1i) / m1
+            v2h = v2i + hd * (-c2 * s2i + rho_g * g2 - b2 * v2i) / m2
+            zi += dt * vzh
+            s1i += dt * v1h
+            s2i += dt * v2h
+            if wave:
+                f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa,
+                                    qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap, ramp)
+            fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
+            vzi = (vzh + hd * fh / m3) / den3
+            v1i = (v1h + hd * (-c1 * s1i + rho_g * g1) / m1) / den1
+            v2i = (v2h + hd * (-c2 * s2i + rho_g * g2) / m2) / den2
+        z[i] = zi
+        vz[i] = vzi
+        pitch[i] = -(s1i * c - s2i * s)
+        roll[i] = s1i * s + s2i * c
+        pitch_rate[i] = -(v1i * c - v2i * s)
+        roll_rate[i] = v1i * s + v2i * c
+
+
+@njit(cache=True, parallel=True)
+def _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
+                      qa, qb, qu, qv, qw,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
+    n = z.shape[0]
+    for ch in prange(nch):
+        lo_e, hi_e = chunk_bounds(ch, nch, n)
+        _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
+                       qoff, qa, qb, qu, qv, qw,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
+
+
+def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
+    """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
+    the damping taken half explicitly (first half step) and half implicitly (second), so that
+    the scheme is second order and, for the linear oscillator, stable for ``omega dt < 2``.
+    The element's centre on the wave field's plane (``x = R cos(lat0) (lon - lon0)``, ``y = R
+    (lat - lat0)``, as ``siku_forcing.waves``) and its local frame come from ``q``; the tilts
+    are stepped as slopes along the principal axes (angle ``phi``: ``cphi, sphi``) and written
+    back as roll and pitch. The fields change in place; elements are independent, in ``nch``
+    chunks (``siku_core.parallel``), so the result does not depend on the threads."""
+    if nch > 1:
+        _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
+                          qa, qb, qu, qv, qw,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
+    else:
+        _advance_range(0, z.shape[0], n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
+                       qoff, qa, qb, qu, qv, qw,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)

@@ -1,0 +1,394 @@
+"""``floating``: elements that float, with heave, roll and pitch in still water and in waves.
+
+Linear seakeeping of each element as a rigid prism of its polygon (area ``A`` [m²], thickness
+``h`` [m], density ``rho_i``) floating in water of density ``rho_w``: draft ``d = h rho_i /
+rho_w``, mass ``m = rho_i h A``. The vertical degrees of freedom are decoupled, in linear
+theory, from the horizontal motion the engine integrates, so this process owns them as declared
+per-element fields and advances them itself after each step (sub-stepping, below):
+
+* ``heave`` ζ [m], the rise of the element's centre of mass above its floating position in
+  still water, and ``heave_rate`` [m/s]:
+
+      (m + A33) ζ'' = rho_w g A [clamp(d - ζ + ∫ eta_d dA / A, 0, h) - d] - B33 ζ'
+
+  (linear: ``-rho_w g A ζ + rho_w g ∫ eta_d dA``, the hydrostatic restoring and the wave's
+  load, as long as the element is neither out of the water nor under it; beyond, buoyancy and
+  wave load saturate: released from any height it falls and settles at draft ``d``, and a
+  floe overtopped by a wave feels at most its whole volume's buoyancy);
+* the tilts ``roll`` and ``pitch`` [rad] about the element's local x and y axes (right-handed,
+  z up: positive roll raises the +y side, positive pitch lowers the +x side), and their rates
+  [rad/s]. They are integrated as the slopes ``s_k`` of the element along the principal axes
+  ``k = 1, 2`` of its waterplane (second moments ``J_k``, ``siku_plugins.floating.geometry``):
+
+      (rho_i h J_k + m h²/12 + A_k) s_k'' = -C_k s_k - B_k s_k' + rho_w g ∫ u_k eta_d dA,
+      C_k = rho_w g [J_k - A d (h - d) / 2]
+
+  (``C_k`` the hydrostatic restoring with the centre of buoyancy ``d/2`` below the water line
+  and the centre of gravity ``h/2 - d`` above it; an element with ``C_k <= 0`` capsizes alone
+  and is refused).
+
+``eta_d`` is the Froude–Krylov pressure head of the incident wave at the draft, from the wave
+field of the scene's first ``[[forcing]]`` table that has one (``linear_wave``, ``jonswap``;
+``wave = "none"``: still water): ``eta_d = sum a_j att_j cos(psi_j)``, ``att_j = e^{-k_j d}``
+in deep water, ``cosh(k_j (H - d)) / cosh(k_j H)`` in water of depth ``H``, integrated over the
+element's bottom by quadrature (``siku_plugins.floating.geometry``; by default as fine as the
+shortest wave needs) at its present horizontal position. Side-wall pressures and
+diffraction are not included (the wave's load is Froude–Krylov only).
+
+Added mass and damping: with ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
+``A_k = added_inertia rho_w A^{1/2} J_k`` and the damping as a fraction of critical, ``B33 = 2
+damping_ratio sqrt((m + A33) rho_w g A)``, ``B_k = 2 tilt_damping_ratio sqrt(M_k C_k)``; the
+defaults are capytaine's values for a 10 m × 10 m × 1 m block at its natural frequencies
+(``docs/explanation/floating.md``). With ``coefficients = "capytaine"`` (the optional extra
+``siku[hydro]``) they are capytaine's A(omega), B(omega) of each element's prism at the natural
+frequency of each mode, computed once per shape and cached on disk
+(``siku_plugins.floating.hydro``). Constant coefficients: the radiation memory of a transient
+(Cummins' equation) is not modelled.
+
+Time stepping: velocity Verlet with the damping half explicit, half implicit
+(``siku_plugins.floating.kernels.advance``), in sub-steps of at most ``T_min /
+steps_per_period``, ``T_min`` the shortest natural period of any free element's three modes,
+so the process sets no limit on the scene's ``dt`` (the period error is ``(2 pi /
+steps_per_period)² / 24``, 0.04 % by default). The wave load is evaluated at every sub-step
+with the element's horizontal position at the end of the engine's step.
+
+Only free elements float; static, steady and melted ones keep zero heave and tilt.
+"""
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+
+from siku_core.errors import SceneError
+from siku_core.ice import ElementField
+from siku_core.parallel import chunks
+from siku_core.interfaces import Process
+from siku_core.params import Param
+from siku_core.state import FREE
+
+from .geometry import principal, quadrature, second_moments
+from .kernels import advance
+
+FIELDS = (
+    ElementField("heave", "m", "rise of the element's centre of mass above its floating "
+                 "position in still water"),
+    ElementField("heave_rate", "m s-1", "vertical velocity of the element"),
+    ElementField("roll", "rad", "tilt about the element's local x axis (+y side up)"),
+    ElementField("roll_rate", "rad s-1", "rate of roll"),
+    ElementField("pitch", "rad", "tilt about the element's local y axis (+x side down)"),
+    ElementField("pitch_rate", "rad s-1", "rate of pitch"),
+)
+
+
+class Floating(Process):
+    """Heave, roll and pitch of floating elements: buoyancy, added mass, radiation damping and
+    the Froude–Krylov load of the scene's waves (linear, per element)."""
+
+    name = "floating"
+    owned_fields = FIELDS
+    params: ClassVar[dict[str, Param]] = {
+        "rho_water": Param(1026.0, "kg/m^3", "water density rho_w", min=1e-6),
+        "g": Param(9.81, "m/s^2", "gravitational acceleration", min=1e-6),
+        "coefficients": Param("scene", "", "added mass and damping from these parameters "
+                              "('scene') or from capytaine, cached ('capytaine')", type=str,
+                              choices=("scene", "capytaine")),
+        "added_mass": Param(0.244, "1", "heave added mass A33 / (rho_w A^1.5)", min=0.0),
+        "damping_ratio": Param(0.172, "1", "heave radiation damping as a fraction of "
+                               "critical, B33 / (2 sqrt((m + A33) rho_w g A))", min=0.0),
+        "added_inertia": Param(0.139, "1", "tilt added inertia A_k / (rho_w A^0.5 J_k)",
+                               min=0.0),
+        "tilt_damping_ratio": Param(0.100, "1", "tilt radiation damping as a fraction of "
+                                    "critical", min=0.0),
+        "wave": Param("auto", "", "the incident wave: 'auto' (the field of the first "
+                      "[[forcing]] table with a wave field; still water if none) or 'none'",
+                      type=str, choices=("auto", "none")),
+        "ramp": Param(0.0, "s", "the wave's loads grow from 0 as (1 - cos(pi t / ramp)) / 2 "
+                      "over the first ramp seconds (0: from the start)", min=0.0),
+        "initial_heave": Param(0.0, "m", "heave of every free element at the start"),
+        "initial_roll": Param(0.0, "rad", "roll of every free element at the start"),
+        "initial_pitch": Param(0.0, "rad", "pitch of every free element at the start"),
+        "steps_per_period": Param(64, "1", "sub-steps per shortest natural period", type=int,
+                                  min=8),
+        "quadrature": Param(0, "1", "subdivisions of each edge triangle for the wave load "
+                            "(0: ceil(k_max R / 0.7), R the element's bounding radius: errors "
+                            "below 1e-4 in heave, 1e-3 in the tilts)", type=int, min=0,
+                            max=64),
+        "frequency": Param("natural", "", "capytaine's coefficients at each mode's natural "
+                           "frequency ('natural') or at the frequency of the wave field's "
+                           "largest component ('wave': exact for a monochromatic sea)",
+                           type=str, choices=("natural", "wave")),
+        "diffraction": Param(False, "", "add the diffraction load to the Froude–Krylov one: "
+                             "capytaine's excitation of each element's prism for each wave "
+                             "component, at the element's heading at the start", type=bool),
+        "bending": Param(False, "", "the intact joints are beams that carry vertical shear "
+                         "and bending moments between their elements, and break in flexure "
+                         "(siku_plugins.floating.bending; needs a [contact] table)", type=bool),
+        "flexural_strength": Param(1e6, "Pa", "bending stress 6 M / (w h²) that breaks a "
+                                   "joint (with bending = true)", min=0.0),
+        "loads": Param([], "N", "constant vertical forces [[element, F_z], ...] on elements, "
+                       "upward positive (a load on the ice)", type=list),
+        "hydro_cache": Param("", "", "folder of capytaine's cached coefficients ('': the user "
+                             "cache, siku/hydro)", type=str),
+        "mesh_size": Param(0.0, "m", "largest panel of capytaine's mesh (0: a sixteenth of "
+                           "the element's smallest width)", min=0.0),
+    }
+
+    # ------------------------------------------------------------------ set-up
+    def setup(self, ctx) -> None:
+        st = ctx.state
+        p = self.p
+        where = f"{ctx.where(self.table)}: process 'floating'"
+        n = st.n
+        mats = list(ctx.scene.cfg.materials.items())
+        rho_w, g = float(p["rho_water"]), float(p["g"])
+        self.free = st.flags == FREE
+        self.rho_g = rho_w * g
+        rho_i = np.array([mats[k][1].density for k in st.material], dtype=float)
+        for k in np.unique(st.material[self.free]) if n else ():
+            name, mat = mats[k]
+            if not mat.density < rho_w:
+                raise SceneError(f"{where}: material '{name}' has density {mat.density:g} "
+                                 f"kg/m3, not below the water's {rho_w:g} kg/m3: it cannot "
+                                 "float")
+        h = st.thickness.astype(float)
+        self.h = h
+        self.draft = h * rho_i / rho_w
+        if np.any(self.free & ~(self.draft > 0)):
+            i = int(np.flatnonzero(self.free & ~(self.draft > 0))[0])
+            raise SceneError(f"{where}: element {i} has draft {self.draft[i]:g} m; a floating "
+                             "element needs a positive thickness and density")
+        # waterplane: principal axes and second moments, quadrature points
+        self.area = st.area.astype(float)
+        self.phi = np.zeros(n)
+        self.J1 = np.zeros(n)
+        self.J2 = np.zeros(n)
+        qa, qb, qw, off = [], [], [], [0]
+        # the wave field first: the quadrature follows its shortest wave
+        self._wave(ctx)
+        kmax = float(np.max(self.field.k)) if self.field is not None and len(
+            self.field.k) else 0.0
+        for i in range(n):
+            poly = st.polygon(i)
+            _, ixx, iyy, ixy = second_moments(poly)
+            self.phi[i], self.J1[i], self.J2[i] = principal(ixx, iyy, ixy)
+            if self.free[i]:
+                nq = int(p["quadrature"]) or min(64, max(1, math.ceil(
+                    kmax * float(st.radius[i]) / 0.7 - 1e-9)))
+                pts, w = quadrature(poly, nq)
+                qa.append(pts[:, 0])
+                qb.append(pts[:, 1])
+                qw.append(w)
+                off.append(off[-1] + len(w))
+            else:
+                off.append(off[-1])
+        self.qa, self.qb, self.qw = (np.concatenate(x) if x else np.zeros(0)
+                                     for x in (qa, qb, qw))
+        self.qoff = np.array(off, dtype=np.int64)
+        c, s = np.cos(self.phi), np.sin(self.phi)
+        self.cphi, self.sphi = c, s
+        elem = np.repeat(np.arange(n), np.diff(self.qoff))
+        self.qu = self.qa * c[elem] + self.qb * s[elem]
+        self.qv = -self.qa * s[elem] + self.qb * c[elem]
+        self._coefficients(ctx, rho_i, rho_w, g, where)
+        self.kap = np.zeros((0, 0, 3, 2))
+        if p["diffraction"]:
+            if p["coefficients"] != "capytaine" or self.field is None:
+                raise SceneError(f"{where}: diffraction = true needs coefficients = "
+                                 "'capytaine' and a wave field in a [[forcing]] table")
+            from .hydro import diffraction_factors
+
+            self.kap = diffraction_factors(self, ctx, rho_w, g, where)
+        self.load = np.zeros(n)
+        for item in p["loads"]:
+            ok = (isinstance(item, list) and len(item) == 2 and isinstance(item[0], int)
+                  and 0 <= item[0] < n and isinstance(item[1], (int, float)))
+            if not ok:
+                raise SceneError(f"{where}: loads: each item is [element index, force in N] "
+                                 f"with an index below {n}; got {item!r}")
+            self.load[item[0]] += float(item[1])
+        self.beams = None
+        if p["bending"]:
+            if ctx.contacts is None or not ctx.contacts.n_joints:
+                raise SceneError(f"{where}: bending = true needs jointed elements (a "
+                                 "[contact] table whose elements are frozen together)")
+            from .bending import Beams
+
+            self.beams = Beams(self, ctx)
+            self.period_min = min(self.period_min, self.beams.period_min)
+        # the start: every free element at the scene's initial heave and tilts
+        f = ctx.fields
+        for key in ("heave", "roll", "pitch"):
+            f[key][self.free] = p[f"initial_{key}"]
+
+    def _coefficients(self, ctx, rho_i, rho_w, g, where) -> None:
+        p = self.p
+        st = ctx.state
+        A, h, d = self.area, self.h, self.draft
+        m = rho_i * h * A
+        C3 = rho_w * g * A
+        C1 = rho_w * g * (self.J1 - A * d * (h - d) / 2.0)
+        C2 = rho_w * g * (self.J2 - A * d * (h - d) / 2.0)
+        bad = self.free & ~((C1 > 0) & (C2 > 0))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise SceneError(f"{where}: element {i} (thickness {h[i]:g} m, area {A[i]:g} m2) "
+                             "would capsize alone: its metacentric height is not positive; "
+                             "use elements wider than about twice their thickness")
+        I1 = rho_i * h * self.J1 + m * h * h / 12.0
+        I2 = rho_i * h * self.J2 + m * h * h / 12.0
+        if p["coefficients"] == "capytaine":
+            from .hydro import element_coefficients
+
+            omega = None
+            if p["frequency"] == "wave":
+                if self.field is None:
+                    raise SceneError(f"{where}: frequency = 'wave' needs a wave field in a "
+                                     "[[forcing]] table")
+                omega = float(self.field.omega[np.argmax(self.field.amp)])
+            A33, B33, A1, B1, A2, B2 = element_coefficients(
+                st, self.free, self.phi, h, d, m, I1, I2, C3, C1, C2, rho_w, g,
+                p["hydro_cache"], p["mesh_size"], omega, ctx.scene.base_dir, where)
+        else:
+            A33 = p["added_mass"] * rho_w * A ** 1.5
+            A1 = p["added_inertia"] * rho_w * np.sqrt(A) * self.J1
+            A2 = p["added_inertia"] * rho_w * np.sqrt(A) * self.J2
+            B33 = 2 * p["damping_ratio"] * np.sqrt((m + A33) * C3)
+            B1 = 2 * p["tilt_damping_ratio"] * np.sqrt((I1 + A1) * C1)
+            B2 = 2 * p["tilt_damping_ratio"] * np.sqrt((I2 + A2) * C2)
+        self.M3, self.B3 = m + A33, B33
+        self.M1, self.C1, self.B1 = I1 + A1, C1, B1
+        self.M2, self.C2, self.B2 = I2 + A2, C2, B2
+        self.C3 = C3
+        free = self.free
+        if free.any():
+            w2 = np.concatenate([(C3 / self.M3)[free], (C1 / self.M1)[free],
+                                 (C2 / self.M2)[free]])
+            #: shortest natural period of any free element's modes [s]
+            self.period_min = float(2 * math.pi / math.sqrt(w2.max()))
+        else:
+            self.period_min = math.inf
+
+    def _wave(self, ctx) -> None:
+        """The wave field of the first ``[[forcing]]`` table that has one (module docstring),
+        built from the same table (so the same sea the horizontal forcing feels)."""
+        self.field = None
+        if self.p["wave"] == "none":
+            return
+        for k, f in enumerate(ctx.scene.cfg.forcing):
+            if f.field is None:
+                continue
+            field = ctx.component("field", f.field.type, f.field.params,
+                                  f"forcing[{k}].field")
+            if not hasattr(field, "components") or not hasattr(field, "plane"):
+                continue
+            field.setup(ctx)
+            self.field = field
+            return
+
+    # ------------------------------------------------------------------ the step
+    def apply(self, ctx, dt: float) -> None:
+        if dt <= 0.0 or not self.free.any():
+            return
+        if self.beams is not None or self.load.any():
+            return self._apply_coupled(ctx, dt)
+        f = ctx.fields
+        n_sub = max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
+        st = ctx.state
+        fld = self.field
+        if fld is not None:
+            fld._args()
+            geo = (fld.lat0, fld.lon0, float(fld.radius))
+            wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
+                    self.kap, float(self.p["ramp"]))
+        else:
+            z0 = np.zeros(0)
+            geo = (0.0, 0.0, 1.0)
+            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0)
+        advance(chunks(st.n), n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *geo,
+                self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw,
+                *wave, self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
+                self.C1, self.B1, self.M2, self.C2, self.B2, f["heave"], f["heave_rate"],
+                f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"])
+
+    def _apply_coupled(self, ctx, dt: float) -> None:
+        """:meth:`apply` with beams between jointed elements or loads
+        (``siku_plugins.floating.bending``): all elements together in each sub-step."""
+        from .bending import advance_bonded
+        from .kernels import centres_and_frames
+
+        st = ctx.state
+        f = ctx.fields
+        bm = self.beams
+        if bm is not None and not np.array_equal(bm.seen, bm.cm.intact):
+            bm.assemble(self)       # joints broke (the law, a restart) since the last step
+            self.period_min = min(self.period_min, bm.period_min)
+        n_sub = max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
+        fld = self.field
+        if fld is not None:
+            lat, lon, e0, e1 = centres_and_frames(st.q)
+            xc, yc = fld.plane(lat, lon)
+            wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
+                    self.kap, float(self.p["ramp"]))
+        else:
+            xc = yc = e1 = np.zeros(st.n)
+            e0 = np.ones(st.n)
+            z0 = np.zeros(0)
+            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0)
+        if bm is not None:
+            csr = (bm.indptr, bm.indices, bm.data)
+        else:
+            csr = (np.zeros(3 * st.n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+                   np.zeros(0))
+        c, s = self.cphi, self.sphi
+        sx, sy = -f["pitch"], f["roll"]
+        wx, wy = -f["pitch_rate"], f["roll_rate"]
+        u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
+        v = np.column_stack([f["heave_rate"], wx * c + wy * s, -wx * s + wy * c]).ravel()
+        advance_bonded(n_sub, dt / n_sub, float(ctx.time - dt), self.free, xc, yc, e0, e1,
+                       self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw, *wave,
+                       self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
+                       self.C1, self.B1, self.M2, self.C2, self.B2, self.load, *csr, u, v)
+        U, W = u.reshape(-1, 3), v.reshape(-1, 3)
+        f["heave"][:] = U[:, 0]
+        f["heave_rate"][:] = W[:, 0]
+        f["pitch"][:] = -(U[:, 1] * c - U[:, 2] * s)
+        f["roll"][:] = U[:, 1] * s + U[:, 2] * c
+        f["pitch_rate"][:] = -(W[:, 1] * c - W[:, 2] * s)
+        f["roll_rate"][:] = W[:, 1] * s + W[:, 2] * c
+        if bm is not None:
+            if bm.break_overstressed(self, u, self.p["flexural_strength"], ctx.time):
+                self.period_min = min(self.period_min, bm.period_min)
+
+    def equilibrium(self, ctx) -> np.ndarray:
+        """The static state ``(n, 3)`` (heave [m], principal slopes) under the scene's
+        ``loads`` in still water, linear: ``(K_beams + C) u = F`` (scipy's sparse solver):
+        what a damped run settles to."""
+        from scipy.sparse import csr_matrix, diags
+        from scipy.sparse.linalg import spsolve
+
+        n = ctx.state.n
+        C = np.column_stack([self.C3, self.C1, self.C2]).ravel()
+        K = diags(C)
+        if self.beams is not None:
+            b = self.beams
+            K = K + csr_matrix((b.data, b.indices, b.indptr), shape=(3 * n, 3 * n))
+        F = np.column_stack([self.load, np.zeros(n), np.zeros(n)]).ravel()
+        keep = np.repeat(self.free, 3)
+        u = np.zeros(3 * n)
+        u[keep] = spsolve(K.tocsr()[keep][:, keep].tocsc(), F[keep])
+        return u.reshape(n, 3)
+
+    def stresses(self, ctx) -> np.ndarray:
+        """Bending stress [Pa] at every joint line now (``bending = true``)."""
+        f = ctx.fields
+        c, s = self.cphi, self.sphi
+        sx, sy = -f["pitch"], f["roll"]
+        u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
+        return self.beams.stress(u)
+
+    def describe(self):
+        out = super().describe()
+        out["period_min"] = self.period_min if hasattr(self, "period_min") else None
+        return out
