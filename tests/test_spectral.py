@@ -1,0 +1,192 @@
+"""The spectral wave field (siku_forcing.spectral, spectral_transport): transport, absorption by
+the ice, the local sea the elements feel, and bad input."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from siku_forcing.spectral_transport import absorb, steady_ratio, transport
+
+
+def test_transport_in_a_closed_domain_conserves_energy_to_round_off():
+    rng = np.random.default_rng(5)
+    E = rng.random((4, 15, 20))
+    th = np.radians([10.0, 100.0, 200.0, 290.0])
+    cg = np.array([6.0, 4.0, 3.0, 9.0])
+    cx, cy = cg * np.sin(th), cg * np.cos(th)
+    dx, dy = 50.0, 40.0
+    dt = 0.9 / np.max(np.abs(cx) / dx + np.abs(cy) / dy)
+    total = E.sum()
+    for _ in range(300):
+        E, inflow = transport(E, cx, cy, dx, dy, dt, closed=True)
+        assert not inflow.any()
+    assert abs(E.sum() - total) <= 1e-12 * total
+    assert (E >= 0).all()
+
+
+@pytest.mark.parametrize("nu", [0.5, 0.9, 1.0])
+def test_a_front_arrives_at_cg_t_within_one_cell_after_100_cells(nu):
+    nx, dx, c = 200, 10.0, 5.0
+    dt = nu * dx / c
+    E = np.zeros((1, 1, nx))
+    n = int(round(100 * dx / (c * dt)))
+    for _ in range(n):
+        E, _ = transport(E, np.array([c]), np.array([0.0]), dx, 1.0, dt, closed=False,
+                         E_in=np.array([1.0]))
+    # where the energy crosses half the incident level, in cells from the upstream edge
+    e = E[0, 0]
+    i = int(np.flatnonzero(e < 0.5)[0])
+    front = i - 1 + (e[i - 1] - 0.5) / (e[i - 1] - e[i]) + 0.5  # interpolated, cell centres
+    assert abs(front - c * n * dt / dx) <= 1.0
+
+
+def test_uniform_ice_at_courant_one_gives_exactly_the_exponential():
+    nx, dx, c, alpha = 100, 20.0, 4.0, 2e-4
+    dt = dx / c
+    E = np.zeros((1, 1, nx))
+    ki, C = np.full((1, 1, nx), alpha), np.ones((1, nx))
+    for _ in range(nx + 5):
+        E, _ = transport(E, np.array([c]), np.array([0.0]), dx, 1.0, dt, False, np.ones(1))
+        E, _ = absorb(E, np.array([c]), ki, C, dt)
+    x = (np.arange(nx) + 1) * dx
+    assert np.allclose(E[0, 0], np.exp(-2 * alpha * x), rtol=1e-12, atol=0)
+
+
+def test_uniform_ice_at_any_courant_number_reaches_the_schemes_steady_state():
+    nx, dx, c, alpha, nu = 60, 20.0, 4.0, 2e-3, 0.6
+    dt = nu * dx / c
+    E = np.zeros((1, 1, nx))
+    ki, C = np.full((1, 1, nx), alpha), np.full((1, nx), 0.5)
+    for _ in range(3000):
+        E, _ = transport(E, np.array([c]), np.array([0.0]), dx, 1.0, dt, False, np.ones(1))
+        E, _ = absorb(E, np.array([c]), ki, C, dt)
+    r = steady_ratio(nu, 2 * c * alpha * 0.5 * dt)
+    assert np.allclose(E[0, 0], r ** (np.arange(nx) + 1.0), rtol=1e-6, atol=0)
+    # the discrete rate is the continuous one, 2 alpha C, to first order in 2 alpha C dx
+    assert math.log(r) / dx == pytest.approx(-2 * alpha * 0.5, rel=2 * alpha * 0.5 * dx)
+
+
+def test_the_energy_budget_closes_inflow_absorption_and_content():
+    rng = np.random.default_rng(2)
+    nx, ny, dx = 12, 8, 30.0
+    th = np.radians([45.0, 90.0, 170.0])
+    cg = np.array([5.0, 7.0, 3.0])
+    cx, cy = cg * np.sin(th), cg * np.cos(th)
+    E = np.zeros((3, ny, nx))
+    E_in = np.array([0.2, 0.5, 0.1])
+    ki = rng.uniform(0, 1e-3, (3, ny, nx))
+    C = rng.uniform(0, 1, (ny, nx))
+    dt = 0.9 / np.max(np.abs(cx) / dx + np.abs(cy) / dx)
+    gained = absorbed = 0.0
+    for _ in range(200):
+        E, inflow = transport(E, cx, cy, dx, dx, dt, False, E_in)
+        E, lost = absorb(E, cg, ki, C, dt)
+        gained += inflow.sum()
+        absorbed += lost.sum() * dx * dx
+    assert E.sum() * dx * dx == pytest.approx(gained - absorbed, rel=1e-12)
+
+
+# ----------------------------------------------------------------------- the field in a run
+def flume_scene(tmp_path, field_params, n_ice=6, out=False):
+    """A 1-D flume 0..2000 m east of the origin at the equator, one 100 m cell wide, with
+    ``n_ice`` 100 m elements from x = 1000 m on."""
+    from siku_core.testing import scene_text
+    from siku_core.testing.contact_cases import square_pack
+
+    pack = square_pack(math.degrees(1000.0 / 6_371_000.0), -math.degrees(50 / 6_371_000.0),
+                       n_ice, 1, size=100.0)
+    field = {"type": "spectral", "params": {
+        "spectrum": "monochromatic", "amplitude": 0.5, "period": 8.0, "x": [0.0, 2000.0],
+        "y": [-50.0, 50.0], "resolution": 100.0, "origin": [0.0, 0.0], **field_params}}
+    txt = scene_text([], packs=[pack], dt=0.05, duration=0.2, thickness=1.0, forcing=[
+        {"source": "waves", "params": {"drag": True}, "field": field}],
+        output={"file": str(tmp_path / "flume.h5")} if out else None)
+    path = tmp_path / "flume.toml"
+    path.write_text(txt)
+    return path
+
+
+def build(path):
+    from siku_core.scene import load_scene
+    from siku_core.simulation import Simulation
+
+    return Simulation(load_scene(path), out=False, progress=False)
+
+
+def test_the_field_damps_the_sea_where_the_elements_are(tmp_path):
+    alpha = 5e-4
+    sim = build(flume_scene(tmp_path, {"attenuation": "constant",
+                                       "attenuation_params": {"alpha": alpha},
+                                       "start": "calm"}))
+    f = sim.forcing[0].field
+    assert f.C[0, :10].max() == 0.0 and (f.C[0, 10:16] > 0.99).all()
+    f.advance(2000.0)  # 2000 s: about 3 crossings of the flume at c_g = 6.2 m/s
+    e = f.E[0, 0] / f.E_in[0]
+    assert np.allclose(e[:10], 1.0, rtol=1e-9)  # open water upstream of the ice
+    nu = f.cx[0] * (2000.0 / math.ceil(2000.0 * f.cx[0] / f.dx / 0.9)) / f.dx
+    dt = nu * f.dx / f.cx[0]
+    want = np.cumprod([steady_ratio(nu, 2 * f.cg[0] * alpha * C * dt) for C in f.C[0, 10:16]])
+    assert np.allclose(e[10:16], want, rtol=1e-6)
+    # the absorbed power per unit area, rho g 2 c_g alpha C E [W/m2]
+    P = f.dissipation()[0]
+    assert P[:10].max() == 0.0
+    assert P[10] == pytest.approx(1025.0 * 9.81 * 2 * f.cg[0] * alpha * f.C[0, 10] * f.E[0, 0, 10],
+                                  rel=1e-12)
+
+
+def test_without_ice_the_elements_feel_the_incident_wave(tmp_path):
+    from siku_forcing.waves import LinearWave
+
+    sim = build(flume_scene(tmp_path, {"attenuation": "constant",
+                                       "attenuation_params": {"alpha": 0.0}}))
+    f = sim.forcing[0].field
+    w = LinearWave({**{k: p.default for k, p in LinearWave.params.items()},
+                    "amplitude": 0.5, "period": 8.0, "origin": [0.0, 0.0]})
+    w.radius = f.radius
+    lat = np.zeros(7)
+    lon = np.linspace(10.0, 1990.0, 7) / 6_371_000.0
+    for t in (0.0, 3.3):
+        a, b = f.evaluate(t, lat, lon), w.evaluate(t, lat, lon)
+        for k in ("eta", "eta_e", "eta_n", "u", "v"):
+            assert np.allclose(a[k], b[k], rtol=1e-12, atol=1e-15), k
+    se, sn = np.ones(7), np.zeros(7)
+    assert np.allclose(f.curvature(1.0, lat, lon, se, sn), w.curvature(1.0, lat, lon, se, sn),
+                       rtol=1e-12, atol=1e-18)
+
+
+def test_a_run_writes_the_wave_height_and_dissipation_of_each_element(tmp_path):
+    from siku_core.scene import load_scene
+    from siku_core.simulation import Simulation
+
+    path = flume_scene(tmp_path, {"attenuation": "constant",
+                                  "attenuation_params": {"alpha": 1e-3}}, out=True)
+    sim = Simulation(load_scene(path), progress=False)
+    sim.run()
+    sim.close()
+    f = sim.forcing[0].field
+    assert f.t_wave > 0.0
+    h = sim.context.fields["wave_height"]
+    assert np.allclose(h, f.height().ravel()[f.element_cell], rtol=1e-14)
+    assert (sim.context.fields["wave_dissipation"] > 0).all()
+
+
+def run_cli(path):
+    return subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(path),
+                           "--no-progress"], capture_output=True, text=True, cwd=path.parent)
+
+
+@pytest.mark.parametrize("params, words", [
+    ({"spectrum": "table", "frequencies": [0.1, 0.12], "energy": [1.0, -0.5]},
+     "no negative energy"),
+    ({"x": [0.0, 1200.0]}, "does not cover the ice"),
+    ({"attenuation": "no_such_law"}, "unknown attenuation law 'no_such_law'"),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, params, words):
+    r = run_cli(flume_scene(tmp_path, params))
+    assert r.returncode == 2, r.stderr
+    lines = [ln for ln in r.stderr.strip().splitlines() if ln]
+    assert len(lines) == 1 and words in lines[0], r.stderr
