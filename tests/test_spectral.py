@@ -210,3 +210,54 @@ def test_a_restart_continues_the_evolving_spectrum_bit_for_bit(tmp_path):
     assert a.t_wave == b.t_wave > 0 and np.array_equal(a.E, b.E)
     assert np.array_equal(second.context.fields["wave_height"],
                           whole.context.fields["wave_height"])
+
+
+def test_the_breakup_front_stalls_where_the_attenuated_strain_falls_below_the_critical():
+    """A strip of 5 m elements bonded by uniform joints from x = 0 to 400 m, held still (no
+    wave forces), under a monochromatic swell (a0 = 0.5 m, T = 8 s) damped at a constant
+    rate: joints break where the surface strain (h/2) a k² exceeds the critical strain. From a
+    calm start the spectrum rises monotonically to its steady state, so the front advances
+    and stalls. In the discrete steady state cell i holds a(face i+1), so the front is the
+    downstream face of the last cell whose amplitude exceeds a_c = 2 eps_c / (k² h): the last
+    broken joint lies within one cell upstream of it, and that face within one cell of the
+    continuous position x* = ln(a0 / a_c) / (alpha C)."""
+    from siku_core.scene import scene_from_text
+    from siku_core.simulation import Simulation
+    from siku_core.testing import scene_text
+    from siku_core.testing.contact_cases import square_pack
+
+    R, a0, alpha, h, eps_c, dx = 6_371_000.0, 0.5, 2e-3, 1.0, 6.6e-4, 25.0
+    pack = square_pack(0.0, -math.degrees(2.5 / R), 80, 1, size=5.0)
+    field = {"type": "spectral", "params": {
+        "spectrum": "monochromatic", "amplitude": a0, "period": 8.0, "x": [-100.0, 500.0],
+        "y": [-2.5, 2.5], "resolution": dx, "origin": [0.0, 0.0], "start": "calm",
+        "attenuation": "constant", "attenuation_params": {"alpha": alpha}}}
+    txt = scene_text([], packs=[pack], dt=0.25, duration=400.0, thickness=h,
+                     materials={"ice": {"youngs_modulus": 1e4, "poisson_ratio": 0.3}},
+                     forcing=[{"source": "waves", "field": field, "params": {
+                         "drag": False, "slope": False, "breaking": True,
+                         "critical_strain": eps_c}}],
+                     extra='[contact]\nlaw = "distributed_spring"\n'
+                           'params = { tensile_strain = 1.0 }\n')
+    sim = Simulation(scene_from_text(txt, "<breakup front>"), out=False, progress=False)
+    f, cm = sim.forcing[0].field, sim.contacts
+    C = f.C[0, 4:20]
+    assert np.allclose(C, C[0], rtol=1e-6) and C[0] > 0.99  # uniform ice over x = 0..400 m
+    sim.run()
+    k = float(f.k[0])
+    a_c = 2 * eps_c / (k * k * h)
+    lat, lon, *_ = cm.joint_lines()
+    xj, _ = f.plane(lat, lon)
+    broken = ~cm.intact
+    assert broken.any() and not broken.all()
+    x_b = xj[broken].max()
+    # (upstream of the front some joints hold: pieces shorter than the rigid-floe length
+    # cannot break, siku_forcing.wave_breaking)
+    amp = np.sqrt(2 * f.E[0, 0])  # per cell, steady by now
+    faces = f.x0 + (np.arange(f.nx) + 1) * f.dx
+    over = (amp > a_c) & (faces > 0) & (faces <= 400.0)
+    x_front = faces[over].max()
+    # (a joint on the face itself, x = x_front to round-off, belongs to either cell)
+    assert x_front - dx <= x_b <= x_front + 1e-6
+    x_star = math.log(a0 / a_c) / (alpha * C[0])
+    assert abs(x_front - x_star) <= dx
