@@ -185,3 +185,12 @@ def test_siku_fsd_of_a_missing_file_is_one_line_and_exit_2(tmp_path):
     r = subprocess.run([sys.executable, "-m", "siku_core.cli", "fsd",
                         str(tmp_path / "none.h5")], capture_output=True, text=True)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_a_tail_of_one_area_has_no_power_law():
+    # areas equal to round-off (element areas summed in another order) are one value: no
+    # exponent can be fitted to them
+    x = np.r_[np.full(6, 100.0), 200.0 * (1 + 1e-13 * np.arange(6))]
+    fit = power_law(x, min_tail=2)
+    assert fit.xmin == pytest.approx(100.0) and fit.alpha < 10
+    assert np.isnan(power_law(np.full(20, 50.0) * (1 + 1e-14 * np.arange(20))).alpha)

@@ -130,8 +130,10 @@ def power_law(x, min_tail: int = MIN_TAIL) -> PowerLaw:
     logs = np.log(xs)
     # suffix sums of log x: the tail from index i holds xs[i:], n - i values
     tail_log = np.cumsum(logs[::-1])[::-1]
-    starts = np.flatnonzero(np.r_[True, np.diff(xs) > 0])  # first index of each distinct value
-    starts = starts[n - starts >= min_tail]
+    # first index of each distinct value (values within 1e-9 relative are one: element areas
+    # summed in another order differ in the last bits), leaving a tail that is not all one value
+    starts = np.flatnonzero(np.r_[True, np.diff(xs) > 1e-9 * xs[1:]])
+    starts = starts[(n - starts >= min_tail) & (xs[-1] > xs[starts] * (1 + 1e-9))]
     best = PowerLaw(np.nan, np.nan, np.nan, 0, np.inf)
     for i in starts:
         m = n - i

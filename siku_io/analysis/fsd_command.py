@@ -25,7 +25,8 @@ def plot_fsd(ds, target) -> None:
     a, amin, se = (float(ds[k].values[t]) for k in ("alpha", "area_min", "alpha_se"))
     if np.isfinite(a):
         share = float(ds["n_tail"].values[t]) / float(ds["n_floes"].values[t])
-        xs = x[x >= amin]
+        hi = x[ds["count"].values[t] > 0].max()
+        xs = x[(x >= amin) & (x <= hi)]
         if len(xs):
             ax.loglog(xs, share * (a - 1) / amin * (xs / amin) ** (-a), "k--",
                       label=f"power law, alpha = {a:.2f} ± {se:.2f} above {amin:.3g} m²")
