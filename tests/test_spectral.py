@@ -261,3 +261,19 @@ def test_the_breakup_front_stalls_where_the_attenuated_strain_falls_below_the_cr
     assert x_front - dx <= x_b <= x_front + 1e-6
     x_star = math.log(a0 / a_c) / (alpha * C[0])
     assert abs(x_front - x_star) <= dx
+
+
+def test_the_ice_edge_example_builds_and_steps():
+    from pathlib import Path
+
+    from siku_core.scene import load_scene
+    from siku_core.simulation import Simulation
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "miz" / "miz.toml"
+    assert path.read_text(encoding="utf-8").startswith("#")
+    sim = Simulation(load_scene(path), out=False, progress=False)
+    assert sim.dt <= sim.scene.cfg.run.dt_safety * sim.critical_dt
+    f = sim.forcing[0].field
+    assert f.law.name == "doble2015" and (f.C[:, 10:40] > 0.99).all()
+    sim.run(steps=5)
+    assert np.isfinite(sim.state.q).all() and f.t_wave > 0
