@@ -19,9 +19,12 @@ flexural breaking) acts as with a uniform sea. Points outside the grid take the 
 
 The sea advances when the engine commits a step (the first force evaluation of a step), in as
 many equal sub-steps as the Courant limit ``cfl`` asks. Per element the field reports
-``wave_height`` (significant height ``4 sqrt(sum E)`` of its cell [m]) and
-``wave_dissipation`` (the power the ice absorbs per unit area in its cell, ``rho g sum 2 c_g k_i
-C E`` [W m-2]); their totals are diagnostics. What the transport does not represent: wind
+``wave_height`` (significant height ``4 sqrt(sum E)`` of its cell [m]), ``wave_dissipation``
+(the power the ice absorbs per unit area in its cell, ``rho g sum 2 c_g k_i C E`` [W m-2], the
+parameterised loss) and ``wave_drag_power`` (the rate of work of the element's wave drag
+against the orbital flow per unit area, ``F_drag · u / S`` [W m-2], the loss the ice's own
+response takes, to set beside the parameterised one; the transport does not subtract it);
+their totals are diagnostics. What the transport does not represent: wind
 input, nonlinear transfer, whitecapping, refraction, reflection and scattering into other
 directions; the ice changes the amplitude only, never the wavelength or the group velocity.
 """
@@ -122,9 +125,12 @@ class Spectral(WaveField):
                      "element's cell of the spectral wave field"),
         ElementField("wave_dissipation", "W m-2", "wave power absorbed by the ice per unit "
                      "area in the element's cell, rho g sum 2 c_g k_i C E"),
+        ElementField("wave_drag_power", "W m-2", "rate of work of the wave drag on the "
+                     "element against the orbital flow, F_drag . u_orbital / area (power the "
+                     "waves lose to the element's drag)"),
     )
     diagnostic_units: ClassVar[dict[str, str]] = {
-        "wave_power_absorbed": "W", "wave_energy": "J"}
+        "wave_power_absorbed": "W", "wave_energy": "J", "wave_drag_power": "W"}
     seed = 0
 
     # ------------------------------------------------------------------ set up
@@ -305,7 +311,13 @@ class Spectral(WaveField):
             self._report()
         lat, lon = self._latlon(q)
         r = self._sums(t, lat, lon)
-        _add(q, V, st.m, st.area, free, r, g, slope, drag, F)
+        power = np.zeros(len(q))
+        _add(q, V, st.m, st.area, free, r, g, slope, drag, F, power)
+        if self.ctx.committing:
+            self.drag_power = power
+            fields = self.ctx.fields
+            if "wave_drag_power" in fields:
+                fields["wave_drag_power"][:] = power / st.area
 
     def _report(self):
         fields = self.ctx.fields
@@ -318,7 +330,8 @@ class Spectral(WaveField):
     def diagnostics(self, ctx):
         cell = self.dx * self.dy
         return {"wave_power_absorbed": float(self.dissipation().sum() * cell),
-                "wave_energy": float(RHO_WATER * self.p["g"] * self.E.sum() * cell)}
+                "wave_energy": float(RHO_WATER * self.p["g"] * self.E.sum() * cell),
+                "wave_drag_power": float(np.sum(getattr(self, "drag_power", 0.0)))}
 
     def history(self):
         return {"E": self.E.copy(), "t_wave": np.array(self.t_wave)}
@@ -333,9 +346,11 @@ class Spectral(WaveField):
 
 
 @njit(cache=True)
-def _add(q, V, m, area, free, r, g, slope, drag, F):
-    """Slope force and drag from the sums ``r`` (:func:`_cell_sums`) on the free elements."""
+def _add(q, V, m, area, free, r, g, slope, drag, F, power):
+    """Slope force and drag from the sums ``r`` (:func:`_cell_sums`) on the free elements;
+    ``power[i]``: the rate of work of the drag against the orbital flow, ``F_drag · u`` [W]."""
     for i in range(q.shape[0]):
+        power[i] = 0.0
         if not free[i]:
             continue
         ex, ey, nx, ny = east_north_row(q, i)
@@ -350,6 +365,7 @@ def _add(q, V, m, area, free, r, g, slope, drag, F):
             de, dn = quadratic_drag(area[i], drag, r[i, 3] - ue, r[i, 4] - un)
             fe += de
             fn += dn
+            power[i] = de * r[i, 3] + dn * r[i, 4]
         F[i, 0] += fe * ex + fn * nx
         F[i, 1] += fe * ey + fn * ny
 

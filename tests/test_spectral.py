@@ -277,3 +277,29 @@ def test_the_ice_edge_example_builds_and_steps():
     assert f.law.name == "doble2015" and (f.C[:, 10:40] > 0.99).all()
     sim.run(steps=5)
     assert np.isfinite(sim.state.q).all() and f.t_wave > 0
+
+
+def test_the_drag_power_is_the_drag_force_times_the_orbital_velocity(tmp_path):
+    from siku_forcing.spectral import _add
+    from siku_io.output.element_geometry import east_north
+
+    sim = build(flume_scene(tmp_path, {"attenuation": "constant",
+                                       "attenuation_params": {"alpha": 1e-3}}))
+    st = sim.state
+    rng = np.random.default_rng(4)
+    V = rng.normal(0, 0.2, (st.n, 2))
+    r = rng.normal(0, 0.3, (st.n, 5))  # eta, slopes, orbital u east, v north
+    F, power = np.zeros((st.n, 2)), np.zeros(st.n)
+    coef = 1025.0 * 0.003
+    _add(st.q, V, st.m, st.area, np.ones(st.n, bool), r, 9.81, False, coef, F, power)
+    ue, un = east_north(st.q, V)
+    de, dn = r[:, 3] - ue, r[:, 4] - un
+    s = st.area * coef * np.hypot(de, dn)
+    assert np.allclose(power, s * de * r[:, 3] + s * dn * r[:, 4], rtol=1e-12, atol=0)
+    # and in a run: the field reports it per element per unit area, and its total
+    sim.run(steps=3)
+    f = sim.forcing[0].field
+    assert (f.drag_power != 0).any()
+    assert np.allclose(sim.context.fields["wave_drag_power"] * st.area, f.drag_power,
+                       rtol=1e-14)
+    assert sim.diagnostics()["wave_drag_power"] == pytest.approx(f.drag_power.sum(), rel=1e-14)
