@@ -184,6 +184,9 @@ class Spectral(WaveField):
             raise SceneError(f"{where}: 'x' and 'y' must be [low, high] in metres with high > "
                              "low")
         (x0, x1), (y0, y1) = p["x"], p["y"]
+        if p["boundary"] == "closed" and p["start"] == "calm":
+            raise SceneError(f"{where}: boundary = 'closed' with start = 'calm': no sea ever "
+                             "enters the grid; open the boundary or start from the incident sea")
         self.dx = dx
         self.nx = max(1, int(round((x1 - x0) / dx)))
         self.ny = max(1, int(round((y1 - y0) / dx)))

@@ -184,6 +184,7 @@ def run_cli(path):
      "no negative energy"),
     ({"x": [0.0, 1200.0]}, "does not cover the ice"),
     ({"attenuation": "no_such_law"}, "unknown attenuation law 'no_such_law'"),
+    ({"boundary": "closed", "start": "calm"}, "no sea ever enters the grid"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, params, words):
     r = run_cli(flume_scene(tmp_path, params))
@@ -303,3 +304,24 @@ def test_the_drag_power_is_the_drag_force_times_the_orbital_velocity(tmp_path):
     assert np.allclose(sim.context.fields["wave_drag_power"] * st.area, f.drag_power,
                        rtol=1e-14)
     assert sim.diagnostics()["wave_drag_power"] == pytest.approx(f.drag_power.sum(), rel=1e-14)
+
+
+def test_a_directional_sea_without_ice_stays_the_incident_sea_at_open_edges(tmp_path):
+    # every component enters across the edges it travels in from: the uniform incident sea is
+    # the steady state, kept to round-off in every cell
+    from siku_core.scene import scene_from_text
+    from siku_core.simulation import Simulation
+    from siku_core.testing import scene_text
+
+    field = {"type": "spectral", "params": {
+        "spectrum": "jonswap", "hs": 1.0, "tp": 8.0, "n_frequencies": 4, "n_directions": 8,
+        "spreading": 2.0, "x": [-300.0, 300.0], "y": [-200.0, 200.0], "resolution": 50.0,
+        "attenuation": "constant", "attenuation_params": {"alpha": 0.0}}}
+    txt = scene_text([(0.0, 0.0)], size=20.0, dt=0.05, duration=0.1, forcing=[
+        {"source": "waves", "field": field}])
+    sim = Simulation(scene_from_text(txt, "<directional>"), out=False, progress=False)
+    f = sim.forcing[0].field
+    assert len(f.E_in) == 32 and (f.cx < 0).any() and (f.cy < 0).any()
+    f.advance(600.0)
+    assert np.allclose(f.E, f.E_in[:, None, None], rtol=1e-12, atol=0)
+    assert f.height() == pytest.approx(np.full((8, 12), f.height()[0, 0]), rel=1e-12)
