@@ -103,3 +103,14 @@ def test_viscous_layer_in_finite_depth_uses_the_finite_depth_k_and_group_velocit
     assert float(got) == pytest.approx(k * math.sqrt(1e-3 * om / 2) / (2 * cg), rel=1e-13)
     # shallower water: slower groups, shorter waves, faster decay in space
     assert float(got) > float(law(ViscousLayer, viscosity=1e-3).rate(f, 1.0, math.inf))
+
+
+@pytest.mark.parametrize("name", ["constant", "meylan2014", "doble2015", "viscous_layer"])
+@pytest.mark.parametrize("depth", [math.inf, 30.0])
+def test_every_law_gives_finite_nonnegative_rates_that_broadcast(name, depth):
+    cls = get_registry().get("attenuation_law", name)
+    f = np.array([0.03, 0.1, 0.5])[:, None, None]
+    h = np.array([[0.0, 0.2], [1.0, 3.0]])[None]
+    k = np.asarray(law(cls).rate(f, h, depth))
+    assert k.shape == (3, 2, 2)
+    assert np.isfinite(k).all() and (k >= 0).all()
