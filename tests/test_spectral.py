@@ -325,3 +325,19 @@ def test_a_directional_sea_without_ice_stays_the_incident_sea_at_open_edges(tmp_
     f.advance(600.0)
     assert np.allclose(f.E, f.E_in[:, None, None], rtol=1e-12, atol=0)
     assert f.height() == pytest.approx(np.full((8, 12), f.height()[0, 0]), rel=1e-12)
+
+
+def test_a_drag_that_takes_the_field_as_its_current_advances_the_sea(tmp_path):
+    from siku_core.scene import scene_from_text
+    from siku_core.simulation import Simulation
+
+    txt = flume_scene(tmp_path, {"attenuation": "constant", "start": "calm"}).read_text()
+    txt = txt.replace('source = "waves"', 'source = "water_drag"').replace(
+        "params = { drag = true }", "")
+    sim = Simulation(scene_from_text(txt, "<water drag>"), out=False, progress=False)
+    f = sim.forcing[0].field
+    sim.run(steps=3)
+    assert f.t_wave == pytest.approx(2 * sim.dt) and f.E.sum() > 0
+    # two sub-steps of upwind transport carry the sea two cells in, not to the ice at 1000 m
+    assert (f.E[:, :, :2] > 0).all() and (f.E[:, :, 2:] == 0).all()
+    assert (sim.context.fields["wave_height"] == 0).all()
