@@ -194,3 +194,34 @@ def test_a_tail_of_one_area_has_no_power_law():
     fit = power_law(x, min_tail=2)
     assert fit.xmin == pytest.approx(100.0) and fit.alpha < 10
     assert np.isnan(power_law(np.full(20, 50.0) * (1 + 1e-14 * np.arange(20))).alpha)
+
+
+def test_floe_sizes_per_cell_of_a_grid_along_the_break_lines(broken_pack):
+    # a 2 x 2 lonlat grid whose cell edges are the lines the pack was broken along: every cell
+    # holds one whole floe (3 x 2 elements)
+    from siku_io.analysis.fsd import grid_distribution
+    from siku_io.analysis.regular_grid import GridCfg
+
+    path, side, area = broken_pack
+    R = 6_371_000.0
+    dlat = math.degrees(100.0 / R)
+    dlon = dlat / math.cos(math.radians(2 * dlat))
+    cfg = GridCfg(kind="lonlat", lon=(0.0, 6 * dlon), lat=(0.0, 4 * dlat), dlon=3 * dlon,
+                  dlat=2 * dlat, leads=False)
+    g = grid_distribution(path, cfg)
+    floe = np.bincount(side, area)
+    assert g["floe_number"].values == pytest.approx(np.ones((g.sizes["time"], 2, 2)), rel=1e-6)
+    got = np.sort(g["floe_area_mean"].values[-1].ravel())
+    assert got == pytest.approx(np.sort(floe), rel=1e-6)
+    assert g["concentration"].values == pytest.approx(np.ones((g.sizes["time"], 2, 2)),
+                                                      rel=1e-6)
+    assert g["floe_area_mean"].attrs["units"] == "m2"
+
+
+def test_siku_fsd_grid_without_an_output_grid_is_one_line_and_exit_2(broken_pack, tmp_path):
+    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "fsd", str(broken_pack[0]),
+                        "--out", str(tmp_path / "a.nc"), "--grid", str(tmp_path / "g.nc")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "[output.grid]" in r.stderr
+    assert not (tmp_path / "a.nc").exists()  # refused before the work
+    assert len(r.stderr.strip().splitlines()) == 1
