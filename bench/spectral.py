@@ -1,6 +1,7 @@
 """Cost of the spectral wave field (siku_forcing.spectral): the transport and absorption of the
 spectrum per cell, component and sub-step, and the local sea at the elements per element and
-component.
+component; and the 768-component JONSWAP sea at 10 000 points summed directly (``jonswap``)
+and by recurrences (``fast_jonswap``, siku_forcing.spectral_fast).
 
     python -m bench.spectral            # about 20 s
 
@@ -56,6 +57,29 @@ def local_sea_cost(n_elements: int, nc: int, repeat: int = 5) -> float:
     return n_elements * repeat / (time.perf_counter() - t0)
 
 
+def jonswap_rates(n: int = 10_000, repeat: int = 5) -> dict[str, float]:
+    """Element evaluations per second of ``jonswap`` and ``fast_jonswap`` (768 components:
+    48 frequencies x 16 directions) at ``n`` points within 1 km of the origin."""
+    from siku_forcing.spectral_fast import FastJonswap
+    from siku_forcing.waves import Jonswap
+
+    p = {k: v.default for k, v in Jonswap.params.items()}
+    p.update(seed=1, origin=[-150.0, 75.0])
+    rng = np.random.default_rng(2)
+    lat = np.radians(75 + rng.uniform(-0.005, 0.005, n))
+    lon = np.radians(-150 + rng.uniform(-0.02, 0.02, n))
+    out = {}
+    for cls in (Jonswap, FastJonswap):
+        w = cls(dict(p))
+        w._build()
+        w.evaluate(0.0, lat, lon)
+        t0 = time.perf_counter()
+        for r in range(repeat):
+            w.evaluate(float(r), lat, lon)
+        out[cls.name] = n * repeat / (time.perf_counter() - t0)
+    return out
+
+
 def main() -> None:
     print("transport + absorption (numpy, one thread)")
     for nx, ny, nc in ((100, 1, 1), (200, 200, 1), (100, 100, 48), (100, 100, 768)):
@@ -66,6 +90,9 @@ def main() -> None:
     for n, nc in ((10_000, 1), (10_000, 48), (10_000, 768)):
         rate = local_sea_cost(n, nc)
         print(f"  {n} elements, {nc:4d} components: {rate:12.0f} element evaluations/s")
+    print("JONSWAP sea, 768 components, 10 000 points (numba threads: NUMBA_NUM_THREADS)")
+    for name, rate in jonswap_rates().items():
+        print(f"  {name:13s} {rate:12.0f} element evaluations/s")
 
 
 if __name__ == "__main__":

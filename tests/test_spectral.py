@@ -341,3 +341,40 @@ def test_a_drag_that_takes_the_field_as_its_current_advances_the_sea(tmp_path):
     # two sub-steps of upwind transport carry the sea two cells in, not to the ice at 1000 m
     assert (f.E[:, :, :2] > 0).all() and (f.E[:, :, 2:] == 0).all()
     assert (sim.context.fields["wave_height"] == 0).all()
+
+
+@pytest.mark.parametrize("nd, spreading", [(1, 10.0), (16, 2.0)])
+def test_fast_jonswap_is_the_jonswap_sea_to_round_off_at_every_point(nd, spreading):
+    from siku_forcing.spectral_fast import FastJonswap
+    from siku_forcing.waves import Jonswap
+
+    p = {k: v.default for k, v in Jonswap.params.items()}
+    p.update(n_directions=nd, spreading=spreading, n_frequencies=48, seed=7,
+             origin=[-150.0, 75.0])
+    a, b = Jonswap(dict(p)), FastJonswap(dict(p))
+    for w in (a, b):
+        w._build()
+    assert np.array_equal(a.phase, b.phase) and len(b.amp) == 48 * nd
+    rng = np.random.default_rng(3)
+    lat = np.radians(75 + rng.uniform(-0.005, 0.005, 500))
+    lon = np.radians(-150 + rng.uniform(-0.02, 0.02, 500))
+    tol = 1e-12 * a.amp.sum()  # of the largest possible elevation
+    for t in (0.0, 37.5):
+        A, B = a.evaluate(t, lat, lon), b.evaluate(t, lat, lon)
+        # elevation [m], slopes [1] (times k), orbital velocities [m/s] (times omega)
+        scales = {"eta": 1.0, "eta_e": a.k.max(), "eta_n": a.k.max(), "u": a.omega.max(),
+                  "v": a.omega.max()}
+        for k, scale in scales.items():
+            assert np.abs(A[k] - B[k]).max() <= tol * scale, k
+    se, sn = np.full(500, 0.6), np.full(500, 0.8)
+    assert np.abs(a.curvature(5.0, lat, lon, se, sn) - b.curvature(5.0, lat, lon, se, sn)
+                  ).max() <= tol * float(a.k.max()) ** 2
+
+
+def test_fast_jonswap_refuses_finite_depth():
+    from siku_core.errors import SceneError
+    from siku_forcing.spectral_fast import FastJonswap
+
+    p = {k: v.default for k, v in FastJonswap.params.items()}
+    with pytest.raises(SceneError, match="deep water only"):
+        FastJonswap({**p, "depth": 50.0})._build()
