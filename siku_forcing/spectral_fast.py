@@ -32,44 +32,71 @@ from .spectral import _add
 from .waves import Jonswap, _wrap
 
 
+#: points per block of the sums: the innermost loops run over a block's points, which the
+#: compiler can vectorise (the points are independent; the order of every sum is unchanged)
+BLOCK = 64
+
+
 @njit(cache=True, parallel=True)
 def _sums(lat, lon, lat0, lon0, R, A, GX, GY, UE, UN, nf, nd, sin_d, cos_d, K0, K1, K2, pc, ps):
     """Per point: eta, slope east/north, orbital u east/north. Per component ``j``: ``A`` =
     amplitude, ``GX``, ``GY`` = amplitude times ``kx``, ``ky``, ``UE``, ``UN`` = orbital speed
     times ``sin``, ``cos`` of the direction; ``pc + i ps = exp(i (phi_j - omega_j t))``."""
     n = lat.shape[0]
+    nb = (n + BLOCK - 1) // BLOCK
     out = np.zeros((n, 5))
     c0 = math.cos(lat0)
-    for i in prange(n):
-        x = R * c0 * _wrap(lon[i] - lon0)
-        y = R * (lat[i] - lat0)
-        m = c0 / max(math.cos(lat[i]), 1e-12)
-        eta = 0.0
-        gx = 0.0
-        gy = 0.0
-        ue = 0.0
-        un = 0.0
+    for b in prange(nb):
+        i0 = b * BLOCK
+        L = min(n, i0 + BLOCK) - i0
+        x = np.empty(L)
+        y = np.empty(L)
+        m = np.empty(L)
+        for q in range(L):
+            x[q] = R * c0 * _wrap(lon[i0 + q] - lon0)
+            y[q] = R * (lat[i0 + q] - lat0)
+            m[q] = c0 / max(math.cos(lat[i0 + q]), 1e-12)
+        eta, gx, gy, ue, un = np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L)
+        zr, zi, rr, ri = np.empty(L), np.empty(L), np.empty(L), np.empty(L)
+        qr, qi = np.empty(L), np.empty(L)
         for d in range(nd):
-            s = x * sin_d[d] + y * cos_d[d]
-            zr, zi = math.cos(K0 * s), math.sin(K0 * s)
-            rr, ri = math.cos((K1 + K2) * s), math.sin((K1 + K2) * s)
-            qr, qi = math.cos(2.0 * K2 * s), math.sin(2.0 * K2 * s)
+            for q in range(L):
+                s = x[q] * sin_d[d] + y[q] * cos_d[d]
+                zr[q] = math.cos(K0 * s)
+                zi[q] = math.sin(K0 * s)
+                rr[q] = math.cos((K1 + K2) * s)
+                ri[q] = math.sin((K1 + K2) * s)
+                qr[q] = math.cos(2.0 * K2 * s)
+                qi[q] = math.sin(2.0 * K2 * s)
             for f in range(nf):
                 j = f * nd + d
-                c = zr * pc[j] - zi * ps[j]  # cos(psi_j)
-                sv = zr * ps[j] + zi * pc[j]  # sin(psi_j)
-                eta += A[j] * c
-                gx -= GX[j] * sv
-                gy -= GY[j] * sv
-                ue += UE[j] * c
-                un += UN[j] * c
-                zr, zi = zr * rr - zi * ri, zr * ri + zi * rr
-                rr, ri = rr * qr - ri * qi, rr * qi + ri * qr
-        out[i, 0] = eta
-        out[i, 1] = gx * m
-        out[i, 2] = gy
-        out[i, 3] = ue * m
-        out[i, 4] = un
+                a = A[j]
+                g1 = GX[j]
+                g2 = GY[j]
+                u1 = UE[j]
+                u2 = UN[j]
+                p1 = pc[j]
+                p2 = ps[j]
+                for q in range(L):
+                    c = zr[q] * p1 - zi[q] * p2  # cos(psi_j)
+                    sv = zr[q] * p2 + zi[q] * p1  # sin(psi_j)
+                    eta[q] += a * c
+                    gx[q] -= g1 * sv
+                    gy[q] -= g2 * sv
+                    ue[q] += u1 * c
+                    un[q] += u2 * c
+                    t1 = zr[q] * rr[q] - zi[q] * ri[q]
+                    zi[q] = zr[q] * ri[q] + zi[q] * rr[q]
+                    zr[q] = t1
+                    t2 = rr[q] * qr[q] - ri[q] * qi[q]
+                    ri[q] = rr[q] * qi[q] + ri[q] * qr[q]
+                    rr[q] = t2
+        for q in range(L):
+            out[i0 + q, 0] = eta[q]
+            out[i0 + q, 1] = gx[q] * m[q]
+            out[i0 + q, 2] = gy[q]
+            out[i0 + q, 3] = ue[q] * m[q]
+            out[i0 + q, 4] = un[q]
     return out
 
 
