@@ -9,6 +9,7 @@ import sys
 import numpy as np
 import pytest
 
+from siku_core.testing import conformance
 from siku_forcing.spectral_transport import absorb, steady_ratio, transport
 
 
@@ -378,3 +379,14 @@ def test_fast_jonswap_refuses_finite_depth():
     p = {k: v.default for k, v in FastJonswap.params.items()}
     with pytest.raises(SceneError, match="deep water only"):
         FastJonswap({**p, "depth": 50.0})._build()
+
+
+class TestSpectralConformance(conformance.TestForcingSourceConformance):
+    """The forcing conformance suite with the spectral field on a grid that covers the
+    conformance elements (poles and antimeridian included: 1000 km cells over the whole
+    plane of the field's origin)."""
+
+    sources = ("waves", "water_drag", "air_drag")
+    fields = ("spectral",)
+    field_params = {"spectral": {"x": [-2.1e7, 2.1e7], "y": [-1.01e7, 1.01e7],
+                                 "resolution": 1e6}}
