@@ -24,6 +24,7 @@ _KIND_TITLES = {
     "integrator": "integrators", "forcing": "forcing sources", "field": "velocity fields",
     "broad_phase": "broad phases", "contact_law": "contact laws", "writer": "writers",
     "element_source": "element sources", "process": "processes (change the ice)",
+    "attenuation_law": "attenuation laws (how ice damps waves)",
 }
 
 

@@ -25,6 +25,7 @@ Kinds and their entry points:
 ``writer``          :class:`Writer` — output files and restart
 ``element_source``  :class:`ElementSource` — makes the ice elements of a scene
 ``process``         :class:`Process` — changes the ice (thickness, fields, joints)
+``attenuation_law`` :class:`AttenuationLaw` — the rate at which ice damps waves
 ==================  ================================================================
 """
 from __future__ import annotations
@@ -333,7 +334,25 @@ class ElementSource(Component):
         the scene's ``[run] seed``), ``where`` names the scene table for error messages."""
 
 
+# --------------------------------------------------------------------- attenuation laws
+class AttenuationLaw(Component):
+    """The rate at which sea ice damps surface waves: the spatial decay rate of the wave
+    amplitude ``k_i`` [1/m] under a complete ice cover, ``a(x) = a0 exp(-k_i x)``; the energy
+    decays at ``2 k_i``. A wave model that uses it (a spectral wave field) applies the
+    source term ``S_ice = -2 c_g k_i C E`` with the ice concentration ``C`` of each cell, as
+    WAVEWATCH III does with its ice source terms."""
+
+    kind = "attenuation_law"
+    required = {"rate": ("frequency", "thickness", "depth")}
+
+    @abstractmethod
+    def rate(self, frequency: np.ndarray, thickness: np.ndarray,
+             depth: float) -> np.ndarray:
+        """Amplitude attenuation rate ``k_i`` [1/m] of waves of ``frequency`` [Hz] under ice of
+        ``thickness`` [m] in water of ``depth`` [m] (``inf``: deep); the arguments broadcast."""
+
+
 KINDS: dict[str, type[Component]] = {
     c.kind: c for c in (Integrator, Field, ForcingSource, BroadPhase, ContactLaw, Writer,
-                        ElementSource, Process)
+                        ElementSource, Process, AttenuationLaw)
 }

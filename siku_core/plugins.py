@@ -77,6 +77,11 @@ class SikuHookspecs:
         """Return process classes (physics that changes the ice: growth, ridging, ...)."""
 
     @hookspec
+    def siku_register_attenuation_laws(self) -> list[type]:
+        """Return attenuation law classes (how sea ice damps waves: the amplitude decay rate
+        against frequency and thickness, ``siku_core.interfaces.AttenuationLaw``)."""
+
+    @hookspec
     def siku_register_commands(self, subparsers: Any) -> None:
         """Add ``siku`` subcommands: ``subparsers.add_parser(name, help=...)`` from argparse;
         set ``func`` (``parser.set_defaults(func=fn)``, ``fn(args) -> exit status``)."""
@@ -114,6 +119,7 @@ _REGISTER_HOOKS = {
     "writer": "siku_register_writers",
     "element_source": "siku_register_element_sources",
     "process": "siku_register_processes",
+    "attenuation_law": "siku_register_attenuation_laws",
 }
 
 

@@ -443,6 +443,9 @@ class Waves(ForcingSource):
         if self.breaker is not None and self.ctx.committing:
             self.breaker.check(t, q)
         drag = self.C * self.p["rho"] if self.p["drag"] else 0.0
+        if hasattr(f, "add_forces"):  # a sea that varies in space (siku_forcing.spectral)
+            f.add_forces(t, q, V, self.st, self.free, self.g, bool(self.p["slope"]), drag, F)
+            return
         if drag == 0.0 and not self.p["slope"]:
             return
         _wave_forces(float(t), q, V, self.st.m, self.st.area, self.free, f.lat0, f.lon0,
