@@ -114,13 +114,22 @@ class DeformationStats:
         for i, T in enumerate(self.times):
             lines.append(f"{T / 3600:14.1f} " + " ".join(
                 f"{m * DAY:9.4f}" for m in self.moments[1][i]))
-        fitL = f"{self.scales[0] / 1e3:g}-{self.scales[-1] / 1e3:g} km"
-        fitT = f"{self.times[0] / 3600:g}-{self.times[-1] / 3600:g} h"
+        def fit_range(values, means, unit, scale):
+            # the scales the fit used: those with boxes (a scale below the element size has
+            # none, and its mean is NaN)
+            ok = np.asarray(values)[np.isfinite(means) & (np.asarray(means) > 0)]
+            if len(ok) < 2:
+                return "too few scales with boxes"
+            return f"{ok[0] / scale:g}-{ok[-1] / scale:g} {unit}"
+
+        m1 = self.moments[1]
         for i, T in enumerate(self.times):
-            lines.append(f"beta (T = {T / 3600:g} h, fit over {fitL}) = {self.beta[i]:.3f} "
+            lines.append(f"beta (T = {T / 3600:g} h, fit over "
+                         f"{fit_range(self.scales, m1[i], 'km', 1e3)}) = {self.beta[i]:.3f} "
                          f"± {1.96 * self.beta_se[i]:.3f}")
         for j, L in enumerate(self.scales):
-            lines.append(f"alpha (L = {L / 1e3:g} km, fit over {fitT}) = {self.alpha[j]:.3f} "
+            lines.append(f"alpha (L = {L / 1e3:g} km, fit over "
+                         f"{fit_range(self.times, m1[:, j], 'h', 3600)}) = {self.alpha[j]:.3f} "
                          f"± {1.96 * self.alpha_se[j]:.3f}")
         for q, b in self.beta_q.items():
             lines.append(f"beta(q = {q}) = {b:.3f}")
