@@ -98,6 +98,18 @@ def a_infinity(omega, A, K, dt: float) -> float:
     return float(np.mean(np.asarray(A) - Ab))
 
 
+@njit(cache=True, inline="always")
+def _lagged(Ki, row, hp, L):
+    """``Σ_{j=1}^{L-1} Ki[j] row[(hp + 1 - j) mod L]`` in two contiguous runs."""
+    acc = 0.0
+    top = min(hp + 1, L - 1)
+    for j in range(1, top + 1):
+        acc += Ki[j] * row[hp + 1 - j]
+    for j in range(top + 1, L):
+        acc += Ki[j] * row[hp + 1 - j + L]
+    return acc
+
+
 @njit(cache=True)
 def advance_heave(n_sub, dt, t0, q, free, lat0, lon0, R, qoff, qa, qb, qu, qv, qw, amp, kx,
                   ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area, M3, K, kidx, hist,
@@ -145,10 +157,7 @@ def advance_heave(n_sub, dt, t0, q, free, lat0, lon0, R, qoff, qa, qb, qu, qv, q
         m3 = M3[i]
         zi, vzi = z[i], vz[i]
         hp = head
-        mu = 0.5 * Ki[0] * hist[i, hp]
-        for j in range(1, L):
-            mu += Ki[j] * hist[i, (hp - j) % L]
-        mu *= dt
+        mu = dt * (0.5 * Ki[0] * hist[i, hp] + _lagged(Ki, hist[i], (hp - 1) % L, L))
         den = 1.0 + hd * 0.5 * dt * Ki[0] / m3
         for k in range(n_sub):
             fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
@@ -158,10 +167,7 @@ def advance_heave(n_sub, dt, t0, q, free, lat0, lon0, R, qoff, qa, qb, qu, qv, q
                 f, _, _ = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa, qb, qu,
                                   qv, qw, amp, kx, ky, om, ph, att, kap, ramp)
             fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
-            rest = 0.0
-            for j in range(1, L):
-                rest += Ki[j] * hist[i, (hp + 1 - j) % L]
-            rest *= dt
+            rest = dt * _lagged(Ki, hist[i], hp, L)
             vzi = (vzh + hd * (fh - rest) / m3) / den
             mu = rest + 0.5 * dt * Ki[0] * vzi
             hp = (hp + 1) % L
