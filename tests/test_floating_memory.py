@@ -24,7 +24,8 @@ from test_floating import G, RHO_I, RHO_W, block, peaks, run, steady_response, w
 SIZE = 1.0   # capytaine's panels [m]
 SQUARE = np.array([[-5.0, -5.0], [5.0, -5.0], [5.0, 5.0], [-5.0, 5.0]])
 D = RHO_I / RHO_W
-MEM = 'radiation = "memory", coefficients = "capytaine", mesh_size = 1.0'
+BINS = 20   # the band's frequencies in these tests (the default is 40)
+MEM = f'radiation = "memory", coefficients = "capytaine", mesh_size = 1.0, memory_bins = {BINS}'
 
 
 def _nodes(omega, B):
@@ -72,18 +73,21 @@ def test_kernel_transforms_of_an_analytic_damping(dt):
 
 @pytest.fixture(scope="module")
 def band(tmp_path_factory):
-    """Capytaine's heave A, B of the 10 m × 10 m × 1 m block on the default band."""
+    """Capytaine's A, B (heave, pitch, roll) of the 10 m × 10 m × 1 m block on the default
+    band."""
     pytest.importorskip("capytaine")
     cache = tmp_path_factory.mktemp("hydro")
-    omega = math.sqrt(2 * math.pi * G / (6 * SIZE)) * np.arange(1, 41) / 40
+    omega = math.sqrt(2 * math.pi * G / (6 * SIZE)) * np.arange(1, BINS + 1) / BINS
     A, B = memory.shape_band(SQUARE, 1.0, D, RHO_W, G, SIZE, omega, cache, "test")
     return cache, omega, A, B
 
 
-def test_kernel_transforms_of_capytaines_damping(band):
+@pytest.mark.parametrize("mode", [0, 1, 2])
+def test_kernel_transforms_of_capytaines_damping(band, mode):
+    """Heave, slope 1 (pitch) and slope 2 (roll)."""
     _, omega, A, B = band
-    assert np.all(B > 0)
-    _check_kernel(omega, B, 0.02, 1e-2)
+    assert np.all(B[mode] > 0)
+    _check_kernel(omega, B[mode], 0.02, 1e-2)
 
 
 def _rao(w, Aw, Bw, F, a):
@@ -115,40 +119,45 @@ def test_heave_in_waves_is_capytaines_rao_with_memory(band, T):
     assert abs(abs(other) / abs(X) - 1) > 2e-2 or abs(np.angle(other / X)) > 2e-2
 
 
-def energy(sim, z, v):
-    p = sim.processes[0]
-    return 0.5 * p.M3[0] * v**2 + 0.5 * p.C3[0] * z**2
-
-
 def test_free_decay_settles_at_the_floating_position(band):
-    """Released 5 cm above its floating position (linear: within the freeboard): with memory
-    the energy (m + A_inf) ζ'²/2 + C ζ²/2 never exceeds its start (the radiation force does
-    work ∫ mu ζ' dt >= 0 for a kernel whose transform B >= 0; the truncation's error, at most
-    bound, allows 1e-3 relative), its peaks fall, and the block comes to rest at its floating
-    position."""
+    """Released 5 cm above its floating position (linear: within the freeboard), rolled by
+    0.002 and pitched by -0.001 rad: with memory the energy of the three modes, (m + A_inf)
+    ζ'²/2 + C ζ²/2 plus (I + A_inf,k)(roll'² + pitch'²)/2 + C_k (roll² + pitch²)/2 (the
+    square's two axes are alike), never exceeds its start (the radiation force does work
+    ∫ mu x' dt >= 0 for a kernel whose transform B >= 0; the truncation's error, at most the
+    bound, allows 1e-3 relative), the first heave peaks fall, and the block comes to rest at
+    its floating position (a millionth of the energy left after 60 s: 16 heave and 20 tilt
+    periods)."""
     cache = band[0]
-    txt = block(f'{MEM}, hydro_cache = "{cache}", initial_heave = 0.05', duration=60.0,
-                dt=0.02)
+    txt = block(f'{MEM}, hydro_cache = "{cache}", initial_heave = 0.05, initial_roll = 0.002, '
+                'initial_pitch = -0.001', duration=60.0, dt=0.02)
     sim = Simulation(scene_from_text(txt, "<b>"), out=False, progress=False)
-    z, v = [], []
+    p = sim.processes[0]
+    assert p.M1[0] == pytest.approx(p.M2[0], rel=1e-9) and p.C1[0] == pytest.approx(p.C2[0])
+    names = ("heave", "heave_rate", "roll", "roll_rate", "pitch", "pitch_rate")
+    rec = []
     for _ in range(sim.n_steps):
         sim.step()
-        z.append(sim.context.fields["heave"][0])
-        v.append(sim.context.fields["heave_rate"][0])
-    z, v = np.array(z), np.array(v)
-    E = energy(sim, z, v)
-    E0 = energy(sim, 0.05, 0.0)
+        rec.append([sim.context.fields[k][0] for k in names])
+    z, v, r, rr, q, qr = np.array(rec).T
+
+    def energy(z, v, r, rr, q, qr):
+        return (0.5 * p.M3[0] * v**2 + 0.5 * p.C3[0] * z**2
+                + 0.5 * p.M1[0] * (rr**2 + qr**2) + 0.5 * p.C1[0] * (r**2 + q**2))
+
+    E = energy(z, v, r, rr, q, qr)
+    E0 = energy(0.05, 0.0, 0.002, 0.0, -0.001, 0.0)
     assert np.max(E) <= E0 * (1 + 1e-3)
     _, zp = peaks(sim.dt * np.arange(1, len(z) + 1), z)
-    assert np.all(np.diff(zp[zp > 1e-6]) < 0)
-    assert abs(z[-1]) < 1e-6 * 0.05 and abs(v[-1]) < 1e-6
+    assert np.all(np.diff(zp[:4]) < 0)   # later, the band's echo at 2 pi / dw (docs)
+    assert E[-1] < 1e-6 * E0
 
 
 def test_restart_with_memory_is_bit_for_bit(band, tmp_path):
     cache = band[0]
     out = {"file": str(tmp_path / "a.h5"), "every": "1s"}
     common = dict(duration=4.0, dt=0.02, forcing=wave_forcing(0.1, 5.0))
-    p = f'{MEM}, hydro_cache = "{cache}", initial_heave = 0.05'
+    p = f'{MEM}, hydro_cache = "{cache}", initial_heave = 0.05, initial_roll = 0.002'
     whole, _ = run(block(p, **common))
     half = block(p, **{**common, "duration": 2.0}, output=out)
     Simulation(scene_from_text(half, str(tmp_path / "s.toml")), out=tmp_path / "a.h5",
@@ -156,7 +165,7 @@ def test_restart_with_memory_is_bit_for_bit(band, tmp_path):
     rest = Simulation(scene_from_text(block(p, **common), str(tmp_path / "s.toml")),
                       out=tmp_path / "b.h5", progress=False, restart=tmp_path / "a.h5")
     rest.run()
-    for name in ("heave", "heave_rate", "roll", "pitch"):
+    for name in ("heave", "heave_rate", "roll", "roll_rate", "pitch", "pitch_rate"):
         np.testing.assert_array_equal(rest.context.fields[name],
                                       whole.context.fields[name], err_msg=name)
     np.testing.assert_array_equal(rest.processes[0].memory.hist,
@@ -171,8 +180,8 @@ def test_default_keeps_no_history():
 def test_bad_input_is_one_line(band, monkeypatch):
     cache = band[0]
     with pytest.raises(SceneError, match="does not cover element 0's heave natural"):
-        run(block(f'{MEM}, hydro_cache = "{cache}", memory_omega_max = 1.0, '
-                  'memory_bins = 8'), steps=1)
+        run(block(f'{MEM}, hydro_cache = "{cache}", memory_omega_max = 1.0'.replace(
+            f"memory_bins = {BINS}", "memory_bins = 4")), steps=1)
     with pytest.raises(SceneError, match="needs coefficients = 'capytaine'"):
         run(block('radiation = "memory"'), steps=1)
     monkeypatch.setitem(sys.modules, "capytaine", None)

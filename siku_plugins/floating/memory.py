@@ -1,11 +1,12 @@
-"""Radiation memory of heave by the impulse response (Cummins 1962), for ``radiation =
-"memory"`` of the ``floating`` process.
+"""Radiation memory of heave, roll and pitch by the impulse response (Cummins 1962), for
+``radiation = "memory"`` of the ``floating`` process.
 
-Cummins' equation for the heave ζ [m] of an element of mass ``m`` [kg] and stiffness ``C =
-rho_w g A`` [N/m]:
+Cummins' equation for each mode ``x`` (heave ζ [m] with mass ``m`` [kg] and stiffness ``C =
+rho_w g A`` [N/m]; the slopes along the principal axes with inertia ``I_k`` [kg m²] and
+stiffness ``C_k`` [N m], ``siku_plugins.floating.process``):
 
-    (m + A_inf) ζ'' + ∫_0^t K(t - τ) ζ'(τ) dτ + C ζ = F_exc(t),
-    K(t) = (2/π) ∫_0^∞ B(ω) cos(ωt) dω                                [kg/s²]
+    (m + A_inf) x'' + ∫_0^t K(t - τ) x'(τ) dτ + C x = F_exc(t),
+    K(t) = (2/π) ∫_0^∞ B(ω) cos(ωt) dω                          [kg/s² or kg m²/s²]
 
 with ``B(ω)`` capytaine's radiation damping on a band ``ω_j = j Δω`` (``j = 1..N``), taken
 piecewise linear through ``B(0) = 0`` (deep water), the band and ``B = 0`` at ``ω_N + Δω``
@@ -24,9 +25,11 @@ beyond). The infinite-frequency added mass is Ogilvie's (1964) relation ``A_inf 
 capytaine's in the band in the mean; capytaine's own ``A(∞)`` differs by the band's missing
 tail, ``docs/explanation/floating.md``).
 
-The convolution is advanced on the sub-steps with a ring buffer of the last ``L`` heave rates
-per element (:func:`advance_heave`; memory ``8 L`` bytes per element, work ``2 L`` flops per
-element and sub-step), carried in restarts as the process's history.
+The convolution is advanced on the sub-steps with a ring buffer of the last ``L`` rates of
+each mode per element (:func:`advance_modes`; memory ``24 L`` bytes per element, work ``6 L``
+flops per element and sub-step), carried in restarts as the process's history. Modes are
+decoupled (the diagonal of capytaine's matrices: a prism in its principal axes couples none of
+the three to another).
 """
 from __future__ import annotations
 
@@ -111,20 +114,29 @@ def _lagged(Ki, row, hp, L):
 
 
 @njit(cache=True)
-def advance_heave(n_sub, dt, t0, q, free, lat0, lon0, R, qoff, qa, qb, qu, qv, qw, amp, kx,
-                  ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area, M3, K, kidx, hist,
-                  head, z, vz):
-    """``n_sub`` sub-steps of ``dt`` [s] from ``t0`` of the heave of every free element with
-    the memory force ``mu = dt Σ_j w_j K_j ζ'_{n-j}`` (velocity Verlet as
-    ``siku_plugins.floating.kernels.advance``; ``mu`` explicit in the first half step, its
-    ``K_0`` term implicit in the second). ``K (S, L)`` per shape, ``kidx`` each element's
-    row; ``hist (n, L)`` the ring buffer of heave rates, ``hist[i, head]`` the latest."""
-    L = K.shape[1]
+def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
+                  amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area, M3, M1, C1,
+                  M2, C2, K, kidx, hist, head, z, vz, roll, roll_rate, pitch, pitch_rate):
+    """``n_sub`` sub-steps of ``dt`` [s] from ``t0`` of heave and the two principal slopes of
+    every free element, each mode with its memory force ``mu = dt Σ_j w_j K_j x'_{n-j}``
+    (velocity Verlet as ``siku_plugins.floating.kernels.advance``; ``mu`` explicit in the
+    first half kick, its ``K_0`` term implicit in the second). ``K (S, 3, L)`` per shape and
+    mode (heave, slope 1, slope 2), ``kidx`` each element's shape; ``hist (n, 3, L)`` the ring
+    buffers of the rates, ``hist[i, k, head]`` the latest."""
+    L = K.shape[2]
     natt = amp.shape[0]
     wave = natt > 0
     c0 = math.cos(lat0)
     att = np.empty(natt)
     hd = 0.5 * dt
+    x = np.empty(3)
+    v = np.empty(3)
+    vh = np.empty(3)
+    mu = np.empty(3)
+    mm = np.empty(3)
+    cc = np.empty(3)
+    fk = np.empty(3)
+    den = np.empty(3)
     for i in range(z.shape[0]):
         if not free[i]:
             continue
@@ -151,52 +163,91 @@ def advance_heave(n_sub, dt, t0, q, free, lat0, lon0, R, qoff, qa, qb, qu, qv, q
             att[j] = _attenuation(kk[j], d, depth)
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
-        f, _, _ = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om,
-                          ph, att, kap, ramp)
+        f, g1, g2 = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky,
+                            om, ph, att, kap, ramp)
+        c = cphi[i]
+        s = sphi[i]
+        sx = -pitch[i]
+        sy = roll[i]
+        wx = -pitch_rate[i]
+        wy = roll_rate[i]
+        x[0] = z[i]
+        v[0] = vz[i]
+        x[1] = sx * c + sy * s
+        x[2] = -sx * s + sy * c
+        v[1] = wx * c + wy * s
+        v[2] = -wx * s + wy * c
+        mm[0] = M3[i]
+        mm[1] = M1[i]
+        mm[2] = M2[i]
+        cc[0] = 0.0
+        cc[1] = C1[i]
+        cc[2] = C2[i]
         Ki = K[kidx[i]]
-        m3 = M3[i]
-        zi, vzi = z[i], vz[i]
         hp = head
-        mu = dt * (0.5 * Ki[0] * hist[i, hp] + _lagged(Ki, hist[i], (hp - 1) % L, L))
-        den = 1.0 + hd * 0.5 * dt * Ki[0] / m3
+        for m in range(3):
+            mu[m] = dt * (0.5 * Ki[m, 0] * hist[i, m, hp]
+                          + _lagged(Ki[m], hist[i, m], (hp - 1) % L, L))
+            den[m] = 1.0 + hd * 0.5 * dt * Ki[m, 0] / mm[m]
         for k in range(n_sub):
-            fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
-            vzh = vzi + hd * (fh - mu) / m3
-            zi += dt * vzh
+            # heave: buoyancy and wave load saturate out of and under the water
+            fk[0] = ka * (min(max(d - x[0] + f / area[i], 0.0), h[i]) - d)
+            fk[1] = -cc[1] * x[1] + rho_g * g1
+            fk[2] = -cc[2] * x[2] + rho_g * g2
+            for m in range(3):
+                vh[m] = v[m] + hd * (fk[m] - mu[m]) / mm[m]
+                x[m] += dt * vh[m]
             if wave:
-                f, _, _ = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa, qb, qu,
-                                  qv, qw, amp, kx, ky, om, ph, att, kap, ramp)
-            fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
-            rest = dt * _lagged(Ki, hist[i], hp, L)
-            vzi = (vzh + hd * (fh - rest) / m3) / den
-            mu = rest + 0.5 * dt * Ki[0] * vzi
+                f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa, qb, qu,
+                                    qv, qw, amp, kx, ky, om, ph, att, kap, ramp)
+            fk[0] = ka * (min(max(d - x[0] + f / area[i], 0.0), h[i]) - d)
+            fk[1] = -cc[1] * x[1] + rho_g * g1
+            fk[2] = -cc[2] * x[2] + rho_g * g2
+            for m in range(3):
+                rest = dt * _lagged(Ki[m], hist[i, m], hp, L)
+                v[m] = (vh[m] + hd * (fk[m] - rest) / mm[m]) / den[m]
+                mu[m] = rest + 0.5 * dt * Ki[m, 0] * v[m]
             hp = (hp + 1) % L
-            hist[i, hp] = vzi
-        z[i] = zi
-        vz[i] = vzi
+            for m in range(3):
+                hist[i, m, hp] = v[m]
+        z[i] = x[0]
+        vz[i] = v[0]
+        pitch[i] = -(x[1] * c - x[2] * s)
+        roll[i] = x[1] * s + x[2] * c
+        pitch_rate[i] = -(v[1] * c - v[2] * s)
+        roll_rate[i] = v[1] * s + v[2] * c
+
+
+#: the model's modes and capytaine's degrees of freedom (``siku_plugins.floating.hydro``)
+MODES = (("heave", "Heave"), ("slope1", "Pitch"), ("slope2", "Roll"))
 
 
 def shape_band(poly, h, d, rho, g, size, omega, cache_dir, where):
-    """``(A, B)`` lists [kg, kg/s] of capytaine's heave coefficients of one shape at the band
-    ``omega`` [rad/s], cached with the other hydro results (``siku_plugins.floating.hydro``)."""
+    """``(A, B)`` arrays ``(3, N)`` [kg, kg/s; kg m², kg m²/s] of capytaine's heave, slope 1
+    and slope 2 coefficients of one shape (principal axes) at the band ``omega`` [rad/s],
+    cached with the other hydro results (``siku_plugins.floating.hydro``)."""
     from . import hydro
 
-    key = {**hydro._shape_key(poly, h, d, rho, g, size), "band": [float(w) for w in omega]}
+    key = {**hydro._shape_key(poly, h, d, rho, g, size), "band": [float(w) for w in omega],
+           "modes": [dof for _, dof in MODES]}
 
     def compute():
         bod = hydro.body(poly, d, h, size, where)
-        ab = [hydro.radiation(bod, "Heave", float(w), rho, g, where) for w in omega]
-        return [[a for a, _ in ab], [b for _, b in ab]]
+        out = []
+        for _, dof in MODES:
+            ab = [hydro.radiation(bod, dof, float(w), rho, g, where) for w in omega]
+            out.append([[a for a, _ in ab], [b for _, b in ab]])
+        return out
 
-    A, B = hydro._cached(cache_dir, "hydro-band", key, compute, where)
-    return np.array(A), np.array(B)
+    vals = np.array(hydro._cached(cache_dir, "hydro-band", key, compute, where))
+    return vals[:, 0], vals[:, 1]
 
 
 class Memory:
-    """The per-shape kernels, each element's shape and the ring buffer of the ``floating``
+    """The per-shape kernels, each element's shape and the ring buffers of the ``floating``
     process with ``radiation = "memory"`` (module docstring)."""
 
-    def __init__(self, proc, ctx, m, C3, where):
+    def __init__(self, proc, ctx, masses, stiffnesses, where):
         from . import hydro
 
         p = proc.p
@@ -237,34 +288,41 @@ class Memory:
                 bands.append((omega, A, B, i))
             self.kidx[i] = shapes[key]
         self.bands = bands
-        self.m, self.C3 = m, C3
+        #: ``(3, n)`` the modes' masses without added mass and their stiffnesses
+        self.m, self.C = np.array(masses), np.array(stiffnesses)
 
     def build(self, proc, dt_sub: float, tol: float, where: str):
-        """Kernels at the sub-step ``dt_sub`` [s], ``A_inf`` per shape, the heave masses
-        ``proc.M3`` and the ring buffer."""
-        Ks, self.a_inf, self.bound = [], [], []
-        M3 = proc.M3
+        """Kernels at the sub-step ``dt_sub`` [s], ``A_inf (S, 3)``, the modes' masses
+        ``proc.M3, M1, M2`` and the ring buffers."""
+        S = len(self.bands)
+        Ks, self.a_inf, self.bound = [], np.zeros((S, 3)), np.zeros((S, 3))
+        masses = (proc.M3, proc.M1, proc.M2)
         for s, (omega, A, B, i) in enumerate(self.bands):
-            K, bound = kernel(omega, B, dt_sub, tol)
-            ainf = a_infinity(omega, A, K, dt_sub)
-            wn = math.sqrt(self.C3[i] / (self.m[i] + ainf))
-            if not omega[-1] > wn:
-                raise SceneError(f"{where}: radiation = 'memory': the band up to "
-                                 f"{omega[-1]:.3g} rad/s does not cover element {i}'s heave "
-                                 f"natural frequency {wn:.3g} rad/s; raise memory_omega_max")
+            sel = (self.kidx == s) & proc.free
+            row = []
+            for k, (mode, _) in enumerate(MODES):
+                K, bound = kernel(omega, B[k], dt_sub, tol)
+                ainf = a_infinity(omega, A[k], K, dt_sub)
+                wn = math.sqrt(self.C[k, i] / (self.m[k, i] + ainf))
+                if not omega[-1] > wn:
+                    raise SceneError(f"{where}: radiation = 'memory': the band up to "
+                                     f"{omega[-1]:.3g} rad/s does not cover element {i}'s "
+                                     f"{mode} natural frequency {wn:.3g} rad/s; raise "
+                                     "memory_omega_max")
+                row.append(K)
+                self.a_inf[s, k] = ainf
+                self.bound[s, k] = bound
+                masses[k][sel] = self.m[k, sel] + ainf
+            Ks.append(row)
             if not math.pi / dt_sub > 2 * omega[-1]:
                 raise SceneError(f"{where}: radiation = 'memory': sub-steps of {dt_sub:.3g} s "
                                  f"alias the band up to {omega[-1]:.3g} rad/s; raise "
                                  "steps_per_period")
-            Ks.append(K)
-            self.a_inf.append(ainf)
-            self.bound.append(bound)
-            sel = self.kidx == s
-            M3[sel & proc.free] = self.m[sel & proc.free] + ainf
-        L = max(len(k) for k in Ks)
-        self.K = np.zeros((len(Ks), L))
-        for s, k in enumerate(Ks):
-            self.K[s, :len(k)] = k
+        L = max(len(k) for row in Ks for k in row)
+        self.K = np.zeros((S, 3, L))
+        for s, row in enumerate(Ks):
+            for k, K in enumerate(row):
+                self.K[s, k, :len(K)] = K
         self.dt = dt_sub
-        self.hist = np.zeros((len(M3), L))
+        self.hist = np.zeros((len(proc.M3), 3, L))
         self.head = 0

@@ -239,7 +239,7 @@ class Floating(Process):
 
             from .memory import Memory
 
-            self.memory = Memory(self, ctx, rho_i * h * self.area, self.C3, where)
+            self.memory = Memory(self, ctx, self._inertia, (self.C3, self.C1, self.C2), where)
             every = 1
             tab = str(getattr(self, "table", ""))
             if tab.startswith("process[") and tab.endswith("]"):
@@ -275,6 +275,7 @@ class Floating(Process):
                              "use elements wider than about twice their thickness")
         I1 = rho_i * h * self.J1 + m * h * h / 12.0
         I2 = rho_i * h * self.J2 + m * h * h / 12.0
+        self._inertia = (m, I1, I2)
         if p["coefficients"] == "capytaine":
             from .hydro import element_coefficients
 
@@ -353,32 +354,32 @@ class Floating(Process):
             z0 = np.zeros(0)
             geo = (0.0, 0.0, 1.0)
             wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0)
-        # with memory the heave is advanced by memory.advance_heave; here on copies
-        heave = ((f["heave"], f["heave_rate"]) if mem is None else
-                 (f["heave"].copy(), f["heave_rate"].copy()))
+        if mem is not None:
+            from .memory import advance_modes
+
+            advance_modes(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *geo,
+                          self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv,
+                          self.qw, *wave, self.rho_g, self.draft, self.h, self.area, self.M3,
+                          self.M1, self.C1, self.M2, self.C2, mem.K, mem.kidx, mem.hist,
+                          mem.head, f["heave"], f["heave_rate"], f["roll"], f["roll_rate"],
+                          f["pitch"], f["pitch_rate"])
+            mem.head = (mem.head + n_sub) % mem.K.shape[2]
+            return
         advance(chunks(st.n), n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *geo,
                 self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw,
                 *wave, self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
-                self.C1, self.B1, self.M2, self.C2, self.B2, *heave, f["roll"],
-                f["roll_rate"], f["pitch"], f["pitch_rate"])
-        if mem is not None:
-            from .memory import advance_heave
-
-            advance_heave(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *geo,
-                          self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw, *wave,
-                          self.rho_g, self.draft, self.h, self.area, self.M3, mem.K, mem.kidx,
-                          mem.hist, mem.head, f["heave"], f["heave_rate"])
-            mem.head = (mem.head + n_sub) % mem.K.shape[1]
+                self.C1, self.B1, self.M2, self.C2, self.B2, f["heave"], f["heave_rate"],
+                f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"])
 
     def history(self):
         if self.memory is None:
             return None
-        return {"heave_rates": self.memory.hist.copy(), "head": np.array(self.memory.head)}
+        return {"rates": self.memory.hist.copy(), "head": np.array(self.memory.head)}
 
     def set_history(self, arrays) -> None:
         if self.memory is None:
             return
-        self.memory.hist[:] = arrays["heave_rates"]
+        self.memory.hist[:] = arrays["rates"]
         self.memory.head = int(arrays["head"])
 
     def _apply_coupled(self, ctx, dt: float) -> None:
