@@ -42,9 +42,9 @@ defaults are capytaine's values for a 10 m × 10 m × 1 m block at its natural f
 (``docs/explanation/floating.md``). With ``coefficients = "capytaine"`` (the optional extra
 ``siku[hydro]``) they are capytaine's A(omega), B(omega) of each element's prism at the natural
 frequency of each mode, computed once per shape and cached on disk
-(``siku_plugins.floating.hydro``). With ``radiation = "memory"`` the heave's radiation force
-is Cummins' convolution of its rate with the impulse response of capytaine's B(omega) on a
-band, and its added mass A(infinity) (``siku_plugins.floating.memory``); otherwise (the
+(``siku_plugins.floating.hydro``). With ``radiation = "memory"`` the radiation force of each
+mode is Cummins' convolution of its rate with the impulse response of capytaine's B(omega) on
+a band, and its added mass A(infinity) (``siku_plugins.floating.memory``); otherwise (the
 default) the coefficients are constant, and the radiation memory of a transient is not
 modelled.
 
@@ -133,9 +133,9 @@ class Floating(Process):
         "loads": Param([], "N", "constant vertical forces [[element, F_z], ...] on elements, "
                        "upward positive (a load on the ice)", type=list),
         "radiation": Param("constant", "", "radiation force from constant added mass and "
-                           "damping ('constant') or, for heave, from the impulse response "
-                           "of capytaine's B(omega) on a band ('memory': Cummins' equation, "
-                           "siku_plugins.floating.memory)", type=str,
+                           "damping ('constant') or from the impulse response of "
+                           "capytaine's B(omega) of each mode on a band ('memory': "
+                           "Cummins' equation, siku_plugins.floating.memory)", type=str,
                            choices=("constant", "memory")),
         "memory_omega_max": Param(0.0, "rad/s", "top of the band of radiation = 'memory' (0: "
                                   "sqrt(2 pi g / (6 mesh size)), six panels a wavelength)",
