@@ -42,8 +42,11 @@ defaults are capytaine's values for a 10 m × 10 m × 1 m block at its natural f
 (``docs/explanation/floating.md``). With ``coefficients = "capytaine"`` (the optional extra
 ``siku[hydro]``) they are capytaine's A(omega), B(omega) of each element's prism at the natural
 frequency of each mode, computed once per shape and cached on disk
-(``siku_plugins.floating.hydro``). Constant coefficients: the radiation memory of a transient
-(Cummins' equation) is not modelled.
+(``siku_plugins.floating.hydro``). With ``radiation = "memory"`` the radiation force of each
+mode is Cummins' convolution of its rate with the impulse response of capytaine's B(omega) on
+a band, and its added mass A(infinity) (``siku_plugins.floating.memory``); otherwise (the
+default) the coefficients are constant, and the radiation memory of a transient is not
+modelled.
 
 Time stepping: velocity Verlet with the damping half explicit, half implicit
 (``siku_plugins.floating.kernels.advance``), in sub-steps of at most ``T_min /
@@ -129,6 +132,19 @@ class Floating(Process):
                                    "joint (with bending = true)", min=0.0),
         "loads": Param([], "N", "constant vertical forces [[element, F_z], ...] on elements, "
                        "upward positive (a load on the ice)", type=list),
+        "radiation": Param("constant", "", "radiation force from constant added mass and "
+                           "damping ('constant') or from the impulse response of "
+                           "capytaine's B(omega) of each mode on a band ('memory': "
+                           "Cummins' equation, siku_plugins.floating.memory)", type=str,
+                           choices=("constant", "memory")),
+        "memory_omega_max": Param(0.0, "rad/s", "top of the band of radiation = 'memory' (0: "
+                                  "sqrt(2 pi g / (6 mesh size)), six panels a wavelength)",
+                                  min=0.0),
+        "memory_bins": Param(40, "1", "frequencies of the band (uniform from its top / bins)",
+                             type=int, min=4, max=400),
+        "memory_tol": Param(1e-2, "1", "truncation of the kernel: its neglected tail, as "
+                            "an error of B(omega), at most memory_tol max B", min=1e-6,
+                            max=0.5),
         "hydro_cache": Param("", "", "folder of capytaine's cached coefficients ('': the user "
                              "cache, siku/hydro)", type=str),
         "mesh_size": Param(0.0, "m", "largest panel of capytaine's mesh (0: a sixteenth of "
@@ -217,6 +233,27 @@ class Floating(Process):
 
             self.beams = Beams(self, ctx)
             self.period_min = min(self.period_min, self.beams.period_min)
+        self.memory = None
+        if p["radiation"] == "memory":
+            from siku_core.ice import process_schedule
+
+            from .memory import Memory
+
+            self.memory = Memory(self, ctx, self._inertia, (self.C3, self.C1, self.C2), where)
+            every = 1
+            tab = str(getattr(self, "table", ""))
+            if tab.startswith("process[") and tab.endswith("]"):
+                every = process_schedule(ctx.scene.cfg.process[int(tab[8:-1])].every,
+                                         ctx.dt, where)
+            dt_p = every * ctx.dt
+            # A_inf (so the period) first from a fine kernel, then the kernel of the sub-steps
+            self.memory.build(self, math.pi / (4 * self.memory.bands[0][0][-1]),
+                              p["memory_tol"], where)
+            self._periods()
+            n_sub = max(1, math.ceil(dt_p * p["steps_per_period"] / self.period_min - 1e-9))
+            self.memory.build(self, dt_p / n_sub, p["memory_tol"], where)
+            self.memory.n_sub, self.memory.dt_p = n_sub, dt_p
+            self._periods()
         # the start: every free element at the scene's initial heave and tilts
         f = ctx.fields
         for key in ("heave", "roll", "pitch"):
@@ -238,6 +275,7 @@ class Floating(Process):
                              "use elements wider than about twice their thickness")
         I1 = rho_i * h * self.J1 + m * h * h / 12.0
         I2 = rho_i * h * self.J2 + m * h * h / 12.0
+        self._inertia = (m, I1, I2)
         if p["coefficients"] == "capytaine":
             from .hydro import element_coefficients
 
@@ -261,10 +299,13 @@ class Floating(Process):
         self.M1, self.C1, self.B1 = I1 + A1, C1, B1
         self.M2, self.C2, self.B2 = I2 + A2, C2, B2
         self.C3 = C3
+        self._periods()
+
+    def _periods(self) -> None:
         free = self.free
         if free.any():
-            w2 = np.concatenate([(C3 / self.M3)[free], (C1 / self.M1)[free],
-                                 (C2 / self.M2)[free]])
+            w2 = np.concatenate([(self.C3 / self.M3)[free], (self.C1 / self.M1)[free],
+                                 (self.C2 / self.M2)[free]])
             #: shortest natural period of any free element's modes [s]
             self.period_min = float(2 * math.pi / math.sqrt(w2.max()))
         else:
@@ -295,6 +336,13 @@ class Floating(Process):
             return self._apply_coupled(ctx, dt)
         f = ctx.fields
         n_sub = max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
+        mem = self.memory
+        if mem is not None:
+            if dt != mem.dt_p:
+                raise SceneError(f"{ctx.where(self.table)}: process 'floating': radiation = "
+                                 f"'memory' was set up for steps of {mem.dt_p:g} s, not "
+                                 f"{dt:g} s")
+            n_sub = mem.n_sub
         st = ctx.state
         fld = self.field
         if fld is not None:
@@ -306,11 +354,33 @@ class Floating(Process):
             z0 = np.zeros(0)
             geo = (0.0, 0.0, 1.0)
             wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0)
+        if mem is not None:
+            from .memory import advance_modes
+
+            advance_modes(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *geo,
+                          self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv,
+                          self.qw, *wave, self.rho_g, self.draft, self.h, self.area, self.M3,
+                          self.M1, self.C1, self.M2, self.C2, mem.K, mem.kidx, mem.hist,
+                          mem.head, f["heave"], f["heave_rate"], f["roll"], f["roll_rate"],
+                          f["pitch"], f["pitch_rate"])
+            mem.head = (mem.head + n_sub) % mem.K.shape[2]
+            return
         advance(chunks(st.n), n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *geo,
                 self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw,
                 *wave, self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
                 self.C1, self.B1, self.M2, self.C2, self.B2, f["heave"], f["heave_rate"],
                 f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"])
+
+    def history(self):
+        if self.memory is None:
+            return None
+        return {"rates": self.memory.hist.copy(), "head": np.array(self.memory.head)}
+
+    def set_history(self, arrays) -> None:
+        if self.memory is None:
+            return
+        self.memory.hist[:] = arrays["rates"]
+        self.memory.head = int(arrays["head"])
 
     def _apply_coupled(self, ctx, dt: float) -> None:
         """:meth:`apply` with beams between jointed elements or loads
