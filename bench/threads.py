@@ -27,15 +27,17 @@ from siku_core.scene import scene_from_text
 from siku_core.simulation import PHASES, Simulation
 
 #: timed steps per thread count by size (about a second of work each on this machine)
-STEPS = {24: 2000, 400: 600, 4000: 120, 40000: 20, 400000: 4}
-#: steps per block: thread counts alternate every block
-BLOCK = {24: 200, 400: 60, 4000: 12, 40000: 4, 400000: 2}
+STEPS = {24: 2000, 400: 600, 4000: 120, 40000: 40, 400000: 20}
+#: steps per block: thread counts alternate every block (a multiple of the snapshot interval,
+#: so that every block writes as many snapshots)
+BLOCK = {24: 200, 400: 60, 4000: 20, 40000: 10, 400000: 10}
 
 
 def measure(n: int, threads: list[int], every: int, steps: int | None = None) -> dict:
     """Seconds per phase (and ``wall``) of ``steps`` steps at each thread count, alternated."""
     steps = steps or STEPS.get(n, max(4, 2_000_000 // max(n, 1)))
     block = min(BLOCK.get(n, max(2, steps // 10)), steps)
+    block = max(every, block // every * every)
     src = text("bonded", n, steps=10 * steps + 10)
     dt_line = next(line for line in src.splitlines() if line.startswith("dt ="))
     dt = float(dt_line.split("=")[1])

@@ -33,7 +33,7 @@ from .geometry.clip import REL_TOL
 from .geometry.face import edge_table
 from .geometry.quat import centers
 from .interfaces import BroadPhase
-from .parallel import chunks
+from .parallel import GATHER_NS, ROTATION_NS, alone, chunks
 from .plugins import package_of
 from .state import FREE, MELTED, ElementState
 from .testing import switches
@@ -148,11 +148,13 @@ class ContactModel(JointBook):
     def _rotations(self, q) -> bool:
         """``self.rm`` for state ``q``, and whether every element is still within half the
         skin of where it was at the last rebuild of the candidate list (one pass for both)."""
-        if self._ref_centers is None:
-            rotation_matrices(q, self.rm, chunks(q.shape[0]))
-            return False
-        return bool(rotations_within(q, self.rm, chunks(q.shape[0]), self._ref_centers,
-                                     (0.5 * self.skin) ** 2))
+        nch = chunks(q.shape[0], ROTATION_NS)
+        with alone(nch):
+            if self._ref_centers is None:
+                rotation_matrices(q, self.rm, nch)
+                return False
+            return bool(rotations_within(q, self.rm, nch, self._ref_centers,
+                                         (0.5 * self.skin) ** 2))
 
     def _candidates(self, q, within: bool) -> np.ndarray:
         """The candidate pairs for state ``q``: the list of the last rebuild while every element
@@ -238,9 +240,11 @@ class ContactModel(JointBook):
                 self.n_overlap = 0
         t4 = time.perf_counter()
         if joints or n:
-            gather_forces(F, T, self.joff, self.jidx, self.jside, self.joint_rows,
-                          self.joint_active, self.poff, self.pidx, self.pside, self.pair_rows,
-                          self.pair_active, chunks(st.n))
+            nch = chunks(st.n, GATHER_NS)
+            with alone(nch):
+                gather_forces(F, T, self.joff, self.jidx, self.jside, self.joint_rows,
+                              self.joint_active, self.poff, self.pidx, self.pside,
+                              self.pair_rows, self.pair_active, nch)
         t5 = time.perf_counter()
         tm["joints"] += t2 - t1
         tm["broad_phase"] += t3 - t2

@@ -40,7 +40,10 @@ class Guard:
         st = sim.state
         self.checked_step = sim.step_index
         vmax = sim.scene.cfg.run.max_speed
-        if state_sound(st.F, st.T, st.V, st.w, st.q, vmax * vmax, parallel.chunks(st.n)):
+        nch = parallel.chunks(st.n, parallel.GUARD_NS)
+        with parallel.alone(nch):
+            sound = state_sound(st.F, st.T, st.V, st.w, st.q, vmax * vmax, nch)
+        if sound:
             return
         for name in GUARDED:
             arr = getattr(st, name)

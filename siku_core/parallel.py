@@ -24,10 +24,19 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-#: items below which a loop runs on the calling thread: starting threads costs more
+#: items below which a loop runs on the calling thread: starting threads costs more (items of
+#: :data:`ITEM_NS`; a loop whose items cost less needs proportionally more of them)
 PARALLEL_MIN = 2048
-#: smallest chunk worth a task [items]
+#: smallest chunk worth a task [items of ITEM_NS]
 CHUNK_MIN = 512
+#: the cost of the reference item [ns on one thread]: about a contact's
+ITEM_NS = 100.0
+#: cost per item [ns, one thread] of the engine's light loops, measured on the 40 000-element
+#: pack (``python -m bench.threads``): waking the other threads for a region costs tens of
+#: microseconds, more than a loop of a few thousand such items
+GUARD_NS, ROTATION_NS, DRAG_NS, INTEGRATOR_NS, GATHER_NS = 4.0, 10.0, 15.0, 40.0, 40.0
+#: the drag of a gridded field in one pass (centre, interpolation, stress) [ns per element]
+GRIDDED_DRAG_NS = 60.0
 
 
 def threads() -> int:
@@ -55,12 +64,31 @@ def threads_for(n: int) -> Iterator[int]:
         yield before
 
 
-def chunks(n: int) -> int:
-    """Number of chunks for a parallel loop over ``n`` items with the current numba threads."""
+@contextmanager
+def alone(nch: int) -> Iterator[None]:
+    """Run the enclosed call of a loop cut into ``nch`` chunks on the calling thread alone when
+    ``nch`` is 1: a parallel region of one chunk would still wake the other threads and wait
+    for them (tens of microseconds each time, more than a light loop of a few thousand items)."""
+    before = numba.get_num_threads() if nch <= 1 else 1
+    if before <= 1:
+        yield
+        return
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
+
+def chunks(n: int, item_ns: float = ITEM_NS) -> int:
+    """Number of chunks for a parallel loop over ``n`` items of ``item_ns`` [ns on one thread]
+    each with the current numba threads: one (no thread woken) below ``PARALLEL_MIN`` reference
+    items of work, else several per thread, none smaller than ``CHUNK_MIN`` reference items."""
     threads = globals()["threads"]()
-    if threads <= 1 or n < PARALLEL_MIN:
+    work = n * (item_ns / ITEM_NS)
+    if threads <= 1 or work < PARALLEL_MIN:
         return 1
-    return max(1, min(8 * threads, n // CHUNK_MIN))
+    return max(1, min(8 * threads, int(work // max(CHUNK_MIN, 1e-300))))
 
 
 def tasks(nch: int) -> int:

@@ -394,12 +394,6 @@ class Simulation:
         self._write(force=True, diagnostics=self.restarted_from is None)
 
     def _write(self, force: bool = False, diagnostics: bool = True) -> None:
-        """Write what the schedules ask for at this step, on the threads the scene's size
-        warrants (:func:`~siku_core.parallel.threads_for`)."""
-        with parallel.threads_for(self.state.n):
-            self._write_due(force, diagnostics)
-
-    def _write_due(self, force: bool, diagnostics: bool) -> None:
         """Write what the schedules ask for at this step. A snapshot is the last good state:
         the guard checks it first (if it has not at this step), then it is remembered."""
         t0 = time.perf_counter()
@@ -426,8 +420,15 @@ class Simulation:
         """Run ``steps`` steps (default: to the end of the scene's time span)."""
         remaining = self.n_steps - self.step_index if steps is None else steps
         self.open_outputs()
-        bar = None
         show = self.progress
+        # the whole loop on the threads the scene's size warrants (set once, not per step)
+        with parallel.threads_for(self.state.n):
+            self._loop(remaining, show)
+        return self
+
+    def _loop(self, remaining: int, show: bool | None) -> None:
+        """The steps of :meth:`run`, with their progress bar; closes the outputs at the end."""
+        bar = None
         try:
             if remaining > 0:  # the first step compiles the kernels: said, and kept off the bar
                 with CompileNotice(enabled=show is None or bool(show)):
@@ -451,15 +452,15 @@ class Simulation:
             if bar is not None:
                 bar.close()
             self.close()
-        return self
 
     def advance(self, steps: int) -> None:
         """Take ``steps`` steps, writing on the schedules, and leave the outputs open (a
         coupled run advanced by another model; :meth:`close` ends it)."""
         self.open_outputs()
-        for _ in range(steps):
-            self.step()
-            self._write()
+        with parallel.threads_for(self.state.n):
+            for _ in range(steps):
+                self.step()
+                self._write()
 
     def close(self) -> None:
         if self._opened:

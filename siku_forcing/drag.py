@@ -20,7 +20,7 @@ from numba import njit, prange
 from siku_core import Param, hookimpl
 from siku_core.geometry.quat import east_north_row, latlon_of
 from siku_core.interfaces import ForcingSource
-from siku_core.parallel import chunk_bounds, chunks
+from siku_core.parallel import DRAG_NS, GRIDDED_DRAG_NS, alone, chunk_bounds, chunks
 from siku_core.state import MELTED, STATIC
 
 # ----------------------------------------------------------------- quadratic drag, shared
@@ -115,7 +115,7 @@ class _Drag(ForcingSource):
         (``gridded``) adds the stress itself in one pass instead of being sampled."""
         rho, C = float(self.p["rho"]), float(self.p["C"])
         theta = math.radians(self.p["turning_angle"])
-        nch = chunks(q.shape[0])
+        n = q.shape[0]
         if self.field is None:
             uv = (0.0, 0.0)
         else:
@@ -123,15 +123,21 @@ class _Drag(ForcingSource):
             uv = uniform(t) if uniform is not None else None
         fused = getattr(self.field, "add_drag", None) if uv is None else None
         if fused is not None:  # the field interpolates and the drag follows in one pass
-            fused(t, q, V, self.st.area, rho, C, theta, subtract_ice, F, nch)
+            nch = chunks(n, GRIDDED_DRAG_NS)
+            with alone(nch):
+                fused(t, q, V, self.st.area, rho, C, theta, subtract_ice, F, nch)
         elif uv is not None:
-            _stress_uniform(q, V, float(uv[0]), float(uv[1]), self.st.area, rho, C, theta,
-                            subtract_ice, F, nch)
+            nch = chunks(n, DRAG_NS)
+            with alone(nch):
+                _stress_uniform(q, V, float(uv[0]), float(uv[1]), self.st.area, rho, C, theta,
+                                subtract_ice, F, nch)
         else:
             u, v = self._sample(t, q)
-            _stress(q, V, np.ascontiguousarray(u, dtype=np.float64),
-                    np.ascontiguousarray(v, dtype=np.float64), self.st.area, rho, C, theta,
-                    subtract_ice, F, nch)
+            nch = chunks(n, DRAG_NS)
+            with alone(nch):
+                _stress(q, V, np.ascontiguousarray(u, dtype=np.float64),
+                        np.ascontiguousarray(v, dtype=np.float64), self.st.area, rho, C, theta,
+                        subtract_ice, F, nch)
 
 
 class AirDrag(_Drag):

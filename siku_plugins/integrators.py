@@ -20,7 +20,7 @@ from numba import njit, prange
 from siku_core import hookimpl
 from siku_core.geometry.quat import cayley_step
 from siku_core.interfaces import Integrator
-from siku_core.parallel import chunk_bounds, chunks
+from siku_core.parallel import INTEGRATOR_NS, alone, chunk_bounds, chunks
 from siku_core.state import FREE, STATIC
 
 
@@ -89,8 +89,10 @@ class Siku2(Integrator):
 
     def step(self, state, t, dt, forces):
         forces(t, state.q, state.V, state.w, state.F, state.T)
-        _siku2(state.q, state.V, state.w, state.F, state.T, state.m, state.I, state.flags,
-               self.radius, dt, chunks(state.n))
+        nch = chunks(state.n, INTEGRATOR_NS)
+        with alone(nch):
+            _siku2(state.q, state.V, state.w, state.F, state.T, state.m, state.I, state.flags,
+                   self.radius, dt, nch)
 
     def setup(self, ctx):
         self.radius = float(ctx.radius)
