@@ -8,10 +8,10 @@ thread counts take turns in blocks of steps on the same run (as ``python -m benc
 each sees the same stretch of it; ``Simulation.timings`` gives each phase's seconds, printed
 as ns per element-step with the ratio two threads / one thread (below 1: two are faster).
 
-The rule under test is ``siku_core.parallel``: loops below ``PARALLEL_MIN`` items run in one
-chunk, a scene below ``PARALLEL_MIN`` elements runs every phase on one thread
-(``threads_for``), and idle threads sleep rather than spin (``OMP_WAIT_POLICY=PASSIVE``,
-set by ``siku_core``), so that a run on all cores is never slower than on one.
+The rule under test is ``siku_core.parallel``: a loop with less work than ``PARALLEL_MIN``
+reference items (a contact's cost, ``ITEM_NS``) runs in one chunk on the calling thread
+(``chunks(n, item_ns)``, ``alone``), and a scene below ``PARALLEL_MIN`` elements runs its whole
+loop on one thread (``threads_for``), so that a run on all cores is never slower than on one.
 """
 from __future__ import annotations
 

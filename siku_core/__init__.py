@@ -4,15 +4,7 @@
 """
 from __future__ import annotations
 
-import os
-
 __version__ = "0.1.0"
-
-# Threads of the compiled loops sleep between parallel regions instead of spinning: a spinning
-# thread takes a core from the Python work between regions (output, the step loop) and, on a
-# busy machine, from the other threads of the next region (bench/RESULTS.md, "Threads"). Read
-# by the OpenMP runtime when numba first starts its threads; a value set before takes precedence.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 from .errors import (  # noqa: E402
     DataError,

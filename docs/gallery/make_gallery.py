@@ -8,7 +8,7 @@ polar stereographic grid), ``case`` (the 2001-04-06 case study on stand-in winds
 (the cold snap and thaw of ``examples/ice_life``: thickness change and volume budget). Runs take
 place in a temporary folder (a copy of ``examples/`` where a picture needs it); only the
 pictures are written, into ``--out`` (default: this folder). The default scene and the case run
-24 h each (about three and four minutes on two cores); ``--hours`` shortens them (tests).
+24 h each (about six and four minutes on two cores); ``--hours`` shortens them (tests).
 """
 from __future__ import annotations
 
