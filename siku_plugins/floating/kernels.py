@@ -34,6 +34,27 @@ def centres_and_frames(q):
 
 
 @njit(cache=True, inline="always")
+def wave_frame(q, i, wave, R, c0, lat0, lon0):
+    """Element ``i``'s centre on the wave field's plane ``(x, y)`` [m] (east and north of the
+    field's origin ``lat0, lon0`` [rad], ``c0 = cos(lat0)``) and its local east axis ``(e0,
+    e1)``; ``(0, 0, 1, 0)`` without a wave field."""
+    if not wave:
+        return 0.0, 0.0, 1.0, 0.0
+    zq = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])
+    x3 = 2.0 * (q[i, 1] * q[i, 3] + q[i, 0] * q[i, 2])
+    y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
+    lat = math.asin(max(-1.0, min(1.0, zq)))
+    lon = math.atan2(y3, x3)
+    dl = lon - lon0
+    if dl > math.pi:
+        dl -= 2.0 * math.pi
+    elif dl < -math.pi:
+        dl += 2.0 * math.pi
+    e0, e1, _, _ = east_north_row(q, i)
+    return R * c0 * dl, R * (lat - lat0), e0, e1
+
+
+@njit(cache=True, inline="always")
 def _attenuation(k, d, depth):
     """Pressure of a linear wave at depth ``d`` over that at the surface: ``e^{-k d}`` in deep
     water (``depth`` = inf), ``cosh(k (H - d)) / cosh(k H)`` otherwise (written without
@@ -111,24 +132,7 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
     for i in range(lo_e, hi_e):
         if not free[i]:
             continue
-        xc = 0.0
-        yc = 0.0
-        e0 = 1.0
-        e1 = 0.0
-        if wave:
-            zq = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])
-            x3 = 2.0 * (q[i, 1] * q[i, 3] + q[i, 0] * q[i, 2])
-            y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
-            lat = math.asin(max(-1.0, min(1.0, zq)))
-            lon = math.atan2(y3, x3)
-            dl = lon - lon0
-            if dl > math.pi:
-                dl -= 2.0 * math.pi
-            elif dl < -math.pi:
-                dl += 2.0 * math.pi
-            xc = R * c0 * dl
-            yc = R * (lat - lat0)
-            e0, e1, _, _ = east_north_row(q, i)
+        xc, yc, e0, e1 = wave_frame(q, i, wave, R, c0, lat0, lon0)
         d = draft[i]
         for j in range(natt):
             att[j] = _attenuation(kk[j], d, depth)

@@ -39,9 +39,8 @@ import numpy as np
 from numba import njit
 
 from siku_core.errors import SceneError
-from siku_core.geometry.quat import east_north_row
 
-from .kernels import _attenuation, _excite
+from .kernels import _attenuation, _excite, wave_frame
 
 
 def taper_bins(n: int) -> int:
@@ -140,24 +139,7 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
     for i in range(z.shape[0]):
         if not free[i]:
             continue
-        xc = 0.0
-        yc = 0.0
-        e0 = 1.0
-        e1 = 0.0
-        if wave:
-            zq = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])
-            x3 = 2.0 * (q[i, 1] * q[i, 3] + q[i, 0] * q[i, 2])
-            y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
-            lat = math.asin(max(-1.0, min(1.0, zq)))
-            lon = math.atan2(y3, x3)
-            dl = lon - lon0
-            if dl > math.pi:
-                dl -= 2.0 * math.pi
-            elif dl < -math.pi:
-                dl += 2.0 * math.pi
-            xc = R * c0 * dl
-            yc = R * (lat - lat0)
-            e0, e1, _, _ = east_north_row(q, i)
+        xc, yc, e0, e1 = wave_frame(q, i, wave, R, c0, lat0, lon0)
         d = draft[i]
         for j in range(natt):
             att[j] = _attenuation(kk[j], d, depth)
