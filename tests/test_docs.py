@@ -446,6 +446,9 @@ def test_sources_are_cited_by_author_and_year_and_listed_in_the_references():
     assert "10.1175/JTECH-D-17-0189.1" in refs and "Orzech, M. D." in refs
     for where, text in _cited_texts().items():
         assert not re.search(r"\bseeds?\s*0\d\d\b", text, re.I), f"{where}: an internal label"
+        label = re.search(r".{0,40}\b(?:[Tt]he seed's|(?:of|in|[Tt]he) seed (?:prints|says|"
+                          r"shows|gives|finds|paper|document)|Fig\. \d+ of the seed).{0,40}", text)
+        assert not label, f"{where}: a source called 'the seed': {label.group(0)!r}"
         bare = re.search(r".{0,40}(?<!Siku )\b[Tt]he report\b.{0,40}", text)
         assert not bare, f"{where}: uncited 'the report': {bare.group(0)!r}"
         if where.endswith(".md") and where != "docs/reference/references.md" and \
