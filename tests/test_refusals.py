@@ -118,6 +118,49 @@ def test_16_a_scheduler_that_is_not_dask_is_given_up_after_the_timeout(here, cap
     assert "cannot reach the Dask scheduler" in one_error(capsys)
 
 
+@pytest.fixture
+def chatty_server():
+    """A TCP server that answers every connection with text (an HTTP error page): Dask reads
+    its first eight bytes as a message length of about 3e18 bytes."""
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    stop = threading.Event()
+    held = []
+
+    def serve():
+        srv.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                c = srv.accept()[0]
+            except OSError:
+                continue
+            held.append(c)
+            c.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 11\r\n\r\nBad Request")
+
+    t = threading.Thread(target=serve, daemon=True)
+    t.start()
+    yield f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+    stop.set()
+    t.join()
+    for c in held:
+        c.close()
+    srv.close()
+
+
+def test_16_a_server_answering_in_another_protocol_is_refused_in_one_line(here, capsys,
+                                                                          chatty_server):
+    """The reply's length field is read as exabytes: one line saying so, no allocation."""
+    pytest.importorskip("distributed")
+    (here / "scene.toml").write_text(small(), encoding="utf-8")
+    (here / "sweep.toml").write_text('scene = "scene.toml"\n[cluster]\ntimeout = 2\n[[axis]]\n'
+                                     'key = "run.max_speed"\nvalues = [100.0]\n',
+                                     encoding="utf-8")
+    assert main(["ensemble", "sweep.toml", "--scheduler", chatty_server, "--no-progress"]) == 2
+    msg = one_error(capsys)
+    assert "the reply is not Dask's protocol" in msg and "EiB" not in msg, msg
+
+
 def test_16_a_sweep_of_too_many_members_is_refused_before_it_makes_them(here, capsys):
     (here / "scene.toml").write_text(small(), encoding="utf-8")
     draw = ('[[axis]]\nn = 1000000\ndraw = {{ "{}" = {{ distribution = "uniform", low = 1.0, '

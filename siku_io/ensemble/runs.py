@@ -147,6 +147,9 @@ def _connect(client_cls, address: str, timeout: float, where: str):
     why = None
     if t.is_alive():
         why = "no answer in Dask's protocol: is it a Dask scheduler?"
+    elif isinstance(box.get("error"), MemoryError):
+        why = ("the reply is not Dask's protocol (its length field read as an impossible "
+               "size): is it a Dask scheduler?")
     elif "error" in box:
         exc = box["error"]
         why = f"{type(exc).__name__}: {' '.join(str(exc).split())[:200]}"
