@@ -214,3 +214,27 @@ def test_18_messages_name_the_file_key_and_what_happened(here, capsys):
     assert main(["export", "w.nc"]) == 2
     msg = one_error(capsys)
     assert "w.nc: is a netcdf output file of siku, already NetCDF" in msg, msg
+
+
+# ------------------------------------------------------------------ 14
+def test_14_an_output_with_no_snapshot_is_refused_before_any_work(here, capsys):
+    """An output whose runs left no complete snapshot (every state dataset cut to length 0):
+    plot, export and grid say so in one line and write nothing (they drew, exported or
+    gridded an empty or failing file before)."""
+    import h5py
+
+    (here / "scene.toml").write_text(small(), encoding="utf-8")
+    assert main(["run", "scene.toml", "--no-progress", "--no-plots"]) == 0
+    capsys.readouterr()
+    with h5py.File(here / "out.h5", "r+") as f:
+        f["states"].visititems(lambda name, d: d.resize(0, axis=0) if isinstance(
+            d, h5py.Dataset) and d.maxshape and d.maxshape[0] is None else None)
+    grid = ["--lon", "-151", "-149", "--lat", "74.5", "75.5", "--resolution", "0.25",
+            "--no-progress"]
+    for args, doing in ((["plot", "out.h5", "--no-animation", "--out-dir", "pics"], "draw"),
+                        (["export", "out.h5", "--out", "e.nc"], "export"),
+                        (["grid", "out.h5", "--out", "g.nc", *grid], "grid")):
+        assert main(args) == 2, args
+        assert f"out.h5: holds no complete snapshot yet, nothing to {doing}" in one_error(capsys)
+    assert not {"e.nc", "g.nc"} & {p.name for p in here.iterdir()}
+    assert not any((here / "pics").glob("*.png"))

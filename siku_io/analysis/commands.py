@@ -49,11 +49,12 @@ def _cmd_grid(args) -> int:
     inputs = [("the gridded output file", Path(args.output))]
     from siku_io.analysis.regular_grid import Grid
     from siku_io.output.marks import writable
-    from siku_io.output.results import damaged
+    from siku_io.output.results import damaged, require_snapshot
 
     Grid(cfg, 6_371_000.0)  # a grid that cannot be built says so first (any radius)
     writable(out, "grid", overwrite=args.overwrite, inputs=inputs)  # refused before the work
     with damaged(args.output):
+        require_snapshot(args.output, "grid")
         ds = grid_output(args.output, cfg, progress=not args.no_progress)
     write_netcdf(ds, out, overwrite=args.overwrite, inputs=inputs)
     n = int(ds.sizes.get("lead", 0))

@@ -185,7 +185,10 @@ def export(path, target=None, overwrite: bool = False) -> Path:
         what = (f"a {kind} file of siku, already NetCDF" if kind else
                 "not a siku HDF5 output file")
         raise DataError(f"{path}: is {what}; siku export reads the HDF5 output of a run")
+    from .results import require_snapshot
+
     with damaged(path):
+        require_snapshot(path, "export")
         ds = cf_dataset(path)
     return write_netcdf(ds, target, overwrite=overwrite, kind="export", inputs=inputs)
 

@@ -227,6 +227,15 @@ def n_snapshots(f) -> int:
     return int(f["states/step"].shape[0]) if "states" in f and "step" in f["states"] else 0
 
 
+def require_snapshot(path: str | Path, doing: str) -> None:
+    """Refuse, in one line, an output that holds no complete snapshot (a run killed before its
+    first one) before ``doing`` ("export", "grid", ...) spends any work on it."""
+    with open_results(path) as f:
+        if n_snapshots(f) == 0:
+            raise DataError(f"{path}: holds no complete snapshot yet, nothing to {doing} (a "
+                            "run killed before its first snapshot; rerun the scene)")
+
+
 def check_layout(f, path: Path) -> None:
     if "states" not in f or "step" not in f["states"]:
         raise DataError(f"{path}: no element states (is it a siku output file?)")

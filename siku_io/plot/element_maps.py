@@ -33,6 +33,9 @@ class Output:
             if "states" not in f or "q" not in f["states"]:
                 raise DataError(f"{self.path}: no element states (is it a siku output file?)")
             n = n_snapshots(f)  # complete snapshots only (a killed run may leave one more row)
+            if n == 0:
+                raise DataError(f"{self.path}: holds no complete snapshot yet, nothing to draw "
+                                "(a run killed before its first snapshot; rerun the scene)")
             self.title = str(f.attrs.get("title", ""))
             self.radius = float(f.attrs["radius"])
             self.start = str(f.attrs.get("start", ""))
