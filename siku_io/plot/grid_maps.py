@@ -21,17 +21,12 @@ SIGNED = {"u", "v", "divergence", "vorticity", "stress_xx", "stress_yy", "stress
 
 
 def is_grid_file(path) -> bool:
-    """Whether ``path`` is a NetCDF file ``siku grid`` wrote."""
-    path = Path(path)
-    if path.suffix != ".nc" or not path.is_file():
-        return False
-    import netCDF4
+    """Whether ``path`` is a NetCDF file ``siku grid`` wrote (told by its marks,
+    :func:`siku_io.output.marks.netcdf_kind`; a damaged file whose attributes cannot be read
+    is not one)."""
+    from siku_io.output.marks import netcdf_kind
 
-    try:
-        with netCDF4.Dataset(path) as nc:
-            return "grid" in nc.ncattrs()
-    except OSError:
-        return False
+    return netcdf_kind(path) == "grid"
 
 
 def _open(path):
