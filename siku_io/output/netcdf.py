@@ -120,8 +120,8 @@ def cf_dataset(path):
             "long_name": "step index of the snapshot", "units": "1",
             "_FillValue": FILL_INT}),
     }
-    per = ["u", "v", "spin"] + [k for k in src.data_vars if src[k].dims == (T, E)
-                                and k not in ("u", "v", "spin")]
+    per = ["u", "v", "spin"] + [k for k in src.data_vars if src[k].dims[:2] == (T, E)
+                                and k not in ("u", "v", "spin", "q", "V")]
     for k in per:
         a = dict(src[k].attrs)
         a.update(_STANDARD.get(k, {}))
@@ -131,7 +131,7 @@ def cf_dataset(path):
             a["flag_values"] = np.asarray(a["flag_values"], dtype=src[k].dtype)
         a["coordinates"] = "time lat lon"
         a["geometry"] = "outline"
-        data[k] = xr.Variable((E, T), src[k].values.T, a)
+        data[k] = xr.Variable((E, T, *src[k].dims[2:]), np.swapaxes(src[k].values, 0, 1), a)
     for k, name in _STATIC.items():
         v = src[k]
         if v.dims != (E,):  # time-dependent here (processes): written with the records
@@ -310,7 +310,8 @@ class NetCDFWriter(Writer):
         per variable and record."""
         from siku_io.output.layout import ELEMENT_FIELDS
 
-        self.fields = list(ctx.element_fields())
+        fields = ctx.element_fields()
+        self.fields = list(fields)
         per = {"lon": ("degrees_east", "longitude", "longitude of the element centroid"),
                "lat": ("degrees_north", "latitude", "latitude of the element centroid"),
                "u": ("m s-1", "eastward_sea_ice_velocity", "eastward velocity of the centroid"),
@@ -324,11 +325,16 @@ class NetCDFWriter(Writer):
                 u, ln = declared[k][:2]
             per[k] = (u, _STANDARD.get(k, {}).get("standard_name", ""), ln)
         for k, (u, std, ln) in per.items():
+            dims = ("time", "element")
+            if k in fields and np.ndim(fields[k]) == 2:  # thickness categories
+                if "category" not in self.nc.dimensions:
+                    self.nc.createDimension("category", np.shape(fields[k])[1])
+                dims += ("category",)
             if k == "flags":  # changed by processes (an element melted away)
-                v = self.nc.createVariable(k, "i4", ("time", "element"), fill_value=FILL_INT)
+                v = self.nc.createVariable(k, "i4", dims, fill_value=FILL_INT)
                 v.setncatts(_flag_attrs())
             else:
-                v = self.nc.createVariable(k, "f8", ("time", "element"), fill_value=np.nan)
+                v = self.nc.createVariable(k, "f8", dims, fill_value=np.nan)
             v.setncatts({"units": u, "long_name": ln, **({"standard_name": std} if std else {})})
             if k in declared and declared[k][2] != "none":
                 v.setncatts({"grid": declared[k][2]})
