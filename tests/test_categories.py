@@ -138,8 +138,8 @@ def test_each_category_grows_by_stefans_law_and_the_thickness_stays_their_mean(
 
 
 def test_thin_categories_melt_through_and_the_volume_budget_closes(tmp_path):
-    # an ocean heat flux melts 1 m per 1.2 days (1.25 m in 36 h): the thin categories melt through, the budget
-    # (sum of grown_volume) equals the change of the total volume to 1e-10
+    # an ocean heat flux melts 1 m per 1.2 days (1.25 m in 36 h): the thin categories melt
+    # through, the budget (sum of grown_volume) equals the change of the total volume to 1e-10
     F = RHO * L_F / (1.2 * 86400.0)
     sim = cover_sim(tmp_path, thermo(f"surface_temperature = -5.0, ocean_heat_flux = {F}, "
                                      "min_thickness = 0.3"), steps=36)
