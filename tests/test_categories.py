@@ -18,12 +18,14 @@ import xarray as xr
 
 from siku_core.cli import main
 from siku_core.elements import build_elements_and_categories
-from siku_core.errors import StabilityError
-from siku_core.interfaces import Process
+from siku_core.errors import SceneError, StabilityError
+from siku_core.interfaces import ElementSource, ElementSpec, Process
+from siku_core.params import Param
 from siku_core.scene import load_scene, scene_from_text
 from siku_core.simulation import Simulation
 from siku_core.state import MELTED
 from siku_core.testing import scene_text
+from siku_core.testing.scenes import square
 from siku_core.testing.contact_cases import registry_with
 from siku_core.testing.process_checks import ice_volume
 
@@ -197,6 +199,41 @@ def test_a_process_that_breaks_the_categories_stops_the_run_naming_the_element(t
     sim = _with(tmp_path, _Breaks)
     with pytest.raises(StabilityError, match=r"breaks_categories.*element 3.*negative"):
         sim.run(steps=1)
+
+
+class _TwoSquares(ElementSource):
+    """Two squares: the first with the categories given as ``a``, ``h``, the second without."""
+
+    name = "two_squares"
+    params = {"a": Param([0.2, 0.5], "1", "fractions", type=list),
+              "h": Param([0.4, 2.0], "m", "thicknesses", type=list)}
+
+    def build(self, scene, seed, where):
+        sq = [np.array(square((k * 0.2, 80.0), 2000.0)) for k in range(2)]
+        return [ElementSpec(sq[0], thickness=9.0, label="first",
+                            categories=(np.array(self.p["a"]), np.array(self.p["h"]))),
+                ElementSpec(sq[1], thickness=1.25, label="second")]
+
+
+def _two(a, h):
+    txt = scene_text([], dt=60.0, duration=60.0, extra=(
+        f'[[elements.source]]\nname = "two_squares"\nparams = {{ a = {a}, h = {h} }}\n'))
+    return build_elements_and_categories(scene_from_text(txt, "<two>"),
+                                         registry_with("element_source", _TwoSquares))
+
+
+def test_a_source_gives_categories_and_an_element_without_has_one():
+    st, cats = _two([0.2, 0.5], [0.4, 2.0])
+    assert st.thickness[0] == (0.2 * 0.4 + 0.5 * 2.0) / 0.7  # the spec's 9 m is replaced
+    assert np.array_equal(cats.fraction[1], [1.0, 0.0]) and st.thickness[1] == 1.25
+    assert np.array_equal(cats.thickness[1], [1.25, 1.25])
+    assert np.array_equal(st.thickness, cats.mean())
+    with pytest.raises(SceneError, match=r"first: 2 category fractions and 3 category "):
+        _two([0.2, 0.5], [0.4, 2.0, 3.0])
+    with pytest.raises(SceneError, match=r"first: the category fractions sum to 0"):
+        _two([0.0, 0.0], [0.4, 2.0])
+    with pytest.raises(SceneError, match=r"first: its ice has no thickness"):
+        _two([0.5, 0.0], [0.0, 2.0])
 
 
 # ---------------------------------------------------------------------------- outputs, restart
