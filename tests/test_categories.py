@@ -263,6 +263,10 @@ def test_the_outputs_carry_the_categories_with_units(runs):
     for k in ("category_fraction", "category_thickness", "thickness"):
         assert np.array_equal(nc[k].values, ds[k].values), k
         assert nc[k].attrs["units"] == ds[k].attrs["units"]
+    pytest.importorskip("compliance_checker")
+    from test_output_formats import cf_errors
+
+    assert cf_errors(runs / "run.nc") == []
 
 
 def test_siku_export_keeps_the_categories(runs):
@@ -273,6 +277,10 @@ def test_siku_export_keeps_the_categories(runs):
     assert nc["category_thickness"].dims == ("element", "obs", "category")
     assert np.array_equal(nc["category_thickness"].values,
                           h5["category_thickness"].values.transpose(1, 0, 2))
+    pytest.importorskip("compliance_checker")
+    from test_output_formats import cf_errors
+
+    assert cf_errors(out) == []
 
 
 def test_restart_with_categories_is_bit_for_bit(runs, tmp_path):
