@@ -310,8 +310,9 @@ class NetCDFWriter(Writer):
         per variable and record."""
         from siku_io.output.layout import ELEMENT_FIELDS
 
-        fields = ctx.element_fields()
-        self.fields = list(fields)
+        self.fields = list(fields := ctx.element_fields())
+        if cats := {np.shape(a)[1] for a in fields.values() if np.ndim(a) == 2}:
+            self.nc.createDimension("category", cats.pop())  # thickness categories
         per = {"lon": ("degrees_east", "longitude", "longitude of the element centroid"),
                "lat": ("degrees_north", "latitude", "latitude of the element centroid"),
                "u": ("m s-1", "eastward_sea_ice_velocity", "eastward velocity of the centroid"),
@@ -325,11 +326,7 @@ class NetCDFWriter(Writer):
                 u, ln = declared[k][:2]
             per[k] = (u, _STANDARD.get(k, {}).get("standard_name", ""), ln)
         for k, (u, std, ln) in per.items():
-            dims = ("time", "element")
-            if k in fields and np.ndim(fields[k]) == 2:  # thickness categories
-                if "category" not in self.nc.dimensions:
-                    self.nc.createDimension("category", np.shape(fields[k])[1])
-                dims += ("category",)
+            dims = ("time", "element", "category")[:1 + max(1, np.ndim(fields.get(k, 0)))]
             if k == "flags":  # changed by processes (an element melted away)
                 v = self.nc.createVariable(k, "i4", dims, fill_value=FILL_INT)
                 v.setncatts(_flag_attrs())
