@@ -30,7 +30,9 @@ diagnostics and fields    ``diagnostics()``, ``element_fields()``, ``timings``
                           ``fields`` (the declared per-element fields by name, arrays
                           their owners change in place), ``field_catalogue()`` (units,
                           long name and grid reduction of every field a writer writes)
-changing the ice          ``melt(elements)`` (processes: an element melted away)
+changing the ice          ``melt(elements)`` (processes: an element melted away),
+                          ``categories``: the thickness categories (fraction and
+                          thickness ``(n, K)``, changed in place) or ``None``
 what writers record       ``run_record()``, ``history()``, ``component_descriptions()``,
                           ``plugin_versions()``, ``snapshot_every``, ``diagnostics_every``
                           (steps), ``restarted_from``, ``restart_path`` (where a restart
@@ -47,6 +49,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     import numpy as np
 
+    from .categories import Categories
     from .interfaces import Component
     from .plugins import Registry
     from .scene import Scene
@@ -172,6 +175,14 @@ class Context:
         the changing ``thickness``, ``mass`` and ``flags`` (what writers label them with;
         ``grid``: ``mean``, ``sum`` or ``none``, how ``siku grid`` reduces them per cell)."""
         return self._sim.ice.catalogue()
+
+    @property
+    def categories(self) -> "Categories | None":
+        """The elements' thickness categories (:class:`~siku_core.categories.Categories`:
+        ``fraction`` ``a_k`` [1] and ``thickness`` ``h_k`` [m], ``(n, K)`` arrays a process
+        changes in place; the engine then makes each element's thickness their mean), or
+        ``None`` for a scene without categories."""
+        return self._sim.ice.categories
 
     def melt(self, elements) -> int:
         """Flag ``elements`` (indices) as melted away: they stop, leave the contact phase and

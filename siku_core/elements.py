@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from pydantic import ValidationError
 
+from .categories import Categories, categories_of
 from .errors import SceneError
 from .geometry.batch import elements_from_lonlat
 from .geometry.quat import east_north_local
@@ -106,6 +107,13 @@ def collect_specs(scene: Scene, registry: "Registry | None" = None) -> list[Elem
 
 def build_elements(scene: Scene, registry: "Registry | None" = None) -> ElementState:
     """The element state of a scene, in the order of :func:`scene_sources`."""
+    return build_elements_and_categories(scene, registry)[0]
+
+
+def build_elements_and_categories(scene: Scene, registry: "Registry | None" = None
+                                  ) -> tuple[ElementState, Categories | None]:
+    """The element state of a scene and its thickness categories (``None`` without:
+    :mod:`siku_core.categories`); an element with categories has their mean thickness."""
     cfg = scene.cfg
     R = cfg.planet.radius
     mats = list(cfg.materials)
@@ -139,6 +147,7 @@ def build_elements(scene: Scene, registry: "Registry | None" = None) -> ElementS
         material[i] = mats.index(s.material)
         floe[i] = s.floe
         polys.append(loc)
+    cats = categories_of([s.categories for s in specs], thick, [s.label for s in specs])
     rho = np.array([cfg.materials[mats[k]].density for k in material]) if n else np.zeros(0)
     m = rho * thick * area
     inertia = rho * thick * J
@@ -151,4 +160,4 @@ def build_elements(scene: Scene, registry: "Registry | None" = None) -> ElementS
     return ElementState(
         q=q, V=V, w=w, m=m, I=inertia, area=area, thickness=thick, radius=radius, flags=flags,
         material=material, vert_offsets=offsets, verts=verts, floe=floe,
-    )
+    ), cats

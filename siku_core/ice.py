@@ -19,6 +19,17 @@ since the last check), which stops the run with one line naming the element if `
 longer safe. A scene with neither declared fields nor processes allocates nothing here and runs as
 before.
 
+Thickness categories (:mod:`siku_core.categories`, a scene whose element sources give them):
+``ctx.categories`` holds the fraction ``a_k`` and thickness ``h_k`` of every element's categories,
+which processes change in place. After each process the engine makes the element thickness their
+mean again, ``h = sum a_k h_k / sum a_k``: an element whose categories the process changed gets
+that mean (the process may set it itself with the same formula, :func:`category_mean`); an
+element whose thickness alone changed (a process that knows no categories, e.g. ``ridging``) has
+every ``h_k`` scaled by the ratio of its new to its old thickness, its fractions unchanged.
+Categories that stop being a distribution (a fraction or thickness negative, fractions summing
+above 1) stop the run with one line naming the process and the element. They are written as
+``category_fraction`` and ``category_thickness`` (dimensions element × category) and restarted.
+
 An element that melts away (a process calls ``ctx.melt(elements)``) is flagged ``melted``
 (flag code 3 in the outputs), stops moving, leaves the contact phase (its joints break with
 mode ``MELT`` and it is never a collision candidate again) and keeps its last thickness so that
@@ -32,6 +43,7 @@ from typing import TYPE_CHECKING, Any, Iterable
 
 import numpy as np
 
+from .categories import CATEGORY_FIELDS, Categories, category_mean, category_problem
 from .errors import PluginError, SceneError, StabilityError
 from .state import MELTED
 from .stress import STRESS_FIELDS
@@ -53,7 +65,8 @@ RECHECK = 0.01
 #: per-element names the engine and its writers use themselves: no component may declare them
 RESERVED_FIELDS = frozenset({"speed", "damage", *STRESS_FIELDS, "thickness", "mass", "flags", "lon",
                       "lat", "u", "v", "spin", "q", "V", "w", "area", "moment_of_inertia",
-                      "material", "floe", "bounding_radius", "time", "step", "element"})
+                      "material", "floe", "bounding_radius", "time", "step", "element",
+                      *CATEGORY_FIELDS})
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
@@ -131,8 +144,11 @@ class IceBook:
     kind = "engine"
     name = "elements"
 
-    def __init__(self, sim: "Simulation", processes: bool):
+    def __init__(self, sim: "Simulation", processes: bool,
+                 categories: Categories | None = None):
         self._sim = sim
+        #: the elements' thickness categories, ``None`` for a scene without
+        self.categories = categories
         st = sim.state
         self.specs = declared_fields(sim.components())
         self.values: dict[str, np.ndarray] = {
@@ -140,7 +156,7 @@ class IceBook:
             for name, (_, f) in self.specs.items()}
         #: whether the scene's processes may change thickness, flags and joints
         self.processes = processes
-        self.active = processes or bool(self.specs)
+        self.active = processes or bool(self.specs) or categories is not None
         if processes:
             mats = list(sim.scene.cfg.materials.values())
             self.rho = np.array([mats[k].density for k in st.material], dtype=float)
@@ -159,13 +175,22 @@ class IceBook:
         if self.processes:
             st = self._sim.state
             out.update(thickness=st.thickness, mass=st.m, flags=st.flags)
+        out.update(self._category_arrays())
         return out
+
+    def _category_arrays(self) -> dict[str, np.ndarray]:
+        c = self.categories
+        if c is None:
+            return {}
+        return {"category_fraction": c.fraction, "category_thickness": c.thickness}
 
     def catalogue(self) -> dict[str, tuple[str, str, str]]:
         """``{name: (units, long_name, grid)}`` of every field :meth:`element_fields` gives."""
         out = {n: (f.units, f.long_name, f.grid) for n, (_, f) in self.specs.items()}
         if self.processes:
             out.update(CHANGING)
+        if self.categories is not None:
+            out.update({k: (u, ln, "none") for k, (u, ln) in CATEGORY_FIELDS.items()})
         return out
 
     # ------------------------------------------------------------------ history (restart)
@@ -177,16 +202,21 @@ class IceBook:
             st = self._sim.state
             out["thickness"] = st.thickness.copy()
             out["flags"] = st.flags.copy()
+        out.update({k: v.copy() for k, v in self._category_arrays().items()})
         return out
 
     def set_history(self, arrays: dict[str, np.ndarray]) -> None:
         st = self._sim.state
+        cats = self._category_arrays()
         for name, arr in arrays.items():
             arr = np.asarray(arr)
-            if arr.shape != (st.n,):
+            want = cats[name].shape if name in cats else (st.n,)
+            if arr.shape != want:
                 raise SceneError(f"restart holds per-element '{name}' of shape {arr.shape}; "
-                                 f"the scene builds {st.n} elements")
-            if name in self.values:
+                                 f"the scene builds {want}")
+            if name in cats:
+                cats[name][:] = arr
+            elif name in self.values:
                 self.values[name][:] = arr
             elif name == "thickness" and self.processes:
                 st.thickness[:] = arr
@@ -199,6 +229,37 @@ class IceBook:
             self.refresh(check=False)
 
     # ------------------------------------------------------------------ changes
+    def before_process(self) -> tuple[np.ndarray, ...] | None:
+        """What :meth:`after_process` compares with (categories and thickness), or ``None``
+        for a scene without categories."""
+        c = self.categories
+        if c is None:
+            return None
+        return c.fraction.copy(), c.thickness.copy(), self._sim.state.thickness.copy()
+
+    def after_process(self, before: tuple[np.ndarray, ...] | None, who: str) -> None:
+        """Make each element's thickness the mean of its categories again after one process
+        (module docstring); ``before`` from :meth:`before_process`."""
+        if before is None:
+            return
+        c, st = self.categories, self._sim.state
+        a0, h0, t0 = before
+        cat = (c.fraction != a0).any(axis=1) | (c.thickness != h0).any(axis=1)
+        alone = ~cat & (st.thickness != t0)
+        if not (cat.any() or alone.any()):
+            return
+        rows = np.flatnonzero(cat)
+        found = category_problem(c.fraction[rows], c.thickness[rows])
+        if found is not None:
+            i, what = found
+            raise StabilityError(f"{who} left the thickness categories of element {rows[i]} "
+                                 f"at t = {self._sim.time:g} s: {what}")
+        k = np.flatnonzero(alone & np.isfinite(st.thickness) & (st.thickness > 0))
+        c.thickness[k] *= (st.thickness[k] / t0[k])[:, None]
+        rows = np.flatnonzero(cat | alone)
+        rows = rows[np.isfinite(st.thickness[rows]) & (st.thickness[rows] > 0) | cat[rows]]
+        st.thickness[rows] = category_mean(c.fraction[rows], c.thickness[rows])
+
     def after_processes(self, who: str) -> None:
         """After processes ran: if a thickness or flag changed, recompute what depends on it
         and check the step (``who`` names the processes for the message)."""
@@ -256,7 +317,9 @@ def apply_processes(sim: "Simulation") -> None:
     ran = []
     for proc, every in zip(sim.processes, sim._process_every):
         if sim.step_index % every == 0:
+            before = sim.ice.before_process()
             proc.apply(sim.context, every * sim.dt)
+            sim.ice.after_process(before, f"process '{proc.name}'")
             ran.append(f"process '{proc.name}'")
     if ran:
         sim.ice.after_processes(" and ".join(ran))

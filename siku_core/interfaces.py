@@ -310,6 +310,9 @@ class ElementSpec:
     label: str = ""
     #: the floe (bonded group) the element belongs to, ``-1`` for none; written to outputs
     floe: int = -1
+    #: thickness categories ``(a_k [1], h_k [m])`` (``siku_core.categories``); the element's
+    #: thickness is then their mean ``sum a_k h_k / sum a_k``
+    categories: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class ElementSource(Component):

@@ -24,7 +24,7 @@ import numpy as np
 from . import parallel
 from .diagnostics import element_diagnostics, held_forces
 from .context import Context
-from .elements import build_elements
+from .elements import build_elements_and_categories
 from .guard import Guard, check_initial_state
 from . import __version__
 from .errors import SceneError, StabilityError
@@ -114,7 +114,7 @@ class Simulation:
         self.start: _dt.datetime | None = cfg.time.start
         self.seed = cfg.run.seed
         self.rng = np.random.default_rng(self.seed)
-        self.state = build_elements(scene, self.registry)
+        self.state, categories = build_elements_and_categories(scene, self.registry)
         self.step_index = 0
         #: what components see of the run (siku_core.context): handed to their setup and hooks
         self.context = Context(self)
@@ -147,7 +147,7 @@ class Simulation:
         self.diag_schedule = StepInterval.diagnostics(cfg.output.diagnostics_every, self.dt,
                                                       self.n_steps)
         #: declared per-element fields and the changing thickness (siku_core.ice)
-        self.ice = IceBook(self, processes=bool(self.processes))
+        self.ice = IceBook(self, processes=bool(self.processes), categories=categories)
         if self.processes and self.contacts is not None:
             self.contacts.rest_state_is_history = True  # processes may refreeze joints
         for comp in self.components():

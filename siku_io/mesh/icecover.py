@@ -14,8 +14,11 @@ record nearest to ``[time] start``. Each ice cell of the mesh is sampled at its 
 Thickness categories (``category = "ncat"``, the report's thickness distribution ``g(h)``):
 both variables carry a category dimension, the per-category area fraction ``a_k`` and thickness
 ``h_k``. The element's concentration is ``sum a_k``, its distribution ``g_k = a_k / sum a_k``
-and its thickness the mean ``sum g_k h_k``; mass ``rho A sum g_k h_k`` and the in-plane contact
-stiffness, which adds over parallel layers (``E sum g_k h_k``), both follow from that mean.
+and its thickness the mean ``sum g_k h_k = sum a_k h_k / sum a_k``; mass ``rho A sum g_k h_k``
+and the in-plane contact stiffness, which adds over parallel layers (``E sum g_k h_k``), both
+follow from that mean. The element keeps its categories (``a_k``, ``h_k``:
+:mod:`siku_core.categories`), which processes change and outputs carry; fractions that sum
+above 1, or a negative fraction or thickness, are refused, naming the cell.
 """
 from __future__ import annotations
 
@@ -31,13 +34,14 @@ from siku_forcing.cf import find_coordinate
 @dataclass
 class Cover:
     """The cover at a set of points: concentration [1], thickness [m] (NaN where the file has
-    no thickness variable), and with categories the distribution ``g (n, K)`` and category
-    thicknesses ``h (n, K)``."""
+    no thickness variable), and with categories the distribution ``g (n, K)``, category
+    thicknesses ``h (n, K)`` and fractions ``a (n, K)`` (missing values: 0)."""
 
     concentration: np.ndarray
     thickness: np.ndarray
     g: np.ndarray | None = None
     h: np.ndarray | None = None
+    a: np.ndarray | None = None
 
 
 def _coord(ds, da, given: str, role: str, where: str):
@@ -157,11 +161,14 @@ def read_cover(cfg, base_dir: Path, start, plon: np.ndarray, plat: np.ndarray,
     if not cfg.category:
         h = thick if thick is not None else np.full(len(plat), np.nan)
         return Cover(np.where(np.isfinite(conc), conc, 0.0), h)
-    a = np.where(np.isfinite(conc), np.clip(conc, 0.0, 1.0), 0.0)  # (K, n)
+    from siku_core.categories import category_mean
+
+    a = np.where(np.isfinite(conc), conc, 0.0)  # (K, n); checked by the mesh source
     if thick is None:
         raise DataError(f"{where}: thickness categories need a thickness variable")
     total = a.sum(axis=0)
     g = np.divide(a, total, out=np.zeros_like(a), where=total > 0)
     hk = np.where(np.isfinite(thick), thick, 0.0)
-    mean = np.sum(g * hk, axis=0)
-    return Cover(total, np.where(total > 0, mean, np.nan), g.T, hk.T)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = category_mean(a.T, hk.T)
+    return Cover(total, np.where(total > 0, mean, np.nan), g.T, hk.T, a.T)

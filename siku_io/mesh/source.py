@@ -24,8 +24,9 @@ class MeshSource(ElementSource):
         mc = MeshCfg.model_validate({**self.p, "seed": seed})
         mesh, _ = mesh_for_scene(scene, mc, where)
         keep, thick = np.ones(mesh.n, dtype=bool), np.full(mesh.n, np.nan)
+        cats = None
         if mc.cover is not None:
-            keep, thick = self._cover(scene, mesh, mc, where)
+            keep, thick, cats = self._cover(scene, mesh, mc, where)
         out = []
         for k in np.flatnonzero(keep):
             ice = mesh.kind[k] == ICE
@@ -35,13 +36,15 @@ class MeshSource(ElementSource):
                 mc.velocity if ice else [0.0, 0.0], mc.spin if ice else 0.0, h,
                 mc.material,
                 f"cell {k} ({KIND_NAMES[mesh.kind[k]]}, seed {mesh.seeds[k, 0]:.4f}, "
-                f"{mesh.seeds[k, 1]:.4f})"))
+                f"{mesh.seeds[k, 1]:.4f})",
+                categories=(cats[0][k], cats[1][k]) if cats is not None and ice else None))
         return out
 
     @staticmethod
     def _cover(scene, mesh, mc, where):
         """Which cells stay (static cells always; ice cells where the concentration reaches
-        the threshold) and the thickness of each ice cell from the cover file [m]."""
+        the threshold), the thickness of each ice cell from the cover file [m] and, with
+        thickness categories, their fractions and thicknesses ``(n, K)`` (else ``None``)."""
         from siku_io.mesh.icecover import read_cover
         from siku_io.mesh.mesh_file import ICE
 
@@ -58,7 +61,17 @@ class MeshSource(ElementSource):
                              f"{mesh.seeds[k, 1]:.4f}) has concentration "
                              f"{cov.concentration[k]:.3g} but no positive thickness in "
                              f"{mc.cover.file} ({len(bad)} such cells)")
-        return keep, thick
+        if cov.a is None:
+            return keep, thick, None
+        from siku_core.categories import category_problem
+
+        rows = np.flatnonzero(keep & ice)
+        found = category_problem(cov.a[rows], cov.h[rows])
+        if found is not None:
+            k = int(rows[found[0]])
+            raise SceneError(f"{where}: ice cell {k} (seed {mesh.seeds[k, 0]:.4f}, "
+                             f"{mesh.seeds[k, 1]:.4f}) in {mc.cover.file}: {found[1]}")
+        return keep, thick, (cov.a, cov.h)
 
 
 @hookimpl

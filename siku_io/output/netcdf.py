@@ -120,8 +120,8 @@ def cf_dataset(path):
             "long_name": "step index of the snapshot", "units": "1",
             "_FillValue": FILL_INT}),
     }
-    per = ["u", "v", "spin"] + [k for k in src.data_vars if src[k].dims == (T, E)
-                                and k not in ("u", "v", "spin")]
+    per = ["u", "v", "spin"] + [k for k in src.data_vars if src[k].dims[:2] == (T, E)
+                                and k not in ("u", "v", "spin", "q", "V")]
     for k in per:
         a = dict(src[k].attrs)
         a.update(_STANDARD.get(k, {}))
@@ -131,7 +131,7 @@ def cf_dataset(path):
             a["flag_values"] = np.asarray(a["flag_values"], dtype=src[k].dtype)
         a["coordinates"] = "time lat lon"
         a["geometry"] = "outline"
-        data[k] = xr.Variable((E, T), src[k].values.T, a)
+        data[k] = xr.Variable((E, T, *src[k].dims[2:]), np.swapaxes(src[k].values, 0, 1), a)
     for k, name in _STATIC.items():
         v = src[k]
         if v.dims != (E,):  # time-dependent here (processes): written with the records
@@ -313,7 +313,9 @@ class NetCDFWriter(Writer):
         per variable and record."""
         from siku_io.output.layout import ELEMENT_FIELDS
 
-        self.fields = list(ctx.element_fields())
+        self.fields = list(fields := ctx.element_fields())
+        if cats := {np.shape(a)[1] for a in fields.values() if np.ndim(a) == 2}:
+            self.nc.createDimension("category", cats.pop())  # thickness categories
         per = {"lon": ("degrees_east", "longitude", "longitude of the element centroid"),
                "lat": ("degrees_north", "latitude", "latitude of the element centroid"),
                "u": ("m s-1", "eastward_sea_ice_velocity", "eastward velocity of the centroid"),
@@ -327,11 +329,12 @@ class NetCDFWriter(Writer):
                 u, ln = declared[k][:2]
             per[k] = (u, _STANDARD.get(k, {}).get("standard_name", ""), ln)
         for k, (u, std, ln) in per.items():
+            dims = ("time", "element", "category")[:1 + max(1, np.ndim(fields.get(k, 0)))]
             if k == "flags":  # changed by processes (an element melted away)
-                v = self.nc.createVariable(k, "i4", ("time", "element"), fill_value=FILL_INT)
+                v = self.nc.createVariable(k, "i4", dims, fill_value=FILL_INT)
                 v.setncatts(_flag_attrs())
             else:
-                v = self.nc.createVariable(k, "f8", ("time", "element"), fill_value=np.nan)
+                v = self.nc.createVariable(k, "f8", dims, fill_value=np.nan)
             v.setncatts({"units": u, "long_name": ln, **({"standard_name": std} if std else {})})
             if k in declared and declared[k][2] != "none":
                 v.setncatts({"grid": declared[k][2]})

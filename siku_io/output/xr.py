@@ -9,6 +9,8 @@ order):
   ``step``, ``element``, ``lon``/``lat`` (time, element) of the centroids [degrees];
 * ``u``/``v`` (time, element): eastward and northward velocity of the centroid [m/s],
   ``spin`` [rad/s], ``q`` (time, element, quaternion) and every per-element field of the file
+  (with thickness categories ``category_fraction`` and ``category_thickness``: time, element,
+  category)
   (``speed``, ``damage``, ``stress_ee``..., the fields components declare, with units, and
   their ``grid`` reduction: ``mean`` or ``sum``; under processes ``thickness``, ``mass`` and
   ``flags`` are among them, varying in time, in place of the fixed values);
@@ -135,8 +137,8 @@ def _state_variables(s, q: np.ndarray, n: int) -> dict:
         "q": xr.Variable((*te, "quaternion"), q, _attrs(s["q"])),
         "V": xr.Variable((*te, "local_axis"), V, _attrs(s["V"])),
     }
-    for name, ds in s.get("fields", {}).items():
-        data[name] = xr.Variable(te, ds[:n], _attrs(ds))
+    for name, ds in s.get("fields", {}).items():  # thickness categories: (..., category)
+        data[name] = xr.Variable((*te, "category")[:ds.ndim], ds[:n], _attrs(ds))
     return data
 
 

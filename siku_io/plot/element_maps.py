@@ -45,7 +45,8 @@ class Output:
             self.flags = geo["flags"][...]
             self.time = f["states/time"][:n]
             self.q = f["states/q"][:n]
-            self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()}
+            self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()
+                           if v.ndim == 2}  # one value per element (not per category)
             scene = f["scene"][()] if "scene" in f else b""
         from siku_io.plot.mapdeco import scene_has_coast
 

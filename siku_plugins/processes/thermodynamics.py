@@ -15,7 +15,14 @@ at the melting point; surface melt is not modelled). Over an interval ``dt`` the
 part is integrated exactly (Stefan's law: ``h²/(2 k_i) + h h_s/k_s`` grows by ``(T_f - T_s)
 dt / (rho_i L_f)``) and the ocean flux part is linear; the two are combined by Strang splitting
 (half the melt, the growth, half the melt: second order in ``dt``, exact when either part is
-zero). An element thinner than ``min_thickness`` has melted away: the engine flags it
+zero).
+
+With thickness categories (``ctx.categories``, :mod:`siku_core.categories`) the law grows or
+melts each category's ice ``h_k`` on its own (thin ice grows faster: the conductive flux goes as
+``1/h_k``), a category that melts through stays at ``h_k = 0``, and the fractions ``a_k`` do not
+change (zero-layer thermodynamics has no lateral growth or melt); the element's thickness is the
+mean ``sum a_k h_k / sum a_k`` of the result. An element thinner than ``min_thickness`` (its
+mean thickness, with categories) has melted away: the engine flags it
 ``melted`` (it stops, its joints break, it touches nothing) and its volume leaves the budget.
 
 Declared per-element fields: ``grown_volume`` [m³], the ice volume this process added to the
@@ -32,6 +39,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from siku_core.categories import category_mean
 from siku_core.errors import DataError, SceneError
 from siku_core.ice import ElementField
 from siku_core.interfaces import Process
@@ -154,22 +162,37 @@ class Thermodynamics(Process):
         # the temperature at the middle of the interval (exact for a constant one)
         Ts = self.surface_temperature(ctx.time - 0.5 * dt)
         dT = np.maximum(p["freezing_temperature"] - Ts, 0.0)
-        melt = 0.5 * p["ocean_heat_flux"] * dt / (self.rho * p["latent_heat"])
-        h = h0 - melt
-        h = np.where(h > 0.0, h, 0.0)
-        h = stefan_thickness(h, p["snow_thickness"], p["conductivity"],
-                             p["snow_conductivity"], dT, dt, self.rho, p["latent_heat"])
-        h = h - melt
+        cats = ctx.categories
+        if cats is None:
+            h = self._grow(h0, dT, dt, self.rho)
+        else:  # each category on its own, the fractions unchanged
+            hk0 = cats.thickness.copy()
+            hk = np.maximum(self._grow(hk0, np.reshape(dT, (-1, 1)), dt, self.rho[:, None]),
+                            0.0)
+            h = category_mean(cats.fraction, hk)
         gone = live & (h < p["min_thickness"])
         grown = np.where(live, st.area * (h - h0), 0.0)
         grown[gone] = -st.area[gone] * h0[gone]
         h = np.where(live & ~gone, h, h0)
+        if cats is not None:
+            cats.thickness[:] = np.where((live & ~gone)[:, None], hk, hk0)
         st.thickness[:] = h
         ctx.fields["grown_volume"][:] += grown
         ctx.fields["growth_rate"][:] = np.where(live, (h - h0) / dt, 0.0)
         ctx.fields["growth_rate"][gone] = -h0[gone] / dt
         if gone.any():
             ctx.melt(np.flatnonzero(gone))
+
+    def _grow(self, h0, dT, dt: float, rho):
+        """Thickness [m] after ``dt`` [s] from ``h0`` (Strang splitting of the ocean melt
+        around the exact conductive growth, module docstring); arrays broadcast together."""
+        p = self.p
+        melt = 0.5 * p["ocean_heat_flux"] * dt / (rho * p["latent_heat"])
+        h = h0 - melt
+        h = np.where(h > 0.0, h, 0.0)
+        h = stefan_thickness(h, p["snow_thickness"], p["conductivity"],
+                             p["snow_conductivity"], dT, dt, rho, p["latent_heat"])
+        return h - melt
 
     def budget(self, ctx) -> float:
         return math.fsum(ctx.fields["grown_volume"])
