@@ -319,3 +319,17 @@ def test_fuzzed_files_long_count(capsys):
         print(f"\nfuzz: {COUNT['sweeps']} sweeps and {COUNT['readers']} damaged files "
               f"({COUNT['reads']} reads), none with a traceback or a hang")
     assert COUNT["sweeps"] >= SWEEPS_LONG and COUNT["readers"] >= READERS_LONG
+
+
+def test_a_library_crash_while_identifying_a_file_is_not_a_crash_of_siku():
+    """The NetCDF and HDF5 libraries can die of a segmentation fault on a damaged file (the
+    slow reader fuzz found one in netCDF4.Dataset): identification runs in a child process, so
+    a crash there answers "not identified" and siku goes on to refuse the file in one line."""
+    import ctypes
+
+    from siku_io.output.marks import in_child
+
+    assert in_child(lambda: "grid") == "grid" and in_child(lambda: None) is None
+    assert in_child(lambda: ctypes.string_at(0)) is None  # the child dies of SIGSEGV
+    assert in_child(lambda: 1 / 0) is None
+    assert in_child(lambda: __import__("time").sleep(30), timeout=0.5) is None

@@ -41,10 +41,17 @@ def _head(path: Path, n: int = 8) -> bytes:
 
 def is_hdf5_output(path: str | Path) -> bool:
     """An HDF5 output file of siku's HDF5 writer (also one a killed run left marked "open for
-    writing", read in SWMR mode)."""
+    writing", read in SWMR mode). Read in a child process (:func:`in_child`), so that a
+    damaged file that crashes the HDF5 library is not identified and this process goes on."""
     path = Path(path)
     if not path.is_file() or _head(path) != _HDF5:
         return False
+    import h5py  # noqa: F401 - imported once here, not in every child
+
+    return in_child(lambda: "yes" if _is_hdf5_output(path) else None) == "yes"
+
+
+def _is_hdf5_output(path: Path) -> bool:
     import h5py
 
     def ours(f) -> bool:
@@ -81,13 +88,60 @@ def is_hdf5_output(path: str | Path) -> bool:
         return False
 
 
+def in_child(fn: Callable[[], str | None], timeout: float = 120.0) -> str | None:
+    """``fn()`` run in a forked child process, its answer (a short string or ``None``) sent
+    back through a pipe. The NetCDF and HDF5 C libraries can crash the whole process (a
+    segmentation fault) on some damaged files; a child that crashes, fails or outlives
+    ``timeout`` [s] answers ``None`` (not identified), and the command that asked goes on to
+    refuse the file in one line. Where ``fork`` is missing, ``fn`` runs here."""
+    import os
+    import time
+
+    if not hasattr(os, "fork"):  # pragma: no cover - not POSIX
+        return fn()
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: answer, then leave without running any exit handler
+        code = 1
+        try:
+            os.close(r)
+            os.write(w, ("\x00" + (fn() or "")).encode())
+            code = 0
+        finally:
+            os._exit(code)
+    os.close(w)
+    deadline = time.monotonic() + timeout
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        if time.monotonic() > deadline:
+            os.kill(pid, 9)
+            os.waitpid(pid, 0)
+            os.close(r)
+            return None
+        time.sleep(0.002)
+    with os.fdopen(r, "rb") as fh:
+        answer = fh.read().decode()
+    if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0) or not answer:
+        return None
+    return answer[1:] or None
+
+
 def netcdf_kind(path: str | Path) -> str | None:
     """``"netcdf output"``, ``"export"``, ``"grid"`` or ``"summary"`` for a NetCDF file siku
-    wrote, else ``None``."""
+    wrote, else ``None``. The file is read in a child process (:func:`in_child`): a damaged
+    file that crashes the NetCDF library is not identified, and this process goes on."""
     path = Path(path)
     head = _head(path)
     if not path.is_file() or not (head == _HDF5 or head[:4] in _NETCDF):
         return None
+    import netCDF4  # noqa: F401 - imported once here, not in every child
+
+    return in_child(lambda: _netcdf_kind(path))
+
+
+def _netcdf_kind(path: Path) -> str | None:
     try:
         import netCDF4
 
@@ -197,5 +251,5 @@ def _disk_full_now(target: Path) -> bool:
     return free < 1 << 20 or (limit != resource.RLIM_INFINITY and limit < 1 << 40)
 
 
-__all__ = ["is_hdf5_output", "netcdf_kind", "is_picture", "is_mesh_cache", "kind_test",
+__all__ = ["is_hdf5_output", "netcdf_kind", "in_child", "is_picture", "is_mesh_cache", "kind_test",
            "writable", "write_whole", "PICTURE_MARK"]
