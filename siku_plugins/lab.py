@@ -30,9 +30,10 @@ stress has fallen below half its peak once bonds have broken (beyond a fifth of 
 failure strain), or at ``max_strain`` (default four times the bond's failure strain).
 
 Results: the stress–strain curve, the macro modulus (least-squares slope between 10 % and 50 %
-of the peak on the rising branch), the macro strength (the peak stress) and the broken bonds by
-mode; :func:`strength_table` repeats a test over a list of bond strengths and fits the strength
-linearly (Orzech et al. Fig. 3).
+of the peak on the rising branch), the macro strength (the peak stress), the broken bonds by
+mode, the stress before the first bond broke and the modes and orientations of the bonds broken
+up to the peak (docs/explanation/lab.md §3.1); :func:`strength_table` repeats a test over a
+list of bond strengths and fits the strength linearly (Orzech et al. Fig. 3).
 """
 from __future__ import annotations
 

@@ -214,26 +214,27 @@ def test_compression_splits_the_block_along_the_load():
     reaches its strength (eqs. 10–11); closing never breaks it. Under a uniaxial stress along
     the block, a bond's normal strain is ``eps_xx cos² phi + eps_yy sin² phi`` (``phi`` from the
     load to the bond's normal): in tension the bonds along the load open most, in compression
-    only the bonds across it open (``cos² phi < nu / (1 + nu)``, by the lateral, Poisson,
-    expansion) and the shear is largest at 45° (``cos² phi = 1/2``). So the bonds broken up to
-    the peak lie across the load in compression (mean ``cos² phi`` below the mean over all
-    bonds of the packing) and along it in tension (above it): a block that splits along the
-    load, not one crushed across it. A law that broke bonds in compression would break those
-    along the load first, as in tension.
+    only the bonds across it open (``cos² phi < nu_2 / (1 + nu_2)``, ``nu_2`` the network's
+    Poisson ratio: by the lateral expansion) and the shear is largest at 45° (``cos² phi =
+    1/2``). So the bonds broken up to the peak lie across the load in compression (mean
+    ``cos² phi`` below the mean over all bonds of the packing) and along it in tension (above
+    it): a block that splits along the load, not one crushed across it (measured 0.11 and 0.16
+    against 0.51; tension 0.74). A law that broke bonds in compression would break those along
+    the load first, as in tension (made to break at ``k_n (|d_n| + (w/2)|theta|)``, it gives
+    0.91 and this test fails).
 
     And the strength is not carried by the collision law: the contacts of pressed neighbours
     (``jointed = "collide"``) push along their normals, mostly along the load, and make the
     block stiffer along it (measured 1.7×). Were failure set by a strain along the load, the
     strength would rise by the same factor; it is set by the opening of the bonds across the
     load, which the contacts do not resist, so it rises by less than the modulus (measured
-    −2 % to +4 %)."""
+    −2 % on this block, −8 % to +4 % on three blocks)."""
     size = {"element_size": 1.0, "length": 18.0, "width": 9.0, "seed": 1}
     ten = virtual_test("tension", 1e6, **size)
     both = virtual_test("compression", 1e6, **size)
     bond = virtual_test("compression", 1e6, jointed="exclude", **size)
     assert ten.peak_cos2.mean() > ten.cos2_mean, ten.peak_cos2
     for r in (both, bond):
-        assert r.first_break <= r.strength
         assert len(r.peak_modes) > 0, "nothing broke up to the peak"
         assert r.peak_cos2.mean() < r.cos2_mean, (r.peak_cos2, r.peak_modes)
     assert both.strength / bond.strength < both.modulus / bond.modulus
