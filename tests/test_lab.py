@@ -225,10 +225,12 @@ def test_compression_splits_the_block_along_the_load():
 
     And the strength is not carried by the collision law: the contacts of pressed neighbours
     (``jointed = "collide"``) push along their normals, mostly along the load, and make the
-    block stiffer along it (measured 1.7×). Were failure set by a strain along the load, the
-    strength would rise by the same factor; it is set by the opening of the bonds across the
-    load, which the contacts do not resist, so it rises by less than the modulus (measured
-    −2 % on this block, −8 % to +4 % on three blocks)."""
+    block stiffer along it (by ``m``, measured 1.7). Were failure set by a strain along the load,
+    the strength would rise by the same factor ``m``; set by the opening of the bonds across the
+    load, which those contacts do not resist, it stays about the same (ratio near 1). The test
+    asserts that the ratio of the strengths is nearer 1 than ``m`` (or ``1/m``) in logarithm,
+    i.e. inside ``(m^-1/2, m^1/2)``: measured 0.98 here, 0.92–1.04 on four blocks; the law made to
+    break in compression gives 1.68 for ``m = 1.70``."""
     size = {"element_size": 1.0, "length": 18.0, "width": 9.0, "seed": 1}
     ten = virtual_test("tension", 1e6, **size)
     both = virtual_test("compression", 1e6, **size)
@@ -237,4 +239,5 @@ def test_compression_splits_the_block_along_the_load():
     for r in (both, bond):
         assert len(r.peak_modes) > 0, "nothing broke up to the peak"
         assert r.peak_cos2.mean() < r.cos2_mean, (r.peak_cos2, r.peak_modes)
-    assert both.strength / bond.strength < both.modulus / bond.modulus
+    m = both.modulus / bond.modulus
+    assert m ** -0.5 < both.strength / bond.strength < m ** 0.5, (both.strength, bond.strength, m)
