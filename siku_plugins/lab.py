@@ -30,9 +30,10 @@ stress has fallen below half its peak once bonds have broken (beyond a fifth of 
 failure strain), or at ``max_strain`` (default four times the bond's failure strain).
 
 Results: the stress–strain curve, the macro modulus (least-squares slope between 10 % and 50 %
-of the peak on the rising branch), the macro strength (the peak stress) and the broken bonds by
-mode; :func:`strength_table` repeats a test over a list of bond strengths and fits the strength
-linearly (Orzech et al. Fig. 3).
+of the peak on the rising branch), the macro strength (the peak stress), the broken bonds by
+mode, the stress before the first bond broke and the modes and orientations of the bonds broken
+up to the peak (docs/explanation/lab.md §3.1); :func:`strength_table` repeats a test over a
+list of bond strengths and fits the strength linearly (Orzech et al. Fig. 3).
 """
 from __future__ import annotations
 
@@ -153,6 +154,12 @@ class LabResult:
     dt: float = 0.0
     affine_modulus: float = math.nan  # E_2D of the bond network under affine strain [Pa]
     affine_c11: float = math.nan  # C_1111 of the network (no lateral contraction) [Pa]
+    first_break: float = math.nan  # the largest stress before the first bond broke [Pa]
+    # the bonds broken up to the peak: their break modes (BREAK_* codes) and the squared
+    # cosine of the angle between each one's normal and the block's long axis (east)
+    peak_modes: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
+    peak_cos2: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cos2_mean: float = math.nan  # the same squared cosine averaged over all the block's bonds
 
     @property
     def ratio(self) -> float:
@@ -190,19 +197,9 @@ max_speed = 1e6
 """
 
 
-def affine_moduli(sim, shear_ratio: float | None = None) -> tuple[float, float]:
-    """``(E_2D, C_1111)`` [Pa] of the bond network for a uniform strain in which every element
-    translates with its centre (the affine, or Voigt, estimate of a lattice): the stiffness
-    tensor ``C_ijkl = 1/(A h) sum_b L² (k_N n_i n_j n_k n_l + k_S t_i n_j t_k n_l)`` over the
-    bonds (``L`` centre distance, ``n`` along it, ``t`` across it, ``k_N = K w`` the bond's normal
-    stiffness [N/m], ``k_S = shear_ratio k_N``, by default ``k_N / (2 (1 + nu))`` as in
-    ``bonded_particle`` and ``mohr_coulomb``; 1 for ``distributed_spring``), ``A`` the block's
-    area (handles counted half), ``E_2D = (C11 C22 - C12²)/C22`` along the load (east, free to
-    contract across) and ``C11`` with the contraction held (as near glued handles).
-
-    For an isotropic network ``sum_b L k_N = 2 A h E`` (on a Voronoi packing the rhombi ``w L /
-    2`` of the bonds tile the area), so ``C11 = E (3 + r)/4``, ``C12 = E (1 - r)/4`` and
-    ``E_2D = E`` for ``r = 1``, ``0.818 E`` for ``r = 1/2.6``."""
+def affine_tensor(sim, shear_ratio: float | None = None) -> np.ndarray:
+    """The affine stiffness tensor ``C_ijkl`` [Pa] (east, north) of the bond network
+    (:func:`affine_moduli`)."""
     cm = sim.contacts
     st = sim.state
     from siku_core.geometry.quat import centers
@@ -226,8 +223,57 @@ def affine_moduli(sim, shear_ratio: float | None = None) -> tuple[float, float]:
                       + ks * np.einsum("i,j,k,l->ijkl", t, n, t, n))
     area = float(st.area[free].sum() + 0.5 * st.area[~free].sum())
     C /= area * float(np.mean(st.thickness))
+    return C
+
+
+def affine_moduli(sim, shear_ratio: float | None = None) -> tuple[float, float]:
+    """``(E_2D, C_1111)`` [Pa] of the bond network for a uniform strain in which every element
+    translates with its centre (the affine, or Voigt, estimate of a lattice): the stiffness
+    tensor ``C_ijkl = 1/(A h) sum_b L² (k_N n_i n_j n_k n_l + k_S t_i n_j t_k n_l)`` over the
+    bonds (``L`` centre distance, ``n`` along it, ``t`` across it, ``k_N = K w`` the bond's normal
+    stiffness [N/m], ``k_S = shear_ratio k_N``, by default ``k_N / (2 (1 + nu))`` as in
+    ``bonded_particle`` and ``mohr_coulomb``; 1 for ``distributed_spring``), ``A`` the block's
+    area (handles counted half), ``E_2D = (C11 C22 - C12²)/C22`` along the load (east, free to
+    contract across) and ``C11`` with the contraction held (as near glued handles).
+
+    For an isotropic network ``sum_b L k_N = 2 A h E`` (on a Voronoi packing the rhombi ``w L /
+    2`` of the bonds tile the area), so ``C11 = E (3 + r)/4``, ``C12 = E (1 - r)/4`` and
+    ``E_2D = E`` for ``r = 1``, ``0.818 E`` for ``r = 1/2.6``."""
+    C = affine_tensor(sim, shear_ratio)
     c11, c22, c12 = C[0, 0, 0, 0], C[1, 1, 1, 1], C[0, 0, 1, 1]
     return (c11 * c22 - c12 * c12) / c22, c11
+
+
+def affine_first_break(sim, sigma_crit: float, tau_crit: float, sign: float) -> float:
+    """Macro stress [Pa] at which the first bond of the network reaches its strength under a
+    uniform (affine) uniaxial stress along the long axis, tension ``sign = 1`` or compression
+    ``-1``, free across (docs/explanation/lab.md §3.1): the strain ``eps = S sigma`` from the
+    compliance ``S`` of the affine tensor (:func:`affine_moduli`, in Voigt form), and for each
+    bond ``sigma_b = k_n L eps_nn``, ``tau_b = k_s L |eps_nt|`` (elements translate with their
+    centres, so ``theta = 0``)."""
+    from siku_core.geometry.quat import centers
+
+    cm = sim.contacts
+    st = sim.state
+    c = centers(st.q) * sim.radius
+    d = c[cm.jj] - c[cm.ji]
+    dv = np.stack([d[:, 1], d[:, 2]], axis=1)
+    L = np.hypot(dv[:, 0], dv[:, 1])
+    n = dv / L[:, None]
+    kn = cm.jK / np.minimum(st.thickness[cm.ji], st.thickness[cm.jj])  # [Pa/m]
+    ks = kn / (2.0 * (1.0 + cm.nu[cm.ji]))
+    C = affine_tensor(sim)
+    C = 0.25 * (C + C.transpose(1, 0, 2, 3) + C.transpose(0, 1, 3, 2)
+                + C.transpose(1, 0, 3, 2))  # acting on a symmetric strain
+    # rows sigma_xx, sigma_yy, sigma_xy; unknowns eps_xx, eps_yy, eps_xy
+    rows = ((0, 0), (1, 1), (0, 1))
+    m = np.array([[C[i, j, 0, 0], C[i, j, 1, 1], 2.0 * C[i, j, 0, 1]] for i, j in rows])
+    exx, eyy, exy = np.linalg.solve(m, [sign, 0.0, 0.0])
+    e_nn = exx * n[:, 0] ** 2 + eyy * n[:, 1] ** 2 + 2 * exy * n[:, 0] * n[:, 1]
+    e_nt = (eyy - exx) * n[:, 0] * n[:, 1] + exy * (n[:, 0] ** 2 - n[:, 1] ** 2)
+    use = (st.flags[cm.ji] == 0) | (st.flags[cm.jj] == 0)
+    load = np.maximum(kn * L * e_nn / sigma_crit, ks * L * np.abs(e_nt) / tau_crit)[use]
+    return float(1.0 / load.max())
 
 
 def virtual_test(test: str = "tension", sigma_crit: float = 1e6, tau_crit: float | None = None,
@@ -329,6 +375,7 @@ def measure(sim, sigma_crit: float = math.nan, tau_crit: float = math.nan,
     sign = {"tension": -1.0, "compression": 1.0, "flexure": 1.0}[test]
     strains, stresses = [0.0], [0.0]
     peak = 0.0
+    first_break = t_peak = math.nan
     for _ in range(sim.n_steps - sim.step_index):
         sim.step()
         # forces of the last evaluation: the state at the start of this step
@@ -342,7 +389,10 @@ def measure(sim, sigma_crit: float = math.nan, tau_crit: float = math.nan,
             e = speed * t / gauge
         strains.append(e)
         stresses.append(s)
-        peak = max(peak, s)
+        if first_break != first_break and cm.n_intact < cm.n_joints:
+            first_break = peak  # the breaking evaluation's force already lacks the bond
+        if s > peak:
+            peak, t_peak = s, t
         # failed: the stress fell to half its peak once bonds broke (early stress waves make
         # the curve wiggle, so a drop before any break or at small strain is not failure)
         if (peak > 0 and s < 0.5 * peak and e > 0.2 * sigma_crit / E
@@ -361,9 +411,14 @@ def measure(sim, sigma_crit: float = math.nan, tau_crit: float = math.nan,
         modulus = math.nan
     codes = np.bincount(cm.break_mode.astype(np.int64), minlength=len(BREAK_MODES))
     broken = {name: int(codes[c]) for c, name in BREAK_MODES.items() if c and codes[c]}
+    to_peak = np.flatnonzero(cm.break_time <= t_peak)
+    _, _, _, edge_north = cm.joint_lines()  # the joint's normal is its edge turned by 90°
     return LabResult(test, float(sigma_crit), float(tau_crit), D, strain, stress, modulus,
                      float(stress[ip]), float(strain[ip]), broken, st.n, cm.n_joints,
-                     sim.step_index, sim.dt, e_aff, c11)
+                     sim.step_index, sim.dt, e_aff, c11, float(first_break),
+                     cm.break_mode[to_peak].copy(), edge_north[to_peak] ** 2,
+                     float(np.mean(edge_north[(st.flags[cm.ji] == 0) | (st.flags[cm.jj] == 0)]
+                                   ** 2)))
 
 
 def block_extent(test: str, element_size: float, length: float | None = None,
