@@ -88,12 +88,13 @@ def _is_hdf5_output(path: Path) -> bool:
         return False
 
 
-def in_child(fn: Callable[[], str | None], timeout: float = 120.0) -> str | None:
+def in_child(fn: Callable[[], str | None], timeout: float = 20.0) -> str | None:
     """``fn()`` run in a forked child process, its answer (a short string or ``None``) sent
     back through a pipe. The NetCDF and HDF5 C libraries can crash the whole process (a
-    segmentation fault) on some damaged files; a child that crashes, fails or outlives
-    ``timeout`` [s] answers ``None`` (not identified), and the command that asked goes on to
-    refuse the file in one line. Where ``fork`` is missing, ``fn`` runs here."""
+    segmentation fault) or loop for ever on some damaged files; a child that crashes, fails or
+    outlives ``timeout`` [s] (reading a file's marks takes milliseconds) answers ``None`` (not
+    identified), and the command that asked goes on to refuse the file in one line. Where
+    ``fork`` is missing, ``fn`` runs here."""
     import os
     import time
 
