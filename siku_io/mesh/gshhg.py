@@ -11,7 +11,12 @@ Reading is lazy: only the index is read whole (a few MB at the intermediate leve
 process); a polygon's points are read only when its latitude band meets the window asked for,
 and what is returned is cut to that window (:mod:`shapely`). Nothing is downloaded.
 
-Land is level 1 or 3 and not inside a level 2 or 4 polygon (:func:`land_geometry`).
+Land, for a mesh of sea ice, is every level-1 polygon whole: its lakes (level 2), the islands
+in them (3) and their ponds (4) are land too (:func:`land_geometry`), as they are in the GLOBE
+mask. Whatever is outside the level-1 polygons is the ocean, so every water point of the mask is
+connected to the open sea and inland water carries no cells, neither static nor free: a
+sea-ice model of the Beaufort Sea has nothing to do on the lakes of the Alaskan North Slope. No
+option meshes lakes. The polygons of every level stay available (:func:`shorelines`) for maps.
 """
 from __future__ import annotations
 
@@ -161,14 +166,12 @@ def shorelines(lon, lat, resolution: str = "low", min_area_km2: float = 0.0) -> 
 
 
 def land_geometry(lon, lat, resolution: str = "low"):
-    """Land in the window as one :mod:`shapely` geometry in lon/lat degrees (levels 1 and 3
-    less levels 2 and 4)."""
+    """Land in the window as one :mod:`shapely` geometry in lon/lat degrees: the level-1
+    polygons whole, lakes filled (levels 2-4 lie inside them; the module docstring)."""
     import shapely
 
     shores = shorelines(lon, lat, resolution)
-    geoms = {lvl: shapely.union_all([shapely.Polygon(s.lonlat) for s in shores
-                                     if s.level == lvl]) for lvl in (1, 2, 3, 4)}
-    land = geoms[1].difference(geoms[2]).union(geoms[3].difference(geoms[4]))
+    land = shapely.union_all([shapely.Polygon(s.lonlat) for s in shores if s.level == 1])
     shapely.prepare(land)
     return land
 

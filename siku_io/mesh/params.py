@@ -53,14 +53,15 @@ class MeshParams:
                 "land_data": self.land_data()}
 
     def land_data(self) -> str:
-        """The land data set and its version (part of the hash: new data rebuilds)."""
+        """The land data set and its version (part of the hash: new data, or a new rule for
+        what of it is land, rebuilds)."""
         if self.land == GLM:
             return f"{GLM} {glm_version()}"
         if self.land == "gshhg":
             from . import gshhg
 
             return (f"GSHHG {gshhg.choose_resolution(self.r_min)} ({gshhg.PACKAGE} "
-                    f"{gshhg.version()})")
+                    f"{gshhg.version()}), level 1 whole")
         return self.land
 
     @property
