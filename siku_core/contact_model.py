@@ -68,6 +68,11 @@ class ContactModel(JointBook):
         self.radius = radius
         self.law = law
         self.broad = broad
+        #: columns of the law's per-contact history (``contact_history_names``); without any,
+        #: no array of the per-contact history has a nonzero size
+        self.n_contact_hist = len(getattr(law, "contact_history_names", ()))
+        #: restored per-contact history waiting for the next rebuild: ``(keys, rows)``
+        self._chist_pending: tuple[np.ndarray, np.ndarray] | None = None
         self.time_step = time_step
         self.where = where
         self.label = label
@@ -107,11 +112,6 @@ class ContactModel(JointBook):
         # contact.jointed = "exclude": pairs with an intact joint are not collision candidates
         # (filtered out at every rebuild of the list; a pair joins it when its joint breaks)
         self.exclude_jointed = cfg.jointed == "exclude"
-        #: columns of the law's per-contact history (``contact_history_names``); without any,
-        #: no array of the per-contact history has a nonzero size
-        self.n_contact_hist = len(getattr(law, "contact_history_names", ()))
-        #: restored per-contact history waiting for the next rebuild: ``(keys, rows)``
-        self._chist_pending: tuple[np.ndarray, np.ndarray] | None = None
         self.rebuilds = 0
         self.n_overlap = 0
         self.n_broken_total = 0
