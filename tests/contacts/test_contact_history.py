@@ -18,7 +18,7 @@ import pytest
 from numba import njit
 
 from siku_core import hookimpl
-from siku_core.contact_law import check_contact_law
+from siku_core.contact_law import G_AREA, G_K, G_MEFF, G_NX, G_SIZE, G_WIDTH, check_contact_law
 from siku_core.contacts import contact_loops
 from siku_core.errors import PluginError
 from siku_core.kernel_cache import instantiate
@@ -228,3 +228,30 @@ def test_a_declared_history_needs_the_evaluator_that_takes_the_row():
 
     with pytest.raises(PluginError, match="contact_history_names .* names a column twice"):
         check_contact_law(Twice, "pkg")
+
+
+def test_the_guide_s_law_registers_and_counts(tmp_path, monkeypatch):
+    """The counting law of docs/howto/contact_laws.md, loaded as a module (numba caches only
+    functions defined in a file): it passes the registration checks, and its evaluator adds
+    one to the row and gives the collision law's force."""
+    import importlib
+    import re
+    from pathlib import Path
+
+    page = Path(__file__).resolve().parents[2] / "docs" / "howto" / "contact_laws.md"
+    text = page.read_text(encoding="utf-8")
+    block = next(b for b in re.findall(r"```python\n(.*?)```", text, re.S)
+                 if "contact_history_names" in b)
+    (tmp_path / "guide_counting_law.py").write_text(block, encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    mod = importlib.import_module("guide_counting_law")
+    law = mod.CountingCollision
+    assert law.contact_history_names == ("steps",)
+    g = np.zeros(G_SIZE)  # 1 ha overlap, normal +x, 100 m wide, K = 5e8 Pa, 1e6 kg
+    g[[G_AREA, G_NX, G_WIDTH, G_K, G_MEFF]] = [1e4, 1.0, 100.0, 5e8, 1e6]
+    pars = Collision({}).collision_parameters()
+    hist = np.array([2.0])
+    out, ref = np.zeros(4), np.zeros(4)
+    law.collision_evaluator(g, pars, hist, out)
+    collision_evaluator(g, pars, ref)
+    assert hist[0] == 3.0 and np.array_equal(out, ref) and out[0] > 0
