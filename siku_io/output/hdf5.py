@@ -18,11 +18,7 @@ File layout (``layout`` = 2)::
     /states            the snapshots: step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N)
                        [rad/s], lat, lon (T,N) [deg], fields/NAME (T,N) per-element fields
                        (speed, damage, stress, declared ones), history/KEY/NAME (T,...) every
-                       component's history (joints, declared fields, per-contact history of
-                       a law with contact_history_names: contact_pairs (T,M,2) and
-                       contact_hist (T,M,C), padded with -1 and NaN beyond contact_count (T)
-                       rows to the longest M; siku_core.restart.RAGGED_HISTORY): restarts read
-                       the last
+                       component's history (joints, declared fields): restarts read the last
     /diagnostics       step, time [s] and one series per diagnostic, attrs units and
                        long_name (siku_core.diagnostics.DIAGNOSTICS); its rows are written
                        with the snapshots, so they end where the snapshots end
@@ -62,7 +58,6 @@ import numpy as np
 from siku_core import DataError, Param, __version__, hookimpl
 from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Writer
-from siku_core.restart import RAGGED_HISTORY
 from siku_core.outputs import (
     RunLock,
     fsync_path,
@@ -72,6 +67,7 @@ from siku_core.outputs import (
     settle,
 )
 
+from .padded import append_padded, is_padded, made_padded, new_padded
 from .results import (
     LAYOUT,
     clear_open_mark,
@@ -86,16 +82,9 @@ _SEALED: list = []
 
 
 # ---------------------------------------------------------------------------- writing
-def _create(group, name: str, row: np.ndarray, compression: str | None,
-            ragged: bool = False):
-    """An empty dataset growing by rows shaped like ``row``; ``ragged``: rows whose first axis
-    varies (:func:`_append_padded`)."""
+def _create(group, name: str, row: np.ndarray, compression: str | None):
+    """An empty dataset growing by rows shaped like ``row``."""
     row = np.asarray(row)
-    if ragged:
-        return group.create_dataset(
-            name, shape=(0, *row.shape), maxshape=(None, None, *row.shape[1:]), dtype=row.dtype,
-            chunks=(1, 256, *(max(d, 1) for d in row.shape[1:])), compression=compression,
-            fillvalue=_pad(row.dtype))
     return group.create_dataset(  # (a zero-length row, e.g. no joints, still needs chunks > 0)
         name, shape=(0, *row.shape), maxshape=(None, *(d or None for d in row.shape)),
         dtype=row.dtype, chunks=(1, *(max(d, 1) for d in row.shape)) if row.ndim else (256,),
@@ -113,6 +102,8 @@ def _append(ds, values, rows: int) -> None:
     high-level call does."""
     from h5py import h5s
 
+    if made_padded(ds):  # per-contact rows (siku_io.output.padded)
+        return append_padded(ds, values, rows)
     did = ds.id
     shape = did.shape
     arr = np.asarray(values)
@@ -130,31 +121,6 @@ def _append(ds, values, rows: int) -> None:
     fspace = did.get_space()
     fspace.select_hyperslab((n,) + (0,) * (len(shape) - 1), arr.shape)
     did.write(h5s.create_simple(arr.shape), fspace, arr)
-
-
-def _pad(dtype) -> Any:
-    """What pads a ragged dataset: NaN for floats, -1 for integers."""
-    return np.nan if np.dtype(dtype).kind == "f" else -1
-
-
-def _append_padded(ds, values, rows: int) -> None:
-    """:func:`_append` for a ragged dataset (``siku_core.restart.RAGGED_HISTORY``): rows
-    whose first axis (one entry per contact) varies; the dataset grows along it to the longest
-    and shorter rows are padded (:func:`_pad`)."""
-    arr = np.asarray(values)
-    if rows == 1 and arr.ndim == ds.ndim - 1:
-        arr = arr[None]
-    m = max(ds.shape[1], arr.shape[1])
-    if m > ds.shape[1]:
-        ds.resize(m, axis=1)
-    if arr.shape[1] < m:
-        full = np.full((arr.shape[0], m, *arr.shape[2:]), _pad(ds.dtype), dtype=ds.dtype)
-        full[:, :arr.shape[1]] = arr
-        arr = full
-    n = ds.shape[0]
-    ds.resize(n + rows, axis=0)
-    if rows:
-        ds[n:] = arr
 
 
 def _grow(ds, value) -> None:
@@ -278,8 +244,7 @@ class HDF5Writer(Writer):
         s = f.create_group("states")
         self.rows = {}
         for name, row in self._state_rows(ctx, fields=True).items():
-            self.rows[name] = _create(s, name, row, self.comp, _ragged(name))
-        self._padded = {id(ds) for name, ds in self.rows.items() if _ragged(name)}
+            self.rows[name] = (new_padded if is_padded(name) else _create)(s, name, row, self.comp)
         self.step_ds = _create(s, "step", np.int64(0), None)
         self.diag = {}
         dg = f.create_group("diagnostics")
@@ -366,10 +331,7 @@ class HDF5Writer(Writer):
                     f"{', '.join(sorted(set(self.rows) - names)) or 'no'} missing datasets for "
                     "this scene; write the continued run to another --out")
             for name, ds in self.rows.items():
-                if _ragged(name):
-                    _append_padded(ds, s[name][:n], n)
-                else:
-                    _extend(ds, s[name][:n])
+                _extend(ds, s[name][:n])
             _extend(self.step_ds, s["step"][:n])
             d = g["diagnostics"]
             if "step" in d:
@@ -432,9 +394,7 @@ class HDF5Writer(Writer):
         try:
             for phase in (data, markers):
                 for ds, v in phase:
-                    if id(ds) in self._padded:
-                        _append_padded(ds, v, 1)
-                    elif np.ndim(v) == 1 and ds.id.rank == 1:
+                    if np.ndim(v) == 1 and ds.id.rank == 1:
                         _extend(ds, v)
                     else:
                         _grow(ds, v)
@@ -523,11 +483,6 @@ class HDF5Writer(Writer):
         from .results import restart_snapshot
 
         return restart_snapshot(Path(path), ctx.state.n, ctx.history())
-
-
-def _ragged(name: str) -> bool:
-    """Whether the snapshot dataset ``name`` (relative to ``/states``) is ragged."""
-    return name.startswith("history/") and name.rpartition("/")[2] in RAGGED_HISTORY
 
 
 def _leaves(group, prefix: str = "") -> list[str]:
