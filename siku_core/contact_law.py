@@ -9,7 +9,9 @@ What a law supplies and what the engine hands it:
 * the layouts of the vectors an evaluator reads and writes: the collision geometry ``g``
   (``G_*``, :data:`COLLISION_LAYOUT`), the joint geometry ``g`` (``J_*``,
   :data:`JOINT_LAYOUT`), the result ``out`` (``OUT_*``, :data:`OUT_LAYOUT`); the joint's
-  history row ``hist`` has the columns the law names in ``history_names``;
+  history row ``hist`` has the columns the law names in ``history_names``, and a contact's
+  history row (a collision evaluator's ``hist``, laws that declare ``contact_history_names``)
+  the columns named there;
 * the break modes a joint evaluator writes to ``out[OUT_BREAK]`` (:class:`BreakMode`, the
   ``BREAK_*`` ints, names by code in :data:`BREAK_MODES`);
 * the reference signatures of the evaluators (:data:`EVALUATORS`) and the checks run when a
@@ -182,7 +184,10 @@ class ContactLaw(Component):
     A law supplies ``@njit`` evaluators of one contact (layouts: :mod:`siku_core.contact_law`):
 
     * ``collision_evaluator(g, pars, out)``: overlapping pairs (every law has one: a broken or
-      absent joint continues as a collision contact);
+      absent joint continues as a collision contact); ``collision_evaluator(g, pars, hist,
+      out)`` for a law that declares ``contact_history_names``: ``hist`` is the contact's row
+      of those columns, which the evaluator may update (zero when the pair comes into contact,
+      kept while it stays in contact, dropped when it separates);
     * ``joint_evaluator(g, pars, hist, out)``: intact frozen joints (laws with
       ``uses_joints = True``), updating the joint's ``hist`` row (``history_names`` columns).
 
@@ -203,6 +208,9 @@ class ContactLaw(Component):
     uses_joints: ClassVar[bool] = False
     history_names: ClassVar[tuple[str, ...]] = ()
     history_update: ClassVar[str] = "state"
+    #: columns of the per-contact history row of the collision evaluator (``()``: none, and the
+    #: evaluator takes ``(g, pars, out)``)
+    contact_history_names: ClassVar[tuple[str, ...]] = ()
     #: names of the collision evaluator's ``pars`` entries (``None``: no parameters)
     collision_record: ClassVar[ParameterRecord | None] = None
     #: names of the joint evaluator's ``pars`` entries (``None``: no parameters)
@@ -263,6 +271,25 @@ EVALUATORS = {
     "collision_evaluator": ("g", "pars", "out"),
     "joint_evaluator": ("g", "pars", "hist", "out"),
 }
+#: the collision evaluator's parameters for a law with ``contact_history_names``
+COLLISION_WITH_HISTORY = ("g", "pars", "hist", "out")
+
+
+def evaluator_parameters(cls: Any, attr: str) -> tuple[str, ...]:
+    """The reference parameters of evaluator ``attr`` of law class ``cls`` (the collision
+    evaluator takes a history row when the law declares ``contact_history_names``)."""
+    if attr == "collision_evaluator" and getattr(cls, "contact_history_names", ()):
+        return COLLISION_WITH_HISTORY
+    return EVALUATORS[attr]
+
+
+def _check_names(head: str, attr: str, names: Any) -> None:
+    """``names`` (``history_names``, ``contact_history_names``) is a tuple of distinct
+    strings."""
+    if not (isinstance(names, tuple) and all(isinstance(n, str) for n in names)):
+        raise PluginError(f"{head}: {attr} is {names!r}, not a tuple of strings")
+    if len(set(names)) != len(names):
+        raise PluginError(f"{head}: {attr} {names!r} names a column twice")
 
 
 def law_head(cls: type, package: str) -> str:
@@ -272,12 +299,14 @@ def law_head(cls: type, package: str) -> str:
 
 def check_contact_law(cls: Any, package: str) -> None:
     """A contact law's evaluators are present, jitted, and take the reference parameters; its
-    records are :class:`ParameterRecord`; its ``history_names`` are strings (at
-    registration)."""
+    records are :class:`ParameterRecord`; its ``history_names`` and ``contact_history_names``
+    are tuples of distinct strings (at registration)."""
     head = law_head(cls, package)
-    for attr, expected in EVALUATORS.items():
+    _check_names(head, "contact_history_names", getattr(cls, "contact_history_names", ()))
+    for attr in EVALUATORS:
         if attr == "joint_evaluator" and not cls.uses_joints:
             continue
+        expected = evaluator_parameters(cls, attr)
         ev = getattr(cls, attr, None)
         if ev is None:
             hint = (" (reuse the built-in one by subclassing the law registered as "
@@ -293,18 +322,18 @@ def check_contact_law(cls: Any, package: str) -> None:
             )
         got = tuple(inspect.signature(fn).parameters)
         if len(got) != len(expected):
+            why = (" (contact_history_names declares a per-contact history row)"
+                   if expected is COLLISION_WITH_HISTORY else "")
             raise PluginError(
                 f"{head}: {attr} {fn.__name__}({', '.join(got)}) takes {len(got)} "
-                f"parameters, expected {len(expected)}: ({', '.join(expected)})"
+                f"parameters, expected {len(expected)}: ({', '.join(expected)}){why}"
             )
     for attr in ("collision_record", "joint_record"):
         rec = getattr(cls, attr, None)
         if rec is not None and not isinstance(rec, ParameterRecord):
             raise PluginError(f"{head}: {attr} is {rec!r}, not a "
                               "siku_core.contact_law.ParameterRecord(name, ...)")
-    names = cls.history_names
-    if not (isinstance(names, tuple) and all(isinstance(n, str) for n in names)):
-        raise PluginError(f"{head}: history_names is {names!r}, not a tuple of strings")
+    _check_names(head, "history_names", cls.history_names)
     if getattr(cls, "history_update", "state") not in ("state", "rate"):
         raise PluginError(f"{head}: history_update is {cls.history_update!r}; allowed: "
                           "'state', 'rate'")
@@ -339,9 +368,10 @@ def compile_evaluators(law: ContactLaw, package: str) -> None:
     :class:`PluginError` naming the package, the law, the evaluator and numba's reason."""
     from numba import types
 
-    for attr, names in EVALUATORS.items():
+    for attr in EVALUATORS:
         if attr == "joint_evaluator" and not law.uses_joints:
             continue
+        names = evaluator_parameters(type(law), attr)
         ev = evaluator_of(law, attr)
         if not getattr(ev, "_can_compile", True):  # explicit signatures: numba checks those
             continue

@@ -5,9 +5,9 @@ docs/explanation/physics.md section 4; the entry points, and the meaning of ever
 :func:`siku_core.contacts.joint_forces` and :func:`siku_core.contacts.collision_forces`.
 
 This source is a template, not a module to call: the loops call the law's evaluator of one
-contact as the module global ``evaluate`` and take their compilation options from ``NRT`` and
-``CACHE``, the three names of the binding below. An instance is this source run as a new
-module with those names bound first: a generated file (a header rendered from
+contact as the module global ``evaluate`` and take their compilation options from ``NRT``,
+``CACHE`` and ``CHIST``, the four names of the binding below. An instance is this source run
+as a new module with those names bound first: a generated file (a header rendered from
 ``kernel_cache.HEADER``, then this source verbatim) that numba caches like any other module,
 or, where no such file can serve, this file run with the names preset (nothing cached). Hence
 its rules: absolute imports only, no ``from __future__`` import, and no name of the binding
@@ -80,6 +80,10 @@ evaluate = globals().get("evaluate")
 NRT = globals().get("NRT", True)
 #: whether numba caches the compiled loops (an instance in a generated file)
 CACHE = globals().get("CACHE", False)
+#: whether the collision evaluator takes a per-contact history row (``evaluate(g, pars, hist,
+#: out)``, a law with ``contact_history_names``); a compile-time constant: without it the
+#: branches that pass the row are pruned and the collision loop is the one without history
+CHIST = globals().get("CHIST", False)
 
 #: overlapping pairs per block of the collision loop (its geometry first, then the evaluations:
 #: ``_collision_block``); a block's row (``BLK_*``): the pair, the overlap (area, point,
@@ -213,7 +217,8 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
 
 @njit(parallel=True, cache=CACHE)
 def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
-                      nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges):
+                      nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges,
+                      chist, commit):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -222,6 +227,10 @@ def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R
         g = np.empty(G_SIZE)
         res = np.empty(4)
         blk = np.empty(CBLOCK * BLK_SIZE)
+        if CHIST:
+            hrow = np.empty(chist.shape[1])
+        else:
+            hrow = res  # never read: the row's branches are pruned
         while True:
             c = claim(counter)
             if c >= nch:
@@ -230,17 +239,20 @@ def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R
             counts[c] = _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, active, lo, hi, xy, tag,
                                          proj, g, res, margin, hint, drop, face, scale, blk,
-                                         edges)
+                                         edges, chist, commit, hrow)
     return counts.sum()
 
 
 @njit(cache=CACHE, _nrt=NRT)
-def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk, nb):
+def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk, nb,
+                     chist, commit, hrow):
     """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
-    ``blk``, ``BLK_*``) into ``out`` and ``on``. Apart from the geometry that finds them, a
-    contact's evaluation is a chain of dependent square roots and divisions (lever arms,
-    stiffness, damping); evaluated in a loop of their own, the chains of consecutive contacts
-    overlap in the processor instead of waiting for the next pair's clip."""
+    ``blk``, ``BLK_*``) into ``out`` and ``on``; with ``CHIST``, pair ``k``'s history row
+    ``chist[k]`` goes to the evaluator in ``hrow`` and back to ``chist[k]`` when ``commit``.
+    Apart from the geometry that finds them, a contact's evaluation is a chain of dependent
+    square roots and divisions (lever arms, stiffness, damping); evaluated in a loop of their
+    own, the chains of consecutive contacts overlap in the processor instead of waiting for the
+    next pair's clip."""
     inv_r = 1.0 / R
     for n in range(nb):
         b = n * BLK_SIZE
@@ -273,7 +285,16 @@ def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res
         res[1] = 0.0
         res[2] = 0.0
         res[3] = 0.0
-        evaluate(g, pars, res)
+        if CHIST:
+            nh = hrow.shape[0]
+            for c in range(nh):
+                hrow[c] = chist[k, c]
+            evaluate(g, pars, hrow, res)
+            if commit:
+                for c in range(nh):
+                    chist[k, c] = hrow[c]
+        else:
+            evaluate(g, pars, res)
         pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
         active[k] = 1
 
@@ -281,12 +302,14 @@ def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res
 @njit(cache=CACHE, _nrt=NRT)
 def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                      pretest, out, active, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
-                     scale, blk, edges):
+                     scale, blk, edges, chist, commit, hrow):
     """Pairs ``lo <= k < hi`` of :func:`~siku_core.contacts.collision_forces`; returns how
     many overlap. ``xy``, ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers
     (clipping, partner vertices, geometry, result, a block of overlaps waiting for
-    :func:`_collision_block`). One compiled loop on purpose: the geometry, the pretest and the
-    block hand-off share the task's buffers, and a split would cost calls in the hot loop."""
+    :func:`_collision_block`); ``chist``, ``commit``, ``hrow``: the per-contact history
+    (``CHIST``), whether it changes, the task's row buffer. One compiled loop on purpose: the
+    geometry, the pretest and the block hand-off share the task's buffers, and a split would
+    cost calls in the hot loop."""
     inv_r = 1.0 / R
     no = 0
     nb = 0
@@ -362,11 +385,11 @@ def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
         nb += 1
         if nb == CBLOCK:
             _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res,
-                             blk, nb)
+                             blk, nb, chist, commit, hrow)
             no += nb
             nb = 0
     if nb:
         _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk,
-                         nb)
+                         nb, chist, commit, hrow)
         no += nb
     return no

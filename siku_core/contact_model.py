@@ -29,6 +29,7 @@ from .contact_law import (
     parameter_vector,
 )
 from .contacts import collision_forces, gather_forces, joint_forces
+from .errors import SceneError
 from .geometry.clip import REL_TOL
 from .geometry.face import edge_table
 from .geometry.quat import centers
@@ -67,6 +68,11 @@ class ContactModel(JointBook):
         self.radius = radius
         self.law = law
         self.broad = broad
+        #: columns of the law's per-contact history (``contact_history_names``); without any,
+        #: no array of the per-contact history has a nonzero size
+        self.n_contact_hist = len(getattr(law, "contact_history_names", ()))
+        #: restored per-contact history waiting for the next rebuild: ``(keys, rows)``
+        self._chist_pending: tuple[np.ndarray, np.ndarray] | None = None
         self.time_step = time_step
         self.where = where
         self.label = label
@@ -124,6 +130,31 @@ class ContactModel(JointBook):
         self.pface = self._faces(p)
         #: per candidate pair: its reduced mass [kg]
         self.pmeff = pair_masses(self.minv, p)
+        #: per candidate pair: its per-contact history row (zero unless in contact), and
+        #: whether it was in contact at the last committed evaluation; ``(0, 0)`` and ``(0,)``
+        #: under a law without per-contact history
+        nh = self.n_contact_hist
+        self.chist = np.zeros((len(p), nh) if nh else (0, 0))
+        self.pair_contact = np.zeros(len(p) if nh else 0, dtype=bool)
+
+    def _carry_contact_history(self, keys: np.ndarray, rows: np.ndarray) -> None:
+        """Give the current candidates in contact the history ``rows`` of the pairs with keys
+        ``keys`` (:meth:`_keys`, those in contact before a rebuild, or restored): a pair keeps
+        its row while it stays a candidate, whatever its place in the list."""
+        if not len(keys) or not len(self.pairs):
+            return
+        order = np.argsort(keys, kind="stable")
+        sk = keys[order]
+        pk = self._keys(self.pairs[:, 0], self.pairs[:, 1])
+        at = np.minimum(np.searchsorted(sk, pk), len(sk) - 1)
+        hit = sk[at] == pk
+        self.chist[hit] = rows[order[at[hit]]]
+        self.pair_contact[hit] = True
+
+    def _contact_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """Keys and history rows of the candidates in contact (copies)."""
+        on = self.pair_contact
+        return self._keys(self.pairs[on, 0], self.pairs[on, 1]), self.chist[on].copy()
 
     def _faces(self, p: np.ndarray) -> np.ndarray:
         """Per candidate pair ``(i, j)``: the edges of ``i`` and of ``j`` along which the two
@@ -162,6 +193,9 @@ class ContactModel(JointBook):
         if self._ref_centers is not None and within:
             return self.pairs
         c = centers(q)
+        if self.n_contact_hist:
+            kept = self._chist_pending or self._contact_rows()
+            self._chist_pending = None
         pairs = np.asarray(self.broad.pairs(c, self.radii, self.skip), dtype=np.int64)
         if self.gone is not None and len(pairs):  # melted elements touch nothing
             pairs = pairs[~(self.gone[pairs[:, 0]] | self.gone[pairs[:, 1]])]
@@ -170,6 +204,8 @@ class ContactModel(JointBook):
             pairs = pairs[~np.isin(self._keys(pairs[:, 0], pairs[:, 1]), jk)]
         self.pairs = np.ascontiguousarray(pairs)
         self._set_pair_index()
+        if self.n_contact_hist:
+            self._carry_contact_history(*kept)
         self._ref_centers = c
         self.rebuilds += 1
         return self.pairs
@@ -197,11 +233,15 @@ class ContactModel(JointBook):
         where[order] = np.arange(len(order))
         old = where[:len(keys)]
         rows, active, hint = self.pair_rows, self.pair_active, self.separating_hint
+        chist, contact = self.chist, self.pair_contact
         self.pairs = np.ascontiguousarray(every[order])
         self._set_pair_index()
         self.pair_rows[old] = rows
         self.pair_active[old] = active
         self.separating_hint[old] = hint
+        if self.n_contact_hist:
+            self.chist[old] = chist
+            self.pair_contact[old] = contact
 
     def add(self, t, q, V, w, F, T, commit: bool) -> None:
         """Add contact forces for state ``q, V, w``; joint history changes only if ``commit``."""
@@ -231,9 +271,14 @@ class ContactModel(JointBook):
                 self.E, st.area, st.vert_offsets, st.verts, pairs, R, self.nmax,
                 switches.pretest, self.pair_rows, self.pair_active, chunks(len(pairs)), self.margin,
                 self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
+                self.chist if self.n_contact_hist else None, commit,
             )
             if commit:
                 self.n_overlap = n
+                if self.n_contact_hist:  # a pair out of contact forgets its history
+                    on = self.pair_active == 1
+                    self.chist[~on] = 0.0
+                    self.pair_contact[:] = on
         else:
             n = 0
             if commit:
@@ -276,6 +321,36 @@ class ContactModel(JointBook):
             self.skip = st.flags != FREE
             self._ref_centers = None  # rebuilt at the next evaluation, without them
         self.pmeff = pair_masses(self.minv, self.pairs)
+
+    # ------------------------------------------------------------------ per-contact history
+    def history(self) -> dict[str, np.ndarray]:
+        """The joints' history (:class:`~siku_core.contact_joints.JointBook`) and, under a law
+        with ``contact_history_names``, the pairs in contact at the last committed evaluation:
+        ``contact_pairs`` (int64 ``(m, 2)``, ``i < j``), ``contact_hist`` (``(m, C)``, their
+        rows) and ``contact_count`` (``m``; files pad the two arrays to their longest)."""
+        out = super().history()
+        if self.n_contact_hist:
+            keys, rows = self._chist_pending or self._contact_rows()
+            n = self.state.n
+            out["contact_pairs"] = np.stack([keys // n, keys % n], axis=1).astype(np.int64)
+            out["contact_hist"] = rows
+            out["contact_count"] = np.array(len(keys), dtype=np.int64)
+        return out
+
+    def set_history(self, d: dict[str, np.ndarray]) -> None:
+        """Put :meth:`history` back; the per-contact rows go to their pairs at the rebuild of
+        the candidate list that the next evaluation makes."""
+        super().set_history(d)
+        if not self.n_contact_hist:
+            return
+        if "contact_count" not in d:
+            raise SceneError(f"{self.label}: restart holds no per-contact history, which law "
+                             f"'{self.law.name}' keeps; restart with the scene that wrote it")
+        m = int(d["contact_count"])
+        pairs = np.asarray(d["contact_pairs"])[:m].astype(np.int64)
+        rows = np.array(d["contact_hist"], dtype=float)[:m].reshape(m, self.n_contact_hist)
+        self._chist_pending = (self._keys(pairs[:, 0], pairs[:, 1]), rows)
+        self._ref_centers = None
 
     # ------------------------------------------------------------------ stability, history
     def stiffness_bound(self) -> tuple[float, int]:

@@ -44,7 +44,7 @@ def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
 
 def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, active, nch, margin=None, hint=None, drop=False, face=None,
-                     scale=None, edges=None):
+                     scale=None, edges=None, chist=None, commit=False):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
     :func:`~siku_core.geometry.clip.separating_edge` finds an edge line that separates or touches
     them) and evaluate the overlapping ones into ``out[k]`` with ``active[k] = 1`` (``0`` for the
@@ -63,7 +63,11 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
     pair is jointed along, whose touching overlap :func:`~siku_core.geometry.face.touching_face`
     finds without the clip; ``scale`` (per element, m): its largest absolute vertex coordinate;
     ``edges`` (per vertex row): :func:`~siku_core.geometry.face.edge_table` of ``offsets,
-    verts``, the constants of the edge a jointed pair touches along (built here when not given).
+    verts``, the constants of the edge a jointed pair touches along (built here when not given);
+    ``chist`` (per pair, float64 ``(K, C)``; ``None`` for a law without per-contact history):
+    the pairs' history rows, passed to the evaluator ``evaluate(g, pars, hist, out)`` of an
+    overlapping pair and updated from it only when ``commit`` (the rows of the other pairs are
+    left as they are: the caller drops them, ``ContactModel``).
     """
     if margin is None:
         margin = np.zeros(offsets.shape[0] - 1)
@@ -75,10 +79,18 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
         scale = np.zeros(offsets.shape[0] - 1)
     if edges is None:
         edges = edge_table(offsets, verts)
-    loops = instantiate(contact_loops, evaluate)
+    history = chist is not None
+    if not history:
+        chist = _NO_HISTORY
+    loops = instantiate(contact_loops, evaluate, history)
     return loops._collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                                    nmax, pretest, out, active, nch, tasks(nch), margin, hint, drop,
-                                   face, scale, edges)
+                                   face, scale, edges, chist, bool(commit))
+
+
+#: what the collision loop gets for ``chist`` under a law without per-contact history (the
+#: loop never reads it: ``contact_loops.CHIST`` prunes the branches)
+_NO_HISTORY = np.zeros((0, 0))
 
 
 def gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout,

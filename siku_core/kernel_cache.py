@@ -3,9 +3,11 @@
 The engine writes its loops over contacts once, in a template module
 (:mod:`siku_core.contact_loops`), and a contact law supplies the evaluator of one contact.
 Numba cannot cache a function that receives another jitted function as an argument, so the
-template's loops call the evaluator as the module global ``evaluate``, one of the three names of
-the template's *binding* (``evaluate``, ``NRT``, ``CACHE``: a template reads each as
-``globals().get(name, default)`` before it defines anything). :func:`instantiate` makes a module
+template's loops call the evaluator as the module global ``evaluate``, one of the four names of
+the template's *binding* (``evaluate``, ``NRT``, ``CACHE``, ``CHIST``: a template reads each as
+``globals().get(name, default)`` before it defines anything; ``CHIST``: the collision evaluator
+takes a per-contact history row, a compile-time flag, so that a law without one compiles to the
+loop without history). :func:`instantiate` makes a module
 of the template with the binding fixed: it renders :data:`HEADER` (a :class:`string.Template`
 that imports the evaluator and sets the options) above the template's source, unchanged, writes
 the result once to the user's cache directory and imports it; numba then caches its loops like
@@ -101,6 +103,7 @@ HEADER = Template('''\
 from $module import $name as evaluate
 $nrt
 CACHE = True
+CHIST = $chist
 
 ''')
 
@@ -186,25 +189,31 @@ def _importable(evaluator: Any) -> bool:
     return module is not None and getattr(module, evaluator.__name__, None) is evaluator
 
 
-def instantiate(template: types.ModuleType, evaluator: Any) -> types.ModuleType:
+def instantiate(template: types.ModuleType, evaluator: Any,
+                history: bool = False) -> types.ModuleType:
     """The template module ``template`` (:mod:`siku_core.contact_loops`, or a test's) as a
     module of its own whose loops call ``evaluator``: a generated file, cached on disk, where
     the evaluator can be imported by name and the sources can be read; else the generic
-    instance (the template's file run with the binding preset, nothing cached)."""
-    key = (template.__name__, evaluator)
+    instance (the template's file run with the binding preset, nothing cached). ``history``:
+    the collision evaluator takes a per-contact history row (``CHIST``)."""
+    key = (template.__name__, evaluator, bool(history))
     if key in _MEMO:
         return _MEMO[key]
     free = without_nrt(evaluator)
-    module = _generated(template, evaluator, free) if _importable(evaluator) else None
+    module = _generated(template, evaluator, free, history) if _importable(evaluator) else None
     if module is None:
-        binding = {"evaluate": free or evaluator, "NRT": free is None, "CACHE": False}
+        binding = {"evaluate": free or evaluator, "NRT": free is None, "CACHE": False,
+                   "CHIST": bool(history)}
         name = f"siku_generic_{template.__name__.rpartition('.')[2]}_{evaluator.__name__}"
+        if history:
+            name += "_chist"
         module = _run(template.__file__, f"{name}_{id(evaluator):x}", binding)
     _MEMO[key] = module
     return module
 
 
-def _generated(template: types.ModuleType, evaluator: Any, free: Any) -> types.ModuleType | None:
+def _generated(template: types.ModuleType, evaluator: Any, free: Any,
+               history: bool = False) -> types.ModuleType | None:
     """The generated, cached instance of :func:`instantiate`; ``None`` where it cannot be."""
     where = cache_dir()
     if where is None:
@@ -225,7 +234,7 @@ def _generated(template: types.ModuleType, evaluator: Any, free: Any) -> types.M
         return None
     header = HEADER.substitute(
         template=template.__name__, module=emod, name=evaluator.__name__,
-        nrt="NRT = True" if free is None else _FREE_BINDING)
+        nrt="NRT = True" if free is None else _FREE_BINDING, chist=bool(history))
     text = header + tsrc
     digest = _source_hash(text, esrc, dsrc, __version__)
     short = template.__name__.rpartition(".")[2]

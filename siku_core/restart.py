@@ -29,6 +29,11 @@ RESTART_MAY_CHANGE = ("scene.time.duration", "scene.time.end", "scene.output", "
                       "scene.run.progress", "scene.run.nan_check_every", "scene.run.max_speed",
                       "scene.run.dt_safety", "scene.run.allow_unstable_dt",
                       "scene.elements.mesh.cache", "scene.elements.mesh.mesh_file")
+#: history arrays whose first axis (one entry per contact) changes length from snapshot to
+#: snapshot (``ContactModel.history`` under a law with ``contact_history_names``); a file
+#: pads them to its longest (integers with -1, floats with NaN) and ``contact_count`` says how
+#: many entries are real
+RAGGED_HISTORY = frozenset({"contact_pairs", "contact_hist"})
 
 
 def restart(sim: "Simulation", path: Path, force: bool = False,

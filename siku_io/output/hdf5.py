@@ -67,6 +67,7 @@ from siku_core.outputs import (
     settle,
 )
 
+from .padded import append_padded, is_padded, made_padded, new_padded
 from .results import (
     LAYOUT,
     clear_open_mark,
@@ -101,6 +102,8 @@ def _append(ds, values, rows: int) -> None:
     high-level call does."""
     from h5py import h5s
 
+    if made_padded(ds):  # per-contact rows (siku_io.output.padded)
+        return append_padded(ds, values, rows)
     did = ds.id
     shape = did.shape
     arr = np.asarray(values)
@@ -241,7 +244,7 @@ class HDF5Writer(Writer):
         s = f.create_group("states")
         self.rows = {}
         for name, row in self._state_rows(ctx, fields=True).items():
-            self.rows[name] = _create(s, name, row, self.comp)
+            self.rows[name] = (new_padded if is_padded(name) else _create)(s, name, row, self.comp)
         self.step_ds = _create(s, "step", np.int64(0), None)
         self.diag = {}
         dg = f.create_group("diagnostics")

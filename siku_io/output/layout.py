@@ -80,6 +80,13 @@ CONTACT_HISTORY: dict[str, tuple[str, str]] = {
     "n_broken_total": ("1", "joints broken since the start of the run"),
     "break_mode": ("1", "break mode of each joint (0: intact; codes as /breaks/mode)"),
     "break_time": ("s", "model time each joint broke (NaN: intact, -inf: before the record)"),
+    "contact_pairs": ("1", "element pairs (i < j) in contact, under a law with per-contact "
+                      "history (contact_history_names); -1 beyond contact_count"),
+    "contact_hist": ("1", "the contact law's history columns per pair in contact "
+                     "(contact_history_names of the law; units as the law documents); NaN "
+                     "beyond contact_count"),
+    "contact_count": ("1", "pairs in contact: the rows of contact_pairs and contact_hist that "
+                      "hold data"),
 }
 
 

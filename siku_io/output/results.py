@@ -19,6 +19,7 @@ from siku_core import DataError
 from siku_core.errors import SikuError
 from siku_core.geometry.sphere import lonlat_to_xyz
 from siku_core.outputs import in_use
+from siku_core.restart import RAGGED_HISTORY
 
 #: the file layout this version writes and reads (``siku_io.output.hdf5``)
 LAYOUT = 2
@@ -345,7 +346,9 @@ def restart_snapshot(path: Path, n: int, history: dict) -> dict[str, Any]:
     for key, arrays in history.items():
         for name, arr in arrays.items():
             got = np.shape(last["history"].get(key, {}).get(name))
-            if got != np.shape(arr):
+            want = np.shape(arr)
+            cut = 1 if name in RAGGED_HISTORY and len(got) == len(want) else 0  # padded
+            if got[cut:] != want[cut:]:
                 raise DataError(f"{path}: restart holds history {key}/{name} of shape "
                                 f"{got}, the scene builds {np.shape(arr)}; restart with "
                                 "the scene that wrote the file")
