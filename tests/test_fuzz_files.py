@@ -333,3 +333,28 @@ def test_a_library_crash_while_identifying_a_file_is_not_a_crash_of_siku():
     assert in_child(lambda: ctypes.string_at(0)) is None  # the child dies of SIGSEGV
     assert in_child(lambda: 1 / 0) is None
     assert in_child(lambda: __import__("time").sleep(30), timeout=0.5) is None
+
+
+def test_an_interrupted_identification_leaves_no_child_behind():
+    """A wait cut short (Ctrl-C, a caller's alarm) kills the child: the slow fuzz's time limit
+    had left children reading a damaged file for ever."""
+    import signal
+    import time
+
+    import psutil
+
+    from siku_io.output.marks import in_child
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    before = {c.pid for c in psutil.Process().children()}
+    old = signal.signal(signal.SIGALRM, interrupt)
+    signal.setitimer(signal.ITIMER_REAL, 0.3)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            in_child(lambda: time.sleep(30), timeout=20)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    assert {c.pid for c in psutil.Process().children()} <= before

@@ -115,20 +115,23 @@ def in_child(fn: Callable[[], str | None], timeout: float = 20.0) -> str | None:
         finally:
             os._exit(code)
     os.close(w)
-    deadline = time.monotonic() + timeout
-    while True:
-        done, status = os.waitpid(pid, os.WNOHANG)
-        if done:
-            break
-        if time.monotonic() > deadline:
+    status = None
+    try:  # whatever ends the wait (its time limit, Ctrl-C, an alarm), no child outlives it
+        deadline = time.monotonic() + timeout
+        while status is None and time.monotonic() <= deadline:
+            done, st = os.waitpid(pid, os.WNOHANG)
+            if done:
+                status = st
+            else:
+                time.sleep(0.002)
+        answer = os.read(r, 1 << 16).decode() if status is not None else ""
+    finally:
+        os.close(r)
+        if status is None:
             os.kill(pid, 9)
             os.waitpid(pid, 0)
-            os.close(r)
-            return None
-        time.sleep(0.002)
-    with os.fdopen(r, "rb") as fh:
-        answer = fh.read().decode()
-    if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0) or not answer:
+    if status is None or not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0) \
+            or not answer:
         return None
     return answer[1:] or None
 
