@@ -358,3 +358,30 @@ def test_an_interrupted_identification_leaves_no_child_behind():
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old)
     assert {c.pid for c in psutil.Process().children()} <= before
+
+
+@pytest.mark.parametrize("command", ["plot", "export", "grid", "restart"])
+def test_a_damaged_attribute_that_hangs_the_hdf5_library_is_refused(tmp_path, command):
+    """``tests/data/damaged_attribute_hangs_hdf5.h5``: a siku output damaged by the slow
+    reader fuzz. Its marks read well, but reading the attributes of its ``/geometry`` datasets
+    never returns (H5HG__cache_heap_deserialize loops), and a reader hung in this process where
+    no alarm reaches it. Every attribute is now read in the identifying child, which is given
+    up after its time limit (set to 2 s here), so each command ends, in one line."""
+    import shutil
+    import subprocess
+    import sys
+
+    shutil.copy(Path(__file__).parent / "data" / "damaged_attribute_hangs_hdf5.h5",
+                tmp_path / "in.h5")
+    (tmp_path / "scene.toml").write_text(SCENE, encoding="utf-8")
+    args = {"plot": ["plot", "in.h5", "--no-animation", "--out-dir", "pics"],
+            "export": ["export", "in.h5", "--out", "x.nc"],
+            "grid": ["grid", "in.h5", "--out", "g.nc", *GRID_ARGS],
+            "restart": ["run", "scene.toml", "--restart", "in.h5", "--out", "r.h5",
+                        "--no-progress", "--no-plots"]}[command]
+    code = ("import sys\nfrom siku_io.output import marks\nmarks.in_child.__defaults__ = (2.0,)\n"
+            "from siku_core.cli import main\nsys.exit(main(sys.argv[1:]))\n")
+    r = subprocess.run([sys.executable, "-c", code, *args], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=120)
+    one_line(r.returncode, r.stderr)
+    assert r.returncode == 2 and "in.h5" in r.stderr
