@@ -4,6 +4,7 @@ fault injection found: mesh spacings, nesting, folders named by files, scheduler
 Dask's, sweeps and packs past the memory, messages that named the wrong thing)."""
 from __future__ import annotations
 
+import contextlib
 import socket
 import threading
 import time
@@ -78,9 +79,10 @@ def test_15_a_folder_argument_naming_a_file(here, capsys):
 
 
 # ------------------------------------------------------------------ 16
-@pytest.fixture
-def silent_server():
-    """A TCP server that accepts connections and never says a word."""
+@contextlib.contextmanager
+def _server(greeting: bytes = b""):
+    """A local TCP server that accepts every connection and sends it ``greeting`` (nothing:
+    it never says a word); yields its address."""
     srv = socket.socket()
     srv.bind(("127.0.0.1", 0))
     srv.listen(8)
@@ -94,69 +96,46 @@ def silent_server():
                 held.append(srv.accept()[0])
             except OSError:
                 continue
+            if greeting:
+                held[-1].sendall(greeting)
 
     t = threading.Thread(target=serve, daemon=True)
     t.start()
-    yield f"tcp://127.0.0.1:{srv.getsockname()[1]}"
-    stop.set()
-    t.join()
-    for c in held:
-        c.close()
-    srv.close()
+    try:
+        yield f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+    finally:
+        stop.set()
+        t.join()
+        for c in held:
+            c.close()
+        srv.close()
 
 
-def test_16_a_scheduler_that_is_not_dask_is_given_up_after_the_timeout(here, capsys,
-                                                                        silent_server):
+SWEEP_TO = ('scene = "scene.toml"\n[cluster]\ntimeout = 2\n[[axis]]\nkey = "run.max_speed"\n'
+            'values = [100.0]\n')
+
+
+def test_16_a_scheduler_that_is_not_dask_is_given_up_after_the_timeout(here, capsys):
+    """A server that accepts and never speaks Dask's protocol."""
     pytest.importorskip("distributed")
     (here / "scene.toml").write_text(small(), encoding="utf-8")
-    (here / "sweep.toml").write_text('scene = "scene.toml"\n[cluster]\ntimeout = 2\n[[axis]]\n'
-                                     'key = "run.max_speed"\nvalues = [100.0]\n',
-                                     encoding="utf-8")
+    (here / "sweep.toml").write_text(SWEEP_TO, encoding="utf-8")
     t0 = time.monotonic()
-    assert main(["ensemble", "sweep.toml", "--scheduler", silent_server, "--no-progress"]) == 2
+    with _server() as address:
+        assert main(["ensemble", "sweep.toml", "--scheduler", address, "--no-progress"]) == 2
     assert time.monotonic() - t0 < 30
     assert "cannot reach the Dask scheduler" in one_error(capsys)
 
 
-@pytest.fixture
-def chatty_server():
-    """A TCP server that answers every connection with text (an HTTP error page): Dask reads
-    its first eight bytes as a message length of about 3e18 bytes."""
-    srv = socket.socket()
-    srv.bind(("127.0.0.1", 0))
-    srv.listen(8)
-    stop = threading.Event()
-    held = []
-
-    def serve():
-        srv.settimeout(0.2)
-        while not stop.is_set():
-            try:
-                c = srv.accept()[0]
-            except OSError:
-                continue
-            held.append(c)
-            c.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 11\r\n\r\nBad Request")
-
-    t = threading.Thread(target=serve, daemon=True)
-    t.start()
-    yield f"tcp://127.0.0.1:{srv.getsockname()[1]}"
-    stop.set()
-    t.join()
-    for c in held:
-        c.close()
-    srv.close()
-
-
-def test_16_a_server_answering_in_another_protocol_is_refused_in_one_line(here, capsys,
-                                                                          chatty_server):
-    """The reply's length field is read as exabytes: one line saying so, no allocation."""
+def test_16_a_server_answering_in_another_protocol_is_refused_in_one_line(here, capsys):
+    """A server that answers with text (an HTTP error page): Dask reads its first eight bytes
+    as a message length of about 3e18 bytes. One line saying so, no allocation."""
     pytest.importorskip("distributed")
     (here / "scene.toml").write_text(small(), encoding="utf-8")
-    (here / "sweep.toml").write_text('scene = "scene.toml"\n[cluster]\ntimeout = 2\n[[axis]]\n'
-                                     'key = "run.max_speed"\nvalues = [100.0]\n',
-                                     encoding="utf-8")
-    assert main(["ensemble", "sweep.toml", "--scheduler", chatty_server, "--no-progress"]) == 2
+    (here / "sweep.toml").write_text(SWEEP_TO, encoding="utf-8")
+    page = b"HTTP/1.1 400 Bad Request\r\nContent-Length: 11\r\n\r\nBad Request"
+    with _server(page) as address:
+        assert main(["ensemble", "sweep.toml", "--scheduler", address, "--no-progress"]) == 2
     msg = one_error(capsys)
     assert "the reply is not Dask's protocol" in msg and "EiB" not in msg, msg
 
