@@ -30,7 +30,6 @@ minute on two cores at 4 m; the results are cached like the floating process's c
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
