@@ -41,6 +41,7 @@ _INPUT_FIELDS = {
     "sea_ice_bottom_surface__y_component_of_stress": "tau_y",
     "atmosphere_bottom_air_flow__x_component_of_velocity": "wind_u",
     "atmosphere_bottom_air_flow__y_component_of_velocity": "wind_v",
+    "sea_ice_bottom_surface__dynamic_pressure": "pressure",
 }
 #: name -> (exchange key, units, "in"/"out", description). Input keys are fields of the
 #: ``exchange`` forcing source; output keys those of ``siku_io.coupling.exchange.ice_fields``
@@ -114,6 +115,9 @@ class SikuBmi(Bmi):
             raise SceneError(f"{scene.label}: a coupled run needs [[forcing]] source = "
                              "\"exchange\" to receive the other model's fields")
         self.exchange: Exchange = ex[0]
+        for proc in self.sim.processes:     # a floating process takes its wave from the grid
+            if hasattr(proc, "couple_exchange"):
+                proc.couple_exchange(self.exchange)
         self.sim.open_outputs()
         self._before = grid_velocity(self.sim, self.grid)
         self._interval = 0.0
@@ -318,12 +322,14 @@ class SikuBmi(Bmi):
     def set_value(self, name: str, src: np.ndarray) -> None:
         a = self._input(name)
         a[:] = self._values(name, src, a.size)
+        self.exchange.given.add(self._var(name)[0])
         self.exchange.inputs_changed()
 
     def set_value_at_indices(self, name: str, inds: np.ndarray, src: np.ndarray) -> None:
         a = self._input(name)
         inds = self._indices(name, inds, a.size)
         a[inds] = self._values(name, src, inds.size)
+        self.exchange.given.add(self._var(name)[0])
         self.exchange.inputs_changed()
 
     # ------------------------------------------------------------------ grid
