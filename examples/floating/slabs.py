@@ -30,6 +30,7 @@ minute on two cores at 4 m; the results are cached like the floating process's c
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -84,11 +85,18 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=float, default=4.0, help="panel size [m] (default 4)")
     ap.add_argument("--cache", default="", help="cache folder (default: the user cache)")
     a = ap.parse_args(argv)
+    from siku_core.errors import SikuError
+
+    try:
+        rows = table(a.size, a.cache)
+    except SikuError as exc:      # capytaine missing, a cache folder that is not there
+        print(f"slabs.py: {exc}", file=sys.stderr)
+        return 2
     print(f"slabs of square floes, {THICK:g} m thick, in a flume {WIDTH:g} m wide; "
           f"panels {a.size:g} m")
     print("                      capytaine (rigid, lossless)   Orzech et al. Table 1")
     print(" T [s] types floes     K_r    K_t  K_r+K_t        K_r   K_r,mon   K_t")
-    for period, types, n, kr, kt in table(a.size, a.cache):
+    for period, types, n, kr, kt in rows:
         nf, pr, pm, pt = PAPER[(period, types)]
         assert nf == n
         print(f"{period:5d} {types:5d} {n:5d}   {kr:7.3f} {kt:6.3f} {kr + kt:7.3f}"
