@@ -77,6 +77,53 @@ def test_wave_load_quadrature_is_the_rectangle_transform(k):
     assert np.sum(w * pts[:, 0] * np.sin(k * pts[:, 0])) == pytest.approx(first, rel=2e-3)
 
 
+@pytest.mark.parametrize("n", [1, 3, 8])
+def test_the_loads_from_the_vertices_are_the_pointwise_sums(n):
+    """The step's loads from the quadrature lattice (each point's phase a product of powers of
+    its triangle's vertices', the centre's phase and the time's turned in once) equal the
+    quadrature sums point by point (``kernels._excite``) to round-off: 1e-12 of ``a A``
+    (three components, random polygons, frames, times and diffraction factors)."""
+    from numba import njit
+
+    from siku_plugins.floating import kernels as kn
+    from siku_plugins.floating.geometry import lattice_arrays
+
+    @njit
+    def both(t, xc, yc, e0, e1, lattice, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap):
+        voff, vx, vy, m6a, ia, ib, zsize = lattice
+        S = np.empty((amp.shape[0], 6))
+        Z = np.empty(zsize)
+        ext = np.zeros((0, 3))
+        kn._sums_lattice(e0, e1, 0, 0, qa.shape[0], voff, vx, vy, m6a, ia, ib, qu, qv, qw,
+                         amp, kx, ky, att, S, Z)
+        kn._turn(xc, yc, kx, ky, ph, S)
+        E, r = kn.clock(t, 0.0, 0, om, 0.0)
+        new = kn._load(0, 0, S, E, r, kap, ext)
+        old = kn._excite(t, 0, xc, yc, e0, e1, 0, qa.shape[0], qa, qb, qu, qv, qw, amp, kx, ky,
+                         om, ph, att, kap, 0.0, ext)
+        return new, old
+
+    rng = np.random.default_rng(n)
+    for k in (4, 5, 7):
+        ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+        poly = np.c_[np.cos(ang), np.sin(ang)] * rng.uniform(3.0, 8.0, k)[:, None]
+        poly -= poly.mean(axis=0)
+        pts, w = quadrature(poly, n)
+        qu, qv = pts[:, 0] * 0.8 + pts[:, 1] * 0.6, -pts[:, 0] * 0.6 + pts[:, 1] * 0.8
+        kk = rng.uniform(0.02, 0.7 * n / 8.0, 3)
+        th = rng.uniform(0, 2 * np.pi, 3)
+        amp = rng.uniform(0.1, 1.0, 3)
+        th0 = rng.uniform(0, 2 * np.pi)
+        for kap in (np.zeros((0, 0, 3, 2)), rng.uniform(-1, 1, (1, 3, 3, 2))):
+            new, old = both(rng.uniform(0, 1e4), rng.uniform(-3e4, 3e4),
+                            rng.uniform(-3e4, 3e4), math.cos(th0), math.sin(th0),
+                            lattice_arrays([(poly, n)]), pts[:, 0], pts[:, 1], qu, qv, w, amp,
+                            kk * np.sin(th), kk * np.cos(th), np.sqrt(G * kk),
+                            rng.uniform(0, 6, 3), np.ones(3), kap)
+            scale = amp.sum() * w.sum() * np.array([1.0, 8.0, 8.0])
+            np.testing.assert_allclose(new, old, rtol=0, atol=1e-12 * scale.max())
+
+
 @pytest.mark.parametrize("release", [0.3, 5.0, -0.5])
 def test_settles_at_its_draft(release):
     """Released from any height (above the water, pushed under), a damped element settles

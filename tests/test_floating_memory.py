@@ -2,7 +2,8 @@
 "memory"``): the kernel's transforms give back B(omega) and the Kramers–Kronig added mass within
 the truncation bound, the steady heave in monochromatic waves is capytaine's RAO at three
 frequencies, the bouncing block decays to its floating position, restarts are bit for bit, and
-bad input is one line."""
+bad input is one line; with bending and loads (a strip) the memory keeps the static
+equilibrium, moves a rigid heave as each element alone, and restarts bit for bit."""
 from __future__ import annotations
 
 import math
@@ -197,3 +198,83 @@ def test_bad_input_from_the_command_line_exits_2(tmp_path):
     assert r.returncode == 2, r.stderr
     lines = [x for x in r.stderr.strip().splitlines() if x]
     assert len(lines) == 1 and "radiation = 'memory'" in lines[0]
+
+
+# --- memory with bending and loads: a strip of 2 m × 2 m × 0.5 m elements (one shape) ---
+STRIP = ('radiation = "memory", coefficients = "capytaine", mesh_size = 0.5, '
+         f'memory_bins = {BINS}, hydro_cache = "{{cache}}"')
+
+
+@pytest.fixture(scope="module")
+def strip_cache(tmp_path_factory):
+    pytest.importorskip("capytaine")
+    return tmp_path_factory.mktemp("hydro_strip")
+
+
+def _strip(cache, params, E=1e3, **kw):
+    from test_floating import strip
+
+    return strip(5, 2.0, E=E, params=f"{STRIP.format(cache=cache)}, {params}", **kw)
+
+
+def test_memory_with_loads_and_bending_keeps_the_static_equilibrium(strip_cache):
+    """A loaded strip started at rest at its static equilibrium ``(K_beams + C) u = F`` stays
+    there (the memory force of rates that were always zero is zero): the loads, the beams and
+    the buoyancy balance in the memory's stepping to 1e-9 of the deflection."""
+    from test_floating import set_state
+
+    sim = _strip(strip_cache, "loads = [[2, -500.0], [4, 200.0]]", E=1e9, dt=4e-4,
+                 duration=0.2)
+    proc = sim.processes[0]
+    assert proc.memory is not None and proc.beams is not None
+    u = proc.equilibrium(sim.context)
+    set_state(sim, u)
+    sim.run()
+    np.testing.assert_allclose(sim.context.fields["heave"], u[:, 0],
+                               atol=1e-9 * np.abs(u[:, 0]).max())
+    slopes = -sim.context.fields["pitch"]
+    np.testing.assert_allclose(slopes, u[:, 1], atol=1e-9 * np.abs(u[:, 1]).max())
+
+
+def test_memory_in_a_bending_strip_is_the_lone_elements_memory(strip_cache):
+    """Released 5 cm above the floating position, every element alike: the beams carry nothing
+    (a rigid translation), so with bending each element heaves as without it (each alone,
+    ``memory.advance_modes``), to the round-off of the beams' zero resultant (1e-9 of the
+    release), over 4 s (two heave periods)."""
+    runs = []
+    for bend in ("true", "false"):
+        sim = _strip(strip_cache, "initial_heave = 0.05", dt=0.02, duration=4.0)
+        if bend == "false":
+            sim = Simulation(scene_from_text(sim.scene.text.replace(
+                "bending = true", "bending = false"), "<strip>"), out=False, progress=False)
+        z = []
+        for _ in range(sim.n_steps):
+            sim.step()
+            z.append(sim.context.fields["heave"].copy())
+        runs.append((sim, np.array(z)))
+    (a, za), (b, zb) = runs
+    assert a.processes[0].beams is not None and b.processes[0].beams is None
+    assert a.processes[0].memory.n_sub == b.processes[0].memory.n_sub
+    assert np.ptp(za[-50:, 0]) > 0.1 * 0.05     # still moving at the end: a real comparison
+    np.testing.assert_allclose(za, zb, rtol=0, atol=1e-9 * 0.05)
+
+
+def test_restart_with_memory_loads_and_bending_is_bit_for_bit(strip_cache, tmp_path):
+    p = "loads = [[2, -500.0]], initial_heave = 0.02, initial_roll = 0.001"
+
+    def text(duration):
+        sim = _strip(strip_cache, p, dt=0.02, duration=duration)
+        return sim.scene.text
+
+    whole = Simulation(scene_from_text(text(1.0), "<s>"), out=False, progress=False)
+    whole.run()
+    Simulation(scene_from_text(text(0.5), str(tmp_path / "s.toml")), out=tmp_path / "a.h5",
+               progress=False).run()
+    rest = Simulation(scene_from_text(text(1.0), str(tmp_path / "s.toml")),
+                      out=tmp_path / "b.h5", progress=False, restart=tmp_path / "a.h5")
+    rest.run()
+    for name in ("heave", "heave_rate", "roll", "roll_rate", "pitch", "pitch_rate"):
+        np.testing.assert_array_equal(rest.context.fields[name],
+                                      whole.context.fields[name], err_msg=name)
+    np.testing.assert_array_equal(rest.processes[0].memory.hist,
+                                  whole.processes[0].memory.hist)

@@ -32,6 +32,7 @@ from numba import njit
 from siku_core.contact_law import BreakMode
 
 from .kernels import _attenuation, _excite
+from .memory import _lagged
 
 
 class Beams:
@@ -152,10 +153,13 @@ class Beams:
 @njit(cache=True)
 def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw, amp, kx, ky,
                    om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, B3, M1, C1, B1,
-                   M2, C2, B2, load, indptr, indices, data, u, v):
+                   M2, C2, B2, load, indptr, indices, data, K, kidx, hist, head, u, v):
     """:func:`siku_plugins.floating.kernels.advance` with the beams' stiffness (CSR over the
     ``3 n`` degrees of freedom ``u``, velocities ``v``, both in place) and constant vertical
-    loads ``load`` [N]: the same velocity Verlet, every element at once per sub-step."""
+    loads ``load`` [N]: the same velocity Verlet, every element at once per sub-step. With
+    ``K`` not empty (``radiation = "memory"``: kernels ``(S, 3, L)``, ``kidx``, ring buffers
+    ``hist (n, 3, L)`` whose latest rates are at ``head``) the damping ``B v`` is the memory
+    force of ``siku_plugins.floating.memory.advance_modes`` (same scheme)."""
     n = free.shape[0]
     natt = amp.shape[0]
     att = np.empty((n, natt))
@@ -169,6 +173,20 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
         M[3 * i], M[3 * i + 1], M[3 * i + 2] = M3[i], M1[i], M2[i]
         B[3 * i], B[3 * i + 1], B[3 * i + 2] = B3[i], B1[i], B2[i]
     hd = 0.5 * dt
+    mem = K.shape[0] > 0
+    L = K.shape[2]
+    mu = np.zeros(3 * n)
+    den = np.empty(3 * n)
+    for r in range(3 * n):
+        den[r] = 1.0 + hd * B[r] / M[r]
+    if mem:
+        for r in range(3 * n):
+            i, m = r // 3, r % 3
+            if free[i]:
+                Ki = K[kidx[i], m]
+                mu[r] = dt * (0.5 * Ki[0] * hist[i, m, head]
+                              + _lagged(Ki, hist[i, m], (head - 1) % L, L))
+                den[r] = 1.0 + hd * 0.5 * dt * Ki[0] / M[r]
 
     def forces(t):
         for i in range(n):
@@ -188,12 +206,49 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
             F[r] -= acc
 
     forces(t0)
+    hp = head
     for k in range(n_sub):
         for r in range(3 * n):
             if free[r // 3]:
-                v[r] += hd * (F[r] - B[r] * v[r]) / M[r]
+                if mem:
+                    v[r] += hd * (F[r] - mu[r]) / M[r]
+                else:
+                    v[r] += hd * (F[r] - B[r] * v[r]) / M[r]
                 u[r] += dt * v[r]
         forces(t0 + (k + 1) * dt)
         for r in range(3 * n):
-            if free[r // 3]:
-                v[r] = (v[r] + hd * F[r] / M[r]) / (1.0 + hd * B[r] / M[r])
+            i = r // 3
+            if not free[i]:
+                continue
+            if mem:
+                m = r % 3
+                Ki = K[kidx[i], m]
+                rest = dt * _lagged(Ki, hist[i, m], hp, L)
+                v[r] = (v[r] + hd * (F[r] - rest) / M[r]) / den[r]
+                mu[r] = rest + 0.5 * dt * Ki[0] * v[r]
+            else:
+                v[r] = (v[r] + hd * F[r] / M[r]) / den[r]
+        if mem:
+            hp = (hp + 1) % L
+            for r in range(3 * n):
+                if free[r // 3]:
+                    hist[r // 3, r % 3, hp] = v[r]
+
+
+def equilibrium(proc, n: int) -> np.ndarray:
+    """The static state ``(n, 3)`` (heave [m], principal slopes) of the ``floating`` process
+    ``proc`` under its ``loads`` in still water, linear: ``(K_beams + C) u = F`` (scipy's
+    sparse solver)."""
+    from scipy.sparse import csr_matrix, diags
+    from scipy.sparse.linalg import spsolve
+
+    C = np.column_stack([proc.C3, proc.C1, proc.C2]).ravel()
+    K = diags(C)
+    if proc.beams is not None:
+        b = proc.beams
+        K = K + csr_matrix((b.data, b.indices, b.indptr), shape=(3 * n, 3 * n))
+    F = np.column_stack([proc.load, np.zeros(n), np.zeros(n)]).ravel()
+    keep = np.repeat(proc.free, 3)
+    u = np.zeros(3 * n)
+    u[keep] = spsolve(K.tocsr()[keep][:, keep].tocsc(), F[keep])
+    return u.reshape(n, 3)

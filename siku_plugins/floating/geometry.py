@@ -85,3 +85,61 @@ def quadrature(poly: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
                     pts.append(_BARY @ P)
                     wts.append(np.full(3, small / 3.0))
     return np.concatenate(pts), np.concatenate(wts)
+
+
+def quadrature_lattice(k: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The points of :func:`quadrature` on a polygon of ``k`` vertices ``v`` as whole
+    multiples of ``v / (6 n)``: point ``p`` is ``(beta_p v_e + gamma_p v_{e+1}) / (6 n)``,
+    ``e = edge_p`` (the edge triangle it lies in), in :func:`quadrature`'s order. A plane
+    wave's phase at the points is then ``beta_p phi_e + gamma_p phi_{e+1}``, ``phi_v`` the
+    phase at ``v / (6 n)``: a point's ``e^{i delta}`` is a product of two powers of the
+    vertices' (``siku_plugins.floating.kernels``)."""
+    six = np.rint(6 * _BARY).astype(np.int64)
+    edge, beta, gamma = [], [], []
+    for e in range(k):
+        for i in range(n):
+            for j in range(n - i):
+                tris = [[(i, j), (i + 1, j), (i, j + 1)]]
+                if i + j < n - 1:
+                    tris.append([(i + 1, j), (i + 1, j + 1), (i, j + 1)])
+                for tri in tris:
+                    uv = np.array(tri, dtype=np.int64)
+                    b = six @ uv
+                    edge.extend([e] * 3)
+                    beta.extend(b[:, 0])
+                    gamma.extend(b[:, 1])
+    return (np.array(edge, dtype=np.int64), np.array(beta, dtype=np.int64),
+            np.array(gamma, dtype=np.int64))
+
+
+def lattice_arrays(items: list) -> tuple:
+    """The vertices and lattice of :func:`quadrature_lattice` of every element, concatenated
+    for the kernels: ``items[i]`` is ``(polygon, n)`` of element ``i`` (``None`` for one
+    without quadrature points). Returns ``(voff, vx, vy, m6, ia, ib, zsize)``: element ``i``'s
+    vertices ``vx[voff[i]:voff[i + 1]]``, its ``6 n`` in ``m6[i]`` (0 without points), and per
+    point where its two factors lie in the kernel's table of powers (``z_v^m`` of vertex ``v``
+    at rows ``2 (v (6 n - 1) + m)`` and the next: cosine, sine), whose length is ``zsize``."""
+    voff, vx, vy, m6, ia, ib = [0], [], [], [], [], []
+    zsize = 2
+    for it in items:
+        if it is None:
+            voff.append(voff[-1])
+            m6.append(0)
+            continue
+        poly, n = it
+        k = len(poly)
+        e, b, g = quadrature_lattice(k, n)
+        w = 6 * n - 1
+        voff.append(voff[-1] + k)
+        vx.append(poly[:, 0])
+        vy.append(poly[:, 1])
+        m6.append(6 * n)
+        ia.append(2 * (e * w + b))
+        ib.append(2 * (((e + 1) % k) * w + g))
+        zsize = max(zsize, 2 * k * w)
+
+    def cat(x, dtype):
+        return np.concatenate(x).astype(dtype) if x else np.zeros(0, dtype=dtype)
+
+    return (np.array(voff, dtype=np.int64), cat(vx, float), cat(vy, float),
+            np.array(m6, dtype=np.int64), cat(ia, np.int64), cat(ib, np.int64), zsize)

@@ -125,9 +125,154 @@ def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, p
     return f, g1, g2
 
 
+@njit(cache=True, inline="always")
+def _cis(x):
+    """``(cos x, sin x)``; for ``|x| <= 0.2`` (the vertices' phase steps of
+    :func:`_sums_lattice`, at most ``0.7 / 6`` with the default quadrature) by their Taylor
+    series to ``x^14``, whose remainder, below ``0.2^15 / 15! = 2.5e-23``, is far below
+    round-off: a few multiplications instead of two library calls."""
+    if abs(x) > 0.2:
+        return math.cos(x), math.sin(x)
+    x2 = x * x
+    sn = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (
+        1.0 / 362880.0 + x2 * (-1.0 / 39916800.0 + x2 * (1.0 / 6227020800.0)))))))
+    cs = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0 + x2 * (
+        -1.0 / 3628800.0 + x2 * (1.0 / 479001600.0 + x2 * (-1.0 / 87178291200.0)))))))
+    return cs, sn
+
+
+@njit(cache=True, inline="always")
+def _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp, kx, ky, att,
+                  S, Z):
+    """The part of :func:`_excite`'s sums that is fixed within an engine step: ``S[j]`` (row
+    of ``(natt, 6)``) ``= a_j att_j Σ_p w_p (1, u_p, v_p) e^{i delta_p}`` as (real, imaginary)
+    pairs, ``delta_p = k_j·(x_p - x_c)`` the phase of point ``p`` relative to the element's
+    centre (local frame ``e0, e1``); :func:`_turn` and :func:`_load` give the loads, since
+    ``cos(psi_c + delta_p) = Re(e^{i psi_c} e^{i delta_p})``. ``lattice`` is
+    ``siku_plugins.floating.geometry.lattice_arrays``'s ``(voff, vx, vy, m6a, ia, ib, zsize)``:
+    point ``p`` lies at ``(beta_p v_e + gamma_p v_{e+1}) / m6``, so ``e^{i delta_p} =
+    z_e^beta z_{e+1}^gamma`` with ``z_v = e^{i k'·v / m6}``: one sine and cosine per vertex
+    (:func:`_cis`), the powers by products (table ``Z``, ``(zsize,)``, at ``ia, ib``), one
+    product per point. The same sums
+    as :func:`_excite`'s up to round-off (a power ``z^m`` carries ``m`` roundings, ``m <
+    m6``)."""
+    vlo = voff[i]
+    nv = voff[i + 1] - vlo
+    m6 = m6a[i]
+    w2 = 2 * (m6 - 1)
+    for j in range(amp.shape[0]):
+        ka = kx[j] * e0 - ky[j] * e1     # d psi / d qa
+        kb = kx[j] * e1 + ky[j] * e0     # d psi / d qb
+        for v in range(nv):
+            cr, ci = _cis((ka * vx[vlo + v] + kb * vy[vlo + v]) / m6)
+            pr = 1.0
+            pim = 0.0
+            base = v * w2
+            Z[base] = 1.0
+            Z[base + 1] = 0.0
+            for m in range(2, w2, 2):
+                pr, pim = pr * cr - pim * ci, pr * ci + pim * cr
+                Z[base + m] = pr
+                Z[base + m + 1] = pim
+        r0 = 0.0
+        i0 = 0.0
+        r1 = 0.0
+        i1 = 0.0
+        r2 = 0.0
+        i2 = 0.0
+        for p in range(lo, hi):
+            a = ia[p]
+            b = ib[p]
+            xr = Z[a] * Z[b] - Z[a + 1] * Z[b + 1]
+            xi = Z[a] * Z[b + 1] + Z[a + 1] * Z[b]
+            wc = qw[p] * xr
+            ws = qw[p] * xi
+            r0 += wc
+            i0 += ws
+            r1 += qu[p] * wc
+            i1 += qu[p] * ws
+            r2 += qv[p] * wc
+            i2 += qv[p] * ws
+        aa = amp[j] * att[j]
+        S[j, 0] = aa * r0
+        S[j, 1] = aa * i0
+        S[j, 2] = aa * r1
+        S[j, 3] = aa * i1
+        S[j, 4] = aa * r2
+        S[j, 5] = aa * i2
+
+
+@njit(cache=True)
+def clock(t0, dt, n_sub, om, ramp):
+    """What the sub-steps' times ``t_k = t0 + k dt`` (``k = 0..n_sub``) share between
+    elements: ``E[k, j] = e^{-i omega_j t_k}`` (cosine, sine) and the ramp's factor ``r[k]``
+    (:func:`_excite`)."""
+    natt = om.shape[0]
+    E = np.empty((n_sub + 1, natt, 2))
+    r = np.ones(n_sub + 1)
+    for k in range(n_sub + 1):
+        t = t0 + k * dt
+        for j in range(natt):
+            E[k, j, 0] = math.cos(om[j] * t)
+            E[k, j, 1] = -math.sin(om[j] * t)
+        if ramp > 0.0 and t < ramp:
+            r[k] = 0.5 * (1.0 - math.cos(math.pi * max(t, 0.0) / ramp))
+    return E, r
+
+
+@njit(cache=True, inline="always")
+def _turn(xc, yc, kx, ky, ph, S):
+    """Multiply each component's sums ``S[j]`` (:func:`_sums_lattice`) by ``e^{i (k·x_c +
+    phase)}``, the phase at the element's centre without the time."""
+    for j in range(S.shape[0]):
+        psi = kx[j] * xc + ky[j] * yc + ph[j]
+        cs = math.cos(psi)
+        sn = math.sin(psi)
+        for m in range(3):
+            re = S[j, 2 * m]
+            im = S[j, 2 * m + 1]
+            S[j, 2 * m] = cs * re - sn * im
+            S[j, 2 * m + 1] = sn * re + cs * im
+
+
+@njit(cache=True, inline="always")
+def _load(k, i, S, E, r, kap, ext):
+    """:func:`_excite` at the sub-step time ``t_k`` of :func:`clock` from the turned sums ``S``
+    (:func:`_turn`): ``Σ w cos(psi) = Re(e^{-i omega t_k} S)``, ``Σ w sin(psi) = Im(...)``."""
+    f = 0.0
+    g1 = 0.0
+    g2 = 0.0
+    use = kap.shape[0] > 0
+    for j in range(S.shape[0]):
+        cs = E[k, j, 0]
+        sn = E[k, j, 1]
+        c0 = cs * S[j, 0] - sn * S[j, 1]
+        c1 = cs * S[j, 2] - sn * S[j, 3]
+        c2 = cs * S[j, 4] - sn * S[j, 5]
+        if use:
+            s0 = sn * S[j, 0] + cs * S[j, 1]
+            s1 = sn * S[j, 2] + cs * S[j, 3]
+            s2 = sn * S[j, 4] + cs * S[j, 5]
+            f += kap[i, j, 0, 0] * c0 - kap[i, j, 0, 1] * s0
+            g1 += kap[i, j, 1, 0] * c1 - kap[i, j, 1, 1] * s1
+            g2 += kap[i, j, 2, 0] * c2 - kap[i, j, 2, 1] * s2
+        else:
+            f += c0
+            g1 += c1
+            g2 += c2
+    f *= r[k]
+    g1 *= r[k]
+    g2 *= r[k]
+    if ext.shape[0] > 0:
+        f += ext[i, 0]
+        g1 += ext[i, 1]
+        g2 += ext[i, 2]
+    return f, g1, g2
+
+
 @njit(cache=True)
 def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
-                   qa, qb, qu, qv, qw,
+                   lattice, qu, qv, qw,
             amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     """Elements ``lo_e`` to ``hi_e`` of :func:`advance`."""
@@ -135,6 +280,10 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
     wave = natt > 0
     c0 = math.cos(lat0)
     att = np.empty(natt)
+    S = np.empty((natt, 6))
+    voff, vx, vy, m6a, ia, ib, zsize = lattice
+    Z = np.empty(zsize)
+    E, rk = clock(t0, dt, n_sub if wave else 0, om, ramp)
     for i in range(lo_e, hi_e):
         if not free[i]:
             continue
@@ -144,8 +293,10 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
             att[j] = _attenuation(kk[j], d, depth)
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
-        f, g1, g2 = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw,
-                            amp, kx, ky, om, ph, att, kap, ramp, ext)
+        _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp, kx, ky,
+                      att, S, Z)
+        _turn(xc, yc, kx, ky, ph, S)
+        f, g1, g2 = _load(0, i, S, E, rk, kap, ext)
         c = cphi[i]
         s = sphi[i]
         # tilts as slopes along the principal axes: (sx, sy) = (-pitch, roll) locally
@@ -173,8 +324,7 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
             s1i += dt * v1h
             s2i += dt * v2h
             if wave:
-                f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa,
-                                    qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap, ramp, ext)
+                f, g1, g2 = _load(k + 1, i, S, E, rk, kap, ext)
             fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
             vzi = (vzh + hd * fh / m3) / den3
             v1i = (v1h + hd * (-c1 * s1i + rho_g * g1) / m1) / den1
@@ -189,19 +339,19 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
 
 @njit(cache=True, parallel=True)
 def _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
-                      qa, qb, qu, qv, qw,
+                      lattice, qu, qv, qw,
             amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     n = z.shape[0]
     for ch in prange(nch):
         lo_e, hi_e = chunk_bounds(ch, nch, n)
         _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
-                       qoff, qa, qb, qu, qv, qw,
+                       qoff, lattice, qu, qv, qw,
                           amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
 
 
-def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
+def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, lattice, qu, qv, qw,
             amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
@@ -214,11 +364,11 @@ def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb
     chunks (``siku_core.parallel``), so the result does not depend on the threads."""
     if nch > 1:
         _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
-                          qa, qb, qu, qv, qw,
+                          lattice, qu, qv, qw,
                           amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
     else:
         _advance_range(0, z.shape[0], n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
-                       qoff, qa, qb, qu, qv, qw,
+                       qoff, lattice, qu, qv, qw,
                           amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)

@@ -237,9 +237,6 @@ class Memory:
         if p["coefficients"] != "capytaine":
             raise SceneError(f"{where}: radiation = 'memory' needs coefficients = 'capytaine' "
                              "(its B(omega) on a band gives the kernel)")
-        if proc.beams is not None or proc.load.any():
-            raise SceneError(f"{where}: radiation = 'memory' is for elements that float "
-                             "alone (not with bending = true or loads)")
         hydro._cpt(where)
         cache_dir = hydro._cache_dir(p["hydro_cache"], ctx.scene.base_dir, where)
         n = st.n

@@ -72,8 +72,11 @@ from siku_core.interfaces import Process
 from siku_core.params import Param
 from siku_core.state import FREE
 
-from .geometry import principal, quadrature, second_moments
+from .geometry import lattice_arrays, principal, quadrature, second_moments
 from .kernels import advance
+
+#: one element's load and sub-step [ns, one thread]: its chunks (``siku_core.parallel.chunks``)
+FLOAT_NS = 150.0
 
 FIELDS = (
     ElementField("heave", "m", "rise of the element's centre of mass above its floating "
@@ -182,7 +185,7 @@ class Floating(Process):
         self.phi = np.zeros(n)
         self.J1 = np.zeros(n)
         self.J2 = np.zeros(n)
-        qa, qb, qw, off = [], [], [], [0]
+        qa, qb, qw, off, lat = [], [], [], [0], []
         # the wave field first: the quadrature follows its shortest wave
         self._wave(ctx)
         kmax = float(np.max(self.field.k)) if self.field is not None and len(
@@ -201,6 +204,8 @@ class Floating(Process):
                 off.append(off[-1] + len(w))
             else:
                 off.append(off[-1])
+            lat.append((poly, nq) if self.free[i] else None)
+        self.lattice = lattice_arrays(lat)      # the points on the vertices (kernels.advance)
         self.qa, self.qb, self.qw = (np.concatenate(x) if x else np.zeros(0)
                                      for x in (qa, qb, qw))
         self.qoff = np.array(off, dtype=np.int64)
@@ -234,7 +239,7 @@ class Floating(Process):
             from .bending import Beams
 
             self.beams = Beams(self, ctx)
-            self.period_min = min(self.period_min, self.beams.period_min)
+            self._periods()
         self.memory = None
         if p["radiation"] == "memory":
             from siku_core.ice import process_schedule
@@ -312,6 +317,8 @@ class Floating(Process):
             self.period_min = float(2 * math.pi / math.sqrt(w2.max()))
         else:
             self.period_min = math.inf
+        if getattr(self, "beams", None) is not None:
+            self.period_min = min(self.period_min, self.beams.period_min)
 
     def _wave(self, ctx) -> None:
         """The wave field of the first ``[[forcing]]`` table that has one (module docstring),
@@ -363,26 +370,12 @@ class Floating(Process):
         if self.beams is not None or self.load.any():
             return self._apply_coupled(ctx, dt)
         f = ctx.fields
-        n_sub = max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
+        n_sub = self._n_sub(ctx, dt)
         mem = self.memory
-        if mem is not None:
-            if dt != mem.dt_p:
-                raise SceneError(f"{ctx.where(self.table)}: process 'floating': radiation = "
-                                 f"'memory' was set up for steps of {mem.dt_p:g} s, not "
-                                 f"{dt:g} s")
-            n_sub = mem.n_sub
         st = ctx.state
         fld = self.field
-        if fld is not None:
-            fld._args()
-            geo = (fld.lat0, fld.lon0, float(fld.radius))
-            wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
-                    self.kap, float(self.p["ramp"]), self.exchange_load(ctx))
-        else:
-            z0 = np.zeros(0)
-            geo = (0.0, 0.0, 1.0)
-            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0,
-                    self.exchange_load(ctx))
+        wave = self._wave_args(ctx)
+        geo = (fld.lat0, fld.lon0, float(fld.radius)) if fld is not None else (0.0, 0.0, 1.0)
         if mem is not None:
             from .memory import advance_modes
 
@@ -394,11 +387,30 @@ class Floating(Process):
                           f["pitch"], f["pitch_rate"])
             mem.head = (mem.head + n_sub) % mem.K.shape[2]
             return
-        advance(chunks(st.n), n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *geo,
-                self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw,
-                *wave, self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
-                self.C1, self.B1, self.M2, self.C2, self.B2, f["heave"], f["heave_rate"],
-                f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"])
+        advance(chunks(st.n, FLOAT_NS * (n_sub + 1)), n_sub, dt / n_sub, float(ctx.time - dt),
+                st.q, self.free, *geo, self.cphi, self.sphi, self.qoff, self.lattice, self.qu,
+                self.qv, self.qw, *wave, self.rho_g, self.draft, self.h, self.area, self.M3,
+                self.B3, self.M1, self.C1, self.B1, self.M2, self.C2, self.B2, f["heave"],
+                f["heave_rate"], f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"])
+
+    def _wave_args(self, ctx) -> tuple:
+        """The kernels' arguments of the wave (``amp`` to ``ext``)."""
+        fld = self.field
+        if fld is None:
+            return ((np.zeros(0),) * 6 + (math.inf, np.zeros((0, 0, 3, 2)), 0.0)
+                    + (self.exchange_load(ctx),))
+        fld._args()
+        return (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h), self.kap,
+                float(self.p["ramp"]), self.exchange_load(ctx))
+
+    def _n_sub(self, ctx, dt: float) -> int:
+        mem = self.memory
+        if mem is None:
+            return max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
+        if dt != mem.dt_p:
+            raise SceneError(f"{ctx.where(self.table)}: process 'floating': radiation = "
+                             f"'memory' was set up for steps of {mem.dt_p:g} s, not {dt:g} s")
+        return mem.n_sub
 
     def history(self):
         if self.memory is None:
@@ -423,19 +435,15 @@ class Floating(Process):
         if bm is not None and not np.array_equal(bm.seen, bm.cm.intact):
             bm.assemble(self)       # joints broke (the law, a restart) since the last step
             self.period_min = min(self.period_min, bm.period_min)
-        n_sub = max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
+        n_sub = self._n_sub(ctx, dt)
         fld = self.field
+        wave = self._wave_args(ctx)
         if fld is not None:
             lat, lon, e0, e1 = centres_and_frames(st.q)
             xc, yc = fld.plane(lat, lon)
-            wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
-                    self.kap, float(self.p["ramp"]), self.exchange_load(ctx))
         else:
             xc = yc = e1 = np.zeros(st.n)
             e0 = np.ones(st.n)
-            z0 = np.zeros(0)
-            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0,
-                    self.exchange_load(ctx))
         if bm is not None:
             csr = (bm.indptr, bm.indices, bm.data)
         else:
@@ -446,10 +454,15 @@ class Floating(Process):
         wx, wy = -f["pitch_rate"], f["roll_rate"]
         u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
         v = np.column_stack([f["heave_rate"], wx * c + wy * s, -wx * s + wy * c]).ravel()
+        mem = self.memory
+        hist = ((mem.K, mem.kidx, mem.hist, mem.head) if mem is not None else
+                (np.zeros((0, 3, 1)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)), 0))
         advance_bonded(n_sub, dt / n_sub, float(ctx.time - dt), self.free, xc, yc, e0, e1,
                        self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw, *wave,
                        self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
-                       self.C1, self.B1, self.M2, self.C2, self.B2, self.load, *csr, u, v)
+                       self.C1, self.B1, self.M2, self.C2, self.B2, self.load, *csr, *hist, u, v)
+        if mem is not None:
+            mem.head = (mem.head + n_sub) % mem.K.shape[2]
         U, W = u.reshape(-1, 3), v.reshape(-1, 3)
         f["heave"][:] = U[:, 0]
         f["heave_rate"][:] = W[:, 0]
@@ -462,23 +475,11 @@ class Floating(Process):
                 self.period_min = min(self.period_min, bm.period_min)
 
     def equilibrium(self, ctx) -> np.ndarray:
-        """The static state ``(n, 3)`` (heave [m], principal slopes) under the scene's
-        ``loads`` in still water, linear: ``(K_beams + C) u = F`` (scipy's sparse solver):
-        what a damped run settles to."""
-        from scipy.sparse import csr_matrix, diags
-        from scipy.sparse.linalg import spsolve
+        """The static state ``(n, 3)`` under the scene's ``loads`` in still water
+        (``siku_plugins.floating.bending.equilibrium``): what a damped run settles to."""
+        from .bending import equilibrium
 
-        n = ctx.state.n
-        C = np.column_stack([self.C3, self.C1, self.C2]).ravel()
-        K = diags(C)
-        if self.beams is not None:
-            b = self.beams
-            K = K + csr_matrix((b.data, b.indices, b.indptr), shape=(3 * n, 3 * n))
-        F = np.column_stack([self.load, np.zeros(n), np.zeros(n)]).ravel()
-        keep = np.repeat(self.free, 3)
-        u = np.zeros(3 * n)
-        u[keep] = spsolve(K.tocsr()[keep][:, keep].tocsc(), F[keep])
-        return u.reshape(n, 3)
+        return equilibrium(self, ctx.state.n)
 
     def stresses(self, ctx) -> np.ndarray:
         """Bending stress [Pa] at every joint line now (``bending = true``)."""
