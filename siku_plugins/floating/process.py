@@ -67,7 +67,7 @@ import numpy as np
 
 from siku_core.errors import SceneError
 from siku_core.ice import ElementField
-from siku_core.parallel import chunks
+from siku_core.parallel import ITEM_NS, PARALLEL_MIN, chunks
 from siku_core.interfaces import Process
 from siku_core.params import Param
 from siku_core.state import FREE
@@ -77,6 +77,7 @@ from .kernels import advance
 
 #: one element's load and sub-step [ns, one thread]: its chunks (``siku_core.parallel.chunks``)
 FLOAT_NS = 150.0
+_NO_EXT = np.zeros((0, 3))
 
 FIELDS = (
     ElementField("heave", "m", "rise of the element's centre of mass above its floating "
@@ -261,6 +262,7 @@ class Floating(Process):
             self.memory.build(self, dt_p / n_sub, p["memory_tol"], where)
             self.memory.n_sub, self.memory.dt_p = n_sub, dt_p
             self._periods()
+        self._floats, self._loaded = bool(self.free.any()), bool(self.load.any())
         # the start: every free element at the scene's initial heave and tilts
         f = ctx.fields
         for key in ("heave", "roll", "pitch"):
@@ -358,16 +360,16 @@ class Floating(Process):
         otherwise (module docstring)."""
         ex = self.exchange
         if ex is None:
-            return np.zeros((0, 3))
+            return _NO_EXT
         from .coupled import exchange_load
 
         return exchange_load(self, ctx, ex)
 
     # ------------------------------------------------------------------ the step
     def apply(self, ctx, dt: float) -> None:
-        if dt <= 0.0 or not self.free.any():
+        if dt <= 0.0 or not self._floats:
             return
-        if self.beams is not None or self.load.any():
+        if self.beams is not None or self._loaded:
             return self._apply_coupled(ctx, dt)
         f = ctx.fields
         n_sub = self._n_sub(ctx, dt)
@@ -387,11 +389,13 @@ class Floating(Process):
                           f["pitch"], f["pitch_rate"])
             mem.head = (mem.head + n_sub) % mem.K.shape[2]
             return
-        advance(chunks(st.n, FLOAT_NS * (n_sub + 1)), n_sub, dt / n_sub, float(ctx.time - dt),
-                st.q, self.free, *geo, self.cphi, self.sphi, self.qoff, self.lattice, self.qu,
-                self.qv, self.qw, *wave, self.rho_g, self.draft, self.h, self.area, self.M3,
-                self.B3, self.M1, self.C1, self.B1, self.M2, self.C2, self.B2, f["heave"],
-                f["heave_rate"], f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"])
+        work = FLOAT_NS * (n_sub + 1)     # per element; below PARALLEL_MIN: one chunk
+        nch = chunks(st.n, work) if st.n * work >= PARALLEL_MIN * ITEM_NS else 1
+        advance(nch, n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *geo, self.cphi,
+                self.sphi, self.qoff, self.lattice, self.qu, self.qv, self.qw, *wave, self.rho_g,
+                self.draft, self.h, self.area, self.M3, self.B3, self.M1, self.C1, self.B1,
+                self.M2, self.C2, self.B2, f["heave"], f["heave_rate"], f["roll"],
+                f["roll_rate"], f["pitch"], f["pitch_rate"])
 
     def _wave_args(self, ctx) -> tuple:
         """The kernels' arguments of the wave (``amp`` to ``ext``)."""
