@@ -77,7 +77,7 @@ from .kernels import advance
 
 #: one element's load and sub-step [ns, one thread]: its chunks (``siku_core.parallel.chunks``)
 FLOAT_NS = 150.0
-_NO_EXT = np.zeros((0, 3))
+_NO_EXT, _NO_KAP = np.zeros((0, 3)), np.zeros((0, 0, 3, 2))
 
 FIELDS = (
     ElementField("heave", "m", "rise of the element's centre of mass above its floating "
@@ -401,8 +401,7 @@ class Floating(Process):
         """The kernels' arguments of the wave (``amp`` to ``ext``)."""
         fld = self.field
         if fld is None:
-            return ((np.zeros(0),) * 6 + (math.inf, np.zeros((0, 0, 3, 2)), 0.0)
-                    + (self.exchange_load(ctx),))
+            return (np.zeros(0),) * 6 + (math.inf, _NO_KAP, 0.0, self.exchange_load(ctx))
         fld._args()
         return (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h), self.kap,
                 float(self.p["ramp"]), self.exchange_load(ctx))
@@ -417,15 +416,13 @@ class Floating(Process):
         return mem.n_sub
 
     def history(self):
-        if self.memory is None:
-            return None
-        return {"rates": self.memory.hist.copy(), "head": np.array(self.memory.head)}
+        mem = self.memory
+        return None if mem is None else {"rates": mem.hist.copy(), "head": np.array(mem.head)}
 
     def set_history(self, arrays) -> None:
-        if self.memory is None:
-            return
-        self.memory.hist[:] = arrays["rates"]
-        self.memory.head = int(arrays["head"])
+        if self.memory is not None:
+            self.memory.hist[:] = arrays["rates"]
+            self.memory.head = int(arrays["head"])
 
     def _apply_coupled(self, ctx, dt: float) -> None:
         """:meth:`apply` with beams between jointed elements or loads
