@@ -184,10 +184,10 @@ def _interpolate_curvature(lat, lon, se, sn, lat0, lon0, R, sin_d, cos_d, s0, h,
 
 
 class LineSea:
-    """The tables of one wave field (module docstring); ``evaluate``, ``curvature`` and
-    ``add_forces`` as the field's own."""
+    """The tables of one wave field (module docstring) with the node spacing of ``tolerance``
+    (or ``h`` [m] as given); ``evaluate`` and ``curvature`` as the field's own."""
 
-    def __init__(self, field, tolerance: float):
+    def __init__(self, field, tolerance: float, h: float | None = None):
         self.f = field
         th = np.asarray(field.theta, float)
         dirs, group = np.unique(th, return_inverse=True)
@@ -205,7 +205,7 @@ class LineSea:
             self.om[d, c], self.ph[d, c] = field.omega[j], field.phase[j]
             fill[d] += 1
         self.sin_d, self.cos_d = np.sin(dirs), np.cos(dirs)
-        self.h = spacing(field.amp, field.k, field.u_orbital, tolerance)
+        self.h = spacing(field.amp, field.k, field.u_orbital, tolerance) if h is None else h
         self.bounds = error_bounds(field.amp, field.k, field.u_orbital, self.h)
         M = np.exp(1j * self.k[:, :, None] * (self.h * np.arange(BLOCK))[None, None, :])
         self.Ycos = np.concatenate([M.real, M.imag], axis=1)  # (nd, 2J, BLOCK)
