@@ -277,3 +277,24 @@ def test_siku_grid_puts_the_floe_sizes_per_cell_among_its_fields(broken_pack):
     only = grid_output(path, cfg.model_copy(update={"fields": ["floe_number"]}))
     assert "floe_number" in only and "floe_caliper_mean" not in only
     assert "floe_number" not in grid_output(path, cfg.model_copy(update={"fields": ["u"]}))
+
+
+def test_siku_grid_without_the_runs_joints_grids_the_rest(broken_pack, monkeypatch, capsys):
+    # a run whose scene cannot be built again: no floe fields by default (said on stderr), a
+    # refusal when they are asked for by name
+    from siku_core import DataError
+    from siku_io.analysis import fsd
+    from siku_io.analysis.gridded_fields import grid_output
+    from siku_io.analysis.regular_grid import GridCfg
+
+    def fails(path, calipers=True):
+        raise DataError(f"{path}: its scene builds 3 joints but the file records 38")
+
+    monkeypatch.setattr(fsd, "output_floes", fails)
+    cfg = GridCfg(kind="lonlat", lon=(-0.01, 0.02), lat=(-0.01, 0.02), resolution=0.01,
+                  leads=False)
+    g = grid_output(broken_pack[0], cfg)
+    assert "concentration" in g and "floe_number" not in g
+    assert "no floe sizes on the grid" in capsys.readouterr().err
+    with pytest.raises(DataError, match="38"):
+        grid_output(broken_pack[0], cfg.model_copy(update={"fields": ["floe_area_mean"]}))

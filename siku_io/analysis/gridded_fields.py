@@ -291,10 +291,18 @@ def grid_output(path, cfg: GridCfg, progress: bool = False):
     snaps = snapshots(ds, breaks)
     floes = None
     if cfg.fields is None or set(FLOE_FIELDS) & set(cfg.fields):
+        from siku_core.errors import SikuError
         from siku_io.analysis.fsd import floe_cells, output_floes
 
-        floes = output_floes(path, calipers=cfg.fields is None
-                             or "floe_caliper_mean" in cfg.fields)
+        try:  # the floes need the run's joints: its scene is built again (siku fsd)
+            floes = output_floes(path, calipers=cfg.fields is None
+                                 or "floe_caliper_mean" in cfg.fields)
+        except SikuError as exc:
+            if cfg.fields is not None:  # asked for by name: refused, one line
+                raise
+            import sys
+
+            print(f"{path}: no floe sizes on the grid ({exc})", file=sys.stderr)
     if progress:
         from tqdm import tqdm
 
