@@ -15,9 +15,11 @@ factor of :mod:`siku_forcing.waves`), orbital velocity ``= sum_d (m sin, cos)(th
 the curvature along ``(se, sn)`` is ``sum_d (m se sin + sn cos)² K_d``. At each evaluation time
 the functions are tabulated on nodes ``s_p = s_0 + p h`` spanning the points (blocks of 64
 nodes: ``exp(i k_j (s_b + q h)) = exp(i k_j s_b) exp(i k_j q h)``, a real matrix product per
-direction with the second factor computed once), and every point interpolates them with the
-Lagrange polynomial through the ``NODES = 8`` nodes around it (the point in the central
-interval: four nodes on either side). Any dispersion relation: finite depth too.
+direction, the first factor by a recurrence over the blocks, the second computed once), and
+every point interpolates them with the Lagrange polynomial through the ``NODES = 8`` nodes
+around it (the point in the central interval: four nodes on either side), compiled with
+``fastmath`` (contracted and reordered sums: round-off only). Any dispersion relation: finite
+depth too.
 
 Error. For a function ``f`` interpolated on ``p`` equally spaced nodes, ``|f - I f| <= max
 |f^(p)| / p! * prod_i |s - s_i| <= W_p h^p max |f^(p)|`` with ``W_p = max_(t in [0, 1]) prod_(i
@@ -27,9 +29,10 @@ the slope by ``W_p h^p sum_j a_j k_j^(p+1)`` (times ``m`` east), the orbital vel
 sum_j u_j k_j^p`` and the curvature by ``W_p h^p sum_j a_j k_j^(p+2)``. The node spacing is the
 largest ``h`` that keeps each of these at most ``tolerance`` times the quantity's summed
 amplitudes (``sum_j a_j``, ``sum_j a_j k_j``, ``sum_j u_j``, ``sum_j a_j k_j²``: the largest each
-can be), so ``h = min_q (tolerance S_q / (W_p sum_j w_qj k_j^p))^(1/p)``, close to ``0.44 / k_max``
-for the default sea at ``tolerance = 1e-6`` (a tenth of the shortest wavelength, 0.6 m at ``tp = 8
-s``). The tables themselves carry round-off only (about ``N_f`` ulps of the summed amplitudes).
+can be), so ``h = min_q (tolerance S_q / (W_p sum_j w_qj k_j^p))^(1/p)``: ``0.53 / k_max`` for
+the default sea at ``tolerance = 1e-6`` (0.53 m at ``tp = 8 s``, a twelfth of the shortest
+wavelength). The tables themselves carry round-off only (about ``N_f`` plus the number of blocks
+ulps of the summed amplitudes).
 
 The tables cost ``N_lines × N_f`` products per node, the direct sum ``N_points × N_components``:
 when the tables would hold more node-components than the points hold point-components (a pack
@@ -83,7 +86,7 @@ def error_bounds(amp, k, u_orbital, h: float) -> dict[str, float]:
             "curvature": c * float(np.sum(amp * k ** (NODES + 2)))}
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=True)
 def _weights(t):
     """Lagrange weights of the nodes -3 .. 4 at ``t`` in [0, 1) (the denominators
     ``prod_(m != k) (k - m)``: -5040, 720, -240, 144, -144, 240, -720, 5040)."""
@@ -97,7 +100,7 @@ def _weights(t):
             lo * p45 * d7 * (-1.0 / 720.0), lo * p45 * d6 * (1.0 / 5040.0))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=True)
 def _dot8(w, T, b, c, stride):
     """``sum_q w[q] T[b + q * stride + c]``, the eight terms written out."""
     return (w[0] * T[b + c] + w[1] * T[b + stride + c] + w[2] * T[b + 2 * stride + c]
@@ -126,9 +129,9 @@ def line_range(lat, lon, lat0, lon0, R, sin_d, cos_d):
     return lo, hi
 
 
-@njit(cache=True, parallel=True)
-def _interpolate(lat, lon, lat0, lon0, R, sin_d, cos_d, s0, h, T):
-    """eta, slope east/north, orbital u east/north at the points from the tables ``T[d, 3 p +
+@njit(cache=True, parallel=True, fastmath=True)
+def _interpolate(lat, lon, lat0, lon0, R, sin_d, cos_d, s0, h, T, Q):
+    """eta, slope east/north, orbital u east/north at the points from the tables ``T[d, Q p +
     c]`` (``c`` = 0, 1, 2: F, G, U of the module docstring) with nodes ``s0[d] + p h``."""
     n = lat.shape[0]
     out = np.empty((n, 5))
@@ -146,11 +149,11 @@ def _interpolate(lat, lon, lat0, lon0, R, sin_d, cos_d, s0, h, T):
             u = (x * sin_d[d] + y * cos_d[d] - s0[d]) / h
             fl = math.floor(u)
             w = _weights(u - fl)
-            b = 3 * (int(fl) - 3)
+            b = Q * (int(fl) - 3)
             row = T[d]
-            g = _dot8(w, row, b, 1, 3)
-            v = _dot8(w, row, b, 2, 3)
-            eta += _dot8(w, row, b, 0, 3)
+            g = _dot8(w, row, b, 1, Q)
+            v = _dot8(w, row, b, 2, Q)
+            eta += _dot8(w, row, b, 0, Q)
             gx += sin_d[d] * g
             gy += cos_d[d] * g
             ue += sin_d[d] * v
@@ -163,9 +166,9 @@ def _interpolate(lat, lon, lat0, lon0, R, sin_d, cos_d, s0, h, T):
     return out
 
 
-@njit(cache=True, parallel=True)
-def _interpolate_curvature(lat, lon, se, sn, lat0, lon0, R, sin_d, cos_d, s0, h, K):
-    """Curvature along ``(se, sn)`` at the points from the tables ``K[d, p]``."""
+@njit(cache=True, parallel=True, fastmath=True)
+def _interpolate_curvature(lat, lon, se, sn, lat0, lon0, R, sin_d, cos_d, s0, h, T):
+    """Curvature along ``(se, sn)`` at the points from the tables ``T[d, 4 p + 3]`` (K)."""
     n = lat.shape[0]
     out = np.empty(n)
     c0 = math.cos(lat0)
@@ -178,9 +181,26 @@ def _interpolate_curvature(lat, lon, se, sn, lat0, lon0, R, sin_d, cos_d, s0, h,
             u = (x * sin_d[d] + y * cos_d[d] - s0[d]) / h
             fl = math.floor(u)
             ks = sin_d[d] * m * se[i] + cos_d[d] * sn[i]
-            acc += ks * ks * _dot8(_weights(u - fl), K[d], int(fl) - 3, 0, 1)
+            acc += ks * ks * _dot8(_weights(u - fl), T[d], 4 * (int(fl) - 3), 3, 4)
         out[i] = acc
     return out
+
+
+@njit(cache=True)
+def _block_rows(s0, k, phase, step, nb):
+    """``[cos, sin](psi_j)`` at the first node ``s0[d] + b BLOCK h`` of every block ``b``:
+    ``psi_j = k_j s - omega_j t + phi_j`` (``phase`` = ``phi - omega t``), by the recurrence
+    ``exp(i psi) <- exp(i psi) step_j`` over the blocks (``nb`` products: ``nb`` ulps)."""
+    nd, J = k.shape
+    X = np.empty((nd, nb, 2 * J))
+    for d in range(nd):
+        for j in range(J):
+            z = np.exp(1j * (k[d, j] * s0[d] + phase[d, j]))
+            for b in range(nb):
+                X[d, b, j] = z.real
+                X[d, b, J + j] = z.imag
+                z = z * step[d, j]
+    return X
 
 
 class LineSea:
@@ -207,9 +227,20 @@ class LineSea:
         self.sin_d, self.cos_d = np.sin(dirs), np.cos(dirs)
         self.h = spacing(field.amp, field.k, field.u_orbital, tolerance) if h is None else h
         self.bounds = error_bounds(field.amp, field.k, field.u_orbital, self.h)
+        # per quantity w_j and the table's row [cos, sin](psi_j at the block's first node):
+        # Re(w e^(i psi) M) = cos w Mr - sin w Mi, -Im(...) = -cos w Mi - sin w Mr
         M = np.exp(1j * self.k[:, :, None] * (self.h * np.arange(BLOCK))[None, None, :])
-        self.Ycos = np.concatenate([M.real, M.imag], axis=1)  # (nd, 2J, BLOCK)
-        self.Ysin = np.concatenate([-M.imag, M.real], axis=1)
+        Mr, Mi = M.real, M.imag
+
+        def Y(w, kind):
+            w = w[:, :, None]
+            return np.concatenate([w * Mr, -w * Mi] if kind == "cos" else [-w * Mi, -w * Mr],
+                                  axis=1)  # (nd, 2J, BLOCK)
+
+        ys = [Y(self.a, "cos"), Y(self.a * self.k, "sin"), Y(self.uo, "cos")]
+        self.Y3 = np.concatenate(ys, axis=2)  # F, G, U
+        self.Y4 = np.concatenate(ys + [Y(-self.a * self.k**2, "cos")], axis=2)  # and K
+        self.step = np.exp(1j * self.k * (BLOCK * self.h))  # from one block to the next
         self.n_components = len(field.amp)
         self._key = None
 
@@ -229,21 +260,13 @@ class LineSea:
         if nd * nb * BLOCK * J > len(lat) * self.n_components:
             self._key = None
             return False
-        sb = s0[:, None] + (BLOCK * h) * np.arange(nb)[None, :]  # (nd, nb)
-        A = np.exp(1j * (self.ph - self.om * t))[:, :, None] * np.exp(
-            1j * self.k[:, :, None] * sb[:, None, :])  # (nd, J, nb)
-
-        def table(w, Y):
-            X = np.concatenate([A.real * w[:, :, None], -A.imag * w[:, :, None]], axis=1)
-            return np.matmul(X.transpose(0, 2, 1), Y).reshape(nd, nb * BLOCK)
-
-        T = np.empty((nd, nb * BLOCK, 3))
-        T[:, :, 0] = table(self.a, self.Ycos)
-        T[:, :, 1] = table(self.a * self.k, self.Ysin)
-        T[:, :, 2] = table(self.uo, self.Ycos)
-        self.T, self.s0 = T.reshape(nd, 3 * nb * BLOCK), s0
-        if curvature:
-            self.K = np.ascontiguousarray(table(-self.a * self.k * self.k, self.Ycos))
+        X = _block_rows(s0, self.k, self.ph - self.om * t, self.step, nb)  # (nd, nb, 2J)
+        Y = self.Y4 if curvature else self.Y3
+        Q = Y.shape[2] // BLOCK
+        R = np.matmul(X, Y).reshape(nd, nb, Q, BLOCK)
+        # node p = b BLOCK + q holds its Q values together: T[d, Q p + c]
+        self.T = np.ascontiguousarray(R.transpose(0, 1, 3, 2)).reshape(nd, nb * BLOCK * Q)
+        self.Q, self.s0 = Q, s0
         self._key = (t, curvature, s0 + (NODES // 2) * h, s0 + (nb * BLOCK - NODES // 2 - 1)
                      * h, True)
         return True
@@ -255,7 +278,7 @@ class LineSea:
         t = float(t)
         if self._tables(t, lat, lon, False):
             r = _interpolate(lat, lon, f.lat0, f.lon0, f.radius, self.sin_d, self.cos_d,
-                             self.s0, self.h, self.T)
+                             self.s0, self.h, self.T, self.Q)
         else:
             r = _evaluate(t, lat, lon, *f._args(), f.u_orbital)
         return r
@@ -267,5 +290,5 @@ class LineSea:
         t = float(t)
         if self._tables(t, lat, lon, True):
             return _interpolate_curvature(lat, lon, se, sn, f.lat0, f.lon0, f.radius,
-                                          self.sin_d, self.cos_d, self.s0, self.h, self.K)
+                                          self.sin_d, self.cos_d, self.s0, self.h, self.T)
         return _curvature(t, lat, lon, se, sn, *f._args())
