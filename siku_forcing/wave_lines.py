@@ -14,8 +14,9 @@ direction's share of every sum of :mod:`siku_forcing.waves` is a function of one
 factor of :mod:`siku_forcing.waves`), orbital velocity ``= sum_d (m sin, cos)(theta_d) U_d`` and
 the curvature along ``(se, sn)`` is ``sum_d (m se sin + sn cos)² K_d``. At each evaluation time
 the functions are tabulated on nodes ``s_p = s_0 + p h`` spanning the points (blocks of 64
-nodes: ``exp(i k_j (s_b + q h)) = exp(i k_j s_b) exp(i k_j q h)``, a real matrix product per
-direction, the first factor by a recurrence over the blocks, the second computed once), and
+nodes: ``exp(i k_j (s_b + q h)) = exp(i k_j s_b) exp(i k_j q h)``, a product of a row by a
+matrix per block, the first factor by a recurrence over the blocks, the second computed once;
+compiled, no BLAS, whose own threads would fight numba's on a busy machine), and
 every point interpolates them with the Lagrange polynomial through the ``NODES = 8`` nodes
 around it (the point in the central interval: four nodes on either side), compiled with
 ``fastmath`` (contracted and reordered sums: round-off only). Any dispersion relation: finite
@@ -186,21 +187,34 @@ def _interpolate_curvature(lat, lon, se, sn, lat0, lon0, R, sin_d, cos_d, s0, h,
     return out
 
 
-@njit(cache=True)
-def _block_rows(s0, k, phase, step, nb):
-    """``[cos, sin](psi_j)`` at the first node ``s0[d] + b BLOCK h`` of every block ``b``:
-    ``psi_j = k_j s - omega_j t + phi_j`` (``phase`` = ``phi - omega t``), by the recurrence
-    ``exp(i psi) <- exp(i psi) step_j`` over the blocks (``nb`` products: ``nb`` ulps)."""
+@njit(cache=True, parallel=True, fastmath=True)
+def _tabulate(s0, k, phase, step, nb, Y):
+    """The tables ``T[d, Q p + c]`` at nodes ``p = b BLOCK + q``: ``sum_j [cos, sin](psi_j at
+    the block's first node) . Y[d, :, Q q + c]``, with ``exp(i psi)`` at the first node by the
+    recurrence ``exp(i psi) <- exp(i psi) step_j`` over the blocks (``psi_j = k_j s + phase_j``;
+    ``nb`` products: ``nb`` ulps). Parallel over the directions."""
     nd, J = k.shape
-    X = np.empty((nd, nb, 2 * J))
-    for d in range(nd):
+    W = Y.shape[2]  # BLOCK Q values a block
+    T = np.zeros((nd, nb * W))
+    for d in prange(nd):
+        zr = np.empty(J)
+        zi = np.empty(J)
         for j in range(J):
-            z = np.exp(1j * (k[d, j] * s0[d] + phase[d, j]))
-            for b in range(nb):
-                X[d, b, j] = z.real
-                X[d, b, J + j] = z.imag
-                z = z * step[d, j]
-    return X
+            a = k[d, j] * s0[d] + phase[d, j]
+            zr[j] = math.cos(a)
+            zi[j] = math.sin(a)
+        for b in range(nb):
+            base = b * W
+            for j in range(J):
+                xr = zr[j]
+                xi = zi[j]
+                for c in range(W):
+                    T[d, base + c] += xr * Y[d, j, c] + xi * Y[d, J + j, c]
+                sr = step[d, j].real
+                si = step[d, j].imag
+                zr[j] = xr * sr - xi * si
+                zi[j] = xr * si + xi * sr
+    return T
 
 
 class LineSea:
@@ -238,8 +252,11 @@ class LineSea:
                                   axis=1)  # (nd, 2J, BLOCK)
 
         ys = [Y(self.a, "cos"), Y(self.a * self.k, "sin"), Y(self.uo, "cos")]
-        self.Y3 = np.concatenate(ys, axis=2)  # F, G, U
-        self.Y4 = np.concatenate(ys + [Y(-self.a * self.k**2, "cos")], axis=2)  # and K
+        nd, J = self.k.shape
+        # columns Q q + c: node q of a block, quantity c (F, G, U; and K)
+        self.Y3 = np.ascontiguousarray(np.stack(ys, axis=3).reshape(nd, 2 * J, 3 * BLOCK))
+        self.Y4 = np.ascontiguousarray(np.stack(ys + [Y(-self.a * self.k**2, "cos")],
+                                                axis=3).reshape(nd, 2 * J, 4 * BLOCK))
         self.step = np.exp(1j * self.k * (BLOCK * self.h))  # from one block to the next
         self.n_components = len(field.amp)
         self._key = None
@@ -260,13 +277,10 @@ class LineSea:
         if nd * nb * BLOCK * J > len(lat) * self.n_components:
             self._key = None
             return False
-        X = _block_rows(s0, self.k, self.ph - self.om * t, self.step, nb)  # (nd, nb, 2J)
         Y = self.Y4 if curvature else self.Y3
-        Q = Y.shape[2] // BLOCK
-        R = np.matmul(X, Y).reshape(nd, nb, Q, BLOCK)
-        # node p = b BLOCK + q holds its Q values together: T[d, Q p + c]
-        self.T = np.ascontiguousarray(R.transpose(0, 1, 3, 2)).reshape(nd, nb * BLOCK * Q)
-        self.Q, self.s0 = Q, s0
+        self.Q = Y.shape[2] // BLOCK
+        self.T = _tabulate(s0, self.k, self.ph - self.om * t, self.step, nb, Y)
+        self.s0 = s0
         self._key = (t, curvature, s0 + (NODES // 2) * h, s0 + (nb * BLOCK - NODES // 2 - 1)
                      * h, True)
         return True
