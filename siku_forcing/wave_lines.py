@@ -110,7 +110,7 @@ def _dot8(w, T, b, c, stride):
             + w[7] * T[b + 7 * stride + c])
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def line_range(lat, lon, lat0, lon0, R, sin_d, cos_d):
     """Least and greatest ``s = x sin + y cos`` of the points per direction."""
     nd = sin_d.shape[0]
@@ -118,7 +118,7 @@ def line_range(lat, lon, lat0, lon0, R, sin_d, cos_d):
     c0 = math.cos(lat0)
     lo = np.full(nd, np.inf)
     hi = np.full(nd, -np.inf)
-    for d in prange(nd):
+    for d in range(nd):  # serial: a parallel region costs more than this on a busy machine
         a = np.inf
         b = -np.inf
         for i in range(n):
