@@ -10,7 +10,9 @@ the interpolated sea from the direct sum over the elements, over its stated boun
     python -m bench.seas --rounds 6 --threads 2 --extent 1000
 
 Prints the load average before and after (the machine may be shared), then per method and
-thread count: element-steps/s of every round, best and median.
+thread count: element-steps/s of every round, best and median. On a machine shared with other
+work, set ``OMP_WAIT_POLICY=PASSIVE``: numba's OpenMP threads otherwise spin after each parallel
+region and two threads run slower than one.
 """
 from __future__ import annotations
 
