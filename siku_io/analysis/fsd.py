@@ -322,7 +322,7 @@ def grid_distribution(path, cfg):
     dimensions."""
     import xarray as xr
 
-    from siku_io.analysis.gridded_fields import cell_means, snapshots
+    from siku_io.analysis.gridded_fields import snapshots
     from siku_io.analysis.regular_grid import Grid
     from siku_io.output.xr import open_output
 
@@ -330,19 +330,8 @@ def grid_distribution(path, cfg):
     ds = open_output(path)
     grid = Grid(cfg, float(ds.attrs["radius"]))
     ny, nx = grid.shape
-    nc = ny * nx
-    A = grid.cell_area.ravel()
-    rows = []
-    for snap, f in zip(snapshots(ds, open_output(path, group="breaks")), fl):
-        el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
-        w = frac * snap.area[el]
-        ice = np.bincount(cell, w, nc)
-        floe_a = f.area[f.label][el]
-        rows.append({
-            "concentration": ice / A,
-            "floe_number": np.bincount(cell, w / floe_a, nc),
-            "floe_area_mean": cell_means(cell, w, ice, floe_a, np.nan),
-            "floe_caliper_mean": cell_means(cell, w, ice, f.caliper[f.label][el], np.nan)})
+    rows = [floe_cells(grid, snap, f, with_concentration=True)
+            for snap, f in zip(snapshots(ds, open_output(path, group="breaks")), fl)]
     dims = ("time", *grid.dims)
     coords = {k: xr.Variable(d, v, a) for k, (d, v, a) in grid.cf_coords().items()}
     coords["time"] = xr.Variable("time", [f.time for f in fl], {
@@ -352,4 +341,24 @@ def grid_distribution(path, cfg):
     out = xr.Dataset(data, coords)
     out.attrs.update({"title": "floe size distribution per cell",
                       "grid": cfg.model_dump_json(exclude_none=True)})
+    return out
+
+
+def floe_cells(grid, snap, floes: Floes, with_concentration: bool = False) -> dict:
+    """The floe fields of :data:`GRID_FSD` per cell (flat arrays) of one snapshot ``snap``
+    (``siku_io.analysis.gridded_fields.Snapshot``) whose floes are ``floes``; the
+    concentration too if asked."""
+    from siku_io.analysis.gridded_fields import cell_means
+
+    nc = grid.shape[0] * grid.shape[1]
+    el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
+    w = frac * snap.area[el]
+    ice = np.bincount(cell, w, nc)
+    floe_a = floes.area[floes.label][el]
+    out = {"floe_number": np.bincount(cell, w / floe_a, nc),
+           "floe_area_mean": cell_means(cell, w, ice, floe_a, np.nan),
+           "floe_caliper_mean": cell_means(cell, w, ice, floes.caliper[floes.label][el],
+                                           np.nan)}
+    if with_concentration:
+        out["concentration"] = ice / grid.cell_area.ravel()
     return out
