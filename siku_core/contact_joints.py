@@ -294,18 +294,19 @@ class JointBook:
                            self.radius, k)
 
     def joint_tension(self, k: np.ndarray) -> np.ndarray:
-        """Normal traction of intact joints ``k`` in the last force evaluation [Pa], opening
-        positive: the force on ``j`` along the joint's outward normal from ``i``, over the
-        joint's length and the thinner side's thickness."""
+        """Normal traction of intact joints ``k`` in the last force evaluation [Pa], tension
+        (a joint pulling its sides together) positive: the force on ``i`` along the joint's
+        outward normal from ``i`` (towards ``j``), over the joint's length and the thinner
+        side's thickness."""
         k = np.asarray(k, dtype=np.int64)
         st = self.state
         d = self.ends_i[k, 1] - self.ends_i[k, 0]
         w = np.hypot(d[:, 0], d[:, 1])
         safe = np.where(w > 0, w, 1.0)
         nx, ny = d[:, 1] / safe, -d[:, 0] / safe  # a -> b runs counter-clockwise round i
-        # the force on j in i's frame is minus the generalised force on i (its contact point
-        # lies a joint's length from i's centre: the difference is of order (length / R)²)
-        fx, fy = -self.joint_rows[k, ROW_FIX], -self.joint_rows[k, ROW_FIY]
+        # the generalised force on i is the force on i in its frame (its contact point lies a
+        # joint's length from i's centre: the difference is of order (length / R)²)
+        fx, fy = self.joint_rows[k, ROW_FIX], self.joint_rows[k, ROW_FIY]
         h = np.minimum(st.thickness[self.ji[k]], st.thickness[self.jj[k]])
         return np.where(w > 0, (fx * nx + fy * ny) / (safe * h), 0.0)
 

@@ -89,6 +89,8 @@ class Refreeze(Process):
         self.since = np.full(m, np.nan)
         self.count = 0
         self.welded_total = 0
+        if not self.p["weld"]:  # reports what it does only
+            self.diagnostic_units = {"refrozen_joints": "1"}
         #: per joint: model time since which it has been broken and closed [s] (NaN: not)
         self.closed_since = np.full(n, np.nan)
         #: per joint: model time it refroze [s], while it is below full strength (NaN: not)
