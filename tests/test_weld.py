@@ -263,3 +263,14 @@ def test_refreeze_leaves_a_pair_whose_joint_broke_to_refreezing():
     keys = {tuple(sorted((int(a), int(b)))) for a, b in zip(cm.ji, cm.jj)}
     assert (1, 2) in keys and len(keys) == cm.n_joints  # no second joint on any pair
     assert not cm.intact[0]
+
+
+def test_refreeze_with_weld_passes_the_process_conformance_suite(tmp_path):
+    from siku_core.testing.process_checks import check_process, process_simulation
+    from siku_plugins.processes import Refreeze
+
+    params = {"weld": True, "weld_time": 2.0, "freeze_time": 2.0}
+    check_process(Refreeze, params, tmp_path)
+    # (its jointed pack at rest welds nothing: the slots are reserved, the rest is as without)
+    cm = process_simulation(Refreeze, params).contacts
+    assert cm.joint_slots == cm.n_joints + 12
