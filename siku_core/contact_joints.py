@@ -6,7 +6,9 @@ breaks a writer has not taken, restart history, floes).
 joint arrays (SoA: ``ji, jj, ends_i, ends_j, L0, width, intact, break_mode, break_time, hist,
 jK, jmeff, jedge``, the rows the joint loop writes and the per-element index); the model
 provides the attributes it reads (``state, radius, law, cfg, broad, where, label, skip, E,
-minv, exclude_jointed, n_broken_total``, ``_admit``).
+minv, exclude_jointed, n_broken_total``, ``_admit``). Processes that create joints get slots
+reserved at set-up (:meth:`JointBook.reserve_joints`): the joint arrays are then views of the
+first ``n_joints`` rows of full-length ones, and :meth:`JointBook.create_joints` fills the next.
 """
 from __future__ import annotations
 
