@@ -5,8 +5,9 @@ calipers, the distribution on logarithmic area bins and the power-law exponent o
   ``siku_core.contact_joints.Joints.floe_labels``); an element without intact joints is a
   floe of its own. Labels come from ``scipy.sparse.csgraph.connected_components`` on the joint
   table; the joint pairs of a run are rebuilt from the scene stored in its output file (they are
-  fixed for a run), their intact flags at each snapshot are read from the contact model's
-  history (``/states/history/contacts/intact``).
+  fixed for a run, unless a process creates joints: then each snapshot's pairs are read from
+  ``/states/history/contacts/pairs``), their intact flags at each snapshot are read from the
+  contact model's history (``/states/history/contacts/intact``).
 * **Area** of a floe ``A = Σ a_e`` [m²], the sum of its elements' areas.
 * **Mean caliper** ``d = P_hull / π`` [m]: the mean over directions of the floe's width, which
   by Cauchy's formula is the perimeter of its convex hull over π (a disc of diameter ``D`` gives
@@ -251,7 +252,7 @@ def joint_table(path) -> tuple[np.ndarray, np.ndarray]:
     scene = scene_from_text(text, f"{path}: its scene", Path(where) if where else None)
     sim = Simulation(scene, out=False, progress=False)
     cm = sim.contacts
-    n = cm.n_joints if cm is not None else 0
+    n = cm.joint_slots if cm is not None else 0
     if n != nj:
         raise DataError(f"{path}: its scene builds {n} joints but the file records {nj}")
     if n == 0:
@@ -272,10 +273,15 @@ def output_floes(path, calipers: bool = True):
         off = f["geometry/vert_offsets"][()]
         key = "states/history/contacts/intact"
         intact = f[key][:n_t].astype(bool) if key in f else np.zeros((n_t, 0), bool)
+        # a run whose processes create joints records every snapshot's joint pairs
+        key = "states/history/contacts/pairs"
+        pairs = f[key][:n_t] if key in f else None
         q = f["states/q"][:n_t]
         verts = f["geometry/verts"][()]
     out = []
     for t in range(n_t):
+        if pairs is not None:
+            ji, jj = pairs[t, :, 0], pairs[t, :, 1]
         count, label = floe_labels(len(area), ji, jj, intact[t])
         cal = np.full(count, np.nan)
         if calipers:
