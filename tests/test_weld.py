@@ -274,3 +274,31 @@ def test_refreeze_with_weld_passes_the_process_conformance_suite(tmp_path):
     # (its jointed pack at rest welds nothing: the slots are reserved, the rest is as without)
     cm = process_simulation(Refreeze, params).contacts
     assert cm.joint_slots == cm.n_joints + 12
+
+
+def test_wave_breaking_checks_the_joints_a_weld_creates():
+    # a gentle swell along the wall and carrier: far below the critical strain, nothing breaks,
+    # but every intact joint, the welded one included, gets its strain at each check
+    text = wall_text(weld_time=20.0) + (
+        '\n[[forcing]]\nsource = "waves"\n'
+        'params = { breaking = true, critical_strain = 1.0, break_every = 0.25, slope = false }\n'
+        'field = { type = "linear_wave", params = { amplitude = 0.1, period = 8.0, '
+        'direction = 90.0 } }\n')
+    sim = build(text)
+    breaker = next(f for f in sim.forcing if getattr(f, "breaker", None) is not None).breaker
+    assert len(breaker.strain) == sim.contacts.joint_slots
+    _, welded = run_to_weld(sim)
+    assert welded is not None
+    sim.step()
+    sim.step()
+    strain = breaker.strain[:sim.contacts.n_joints]
+    # the welded joint (slot 1) lies along the wall, across the swell: a finite, positive strain
+    assert np.isfinite(strain).all() and strain[1] > 0.0
+
+
+def test_bending_beams_and_welds_are_refused_together_in_one_line():
+    text = wall_text().replace('[[process]]\nname = "refreeze"', (
+        '[[process]]\nname = "floating"\nparams = { bending = true }\n\n'
+        '[[process]]\nname = "refreeze"'))
+    with pytest.raises(SceneError, match="bending = true .* one or the other"):
+        build(text)
