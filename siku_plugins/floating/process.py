@@ -237,6 +237,10 @@ class Floating(Process):
             if ctx.contacts is None or not ctx.contacts.n_joints:
                 raise SceneError(f"{where}: bending = true needs jointed elements (a "
                                  "[contact] table whose elements are frozen together)")
+            if ctx.contacts.joint_slots > ctx.contacts.n_joints:
+                raise SceneError(f"{where}: bending = true bends the joints built at the start "
+                                 "only; a process here creates joints (refreeze weld = true): "
+                                 "use one or the other")
             from .bending import Beams
 
             self.beams = Beams(self, ctx)
