@@ -150,7 +150,7 @@ class Beams:
         return n
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw, amp, kx, ky,
                    om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, B3, M1, C1, B1,
                    M2, C2, B2, load, indptr, indices, data, K, kidx, hist, head, u, v):

@@ -270,7 +270,7 @@ def _load(k, i, S, E, r, kap, ext):
     return f, g1, g2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                    lattice, qu, qv, qw,
             amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
@@ -337,7 +337,7 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
         roll_rate[i] = v1i * s + v2i * c
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                       lattice, qu, qv, qw,
             amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,

@@ -112,7 +112,7 @@ def _lagged(Ki, row, hp, L):
     return acc
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
                   amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, M1, C1,
                   M2, C2, K, kidx, hist, head, z, vz, roll, roll_rate, pitch, pitch_rate):
