@@ -17,6 +17,12 @@ element that has melted away are left alone. A pair that stops overlapping is fo
 starts from zero if it meets again). Elastic overlaps (below the plastic limit) are never
 converted.
 
+With thickness categories (``ctx.categories``, :mod:`siku_core.categories`) the carrier's gain
+piles onto its thickest category ``m`` (the largest ``h_k`` with ``a_k > 0``), ``h_m += dV
+sum(a) / (a_m A_c)``, and the giver's ice thins as a whole, every ``h_k`` by the factor ``(h_t -
+dV / A_t) / h_t``; the fractions do not change and the element volume ``A sum(a_k h_k) /
+sum(a_k)`` changes by exactly ``dV``.
+
 Declared per-element fields (summed on grids): ``ridged_volume`` and ``rafted_volume`` [m³],
 the volume the element has received by ridging and by rafting since the start.
 """
@@ -29,6 +35,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from siku_core.categories import row_mean, row_sum
 from siku_core.contact_frames import _width, j_to_i, relative_matrix, rotation_matrices
 from siku_core.errors import SceneError
 from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
@@ -97,7 +104,8 @@ def pair_geometry(rm, offsets, verts, pairs, active, flags, keys, count, R, nmax
 
 @njit(cache=True)
 def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, count,
-                new_keys, new_conv, giver, carrier, moved, rafts, ridged, rafted):
+                new_keys, new_conv, giver, carrier, moved, rafts, ridged, rafted, fraction, hk,
+                loss, gain, scratch):
     """One application of the process (module docstring) to the colliding pairs of the
     contact model, their overlaps in ``geo`` (:func:`pair_geometry`), ``rows`` their force
     rows (the force on ``i`` in columns 0 and 1), in place: ``thickness``, ``ridged``,
@@ -106,8 +114,10 @@ def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, 
     remembered now, or minus it (and nothing changed) when that exceeds ``len(keys)``.
 
     The transfers apply in pair order, every loss first, then every gain (the order of the
-    former ``np.subtract.at`` and ``np.add.at``). ``new_keys`` ... ``rafts`` (``len(keys)``
-    each) are scratch."""
+    former ``np.subtract.at`` and ``np.add.at``). With thickness categories (``fraction``,
+    ``hk`` ``(n, K)``; ``K = 0``: none) each element that gave or carried has its categories
+    changed by :func:`_ridge_categories`. ``new_keys`` ... ``rafts`` (``len(keys)`` each),
+    ``loss``, ``gain`` (``n``, zero) and ``scratch`` (``K``) are scratch."""
     cap = keys.shape[0]
     strength, raft_h, raft_p = law[0], law[1], law[2]
     n = thickness.shape[0]
@@ -161,6 +171,9 @@ def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, 
             rafted[carrier[t]] += moved[t]
         else:
             ridged[carrier[t]] += moved[t]
+    if hk.shape[1]:
+        _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, loss, gain,
+                          scratch)
     if not ordered:
         order = np.argsort(new_keys[:m])
         new_keys[:m] = new_keys[:m][order]
@@ -170,6 +183,40 @@ def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, 
     keys[m:count] = -1
     converted[m:count] = 0.0
     return m
+
+
+@njit(cache=True)
+def _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, loss, gain,
+                      scratch):
+    """The categories of the elements of the first ``nt`` transfers (module docstring): a
+    giver's ice thins in proportion, ``h_k *= (h - L / A) / h`` (``L`` [m³] all it gave), a
+    carrier's gain ``G`` [m³] piles onto its thickest category ``m`` (the largest ``h_k`` with
+    ``a_k > 0``), ``h_m += G sum(a) / (a_m A)``, so that the element's volume ``A sum(a_k h_k) /
+    sum(a_k)`` changes by exactly ``G - L``; the fractions do not change. The thickness becomes
+    the categories' mean. ``loss``, ``gain`` are left zero."""
+    for t in range(nt):
+        loss[giver[t]] += moved[t]
+        gain[carrier[t]] += moved[t]
+    for t in range(2 * nt):
+        e = giver[t] if t < nt else carrier[t - nt]
+        if loss[e] == 0.0 and gain[e] == 0.0:
+            continue  # done already
+        a = fraction[e]
+        h = hk[e]
+        if loss[e] > 0.0:
+            h0 = row_mean(a, h, scratch)
+            r = (h0 - loss[e] / area[e]) / h0
+            for k in range(h.shape[0]):
+                h[k] *= r
+        if gain[e] > 0.0:
+            m = -1
+            for k in range(h.shape[0]):
+                if a[k] > 0.0 and (m < 0 or h[k] >= h[m]):
+                    m = k
+            h[m] += gain[e] * row_sum(a) / (a[m] * area[e])
+        thickness[e] = row_mean(a, h, scratch)
+        loss[e] = 0.0
+        gain[e] = 0.0
 
 
 class Ridging(Process):
@@ -207,6 +254,9 @@ class Ridging(Process):
         self._rm = np.empty((st.n, 3, 3))
         self._nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
         self._geo = np.empty((0, 4))
+        self._none = np.zeros((st.n, 0))
+        self._empty = np.zeros(0)
+        self._loss = self._gain = self._row = None
         self._scratch = (np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.int64),
                          np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.bool_))
 
@@ -231,11 +281,21 @@ class Ridging(Process):
         m = ridge_pairs(cm.pairs, cm.pair_rows, geo, st.thickness, st.area,
                         st.flags, self.law_vector, self.keys, self.converted, self.count,
                         *self._scratch, ctx.fields["ridged_volume"],
-                        ctx.fields["rafted_volume"])
+                        ctx.fields["rafted_volume"], *self._categories(ctx))
         if m < 0:
             raise SceneError(f"{ctx.where(self.table)}: more than {len(self.keys)} ridging pairs; "
                              "raise the process's capacity")
         self.count = m
+
+    def _categories(self, ctx) -> tuple:
+        """The kernel's category arguments: fractions, thicknesses and scratch."""
+        cats = ctx.categories
+        if cats is None:
+            return self._none, self._none, self._empty, self._empty, self._empty
+        if self._loss is None:
+            n = ctx.state.n
+            self._loss, self._gain, self._row = np.zeros(n), np.zeros(n), np.empty(cats.K)
+        return cats.fraction, cats.thickness, self._loss, self._gain, self._row
 
     def _forget_all(self) -> None:
         """No colliding pairs: every remembered pair is forgotten."""
