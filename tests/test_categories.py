@@ -388,3 +388,53 @@ def test_ridged_ice_piles_onto_the_carriers_thickest_category_and_conserves_volu
     assert st.thickness[2] < t0[2]
     lost = st.area[[0, 2]] @ (t0[[0, 2]] - st.thickness[[0, 2]])
     assert lost == pytest.approx(ridged[1], rel=1e-9)
+
+
+# ---------------------------------------------------------------------------- gridding
+COVER_A, COVER_H = [0.2, 0.3, 0.4], [0.5, 1.0, 2.0]
+
+
+class _UniformPack(ElementSource):
+    """Six by four squares of 20 km around 75 N, every one with the same categories."""
+
+    name = "uniform_pack"
+
+    def build(self, scene, seed, where):
+        return [ElementSpec(np.array(square((-10.0 + 0.7 * i, 74.0 + 0.18 * j), 20e3)),
+                            categories=(np.array(COVER_A), np.array(COVER_H)))
+                for i in range(6) for j in range(4)]
+
+
+def test_gridded_category_fractions_of_a_uniform_cover_equal_the_cover(tmp_path):
+    """The category fraction of a cell is the mean of ``a_k`` over the ice in it (weighted by
+    area) and the category thickness the mean ``h_k`` (weighted by the category's ice area):
+    for a pack whose every element has the same categories both are the cover's own, in every
+    cell with ice, partly covered or not (to round-off), and NaN in cells without; the same
+    from the output file (``siku grid``) and from a running simulation."""
+    from siku_io.analysis.gridded_fields import grid_output, grid_snapshot, snapshot_of
+    from siku_io.analysis.regular_grid import Grid, GridCfg
+
+    txt = scene_text([], dt=60.0, duration=120.0, extra=(
+        '[[elements.source]]\nname = "uniform_pack"\n\n[[process]]\nname = "thermodynamics"\n'
+        'params = { surface_temperature = -30.0 }\n'))
+    sim = Simulation(scene_from_text(txt, "<uniform>"), out=tmp_path / "u.h5", progress=False,
+                     registry=registry_with("element_source", _UniformPack))
+    cfg = GridCfg(kind="lonlat", lon=(-12.0, -4.0), lat=(73.0, 76.0), resolution=0.5)
+    live = grid_snapshot(Grid(cfg, sim.radius), snapshot_of(sim))
+    sim.run()
+    cats = sim.context.categories
+    assert not np.array_equal(cats.thickness[0], COVER_H)  # the categories have grown
+    ds = grid_output(tmp_path / "u.h5", cfg)
+    frac, thick = ds["category_fraction"], ds["category_thickness"]
+    assert frac.dims == thick.dims == ("time", "category", "lat", "lon")
+    assert frac.attrs["units"] == "1" and thick.attrs["units"] == "m"
+    ice = ds["concentration"].values > 0
+    assert ice[-1].sum() > 10 and (~ice[-1]).sum() > 10
+    for t, h in ((0, np.array(COVER_H)), (-1, cats.thickness[0])):
+        for k in range(3):
+            f, th = frac.values[t, k], thick.values[t, k]
+            np.testing.assert_allclose(f[ice[t]], COVER_A[k], rtol=1e-12)
+            np.testing.assert_allclose(th[ice[t]], h[k], rtol=1e-12)
+            assert np.isnan(f[~ice[t]]).all() and np.isnan(th[~ice[t]]).all()
+    np.testing.assert_array_equal(live["category_fraction"], frac.values[0])
+    np.testing.assert_array_equal(live["category_thickness"], thick.values[0])
