@@ -6,7 +6,9 @@ breaks a writer has not taken, restart history, floes).
 joint arrays (SoA: ``ji, jj, ends_i, ends_j, L0, width, intact, break_mode, break_time, hist,
 jK, jmeff, jedge``, the rows the joint loop writes and the per-element index); the model
 provides the attributes it reads (``state, radius, law, cfg, broad, where, label, skip, E,
-minv, exclude_jointed, n_broken_total``, ``_admit``).
+minv, exclude_jointed, n_broken_total``, ``_admit``). Processes that create joints get slots
+reserved at set-up (:meth:`JointBook.reserve_joints`): the joint arrays are then views of the
+first ``n_joints`` rows of full-length ones, and :meth:`JointBook.create_joints` fills the next.
 """
 from __future__ import annotations
 
@@ -114,6 +116,97 @@ class JointBook:
     def n_joints(self) -> int:
         return len(self.ji)
 
+    #: per-joint arrays that live in the reserved slots (:meth:`reserve_joints`); the joint
+    #: constants ``jK, jmeff`` and the per-element index are recomputed from them
+    _SLOTTED = ("ji", "jj", "ends_i", "ends_j", "width", "L0", "intact", "break_mode",
+                "break_time", "hist", "jedge", "joint_rows", "joint_active")
+    #: the reserved slots (full-length arrays whose first ``n_joints`` rows are the joints);
+    #: ``None`` while no process may create joints
+    _slots: dict[str, np.ndarray] | None = None
+
+    @property
+    def joint_slots(self) -> int:
+        """Joints the run can hold: those built at set-up plus the slots reserved for joints
+        that processes create (:meth:`reserve_joints`)."""
+        return len(self._slots["ji"]) if self._slots is not None else self.n_joints
+
+    def reserve_joints(self, spare: int) -> None:
+        """Reserve ``spare`` slots for joints created during the run (:meth:`create_joints`),
+        before any component's set-up: every per-joint array becomes the first ``n_joints``
+        rows of a full-length one, so creating a joint never moves the others and the compiled
+        loops see arrays of the same types. Without a call nothing changes."""
+        if spare <= 0 or self._slots is not None:
+            return
+        m = self.n_joints
+        self._slots = {}
+        for name in self._SLOTTED:
+            a = getattr(self, name)
+            s = np.zeros((m + spare, *a.shape[1:]), dtype=a.dtype)
+            s[:m] = a
+            self._slots[name] = s
+        self._slots["ji"][m:] = -1
+        self._slots["jj"][m:] = -1
+        self._slots["jedge"][m:] = -1
+        self._slots["break_time"][m:] = np.nan
+        #: the joints built at set-up (the slots after them hold created ones)
+        self._built = m
+        self._use(m)
+
+    def _use(self, m: int) -> None:
+        """The first ``m`` slots are the joints: the arrays, their constants and index."""
+        for name, s in self._slots.items():
+            setattr(self, name, s[:m])
+        self.joff, self.jidx, self.jside = element_index(self.ji, self.jj, self.state.n)
+        self.refresh_joint_constants()
+
+    def create_joints(self, pairs: np.ndarray, ends_i: np.ndarray) -> np.ndarray:
+        """New intact joints between the element pairs ``pairs`` ``(K, 2)`` along the lines
+        ``ends_i`` ``(K, 2, 2)`` [m] (in the first element's frame, running counter-clockwise
+        round it): at rest where the two elements are now (the ends on the second element are
+        the same points, the rest distance is the current one, the law's history starts from
+        zero), with the joints' eq. 9 stiffness, carrying force from the next evaluation. They
+        fill reserved slots (:meth:`reserve_joints`); returns their indices."""
+        st, R = self.state, self.radius
+        pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        m, k = self.n_joints, len(pairs)
+        if m + k > self.joint_slots:
+            raise ValueError(f"{k} new joints do not fit in the {self.joint_slots - m} free "
+                             "joint slots")
+        if not k:
+            return np.zeros(0, np.int64)
+        new = np.arange(m, m + k)
+        s = self._slots
+        s["ji"][new], s["jj"][new] = pairs[:, 0], pairs[:, 1]
+        s["ends_i"][new] = ends_i
+        c = centers(st.q)
+        for a, kk in enumerate(new):
+            i, j = pairs[a]
+            for e in range(2):
+                s["ends_j"][kk, e] = frame_point(st.q[i], st.q[j], ends_i[a, e, 0],
+                                                 ends_i[a, e, 1], R)
+            s["L0"][kk] = R * math.atan2(float(np.linalg.norm(np.cross(c[i], c[j]))),
+                                         float(np.dot(c[i], c[j])))
+        d = ends_i[:, 1] - ends_i[:, 0]
+        s["width"][new] = np.hypot(d[:, 0], d[:, 1])
+        s["intact"][new] = True
+        s["break_mode"][new] = 0
+        s["break_time"][new] = np.nan
+        s["hist"][new] = 0.0
+        s["jedge"][new] = -1  # not along an edge: the collision loop's general clip
+        s["joint_rows"][new] = 0.0
+        s["joint_active"][new] = 0
+        self._use(m + k)
+        self._joints_changed()
+        return new
+
+    def _joints_changed(self) -> None:
+        """The candidate list follows a change of the joints: rebuilt at the next evaluation
+        under ``jointed = "exclude"``, else its joint edges (``_faces``) are renewed."""
+        if self.exclude_jointed:
+            self._ref_centers = None
+        elif len(self.pairs):
+            self.pface = self._faces(self.pairs)
+
     @property
     def n_intact(self) -> int:
         return int(self.intact.sum())
@@ -203,18 +296,19 @@ class JointBook:
                            self.radius, k)
 
     def joint_tension(self, k: np.ndarray) -> np.ndarray:
-        """Normal traction of intact joints ``k`` in the last force evaluation [Pa], opening
-        positive: the force on ``j`` along the joint's outward normal from ``i``, over the
-        joint's length and the thinner side's thickness."""
+        """Normal traction of intact joints ``k`` in the last force evaluation [Pa], tension
+        (a joint pulling its sides together) positive: the force on ``i`` along the joint's
+        outward normal from ``i`` (towards ``j``), over the joint's length and the thinner
+        side's thickness."""
         k = np.asarray(k, dtype=np.int64)
         st = self.state
         d = self.ends_i[k, 1] - self.ends_i[k, 0]
         w = np.hypot(d[:, 0], d[:, 1])
         safe = np.where(w > 0, w, 1.0)
         nx, ny = d[:, 1] / safe, -d[:, 0] / safe  # a -> b runs counter-clockwise round i
-        # the force on j in i's frame is minus the generalised force on i (its contact point
-        # lies a joint's length from i's centre: the difference is of order (length / R)²)
-        fx, fy = -self.joint_rows[k, ROW_FIX], -self.joint_rows[k, ROW_FIY]
+        # the generalised force on i is the force on i in its frame (its contact point lies a
+        # joint's length from i's centre: the difference is of order (length / R)²)
+        fx, fy = self.joint_rows[k, ROW_FIX], self.joint_rows[k, ROW_FIY]
         h = np.minimum(st.thickness[self.ji[k]], st.thickness[self.jj[k]])
         return np.where(w > 0, (fx * nx + fy * ny) / (safe * h), 0.0)
 
@@ -267,30 +361,51 @@ class JointBook:
     rest_state_is_history = False
 
     def history(self) -> dict[str, np.ndarray]:
-        out = {"intact": self.intact.astype(np.int8), "hist": self.hist.copy(),
+        """The joints' breaks, the law's history and (with processes) their rest state; with
+        reserved slots every array has a row per slot, and ``joints`` (how many hold joints),
+        ``pairs`` (their elements, -1 beyond) and ``ends_i`` say which joints were created."""
+        a = self._slots if self._slots is not None else vars(self)
+        out = {"intact": a["intact"].astype(np.int8), "hist": a["hist"].copy(),
                "n_broken_total": np.array(self.n_broken_total),
-               "break_mode": self.break_mode.astype(np.int8),
-               "break_time": self.break_time.copy()}
+               "break_mode": a["break_mode"].astype(np.int8),
+               "break_time": a["break_time"].copy()}
         if self.rest_state_is_history:
-            out.update(ends_j=self.ends_j.copy(), L0=self.L0.copy())
+            out.update(ends_j=a["ends_j"].copy(), L0=a["L0"].copy())
+        if self._slots is not None:
+            out.update(joints=np.array(self.n_joints, dtype=np.int64),
+                       pairs=np.stack([a["ji"], a["jj"]], axis=1), ends_i=a["ends_i"].copy())
         return out
 
     def set_history(self, d: dict[str, np.ndarray]) -> None:
-        if d["intact"].shape != self.intact.shape:
+        slots = self.joint_slots
+        if d["intact"].shape != (slots,) or ("joints" in d) != (self._slots is not None):
             raise SceneError(
                 f"{self.label}: restart holds {d['intact'].shape[0]} joints but the scene "
-                f"builds {self.intact.shape[0]}"
+                f"builds {slots}"
             )
-        self.intact[:] = d["intact"].astype(bool)
-        self.hist[...] = d["hist"]
+        s = self._slots
+        if s is not None:  # the joints created before: their elements and lines
+            m = int(d["joints"])
+            s["ji"][:], s["jj"][:] = np.asarray(d["pairs"], dtype=np.int64).T
+            s["ends_i"][...] = d["ends_i"]
+            b = s["ends_i"][:, 1] - s["ends_i"][:, 0]
+            s["width"][self._built:] = np.hypot(b[self._built:, 0], b[self._built:, 1])
+            s["jedge"][self._built:] = -1
+            s["joint_rows"][self._built:] = 0.0
+            s["joint_active"][self._built:] = 0
+            self._use(m)
+            self._joints_changed()
+        a = s if s is not None else vars(self)  # (every slot: the joints are a view of them)
+        a["intact"][:] = d["intact"].astype(bool)
+        a["hist"][...] = d["hist"]
         self.n_broken_total = int(d["n_broken_total"])
         if "ends_j" in d and self.rest_state_is_history:
-            self.ends_j[...] = d["ends_j"]
-            self.L0[...] = d["L0"]
+            a["ends_j"][...] = d["ends_j"]
+            a["L0"][...] = d["L0"]
             self.refresh_joint_constants()
         if "break_mode" in d:
-            self.break_mode[:] = d["break_mode"]
-            self.break_time[:] = d["break_time"]
+            a["break_mode"][:] = d["break_mode"]
+            a["break_time"][:] = d["break_time"]
         else:  # a file from before break modes were recorded
             self.break_mode[:] = np.where(self.intact, 0, BREAK_STRAIN)
             self.break_time[:] = np.where(self.intact, np.nan, -np.inf)

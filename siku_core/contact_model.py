@@ -421,7 +421,8 @@ class ContactModel(JointBook):
         return dt_c, why
 
     def describe(self) -> dict:
-        return {"name": self.law.name, "params": dict(self.law.p), "joints": self.n_joints,
+        built = self._built if self._slots is not None else self.n_joints  # (at set-up)
+        return {"name": self.law.name, "params": dict(self.law.p), "joints": built,
                 "broad_phase": self.broad.name}
 
     def element_fields(self) -> dict[str, np.ndarray]:

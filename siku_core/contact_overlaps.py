@@ -38,6 +38,59 @@ def pair_overlaps(rm, offsets, verts, pairs, ks, R, nmax):
     return out
 
 
+@njit(cache=True)
+def pair_contact_lines(rm, offsets, verts, pairs, ks, R, nmax):
+    """Per candidate pair ``pairs[ks[a]]``: the line along which its two elements touch, in
+    ``i``'s frame [m] ``(len(ks), 2, 2)``, running counter-clockwise round ``i`` (its normal
+    ``(dy, -dx)`` points towards ``j``'s centre); zero where they do not overlap. It is the
+    chord between the two crossings of the boundaries where there are two, else the contact
+    width (``_width``) across the overlap's normal through its centroid: the line a joint
+    made of the contact is frozen along."""
+    xy, tag = make_overlap_scratch(nmax, nmax)
+    proj = np.empty((nmax, 2))
+    out = np.zeros((ks.shape[0], 2, 2))
+    inv_r = 1.0 / R
+    for a in range(ks.shape[0]):
+        k = ks[a]
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        M = relative_matrix(rm, i, j)
+        oj = offsets[j]
+        nj = offsets[j + 1] - oj
+        for v in range(nj):
+            proj[v, 0], proj[v, 1] = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
+        pi = verts[offsets[i]:offsets[i + 1]]
+        pj = proj[:nj]
+        c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
+        area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x,
+                                                                           c2y, False)
+        if not area > 0.0:
+            continue
+        if ncross != 2:
+            h = 0.5 * _width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
+            p1x, p1y = cx + h * ny, cy - h * nx
+            p2x, p2y = cx - h * ny, cy + h * nx
+        if (p2y - p1y) * c2x - (p2x - p1x) * c2y < 0.0:
+            p1x, p1y, p2x, p2y = p2x, p2y, p1x, p1y
+        out[a, 0, 0], out[a, 0, 1] = p1x, p1y
+        out[a, 1, 0], out[a, 1, 1] = p2x, p2y
+    return out
+
+
+def contact_lines(cm, ks: np.ndarray) -> np.ndarray:
+    """:func:`pair_contact_lines` of candidate pairs ``ks`` of contact model ``cm`` in the
+    current state."""
+    from .contact_frames import rotation_matrices
+    from .parallel import chunks
+
+    st = cm.state
+    rm = np.empty((st.n, 3, 3))
+    rotation_matrices(st.q, rm, chunks(st.n))
+    nmax = int(np.max(np.diff(st.vert_offsets)))
+    return pair_contact_lines(rm, st.vert_offsets, st.verts, cm.pairs,
+                              np.ascontiguousarray(ks, dtype=np.int64), float(cm.radius), nmax)
+
+
 def overlaps(cm) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The colliding pairs of contact model ``cm`` (those that carried force in the last
     evaluation): ``(pairs (K, 2), area [m²], width [m], force [N])``, geometry of the current
@@ -60,4 +113,4 @@ def overlaps(cm) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     return cm.pairs[ks], got[:, 0], got[:, 1], force
 
 
-__all__ = ["overlaps", "pair_overlaps"]
+__all__ = ["contact_lines", "overlaps", "pair_contact_lines", "pair_overlaps"]

@@ -259,7 +259,8 @@ class Process(Component):
     model time since the process last ran [s] and ``ctx.time`` the end of that interval. A
     process changes ``ctx.state.thickness`` and its own ``ctx.fields[name]`` in place, melts
     elements with ``ctx.melt(k)`` and changes joints through ``ctx.contacts``
-    (``break_joints``, ``refreeze_joints``). Afterwards the engine recomputes mass, inertia,
+    (``break_joints``, ``refreeze_joints``, ``create_joints`` within the slots that
+    :meth:`joints_to_create` reserves). Afterwards the engine recomputes mass, inertia,
     joint stiffness and the stable step (``siku_core.ice``). It never moves elements (only the
     integrator does) and never writes files (writers do).
 
@@ -276,6 +277,12 @@ class Process(Component):
     @abstractmethod
     def apply(self, ctx: "Context", dt: float) -> None:
         """Change the ice over the last ``dt`` [s] of model time, ending at ``ctx.time``."""
+
+    def joints_to_create(self, n_elements: int) -> int:
+        """How many joints the process may create in a run of ``n_elements`` elements
+        (``ctx.contacts.create_joints``): the engine reserves that many joint slots before any
+        set-up. 0 (the default): none, and nothing is reserved."""
+        return 0
 
     def budget(self, ctx: "Context") -> float:
         """Ice volume this process added since the start of the run [m³] (negative: removed);

@@ -150,6 +150,8 @@ class Simulation:
         self.ice = IceBook(self, processes=bool(self.processes), categories=categories)
         if self.processes and self.contacts is not None:
             self.contacts.rest_state_is_history = True  # processes may refreeze joints
+            self.contacts.reserve_joints(sum(p.joints_to_create(self.state.n)
+                                             for p in self.processes))
         for comp in self.components():
             comp.setup(self.context)
         if self.contacts is not None:

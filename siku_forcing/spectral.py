@@ -285,8 +285,11 @@ class Spectral(WaveField):
             nc = self.nx * self.ny
             a = np.sqrt(2.0 * np.maximum(self.E, 0.0)).reshape(len(self.amp), nc).T
             self._amp_cells = np.ascontiguousarray(a)
-            self._uo_cells = np.ascontiguousarray(a * (self.u_orbital / np.where(
-                self.amp > 0, self.amp, 1.0))[None, :])
+            # orbital speed over amplitude, omega coth(k h): an incident sea another model
+            # sets (E_in, siku_io.coupling.waves) keeps it
+            ratio = self.omega / np.tanh(self.k * self.h) if math.isfinite(self.h) else \
+                self.omega
+            self._uo_cells = np.ascontiguousarray(a * ratio[None, :])
         return self._amp_cells, self._uo_cells
 
     # ------------------------------------------------------------------ the sea at points

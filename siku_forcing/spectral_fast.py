@@ -133,7 +133,8 @@ class FastJonswap(Jonswap):
     docstring): the same components, phases and forces, far fewer sines and cosines."""
 
     name = "fast_jonswap"
-    params: ClassVar[dict[str, Param]] = dict(Jonswap.params)
+    params: ClassVar[dict[str, Param]] = {k: v for k, v in Jonswap.params.items()
+                                           if k not in ("method", "tolerance")}
 
     def _build(self):
         if self.p["depth"] >= 0:

@@ -140,18 +140,21 @@ class FlexuralBreaking:
         self.every = float(every)
         self.rho = float(rho)
         self.next_check = -math.inf
-        st = ctx.state
-        self.h = 0.5 * (st.thickness[cm.ji] + st.thickness[cm.jj])
-        self.E = 0.5 * (cm.E[cm.ji] + cm.E[cm.jj])
-        #: strain of every joint at the last check [1] (NaN: not evaluated, e.g. broken)
-        self.strain = np.full(cm.n_joints, np.nan)
+        #: strain of every joint at the last check [1] (NaN: not evaluated, e.g. broken); as
+        #: long as the joint slots, so that joints a process creates are checked too
+        self.strain = np.full(cm.joint_slots, np.nan)
 
     def strains(self, t: float, q: np.ndarray, joints: np.ndarray) -> np.ndarray:
         """``min(eps_f, eps_r)`` of intact ``joints`` at time ``t`` [s] for state ``q``."""
         cm, f, st, ctx = self.cm, self.field, self.ctx.state, self.ctx
         lat, lon, de, dn = (a[joints] for a in cm.joint_lines(q))
+        # the joints' ice as it is now (a process may have changed the thickness or made the
+        # joint)
+        ji, jj = cm.ji[joints], cm.jj[joints]
+        h = 0.5 * (st.thickness[ji] + st.thickness[jj])
+        E = 0.5 * (cm.E[ji] + cm.E[jj])
         # across the joint: the normal of its edge
-        eps_f = 0.5 * self.h[joints] * np.abs(f.curvature(t, lat, lon, dn, -de))
+        eps_f = 0.5 * h * np.abs(f.curvature(t, lat, lon, dn, -de))
         out = eps_f.copy()
         hot = eps_f > self.eps_c
         if not hot.any():
@@ -185,7 +188,7 @@ class FlexuralBreaking:
             M, chord = _cut(members, cx, cy, load, vx, vy, st.vert_offsets, mx[a], my[a],
                             dn[a], -de[a], tol)
             if chord > 0.0:
-                eps_r = 6.0 * abs(M) / (self.E[k] * chord * self.h[k] ** 2)
+                eps_r = 6.0 * abs(M) / (E[a] * chord * h[a] ** 2)
                 out[a] = min(eps_f[a], eps_r)
         return out
 

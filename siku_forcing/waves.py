@@ -39,6 +39,7 @@ from siku_core.interfaces import Field, ForcingSource
 from siku_core.state import FREE
 
 from .drag import drag_stability_limit, quadratic_drag
+from .wave_methods import LINES_PARAMS, LinesMixin
 
 #: von Kármán constant of the log-layer drag coefficient (Orzech et al. eq. 6)
 KAPPA = 0.41
@@ -274,6 +275,7 @@ class WaveField(Field):
         self.amp = np.ascontiguousarray(amp, dtype=float)
         self.omega = np.ascontiguousarray(omega, dtype=float)
         self.k = k
+        self.theta = th
         self.kx = np.ascontiguousarray(k * np.sin(th))
         self.ky = np.ascontiguousarray(k * np.cos(th))
         self.phase = np.ascontiguousarray(phase, dtype=float)
@@ -341,7 +343,7 @@ class LinearWave(WaveField):
                 np.array([p["direction"]]), np.array([math.radians(p["phase"])]))
 
 
-class Jonswap(WaveField):
+class Jonswap(LinesMixin, WaveField):
     """A directional sea: JONSWAP spectrum, ``cos^2s`` spreading, random phases from the seed.
 
     ``n_frequencies`` bins of equal width over ``[f_low, f_high] × f_p`` and ``n_directions``
@@ -366,6 +368,7 @@ class Jonswap(WaveField):
         "f_high": Param(4.0, "1", "highest frequency, in units of the peak frequency", min=1.0),
         "seed": Param(-1, "1", "random seed of the phases (-1: the scene's [run] seed)",
                       type=int, min=-1),
+        **LINES_PARAMS,
         **WaveField.common,
     }
     seed = 0

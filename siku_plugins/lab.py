@@ -456,6 +456,12 @@ def _cmd_lab(args) -> int:
                              length=length, width=width, seed=args.seed, jointed=args.jointed)
         tables.append(tab)
         print("\n".join(tab.rows()))
+        if test == "flexure":     # and out of the plane: siku_plugins.lab_bending
+            from .lab_bending import vertical_flexure
+
+            for s in strengths:
+                print("\n".join(vertical_flexure(s, element_size=args.element_size,
+                                                  length=args.length or 30.0).rows()))
     out = Path(args.out_dir or ".") / f"siku_lab_{args.test}.png"
     out.parent.mkdir(parents=True, exist_ok=True)
     print(f"picture: {plot_curves(tables, out)}", file=sys.stderr)

@@ -225,3 +225,76 @@ def test_siku_fsd_grid_without_an_output_grid_is_one_line_and_exit_2(broken_pack
     assert r.returncode == 2 and "[output.grid]" in r.stderr
     assert not (tmp_path / "a.nc").exists()  # refused before the work
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_siku_plot_draws_the_distribution_of_an_output_and_of_a_distribution_file(
+        broken_pack, tmp_path):
+    from siku_io.output.marks import is_picture
+
+    path = broken_pack[0]
+    cli = [sys.executable, "-m", "siku_core.cli"]
+    r = subprocess.run([*cli, "plot", str(path), "--fsd", "--out-dir", str(tmp_path / "a")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    png = tmp_path / "a" / "pack_fsd.png"
+    assert r.stdout.split() == [str(png)] and is_picture(png)
+    nc = tmp_path / "pack.fsd.nc"
+    assert subprocess.run([*cli, "fsd", str(path), "--out", str(nc), "--min-tail", "2"],
+                          capture_output=True).returncode == 0
+    for _ in range(2):  # the second replaces its own picture
+        r = subprocess.run([*cli, "plot", str(nc), "--out-dir", str(tmp_path / "b")],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        assert is_picture(tmp_path / "b" / "pack_fsd.png")
+    mine = tmp_path / "c" / "pack_fsd.png"
+    mine.parent.mkdir()
+    mine.write_bytes(b"a user's file")
+    r = subprocess.run([*cli, "plot", str(nc), "--out-dir", str(mine.parent)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert mine.read_bytes() == b"a user's file"
+
+
+def test_siku_grid_puts_the_floe_sizes_per_cell_among_its_fields(broken_pack):
+    # the grid of the test above through siku grid: the same floe fields as siku fsd --grid
+    from siku_io.analysis.fsd import grid_distribution
+    from siku_io.analysis.gridded_fields import grid_output
+    from siku_io.analysis.regular_grid import GridCfg
+
+    path, side, area = broken_pack
+    R = 6_371_000.0
+    dlat = math.degrees(100.0 / R)
+    dlon = dlat / math.cos(math.radians(2 * dlat))
+    cfg = GridCfg(kind="lonlat", lon=(0.0, 6 * dlon), lat=(0.0, 4 * dlat), dlon=3 * dlon,
+                  dlat=2 * dlat, leads=False)
+    g = grid_output(path, cfg)
+    want = grid_distribution(path, cfg)
+    for k in ("floe_number", "floe_area_mean", "floe_caliper_mean"):
+        assert np.array_equal(g[k].values, want[k].values), k
+    assert g["floe_area_mean"].attrs["units"] == "m2"
+    assert sorted(g["floe_area_mean"].values[-1].ravel()) == pytest.approx(
+        sorted(np.bincount(side, area)), rel=1e-6)
+    only = grid_output(path, cfg.model_copy(update={"fields": ["floe_number"]}))
+    assert "floe_number" in only and "floe_caliper_mean" not in only
+    assert "floe_number" not in grid_output(path, cfg.model_copy(update={"fields": ["u"]}))
+
+
+def test_siku_grid_without_the_runs_joints_grids_the_rest(broken_pack, monkeypatch, capsys):
+    # a run whose scene cannot be built again: no floe fields by default (said on stderr), a
+    # refusal when they are asked for by name
+    from siku_core import DataError
+    from siku_io.analysis import fsd
+    from siku_io.analysis.gridded_fields import grid_output
+    from siku_io.analysis.regular_grid import GridCfg
+
+    def fails(path, calipers=True):
+        raise DataError(f"{path}: its scene builds 3 joints but the file records 38")
+
+    monkeypatch.setattr(fsd, "output_floes", fails)
+    cfg = GridCfg(kind="lonlat", lon=(-0.01, 0.02), lat=(-0.01, 0.02), resolution=0.01,
+                  leads=False)
+    g = grid_output(broken_pack[0], cfg)
+    assert "concentration" in g and "floe_number" not in g
+    assert "no floe sizes on the grid" in capsys.readouterr().err
+    with pytest.raises(DataError, match="38"):
+        grid_output(broken_pack[0], cfg.model_copy(update={"fields": ["floe_area_mean"]}))

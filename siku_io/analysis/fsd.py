@@ -5,8 +5,9 @@ calipers, the distribution on logarithmic area bins and the power-law exponent o
   ``siku_core.contact_joints.Joints.floe_labels``); an element without intact joints is a
   floe of its own. Labels come from ``scipy.sparse.csgraph.connected_components`` on the joint
   table; the joint pairs of a run are rebuilt from the scene stored in its output file (they are
-  fixed for a run), their intact flags at each snapshot are read from the contact model's
-  history (``/states/history/contacts/intact``).
+  fixed for a run, unless a process creates joints: then each snapshot's pairs are read from
+  ``/states/history/contacts/pairs``), their intact flags at each snapshot are read from the
+  contact model's history (``/states/history/contacts/intact``).
 * **Area** of a floe ``A = Σ a_e`` [m²], the sum of its elements' areas.
 * **Mean caliper** ``d = P_hull / π`` [m]: the mean over directions of the floe's width, which
   by Cauchy's formula is the perimeter of its convex hull over π (a disc of diameter ``D`` gives
@@ -251,7 +252,7 @@ def joint_table(path) -> tuple[np.ndarray, np.ndarray]:
     scene = scene_from_text(text, f"{path}: its scene", Path(where) if where else None)
     sim = Simulation(scene, out=False, progress=False)
     cm = sim.contacts
-    n = cm.n_joints if cm is not None else 0
+    n = cm.joint_slots if cm is not None else 0
     if n != nj:
         raise DataError(f"{path}: its scene builds {n} joints but the file records {nj}")
     if n == 0:
@@ -272,10 +273,15 @@ def output_floes(path, calipers: bool = True):
         off = f["geometry/vert_offsets"][()]
         key = "states/history/contacts/intact"
         intact = f[key][:n_t].astype(bool) if key in f else np.zeros((n_t, 0), bool)
+        # a run whose processes create joints records every snapshot's joint pairs
+        key = "states/history/contacts/pairs"
+        pairs = f[key][:n_t] if key in f else None
         q = f["states/q"][:n_t]
         verts = f["geometry/verts"][()]
     out = []
     for t in range(n_t):
+        if pairs is not None:
+            ji, jj = pairs[t, :, 0], pairs[t, :, 1]
         count, label = floe_labels(len(area), ji, jj, intact[t])
         cal = np.full(count, np.nan)
         if calipers:
@@ -322,7 +328,7 @@ def grid_distribution(path, cfg):
     dimensions."""
     import xarray as xr
 
-    from siku_io.analysis.gridded_fields import cell_means, snapshots
+    from siku_io.analysis.gridded_fields import snapshots
     from siku_io.analysis.regular_grid import Grid
     from siku_io.output.xr import open_output
 
@@ -330,19 +336,8 @@ def grid_distribution(path, cfg):
     ds = open_output(path)
     grid = Grid(cfg, float(ds.attrs["radius"]))
     ny, nx = grid.shape
-    nc = ny * nx
-    A = grid.cell_area.ravel()
-    rows = []
-    for snap, f in zip(snapshots(ds, open_output(path, group="breaks")), fl):
-        el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
-        w = frac * snap.area[el]
-        ice = np.bincount(cell, w, nc)
-        floe_a = f.area[f.label][el]
-        rows.append({
-            "concentration": ice / A,
-            "floe_number": np.bincount(cell, w / floe_a, nc),
-            "floe_area_mean": cell_means(cell, w, ice, floe_a, np.nan),
-            "floe_caliper_mean": cell_means(cell, w, ice, f.caliper[f.label][el], np.nan)})
+    rows = [floe_cells(grid, snap, f, with_concentration=True)
+            for snap, f in zip(snapshots(ds, open_output(path, group="breaks")), fl)]
     dims = ("time", *grid.dims)
     coords = {k: xr.Variable(d, v, a) for k, (d, v, a) in grid.cf_coords().items()}
     coords["time"] = xr.Variable("time", [f.time for f in fl], {
@@ -352,4 +347,24 @@ def grid_distribution(path, cfg):
     out = xr.Dataset(data, coords)
     out.attrs.update({"title": "floe size distribution per cell",
                       "grid": cfg.model_dump_json(exclude_none=True)})
+    return out
+
+
+def floe_cells(grid, snap, floes: Floes, with_concentration: bool = False) -> dict:
+    """The floe fields of :data:`GRID_FSD` per cell (flat arrays) of one snapshot ``snap``
+    (``siku_io.analysis.gridded_fields.Snapshot``) whose floes are ``floes``; the
+    concentration too if asked."""
+    from siku_io.analysis.gridded_fields import cell_means
+
+    nc = grid.shape[0] * grid.shape[1]
+    el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
+    w = frac * snap.area[el]
+    ice = np.bincount(cell, w, nc)
+    floe_a = floes.area[floes.label][el]
+    out = {"floe_number": np.bincount(cell, w / floe_a, nc),
+           "floe_area_mean": cell_means(cell, w, ice, floe_a, np.nan),
+           "floe_caliper_mean": cell_means(cell, w, ice, floes.caliper[floes.label][el],
+                                           np.nan)}
+    if with_concentration:
+        out["concentration"] = ice / grid.cell_area.ravel()
     return out

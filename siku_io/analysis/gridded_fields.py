@@ -23,6 +23,10 @@ each element with each cell and the cell's true area ``A_c``):
   (maximum shear stress); NaN where a cell holds no ice;
 * ``broken_joints``: joints broken by then whose midpoint (between the centres of their two
   elements) lies in the cell [1], the open leads the joints record;
+* floe sizes (``siku_io.analysis.fsd``, the floes over each snapshot's intact joints):
+  ``floe_number`` (the floes in the cell, each element counting its share of the cell times its
+  area over its floe's), ``floe_area_mean`` [m²] and ``floe_caliper_mean`` [m] (of the floe the
+  ice in the cell belongs to, weighted by that ice's area);
 * with thickness categories (``siku_core.categories``: fractions ``a_k``, thicknesses ``h_k``
   per element), along a ``category`` dimension: ``category_fraction`` = sum of ``fraction ×
   area × a_k`` / sum of ``fraction × area`` [1] (the mean fraction of category ``k`` over the
@@ -64,6 +68,9 @@ GRID_FIELDS: dict[str, tuple[str, str, str]] = {
     "n_elements": ("1", "", "element centres in the cell"),
     "broken_joints": ("1", "", "broken joints with their midpoint in the cell"),
 }
+#: the floe fields of ``siku fsd`` (``siku_io.analysis.fsd.GRID_FSD``): floes over the intact
+#: joints of each snapshot
+FLOE_FIELDS = ("floe_number", "floe_area_mean", "floe_caliper_mean")
 
 #: gridded thickness categories, dimensions (time, category, y, x): name -> (units, standard
 #: name or "", long name)
@@ -324,12 +331,30 @@ def grid_output(path, cfg: GridCfg, progress: bool = False):
     ds = ds.isel(time=keep)
     rows = []
     snaps = snapshots(ds, breaks)
+    floes = None
+    if cfg.fields is None or set(FLOE_FIELDS) & set(cfg.fields):
+        from siku_core.errors import SikuError
+        from siku_io.analysis.fsd import floe_cells, output_floes
+
+        try:  # the floes need the run's joints: its scene is built again (siku fsd)
+            floes = output_floes(path, calipers=cfg.fields is None
+                                 or "floe_caliper_mean" in cfg.fields)
+        except SikuError as exc:
+            if cfg.fields is not None:  # asked for by name: refused, one line
+                raise
+            import sys
+
+            print(f"{path}: no floe sizes on the grid ({exc})", file=sys.stderr)
     if progress:
         from tqdm import tqdm
 
         snaps = tqdm(snaps, total=ds.sizes["time"], desc="gridding", unit="snapshot")
-    for snap in snaps:
+    ny, nx = grid.shape
+    for i, snap in enumerate(snaps):
         rows.append(grid_snapshot(grid, snap))
+        if floes is not None:
+            cells = floe_cells(grid, snap, floes[keep[i]])
+            rows[-1].update({k: v.reshape(ny, nx) for k, v in cells.items()})
     return to_dataset(grid, rows, ds, cfg)
 
 
@@ -344,7 +369,10 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
                     f"{src[k].attrs.get('long_name', k)} ({src[k].attrs['grid']} over the "
                     "elements in the cell)")
                 for k in declared_in(src)}
-    known = {**GRID_FIELDS, **declared}
+    from siku_io.analysis.fsd import GRID_FSD
+
+    known = {**GRID_FIELDS, **{k: (GRID_FSD[k][0], "", GRID_FSD[k][1]) for k in FLOE_FIELDS},
+             **declared}
     if rows and "category_fraction" in rows[0]:
         known.update(CATEGORY_GRID_FIELDS)
     names = [k for k in known if rows and k in rows[0] and (cfg.fields is None

@@ -8,6 +8,10 @@ one ``update`` is one time step. Every variable lives on grid 0, the exchange gr
 degrees on a ``lonlat`` grid, projected metres on a ``polar_stereographic`` one), values flattened
 row by row (``y`` slowest), vectors along the grid's x and y axes.
 
+A scene whose ``waves`` forcing takes the ``spectral`` field has two more grids and the
+variables of ``siku_io.coupling.waves``: the incident spectrum as an input, the ice's attenuation
+per cell as an output.
+
 The scene's ``[output]`` file is written only with ``[coupling] write_output = true``.
 
 Example::
@@ -41,6 +45,7 @@ _INPUT_FIELDS = {
     "sea_ice_bottom_surface__y_component_of_stress": "tau_y",
     "atmosphere_bottom_air_flow__x_component_of_velocity": "wind_u",
     "atmosphere_bottom_air_flow__y_component_of_velocity": "wind_v",
+    "sea_ice_bottom_surface__dynamic_pressure": "pressure",
 }
 #: name -> (exchange key, units, "in"/"out", description). Input keys are fields of the
 #: ``exchange`` forcing source; output keys those of ``siku_io.coupling.exchange.ice_fields``
@@ -77,6 +82,7 @@ class SikuBmi(Bmi):
         self._state = "created"  # "initialized", then "finalized"
         self._out: dict[str, np.ndarray] = {}
         self._out_step = -1
+        self.waves = None  # the spectral wave field's coupling (siku_io.coupling.waves)
 
     def __getattr__(self, name: str):
         # the run's attributes (grid, exchange...) exist only between initialize and finalize
@@ -114,6 +120,13 @@ class SikuBmi(Bmi):
             raise SceneError(f"{scene.label}: a coupled run needs [[forcing]] source = "
                              "\"exchange\" to receive the other model's fields")
         self.exchange: Exchange = ex[0]
+        for proc in self.sim.processes:     # a floating process takes its wave from the grid
+            if hasattr(proc, "couple_exchange"):
+                proc.couple_exchange(self.exchange)
+        from .waves import WaveCoupling, spectral_field
+
+        field = spectral_field(self.sim)
+        self.waves = WaveCoupling(field) if field is not None else None
         self.sim.open_outputs()
         self._before = grid_velocity(self.sim, self.grid)
         self._interval = 0.0
@@ -163,39 +176,54 @@ class SikuBmi(Bmi):
         if self.sim is not None:
             self.sim.close()
             self.sim = None
+            self.waves = None
             self._state = "finalized"
 
     # ------------------------------------------------------------------ info
     def get_component_name(self) -> str:
         return "siku"
 
+    def _wave_names(self, way: str) -> tuple[str, ...]:
+        from .waves import VARIABLES as WAVES
+
+        if self.waves is None:
+            return ()
+        return tuple(k for k, v in WAVES.items() if v[2] == way)
+
     def get_input_item_count(self) -> int:
-        return len(INPUT_NAMES)
+        return len(self.get_input_var_names())
 
     def get_output_item_count(self) -> int:
-        return len(OUTPUT_NAMES)
+        return len(self.get_output_var_names())
 
     # the BMI 1 names of the counts, which some tools still call
     get_input_var_name_count = get_input_item_count
     get_output_var_name_count = get_output_item_count
 
     def get_input_var_names(self) -> tuple[str, ...]:
-        return INPUT_NAMES
+        return INPUT_NAMES + self._wave_names("in")
 
     def get_output_var_names(self) -> tuple[str, ...]:
-        return OUTPUT_NAMES
+        return OUTPUT_NAMES + self._wave_names("out")
 
     # ------------------------------------------------------------------ variables
     def _var(self, name: str):
-        try:
+        from .waves import VARIABLES as WAVES
+
+        if name in VARIABLES:
             return VARIABLES[name]
-        except KeyError:
-            raise KeyError(f"unknown variable {name!r}; siku has: "
-                           + ", ".join(VARIABLES)) from None
+        if self.waves is not None and name in WAVES:
+            return WAVES[name][:4]
+        known = list(VARIABLES) + (list(WAVES) if self.waves is not None else [])
+        raise KeyError(f"unknown variable {name!r}; siku has: " + ", ".join(known)
+                       + ("" if self.waves is not None else " (and, in a scene with the "
+                          "spectral wave field, " + ", ".join(WAVES) + ")"))
 
     def get_var_grid(self, name: str) -> int:
+        from .waves import VARIABLES as WAVES
+
         self._var(name)
-        return 0
+        return WAVES[name][4] if name in WAVES else 0
 
     def get_var_type(self, name: str) -> str:
         self._var(name)
@@ -252,6 +280,8 @@ class SikuBmi(Bmi):
         input); for outputs the values at the current time (recomputed after an update)."""
         key, _, way, _ = self._var(name)
         self._run()
+        if self.get_var_grid(name):
+            return self.waves.input(key) if way == "in" else self.waves.output(key)
         if way == "in":
             return self.exchange.fields[key].reshape(-1)
         return self._outputs()[key]
@@ -312,62 +342,75 @@ class SikuBmi(Bmi):
         self._run()
         if way != "in":
             raise ValueError(f"{name} is an output of siku; its inputs are: "
-                             + ", ".join(INPUT_NAMES))
+                             + ", ".join(self.get_input_var_names()))
+        if self.get_var_grid(name):
+            return self.waves.input(key)
         return self.exchange.fields[key].reshape(-1)
+
+    def _set(self, name: str, a: np.ndarray, where, values: np.ndarray) -> None:
+        if self.get_var_grid(name):
+            self.waves.set_input(name, values)  # refused before anything is written
+            a[where] = values
+            return
+        a[where] = values
+        self.exchange.given.add(self._var(name)[0])
+        self.exchange.inputs_changed()
 
     def set_value(self, name: str, src: np.ndarray) -> None:
         a = self._input(name)
-        a[:] = self._values(name, src, a.size)
-        self.exchange.inputs_changed()
+        self._set(name, a, slice(None), self._values(name, src, a.size))
 
     def set_value_at_indices(self, name: str, inds: np.ndarray, src: np.ndarray) -> None:
         a = self._input(name)
         inds = self._indices(name, inds, a.size)
-        a[inds] = self._values(name, src, inds.size)
-        self.exchange.inputs_changed()
+        self._set(name, a, inds, self._values(name, src, inds.size))
 
     # ------------------------------------------------------------------ grid
     def _check_grid(self, grid: int) -> None:
-        if grid != 0:
-            raise KeyError(f"unknown grid {grid}; siku has grid 0 (the exchange grid)")
+        if grid == 0 or (grid in (1, 2) and self.waves is not None):
+            return
+        raise KeyError(f"unknown grid {grid}; siku has grid 0 (the exchange grid)" + (
+            ", 1 (the spectral wave grid) and 2 (the wave components)" if self.waves is not None
+            else ""))
+
+    def _shape(self, grid: int) -> tuple[int, ...]:
+        self._check_grid(grid)
+        return tuple(self.grid.shape) if grid == 0 else self.waves.shape(grid)
 
     def get_grid_rank(self, grid: int) -> int:
-        self._check_grid(grid)
-        return 2
+        return len(self._shape(grid))
 
     def get_grid_size(self, grid: int) -> int:
-        self._check_grid(grid)
-        ny, nx = self.grid.shape
-        return ny * nx
+        return int(np.prod(self._shape(grid)))
 
     def get_grid_type(self, grid: int) -> str:
         self._check_grid(grid)
         return "uniform_rectilinear"
 
     def get_grid_shape(self, grid: int, shape: np.ndarray) -> np.ndarray:
-        self._check_grid(grid)
-        shape[:] = self.grid.shape
+        shape[:] = self._shape(grid)
         return shape
 
     def get_grid_spacing(self, grid: int, spacing: np.ndarray) -> np.ndarray:
         self._check_grid(grid)
         g = self.grid
-        spacing[:] = (g.y_edges[1] - g.y_edges[0], g.x_edges[1] - g.x_edges[0])
+        spacing[:] = (g.y_edges[1] - g.y_edges[0], g.x_edges[1] - g.x_edges[0]) if grid == 0 \
+            else self.waves.spacing(grid)
         return spacing
 
     def get_grid_origin(self, grid: int, origin: np.ndarray) -> np.ndarray:
         self._check_grid(grid)
-        origin[:] = (self.grid.y[0], self.grid.x[0])
+        origin[:] = (self.grid.y[0], self.grid.x[0]) if grid == 0 else self.waves.origin(grid)
         return origin
 
     def get_grid_x(self, grid: int, x: np.ndarray) -> np.ndarray:
         self._check_grid(grid)
-        x[:] = self.grid.x
+        x[:] = self.grid.x if grid == 0 else self.waves.x(grid)
         return x
 
     def get_grid_y(self, grid: int, y: np.ndarray) -> np.ndarray:
         self._check_grid(grid)
-        y[:] = self.grid.y
+        y[:] = self.grid.y if grid == 0 else self.waves.y(grid)
         return y
 
     def get_grid_z(self, grid: int, z: np.ndarray) -> np.ndarray:
@@ -377,13 +420,17 @@ class SikuBmi(Bmi):
         return self.get_grid_size(grid)
 
     def get_grid_edge_count(self, grid: int) -> int:
-        self._check_grid(grid)
-        ny, nx = self.grid.shape
+        shape = self._shape(grid)
+        if len(shape) == 1:
+            return shape[0] - 1
+        ny, nx = shape
         return ny * (nx - 1) + nx * (ny - 1)
 
     def get_grid_face_count(self, grid: int) -> int:
-        self._check_grid(grid)
-        ny, nx = self.grid.shape
+        shape = self._shape(grid)
+        if len(shape) == 1:
+            return 0
+        ny, nx = shape
         return (ny - 1) * (nx - 1)
 
     def _unstructured(self, *args: Any) -> np.ndarray:

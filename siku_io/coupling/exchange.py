@@ -50,6 +50,8 @@ INPUTS: dict[str, tuple[str, str]] = {
     "tau_y": ("N m-2", "force per area on the ice along y"),
     "wind_u": ("m s-1", "wind velocity (10 m) along x"),
     "wind_v": ("m s-1", "wind velocity (10 m) along y"),
+    "pressure": ("Pa", "dynamic pressure on the ice bottom (in excess of the still-water "
+                 "hydrostatic), for the floating process's wave load"),
 }
 
 
@@ -182,6 +184,9 @@ class Exchange(ForcingSource):
         ny, nx = self.grid.shape
         #: the input fields, ``(ny, nx)`` each (INPUTS); a coupled model sets them
         self.fields = {k: np.zeros((ny, nx)) for k in INPUTS}
+        #: the input fields a coupled model has set (the floating process uses the pressure
+        #: only once given)
+        self.given: set[str] = set()
         self.free = self.st.flags == FREE
         self.cell_force = np.zeros((2, ny * nx))
         self.recorded = 0

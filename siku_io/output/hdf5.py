@@ -256,7 +256,7 @@ class HDF5Writer(Writer):
             if k in known:
                 self.diag[k].attrs["units"], self.diag[k].attrs["long_name"] = known[k]
         self.breaks = None
-        if ctx.contacts is not None and ctx.contacts.n_joints:
+        if ctx.contacts is not None and ctx.contacts.joint_slots:
             from siku_core.contact_law import BREAK_MODES
 
             b = f.create_group("breaks")

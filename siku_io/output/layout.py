@@ -80,6 +80,10 @@ CONTACT_HISTORY: dict[str, tuple[str, str]] = {
     "n_broken_total": ("1", "joints broken since the start of the run"),
     "break_mode": ("1", "break mode of each joint (0: intact; codes as /breaks/mode)"),
     "break_time": ("s", "model time each joint broke (NaN: intact, -inf: before the record)"),
+    "joints": ("1", "joints the run holds: built at set-up, then those processes created; the "
+               "rows beyond are reserved slots"),
+    "pairs": ("1", "the two elements of every joint (-1 in a reserved slot)"),
+    "ends_i": ("m", "the joints' ends in their first element's frame"),
     "contact_pairs": ("1", "element pairs (i < j) in contact, under a law with per-contact "
                       "history (contact_history_names); -1 beyond contact_count"),
     "contact_hist": ("1", "the contact law's history columns per pair in contact "

@@ -140,8 +140,9 @@ def in_child(fn: Callable[[], str | None], timeout: float = 10.0) -> str | None:
 
 
 def netcdf_kind(path: str | Path) -> str | None:
-    """``"netcdf output"``, ``"export"``, ``"grid"`` or ``"summary"`` for a NetCDF file siku
-    wrote, else ``None``. The file is read in a child process (:func:`in_child`): a damaged
+    """``"netcdf output"``, ``"export"``, ``"grid"``, ``"summary"`` or ``"fsd"`` (a floe size
+    distribution of ``siku fsd``) for a NetCDF file siku wrote, else ``None``. The file is
+    read in a child process (:func:`in_child`): a damaged
     file that crashes the NetCDF library is not identified, and this process goes on."""
     path = Path(path)
     head = _head(path)
@@ -203,6 +204,9 @@ def _netcdf_kind(path: Path) -> str | None:
             a = set(nc.ncattrs())
             if "kind" in a and nc.getncattr("kind") == "siku ensemble summary":
                 return "summary"
+            if ("kind" in a and nc.getncattr("kind") == "siku floe size distribution"
+                    and "area_bin" in nc.dimensions):
+                return "fsd"
             if "grid" in a and str(nc.getncattr("source") if "source" in a else ""
                                    ).endswith("(siku grid)"):
                 return "grid"

@@ -151,8 +151,8 @@ class Beams:
 
 @njit(cache=True)
 def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw, amp, kx, ky,
-                   om, ph, kk, depth, kap, ramp, rho_g, draft, h, area, M3, B3, M1, C1, B1, M2, C2,
-                   B2, load, indptr, indices, data, u, v):
+                   om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, B3, M1, C1, B1,
+                   M2, C2, B2, load, indptr, indices, data, u, v):
     """:func:`siku_plugins.floating.kernels.advance` with the beams' stiffness (CSR over the
     ``3 n`` degrees of freedom ``u``, velocities ``v``, both in place) and constant vertical
     loads ``load`` [N]: the same velocity Verlet, every element at once per sub-step."""
@@ -175,7 +175,7 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
             if not free[i]:
                 continue
             f, g1, g2 = _excite(t, i, xc[i], yc[i], e0[i], e1[i], qoff[i], qoff[i + 1], qa,
-                                qb, qu, qv, qw, amp, kx, ky, om, ph, att[i], kap, ramp)
+                                qb, qu, qv, qw, amp, kx, ky, om, ph, att[i], kap, ramp, ext)
             d = draft[i]
             ka = rho_g * area[i]
             F[3 * i] = ka * (min(max(d - u[3 * i] + f / area[i], 0.0), h[i]) - d) + load[i]

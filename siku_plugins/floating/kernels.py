@@ -69,14 +69,16 @@ def _attenuation(k, d, depth):
 
 @njit(cache=True, inline="always")
 def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap,
-            ramp):
+            ramp, ext):
     """``(∫ eta' dA [m³], ∫ u eta' dA, ∫ v eta' dA [m⁴])`` over element ``i``'s bottom,
     ``eta'`` the incident elevation attenuated to the draft (``att`` per component), ``u, v``
     the principal coordinates of the quadrature points. With ``kap`` (``(n, M, 3, 2)``, not
     empty) each component's three complex loads are multiplied by ``kap[i, j, mode]`` (real,
     imaginary): the ratio of capytaine's Froude–Krylov plus diffraction excitation to this
     Froude–Krylov integral (``siku_plugins.floating.hydro.diffraction_factors``). ``ramp`` [s]
-    > 0: the loads grow as ``(1 - cos(pi t / ramp)) / 2`` until ``t = ramp``."""
+    > 0: the loads grow as ``(1 - cos(pi t / ramp)) / 2`` until ``t = ramp``. ``ext`` (``(n,
+    3)``, not empty): loads added as they are, not ramped (a coupled model's, through the
+    exchange grid: ``siku_plugins.floating.process``)."""
     f = 0.0
     g1 = 0.0
     g2 = 0.0
@@ -116,13 +118,17 @@ def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, p
         f *= r
         g1 *= r
         g2 *= r
+    if ext.shape[0] > 0:
+        f += ext[i, 0]
+        g1 += ext[i, 1]
+        g2 += ext[i, 2]
     return f, g1, g2
 
 
 @njit(cache=True)
 def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                    qa, qb, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     """Elements ``lo_e`` to ``hi_e`` of :func:`advance`."""
     natt = amp.shape[0]
@@ -139,7 +145,7 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
         f, g1, g2 = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw,
-                            amp, kx, ky, om, ph, att, kap, ramp)
+                            amp, kx, ky, om, ph, att, kap, ramp, ext)
         c = cphi[i]
         s = sphi[i]
         # tilts as slopes along the principal axes: (sx, sy) = (-pitch, roll) locally
@@ -168,7 +174,7 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
             s2i += dt * v2h
             if wave:
                 f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa,
-                                    qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap, ramp)
+                                    qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap, ramp, ext)
             fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
             vzi = (vzh + hd * fh / m3) / den3
             v1i = (v1h + hd * (-c1 * s1i + rho_g * g1) / m1) / den1
@@ -184,19 +190,19 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
 @njit(cache=True, parallel=True)
 def _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                       qa, qb, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     n = z.shape[0]
     for ch in prange(nch):
         lo_e, hi_e = chunk_bounds(ch, nch, n)
         _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
                        qoff, qa, qb, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
 
 
 def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+            amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
             M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
     """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
     the damping taken half explicitly (first half step) and half implicitly (second), so that
@@ -209,10 +215,10 @@ def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb
     if nch > 1:
         _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                           qa, qb, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
     else:
         _advance_range(0, z.shape[0], n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
                        qoff, qa, qb, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area,
+                          amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
                           M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)

@@ -114,7 +114,7 @@ def _lagged(Ki, row, hp, L):
 
 @njit(cache=True)
 def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
-                  amp, kx, ky, om, ph, kk, depth, kap, ramp, rho_g, draft, h, area, M3, M1, C1,
+                  amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, M1, C1,
                   M2, C2, K, kidx, hist, head, z, vz, roll, roll_rate, pitch, pitch_rate):
     """``n_sub`` sub-steps of ``dt`` [s] from ``t0`` of heave and the two principal slopes of
     every free element, each mode with its memory force ``mu = dt Σ_j w_j K_j x'_{n-j}``
@@ -146,7 +146,7 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
         f, g1, g2 = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky,
-                            om, ph, att, kap, ramp)
+                            om, ph, att, kap, ramp, ext)
         c = cphi[i]
         s = sphi[i]
         sx = -pitch[i]
@@ -181,7 +181,7 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
                 x[m] += dt * vh[m]
             if wave:
                 f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa, qb, qu,
-                                    qv, qw, amp, kx, ky, om, ph, att, kap, ramp)
+                                    qv, qw, amp, kx, ky, om, ph, att, kap, ramp, ext)
             fk[0] = ka * (min(max(d - x[0] + f / area[i], 0.0), h[i]) - d)
             fk[1] = -cc[1] * x[1] + rho_g * g1
             fk[2] = -cc[2] * x[2] + rho_g * g2

@@ -32,8 +32,9 @@ field of the scene's first ``[[forcing]]`` table that has one (``linear_wave``, 
 ``wave = "none"``: still water): ``eta_d = sum a_j att_j cos(psi_j)``, ``att_j = e^{-k_j d}``
 in deep water, ``cosh(k_j (H - d)) / cosh(k_j H)`` in water of depth ``H``, integrated over the
 element's bottom by quadrature (``siku_plugins.floating.geometry``; by default as fine as the
-shortest wave needs) at its present horizontal position. Side-wall pressures and
-diffraction are not included (the wave's load is Froude–Krylov only).
+shortest wave needs) at its present horizontal position. ``wave = "exchange"``: a coupled
+model's elevation and dynamic pressure through the BMI (``siku_plugins.floating.coupled``).
+Side-wall pressures and diffraction are not included (the wave's load is Froude–Krylov only).
 
 Added mass and damping: with ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
 ``A_k = added_inertia rho_w A^{1/2} J_k`` and the damping as a fraction of critical, ``B33 = 2
@@ -105,8 +106,9 @@ class Floating(Process):
         "tilt_damping_ratio": Param(0.100, "1", "tilt radiation damping as a fraction of "
                                     "critical", min=0.0),
         "wave": Param("auto", "", "the incident wave: 'auto' (the field of the first "
-                      "[[forcing]] table with a wave field; still water if none) or 'none'",
-                      type=str, choices=("auto", "none")),
+                      "[[forcing]] table with a wave field; still water if none), 'none', or "
+                      "'exchange' (a coupled model's elevation and pressure through the BMI "
+                      "and the exchange grid)", type=str, choices=("auto", "none", "exchange")),
         "ramp": Param(0.0, "s", "the wave's loads grow from 0 as (1 - cos(pi t / ramp)) / 2 "
                       "over the first ramp seconds (0: from the start)", min=0.0),
         "initial_heave": Param(0.0, "m", "heave of every free element at the start"),
@@ -229,6 +231,10 @@ class Floating(Process):
             if ctx.contacts is None or not ctx.contacts.n_joints:
                 raise SceneError(f"{where}: bending = true needs jointed elements (a "
                                  "[contact] table whose elements are frozen together)")
+            if ctx.contacts.joint_slots > ctx.contacts.n_joints:
+                raise SceneError(f"{where}: bending = true bends the joints built at the start "
+                                 "only; a process here creates joints (refreeze weld = true): "
+                                 "use one or the other")
             from .bending import Beams
 
             self.beams = Beams(self, ctx)
@@ -315,7 +321,14 @@ class Floating(Process):
         """The wave field of the first ``[[forcing]]`` table that has one (module docstring),
         built from the same table (so the same sea the horizontal forcing feels)."""
         self.field = None
-        if self.p["wave"] == "none":
+        self.exchange = None
+        if self.p["wave"] == "exchange":
+            if not any(f.source == "exchange" for f in ctx.scene.cfg.forcing):
+                raise SceneError(f"{ctx.where(self.table)}: process 'floating': wave = "
+                                 "'exchange' needs a [[forcing]] table with source = "
+                                 "\"exchange\" (and [coupling.grid])")
+            return
+        if self.p["wave"] in ("none", "exchange"):
             return
         for k, f in enumerate(ctx.scene.cfg.forcing):
             if f.field is None:
@@ -327,6 +340,25 @@ class Floating(Process):
             field.setup(ctx)
             self.field = field
             return
+
+    def couple_exchange(self, exchange) -> None:
+        """Take the incident wave from ``exchange`` (the ``exchange`` forcing source whose
+        fields a coupled model sets through the BMI; ``siku_io.coupling.bmi`` calls this) when
+        ``wave = "exchange"``."""
+        if self.p["wave"] == "exchange":
+            self.exchange = exchange
+
+    def exchange_load(self, ctx) -> np.ndarray:
+        """``(n, 3)``: ``(∫ eta_d dA, ∫ u eta_d dA, ∫ v eta_d dA)`` of every element from the
+        exchange grid (``wave = "exchange"``; ``(0, 3)`` otherwise): ``eta_d = p / (rho_w g)``
+        where the coupled model gives the pressure ``p`` on the ice bottom, its elevation
+        otherwise (module docstring)."""
+        ex = self.exchange
+        if ex is None:
+            return np.zeros((0, 3))
+        from .coupled import exchange_load
+
+        return exchange_load(self, ctx, ex)
 
     # ------------------------------------------------------------------ the step
     def apply(self, ctx, dt: float) -> None:
@@ -349,11 +381,12 @@ class Floating(Process):
             fld._args()
             geo = (fld.lat0, fld.lon0, float(fld.radius))
             wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
-                    self.kap, float(self.p["ramp"]))
+                    self.kap, float(self.p["ramp"]), self.exchange_load(ctx))
         else:
             z0 = np.zeros(0)
             geo = (0.0, 0.0, 1.0)
-            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0)
+            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0,
+                    self.exchange_load(ctx))
         if mem is not None:
             from .memory import advance_modes
 
@@ -400,12 +433,13 @@ class Floating(Process):
             lat, lon, e0, e1 = centres_and_frames(st.q)
             xc, yc = fld.plane(lat, lon)
             wave = (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h),
-                    self.kap, float(self.p["ramp"]))
+                    self.kap, float(self.p["ramp"]), self.exchange_load(ctx))
         else:
             xc = yc = e1 = np.zeros(st.n)
             e0 = np.ones(st.n)
             z0 = np.zeros(0)
-            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0)
+            wave = (z0, z0, z0, z0, z0, z0, math.inf, np.zeros((0, 0, 3, 2)), 0.0,
+                    self.exchange_load(ctx))
         if bm is not None:
             csr = (bm.indptr, bm.indices, bm.data)
         else:

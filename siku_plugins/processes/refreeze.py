@@ -9,21 +9,36 @@ way until it reaches the intact ice's:
 
     sigma_r(tau) = strength * min(1, sqrt(tau / strength_time))
 
-``tau`` [s] the time since it refroze. While ``tau < strength_time`` the process breaks a
-refrozen joint (mode ``tension``) whose normal traction (opening positive, force over joint
-length and the thinner side's thickness, ``ContactModel.joint_tension``) exceeds
-``sigma_r(tau)``; from then on only the contact law's own strength holds it. Checked every time
-the process runs, so its timing resolution is the process's ``every`` (one step by default).
+``tau`` [s] the time since it refroze (or was made by ``weld``, below). While ``tau <
+strength_time`` the process breaks a refrozen joint (mode ``tension``) whose normal traction
+(opening positive, force over joint length and the thinner side's thickness,
+``ContactModel.joint_tension``) exceeds ``sigma_r(tau)``; from then on only the contact law's
+own strength holds it. Checked every time the process runs, so its timing resolution is the
+process's ``every`` (one step by default).
+
+With ``weld = true`` floes that touch and stay together freeze into one as well: two elements
+without a joint between them (neither intact nor broken: a broken one is the refreezing's) that
+carried a contact force at every check for ``weld_time`` [s] are joined by a new joint
+(``ContactModel.create_joints``) under the scene's joint contact law, at rest where they are,
+along the line where their outlines cross (``contact_overlaps.contact_lines``), with the same
+strength growth as a refrozen joint. A pair that parts forgets its time. The run reserves
+``weld_capacity`` new joints per element at set-up (none without ``weld``); a run that needs
+more stops in one line naming ``weld_capacity``, and one with more than ``weld_pairs`` touching
+pairs per element followed at once names ``weld_pairs``.
 """
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import numpy as np
 
 from siku_core.contact_law import BreakMode
+from siku_core.contact_overlaps import contact_lines
+from siku_core.errors import SceneError
 from siku_core.interfaces import Process
 from siku_core.params import Param
+from siku_core.state import MELTED
 
 
 def refrozen_strength(tau, strength: float, strength_time: float):
@@ -46,11 +61,36 @@ class Refreeze(Process):
         "strength": Param(5e5, "Pa", "tensile strength of a fully refrozen joint", min=0.0),
         "strength_time": Param(864000.0, "s", "time a refrozen joint takes to reach full "
                                "strength", min=1e-9),
+        "weld": Param(False, "1", "elements that stay in contact freeze into a new joint",
+                      type=bool),
+        "weld_time": Param(86400.0, "s", "time two elements must stay in contact to weld",
+                           min=0.0),
+        "weld_capacity": Param(1.0, "1", "new joints the run may make, per element (slots "
+                               "reserved at set-up)", min=0.0),
+        "weld_pairs": Param(8, "1", "touching pairs followed at once, per element", type=int,
+                            min=1),
     }
+
+    def joints_to_create(self, n_elements: int) -> int:
+        return math.ceil(self.p["weld_capacity"] * n_elements) if self.p["weld"] else 0
 
     def setup(self, ctx) -> None:
         self.ctx = ctx
-        n = ctx.contacts.n_joints if ctx.contacts is not None else 0
+        cm = ctx.contacts
+        if self.p["weld"] and (cm is None or not cm.law.uses_joints):
+            raise SceneError(f"{ctx.where(self.table)}: process 'refreeze' with weld = true "
+                             "needs a contact law with joints (distributed_spring, "
+                             "mohr_coulomb)")
+        n = cm.joint_slots if cm is not None else 0
+        #: with ``weld``: the touching pairs followed, as sorted keys (min * N + max) and the
+        #: model time since which they touch [s]; -1 / NaN beyond ``self.count``
+        m = ctx.state.n * int(self.p["weld_pairs"]) if self.p["weld"] else 0
+        self.keys = np.full(m, -1, dtype=np.int64)
+        self.since = np.full(m, np.nan)
+        self.count = 0
+        self.welded_total = 0
+        if not self.p["weld"]:  # reports what it does only
+            self.diagnostic_units = {"refrozen_joints": "1"}
         #: per joint: model time since which it has been broken and closed [s] (NaN: not)
         self.closed_since = np.full(n, np.nan)
         #: per joint: model time it refroze [s], while it is below full strength (NaN: not)
@@ -59,10 +99,12 @@ class Refreeze(Process):
 
     def apply(self, ctx, dt: float) -> None:
         cm = ctx.contacts
-        if cm is None or not cm.n_joints:
+        if cm is None or not cm.joint_slots:
             return
         t = ctx.time
         p = self.p
+        if p["weld"]:
+            self._weld(ctx, cm, t)
         k = np.flatnonzero(~cm.intact)
         if len(k):
             closed = cm.joint_gaps(k) <= p["gap"]
@@ -76,7 +118,7 @@ class Refreeze(Process):
                 since[due] = np.nan
             self.closed_since[k] = since
         # (a joint that refroze just now has felt no force yet)
-        young = np.flatnonzero(cm.intact & (self.refrozen_at < t))
+        young = np.flatnonzero(cm.intact & (self.refrozen_at[:cm.n_joints] < t))
         if len(young):
             tau = t - self.refrozen_at[young]
             weak = cm.joint_tension(young) > refrozen_strength(tau, p["strength"],
@@ -87,16 +129,67 @@ class Refreeze(Process):
             grown = ~weak & (tau >= p["strength_time"])
             self.refrozen_at[young[grown]] = np.nan
 
+    def _weld(self, ctx, cm, t: float) -> None:
+        """Pairs in contact without a joint: follow them, and freeze those due (module
+        docstring)."""
+        st, n = ctx.state, ctx.state.n
+        ks = (np.flatnonzero(cm.pair_active == 1) if len(cm.pair_active) == len(cm.pairs)
+              else np.zeros(0, np.int64))
+        i, j = cm.pairs[ks, 0], cm.pairs[ks, 1]
+        keys = np.minimum(i, j).astype(np.int64) * n + np.maximum(i, j)
+        jointed = np.minimum(cm.ji, cm.jj).astype(np.int64) * n + np.maximum(cm.ji, cm.jj)
+        ok = ~np.isin(keys, jointed) & (st.flags[i] != MELTED) & (st.flags[j] != MELTED)
+        ks, keys = ks[ok], keys[ok]
+        old = self.keys[:self.count]
+        at = np.minimum(np.searchsorted(old, keys), max(self.count - 1, 0))
+        known = old[at] == keys if self.count else np.zeros(len(keys), bool)
+        since = np.where(known, self.since[at] if self.count else t, t)
+        # times are multiples of dt: allow for their round-off only
+        due = t - since >= self.p["weld_time"] - 1e-9 * max(ctx.dt, 1.0)
+        if due.any():
+            kd = ks[due]
+            if cm.n_joints + len(kd) > cm.joint_slots:
+                raise SceneError(
+                    f"{ctx.where(self.table)}: process 'refreeze' needs more than the "
+                    f"{self.joints_to_create(n)} new joints that weld_capacity = "
+                    f"{self.p['weld_capacity']:g} per element reserves; raise weld_capacity")
+            new = cm.create_joints(cm.pairs[kd], contact_lines(cm, kd))
+            self.refrozen_at[new] = t
+            self.welded_total += len(new)
+        keep = ~due
+        m = int(keep.sum())
+        if m > len(self.keys):
+            raise SceneError(f"{ctx.where(self.table)}: process 'refreeze' follows more than "
+                             f"{len(self.keys)} touching pairs; raise weld_pairs")
+        order = np.argsort(keys[keep], kind="stable")
+        self.keys[:m] = keys[keep][order]
+        self.since[:m] = since[keep][order]
+        self.keys[m:self.count] = -1
+        self.since[m:self.count] = np.nan
+        self.count = m
+
     def history(self):
-        return {"closed_since": self.closed_since.copy(), "refrozen_at": self.refrozen_at.copy(),
-                "refrozen_total": np.array(self.refrozen_total)}
+        out = {"closed_since": self.closed_since.copy(), "refrozen_at": self.refrozen_at.copy(),
+               "refrozen_total": np.array(self.refrozen_total)}
+        if self.p["weld"]:
+            out.update(keys=self.keys.copy(), since=self.since.copy(),
+                       count=np.array(self.count), welded_total=np.array(self.welded_total))
+        return out
 
     def set_history(self, arrays) -> None:
         self.closed_since[:] = arrays["closed_since"]
         self.refrozen_at[:] = arrays["refrozen_at"]
         self.refrozen_total = int(arrays["refrozen_total"])
+        if self.p["weld"]:
+            self.keys[:] = arrays["keys"]
+            self.since[:] = arrays["since"]
+            self.count = int(arrays["count"])
+            self.welded_total = int(arrays["welded_total"])
 
-    diagnostic_units: ClassVar[dict[str, str]] = {"refrozen_joints": "1"}
+    diagnostic_units: ClassVar[dict[str, str]] = {"refrozen_joints": "1", "welded_joints": "1"}
 
     def diagnostics(self, ctx):
-        return {"refrozen_joints": float(self.refrozen_total)}
+        out = {"refrozen_joints": float(self.refrozen_total)}
+        if self.p["weld"]:
+            out["welded_joints"] = float(self.welded_total)
+        return out
