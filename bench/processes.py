@@ -5,12 +5,15 @@ one window.
 :mod:`bench.scenes` (law ``ridging`` for every variant, so that only the process differs) and
 one hour of the shipped default scene, each as: no process; ``thermodynamics`` every step
 (uniform -20 °C); ``ridging`` every step and every ``--every`` steps. Variants alternate,
-``--rounds`` times, each after a first step that compiles its kernels; each prints its best
-wall time per element-step [ns], the share of the step spent
-in the ``processes`` phase (``Simulation.timings``), and its ratio to the run without
-processes. Targets (issue: ice that changes): thermodynamics at most 5 % of the step, ridging at
-most 10 %, the run without processes as fast as before (``bench.fingerprint`` checks it is also
-bit for bit the same).
+``--rounds`` times, each after a first step that compiles its kernels; each prints its best wall
+time per element-step [ns], the share of the step spent in the ``processes`` phase
+(``Simulation.timings``), the share spent in the processes' own ``apply`` (the rest of the
+phase is the engine's follow-up of a thickness change: mass, inertia, the contact model's
+reduced masses and joint stiffnesses), the contact phases (joints, broad phase, collisions,
+contact sum) per element-step [ns], which carry most of the spread between runs of the same
+scene, and the ratio to the run without processes. Targets (issue: ice that changes):
+thermodynamics at most 5 % of the step, ridging at most 10 %, the run without processes as fast
+as before (``bench.fingerprint`` checks it is also bit for bit the same).
 
     python -m bench.processes --rounds 3 --steps 50
 """
@@ -60,14 +63,34 @@ def default_scene(variant: str, hours: float, every: int):
                             "output.plots": "false"})
 
 
-def run_once(scene) -> tuple[float, float, int]:
+#: the contact phases of ``Simulation.timings``
+CONTACT = ("joints", "broad_phase", "collisions", "contact_sum")
+
+
+def _timed(apply, spent: list):
+    """``apply`` that adds its wall time [s] to ``spent[0]``."""
+    def run(ctx, dt):
+        t0 = time.perf_counter()
+        apply(ctx, dt)
+        spent[0] += time.perf_counter() - t0
+    return run
+
+
+def run_once(scene) -> tuple[float, float, float, float, int]:
+    """``(wall, processes phase, the processes' apply, contact phases [s], element-steps)`` of
+    a run of ``scene`` after its first step."""
     sim = Simulation(scene, out=False, progress=False)
     sim.run(steps=1)  # compile outside the timing
     sim.reset_timings()
+    spent = [0.0]
+    for proc in sim.processes:
+        proc.apply = _timed(proc.apply, spent)
     t0 = time.perf_counter()
     sim.run()
     wall = time.perf_counter() - t0
-    return wall, sim.timings.get("processes", 0.0), (sim.step_index - 1) * sim.state.n
+    contact = sum(sim.timings.get(k, 0.0) for k in CONTACT)
+    return (wall, sim.timings.get("processes", 0.0), spent[0], contact,
+            (sim.step_index - 1) * sim.state.n)
 
 
 def main(argv=None) -> int:
@@ -82,17 +105,19 @@ def main(argv=None) -> int:
              for v in VARIANTS}
     for v in VARIANTS:
         cases[f"default {v}"] = (lambda v=v: default_scene(v, args.hours, args.every))
-    best: dict[str, tuple[float, float]] = {}
+    best: dict[str, tuple[float, ...]] = {}
     for _ in range(args.rounds):
         for name, make in cases.items():
-            wall, proc, work = run_once(make())
+            wall, proc, own, contact, work = run_once(make())
             ns = wall / work * 1e9
             if name not in best or ns < best[name][0]:
-                best[name] = (ns, proc / wall)
-    print(f"{'case':<24} {'ns/element-step':>16} {'processes share':>16} {'ratio':>7}")
-    for name, (ns, share) in best.items():
+                best[name] = (ns, proc / wall, own / wall, contact / work * 1e9)
+    print(f"{'case':<24} {'ns/element-step':>16} {'processes':>10} {'apply':>8} "
+          f"{'contact ns':>11} {'ratio':>7}")
+    for name, (ns, share, own, contact) in best.items():
         ref = best[name.split()[0] + " none"][0]
-        print(f"{name:<24} {ns:16.1f} {100 * share:15.1f}% {ns / ref:7.3f}")
+        print(f"{name:<24} {ns:16.1f} {100 * share:9.1f}% {100 * own:7.1f}% {contact:11.1f} "
+              f"{ns / ref:7.3f}")
     return 0
 
 

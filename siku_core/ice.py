@@ -24,7 +24,7 @@ Thickness categories (:mod:`siku_core.categories`, a scene whose element sources
 which processes change in place. After each process the engine makes the element thickness their
 mean again, ``h = sum a_k h_k / sum a_k``: an element whose categories the process changed gets
 that mean (the process may set it itself with the same formula, :func:`category_mean`); an
-element whose thickness alone changed (a process that knows no categories, e.g. ``ridging``) has
+element whose thickness alone changed (a process that knows no categories) has
 every ``h_k`` scaled by the ratio of its new to its old thickness, its fractions unchanged.
 Categories that stop being a distribution (a fraction or thickness negative, fractions summing
 above 1) stop the run with one line naming the process and the element. They are written as

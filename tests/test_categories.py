@@ -336,3 +336,105 @@ def test_fractions_summing_above_one_are_refused_in_one_line(tmp_path):
 
 def test_a_negative_category_thickness_is_refused_in_one_line(tmp_path):
     _refused(tmp_path, SHARE, [-0.2, 1.0, 1.5], "thickness is negative")
+
+
+# ---------------------------------------------------------------------------- ridging
+class _RidgeTrio(ElementSource):
+    """The ridging test's three squares (tests/test_processes.py: ridging_scene), each with two
+    categories: a static wall (1.5 m), the carrier (2.2 m) pressed on it and thin ice (0.5 m)
+    driven west onto the carrier at 5 cm/s."""
+
+    name = "ridge_trio"
+
+    def build(self, scene, seed, where):
+        size = 2000.0
+        dlon = np.degrees(size / 6371000.0) / np.cos(np.radians(80.0))
+        given = (("wall", -dlon, "static", None, [0.7, 0.3], [1.2, 2.2]),
+                 ("carrier", 0.0, None, None, [0.5, 0.4], [1.0, 3.75]),
+                 ("thin", dlon * 1.0005, "steady", (-0.05, 0.0), [0.6, 0.3], [0.3, 0.9]))
+        return [ElementSpec(np.array(square((lon, 80.0), size)), flag=flag, velocity=vel,
+                            label=label, categories=(np.array(a), np.array(h)))
+                for label, lon, flag, vel, a, h in given]
+
+
+def test_ridged_ice_piles_onto_the_carriers_thickest_category_and_conserves_volume():
+    """The carrier's ridged volume ``dV`` goes into its thickest category ``m``: ``h_m``
+    grows by ``dV sum(a) / (a_m A)`` and its other categories stay as they were; a giver's
+    categories (the thin ice's, the wall's if it gave) thin in proportion; the fractions never
+    change; the volume ``sum A h`` is conserved to round-off and every thickness is its
+    categories' mean."""
+    txt = scene_text([], dt=0.25, duration=100.0, extra=(
+        '[[elements.source]]\nname = "ridge_trio"\n\n[contact]\nlaw = "ridging"\n'
+        'joints = "none"\n\n[[process]]\nname = "ridging"\n'))
+    sim = Simulation(scene_from_text(txt, "<ridging categories>"), out=False, progress=False,
+                     registry=registry_with("element_source", _RidgeTrio))
+    st, cats = sim.state, sim.context.categories
+    a0, h0, t0 = cats.fraction.copy(), cats.thickness.copy(), st.thickness.copy()
+    v0 = ice_volume(sim)
+    sim.run()
+    ridged = sim.context.fields["ridged_volume"]
+    assert ridged[1] > 2e3 and ridged[0] == ridged[2] == 0.0  # m³: a real ridge, on the carrier
+    assert ice_volume(sim) == pytest.approx(v0, rel=1e-12)
+    assert np.array_equal(cats.fraction, a0)
+    assert np.array_equal(st.thickness, cats.mean())
+    # the carrier: its thin category untouched, its thickest one carries the ridge
+    assert cats.thickness[1, 0] == h0[1, 0]
+    grow = ridged[1] * a0[1].sum() / (a0[1, 1] * st.area[1])
+    assert cats.thickness[1, 1] == pytest.approx(h0[1, 1] + grow, rel=1e-12)
+    # the givers: every category thinner by the ratio of the element's thickness
+    for e in (0, 2):
+        np.testing.assert_allclose(cats.thickness[e], st.thickness[e] / t0[e] * h0[e],
+                                   rtol=1e-12)
+    assert st.thickness[2] < t0[2]
+    lost = st.area[[0, 2]] @ (t0[[0, 2]] - st.thickness[[0, 2]])
+    assert lost == pytest.approx(ridged[1], rel=1e-9)
+
+
+# ---------------------------------------------------------------------------- gridding
+COVER_A, COVER_H = [0.2, 0.3, 0.4], [0.5, 1.0, 2.0]
+
+
+class _UniformPack(ElementSource):
+    """Six by four squares of 20 km around 75 N, every one with the same categories."""
+
+    name = "uniform_pack"
+
+    def build(self, scene, seed, where):
+        return [ElementSpec(np.array(square((-10.0 + 0.7 * i, 74.0 + 0.18 * j), 20e3)),
+                            categories=(np.array(COVER_A), np.array(COVER_H)))
+                for i in range(6) for j in range(4)]
+
+
+def test_gridded_category_fractions_of_a_uniform_cover_equal_the_cover(tmp_path):
+    """The category fraction of a cell is the mean of ``a_k`` over the ice in it (weighted by
+    area) and the category thickness the mean ``h_k`` (weighted by the category's ice area):
+    for a pack whose every element has the same categories both are the cover's own, in every
+    cell with ice, partly covered or not (to round-off), and NaN in cells without; the same
+    from the output file (``siku grid``) and from a running simulation."""
+    from siku_io.analysis.gridded_fields import grid_output, grid_snapshot, snapshot_of
+    from siku_io.analysis.regular_grid import Grid, GridCfg
+
+    txt = scene_text([], dt=60.0, duration=120.0, extra=(
+        '[[elements.source]]\nname = "uniform_pack"\n\n[[process]]\nname = "thermodynamics"\n'
+        'params = { surface_temperature = -30.0 }\n'))
+    sim = Simulation(scene_from_text(txt, "<uniform>"), out=tmp_path / "u.h5", progress=False,
+                     registry=registry_with("element_source", _UniformPack))
+    cfg = GridCfg(kind="lonlat", lon=(-12.0, -4.0), lat=(73.0, 76.0), resolution=0.5)
+    live = grid_snapshot(Grid(cfg, sim.radius), snapshot_of(sim))
+    sim.run()
+    cats = sim.context.categories
+    assert not np.array_equal(cats.thickness[0], COVER_H)  # the categories have grown
+    ds = grid_output(tmp_path / "u.h5", cfg)
+    frac, thick = ds["category_fraction"], ds["category_thickness"]
+    assert frac.dims == thick.dims == ("time", "category", "lat", "lon")
+    assert frac.attrs["units"] == "1" and thick.attrs["units"] == "m"
+    ice = ds["concentration"].values > 0
+    assert ice[-1].sum() > 10 and (~ice[-1]).sum() > 10
+    for t, h in ((0, np.array(COVER_H)), (-1, cats.thickness[0])):
+        for k in range(3):
+            f, th = frac.values[t, k], thick.values[t, k]
+            np.testing.assert_allclose(f[ice[t]], COVER_A[k], rtol=1e-12)
+            np.testing.assert_allclose(th[ice[t]], h[k], rtol=1e-12)
+            assert np.isnan(f[~ice[t]]).all() and np.isnan(th[~ice[t]]).all()
+    np.testing.assert_array_equal(live["category_fraction"], frac.values[0])
+    np.testing.assert_array_equal(live["category_thickness"], thick.values[0])

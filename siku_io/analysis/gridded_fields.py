@@ -26,7 +26,13 @@ each element with each cell and the cell's true area ``A_c``):
 * floe sizes (``siku_io.analysis.fsd``, the floes over each snapshot's intact joints):
   ``floe_number`` (the floes in the cell, each element counting its share of the cell times its
   area over its floe's), ``floe_area_mean`` [m²] and ``floe_caliper_mean`` [m] (of the floe the
-  ice in the cell belongs to, weighted by that ice's area).
+  ice in the cell belongs to, weighted by that ice's area);
+* with thickness categories (``siku_core.categories``: fractions ``a_k``, thicknesses ``h_k``
+  per element), along a ``category`` dimension: ``category_fraction`` = sum of ``fraction ×
+  area × a_k`` / sum of ``fraction × area`` [1] (the mean fraction of category ``k`` over the
+  ice in the cell, weighted by its area; NaN without ice) and ``category_thickness`` = sum of
+  ``fraction × area × a_k h_k`` / sum of ``fraction × area × a_k`` [m] (the mean thickness of
+  the category's ice in the cell; NaN where the category has none).
 
 Leads (linear kinematic features) found on these fields (``siku_io.analysis.leads``) go into the
 same file as tables along the dimensions ``lead`` and ``intersection``.
@@ -66,6 +72,15 @@ GRID_FIELDS: dict[str, tuple[str, str, str]] = {
 #: joints of each snapshot
 FLOE_FIELDS = ("floe_number", "floe_area_mean", "floe_caliper_mean")
 
+#: gridded thickness categories, dimensions (time, category, y, x): name -> (units, standard
+#: name or "", long name)
+CATEGORY_GRID_FIELDS: dict[str, tuple[str, str, str]] = {
+    "category_fraction": ("1", "", "mean area fraction of each thickness category over the "
+                          "ice in the cell (weighted by the ice area)"),
+    "category_thickness": ("m", "", "mean ice thickness of each thickness category in the "
+                           "cell (weighted by the category's ice area)"),
+}
+
 
 def strain_rates(x, y, u, v) -> tuple[float, float, float, float, float]:
     """Velocity gradient ``(ux, uy, vx, vy)`` [1/s] and hull area [m²] of points ``(x, y)``
@@ -98,10 +113,11 @@ class Snapshot:
     ``u``, ``v`` [m/s] east/north, ``area`` [m²], ``thickness`` [m], ``mass`` [kg], stress
     east/north components [N/m] (``stress``: ``(N, 3)`` or ``None``), the polygons
     (``node_lon``, ``node_lat`` [deg], CSR ``offsets``), broken joints ``(i, j)`` and the
-    per-element fields components declared (``extra``: name -> (values, reduction))."""
+    per-element fields components declared (``extra``: name -> (values, reduction)) and the
+    thickness categories (``categories``: fractions and thicknesses ``(N, K)``, or ``None``)."""
 
     def __init__(self, lon, lat, u, v, area, thickness, mass, node_lon, node_lat, offsets,
-                 stress=None, broken=None, extra=None):
+                 stress=None, broken=None, extra=None, categories=None):
         self.lon, self.lat = np.asarray(lon, float), np.asarray(lat, float)
         self.u, self.v = np.asarray(u, float), np.asarray(v, float)
         self.area, self.thickness = np.asarray(area, float), np.asarray(thickness, float)
@@ -112,6 +128,8 @@ class Snapshot:
         self.broken = np.zeros((0, 2), np.int64) if broken is None else np.asarray(broken)
         #: declared per-element fields to grid: name -> (values, "mean" or "sum")
         self.extra = extra or {}
+        self.categories = None if categories is None else tuple(
+            np.asarray(x, float) for x in categories)
 
 
 def snapshot_of(sim) -> Snapshot:
@@ -137,8 +155,10 @@ def snapshot_of(sim) -> Snapshot:
     cat = sim.context.field_catalogue()
     extra = {k: (np.asarray(fields[k], float), g) for k, (_, _, g) in cat.items()
              if g in ("mean", "sum")}
+    cats = sim.context.categories
     return Snapshot(np.degrees(lon), np.degrees(lat), u, v, st.area, st.thickness, st.m,
-                    nodes[:, 0], nodes[:, 1], st.vert_offsets, stress, broken, extra)
+                    nodes[:, 0], nodes[:, 1], st.vert_offsets, stress, broken, extra,
+                    None if cats is None else (cats.fraction, cats.thickness))
 
 
 def cell_means(cell, weights, weight_sums, values, empty: float) -> np.ndarray:
@@ -214,7 +234,24 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
             out[name] = np.bincount(cell, frac * values[el], nc)
         else:  # intensive: the mean over the ice in the cell, weighted by its area
             out[name] = cell_means(cell, w, ice, values[el], np.nan)
-    return {k: v.reshape(ny, nx) for k, v in out.items()}
+    if snap.categories is not None:
+        out.update(_categories(cell, w, ice, el, snap.categories, nc))
+    return {k: v.reshape(*v.shape[:-1], ny, nx) for k, v in out.items()}
+
+
+def _categories(cell, w, ice, el, categories, nc: int) -> dict[str, np.ndarray]:
+    """``category_fraction`` and ``category_thickness`` ``(K, nc)`` (module docstring) from the
+    element-cell overlaps (``cell``, their ice area ``w``, the elements ``el``, the cells' ice
+    area ``ice``) and the elements' fractions and thicknesses ``(N, K)``."""
+    a, h = categories
+    K = a.shape[1]
+    frac, thick = np.full((K, nc), np.nan), np.full((K, nc), np.nan)
+    for k in range(K):
+        wa = w * a[el, k]
+        area_k = np.bincount(cell, wa, nc)
+        frac[k] = cell_means(cell, w, ice, a[el, k], np.nan)
+        thick[k] = cell_means(cell, wa, area_k, h[el, k], np.nan)
+    return {"category_fraction": frac, "category_thickness": thick}
 
 
 def _midpoints(lon1, lat1, lon2, lat2):
@@ -233,6 +270,10 @@ def snapshots(ds, breaks=None):
         bt, bi, bj = (breaks[k].values for k in ("time", "i", "j"))
     seconds = _seconds(ds)
     extra = declared_in(ds)
+    cats = None
+    if "category_fraction" in ds and "category_thickness" in ds:
+        cats = [ds[k].transpose("time", "element", "category").values
+                for k in ("category_fraction", "category_thickness")]
     for t in range(ds.sizes["time"]):
         broken = None
         if bt is not None:
@@ -244,7 +285,8 @@ def snapshots(ds, breaks=None):
             ds["node_lon"].values[t], ds["node_lat"].values[t], off,
             np.column_stack([ds[k].values[t] for k in ("stress_ee", "stress_nn", "stress_en")])
             if stress else None, broken,
-            {k: (ds[k].values[t].astype(float), how) for k, how in extra.items()})
+            {k: (ds[k].values[t].astype(float), how) for k, how in extra.items()},
+            None if cats is None else (cats[0][t], cats[1][t]))
 
 
 def _at(var, t: int) -> np.ndarray:
@@ -331,6 +373,8 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
 
     known = {**GRID_FIELDS, **{k: (GRID_FSD[k][0], "", GRID_FSD[k][1]) for k in FLOE_FIELDS},
              **declared}
+    if rows and "category_fraction" in rows[0]:
+        known.update(CATEGORY_GRID_FIELDS)
     names = [k for k in known if rows and k in rows[0] and (cfg.fields is None
                                                             or k in cfg.fields)]
     if cfg.fields:
@@ -364,7 +408,8 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
             attrs["grid_mapping"] = mapping
             attrs["coordinates"] = "lat lon"
         attrs["cell_measures"] = "area: cell_area"
-        data[k] = xr.Variable(dims, np.stack([r[k] for r in rows]) if rows else
+        dk = dims if k not in CATEGORY_GRID_FIELDS else ("time", "category", *grid.dims)
+        data[k] = xr.Variable(dk, np.stack([r[k] for r in rows]) if rows else
                               np.zeros((0, *grid.shape)), attrs)
     data["cell_area"] = xr.Variable(grid.dims, grid.cell_area, {
         "units": "m2", "standard_name": "cell_area", "long_name": "true area of the cell on "

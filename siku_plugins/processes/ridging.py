@@ -17,6 +17,12 @@ element that has melted away are left alone. A pair that stops overlapping is fo
 starts from zero if it meets again). Elastic overlaps (below the plastic limit) are never
 converted.
 
+With thickness categories (``ctx.categories``, :mod:`siku_core.categories`) the carrier's gain
+piles onto its thickest category ``m`` (the largest ``h_k`` with ``a_k > 0``), ``h_m += dV
+sum(a) / (a_m A_c)``, and the giver's ice thins as a whole, every ``h_k`` by the factor ``(h_t -
+dV / A_t) / h_t``; the fractions do not change and the element volume ``A sum(a_k h_k) /
+sum(a_k)`` changes by exactly ``dV``.
+
 Declared per-element fields (summed on grids): ``ridged_volume`` and ``rafted_volume`` [m³],
 the volume the element has received by ridging and by rafting since the start.
 """
@@ -24,17 +30,193 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import numpy as np
+import math
 
-from siku_core.contact_overlaps import overlaps
+import numpy as np
+from numba import njit, prange
+
+from siku_core.categories import row_mean, row_sum
+from siku_core.contact_frames import _width, j_to_i, relative_matrix, rotation_matrices
 from siku_core.errors import SceneError
+from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
 from siku_core.ice import ElementField
 from siku_core.interfaces import Process
+from siku_core.parallel import ROTATION_NS, alone, chunk_bounds, chunks
 from siku_core.params import Param
 from siku_core.state import MELTED
 
 #: the contact law parameters the process needs (those of the ``ridging`` law)
 LAW_KEYS = ("strength", "raft_thickness", "raft_strength")
+
+
+@njit(cache=True, parallel=True)
+def pair_geometry(rm, offsets, verts, pairs, active, flags, keys, count, R, nmax, geo, nch):
+    """Per candidate pair ``k`` of the contact model that collides (``active[k] == 1``) and
+    is either remembered (its key among the first ``count`` sorted ``keys``) or has no melted
+    element: ``geo[k] = (overlap area [m²], contact width [m], where its key is or would be in
+    keys, remembered)`` of the rotation matrices ``rm`` by the contact loop's own functions
+    (as :func:`siku_core.contact_overlaps.pair_overlaps`); ``geo[k, 0] = -1`` for every other
+    pair. ``nch`` chunks, each writing its own rows."""
+    n = flags.shape[0]
+    npairs = pairs.shape[0]
+    inv_r = 1.0 / R
+    for c in prange(nch):
+        lo_k, hi_k = chunk_bounds(c, nch, npairs)
+        xy, tag = make_overlap_scratch(nmax, nmax)
+        proj = np.empty((nmax, 2))
+        for k in range(lo_k, hi_k):
+            geo[k, 0] = -1.0
+            if active[k] != 1:
+                continue
+            i = pairs[k, 0]
+            j = pairs[k, 1]
+            key = min(i, j) * n + max(i, j)
+            lo = 0  # the key among the remembered ones (binary search)
+            hi = count
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if keys[mid] < key:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            known = lo < count and keys[lo] == key
+            if not known and (flags[i] == MELTED or flags[j] == MELTED):
+                continue  # neither remembered nor possibly plastic: nothing to do
+            M = relative_matrix(rm, i, j)
+            oj = offsets[j]
+            nj = offsets[j + 1] - oj
+            for v in range(nj):
+                proj[v, 0], proj[v, 1] = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R,
+                                                inv_r)
+            pi = verts[offsets[i]:offsets[i + 1]]
+            pj = proj[:nj]
+            c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
+            area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag,
+                                                                               c2x, c2y, False)
+            width = 0.0
+            if area > 0.0:
+                width = _width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
+            geo[k, 0] = area
+            geo[k, 1] = width
+            geo[k, 2] = lo
+            geo[k, 3] = 1.0 if known else 0.0
+
+
+@njit(cache=True)
+def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, count,
+                new_keys, new_conv, giver, carrier, moved, rafts, ridged, rafted, fraction, hk,
+                loss, gain, scratch):
+    """One application of the process (module docstring) to the colliding pairs of the
+    contact model, their overlaps in ``geo`` (:func:`pair_geometry`), ``rows`` their force
+    rows (the force on ``i`` in columns 0 and 1), in place: ``thickness``, ``ridged``,
+    ``rafted`` and the remembered pairs (sorted ``keys``, ``converted``, the first ``count``);
+    ``law`` is ``(strength, raft_thickness, raft_strength)``. Returns the number of pairs
+    remembered now, or minus it (and nothing changed) when that exceeds ``len(keys)``.
+
+    The transfers apply in pair order, every loss first, then every gain (the order of the
+    former ``np.subtract.at`` and ``np.add.at``). With thickness categories (``fraction``,
+    ``hk`` ``(n, K)``; ``K = 0``: none) each element that gave or carried has its categories
+    changed by :func:`_ridge_categories`. ``new_keys`` ... ``rafts`` (``len(keys)`` each),
+    ``loss``, ``gain`` (``n``, zero) and ``scratch`` (``K``) are scratch."""
+    cap = keys.shape[0]
+    strength, raft_h, raft_p = law[0], law[1], law[2]
+    n = thickness.shape[0]
+    m = 0  # pairs remembered from now on
+    nt = 0  # volume transfers (each by a remembered pair)
+    ordered = True
+    for k in range(pairs.shape[0]):
+        area_ij = geo[k, 0]
+        if not area_ij > 0.0:
+            continue  # not colliding, nothing to do, or no longer overlapping (forgotten)
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        known = geo[k, 3] != 0.0
+        done = converted[int(geo[k, 2])] if known else 0.0
+        h_i = thickness[i]
+        h_j = thickness[j]
+        ht = min(h_i, h_j)
+        raft = ht < raft_h
+        P = raft_p if raft else strength
+        # (an element melted in this step by an earlier process still has its pairs here)
+        alive = flags[i] != MELTED and flags[j] != MELTED
+        force = math.hypot(rows[k, 0], rows[k, 1])
+        plastic = alive and force >= (1.0 - 1e-6) * P * ht * geo[k, 1]
+        if not (known or plastic):
+            continue
+        if m < cap:
+            key = min(i, j) * n + max(i, j)
+            if m and key < new_keys[m - 1]:
+                ordered = False
+            new_keys[m] = key
+            new_conv[m] = max(done, area_ij if plastic else 0.0)
+            dV = max(area_ij - done, 0.0) * ht if plastic else 0.0
+            if dV > 0.0:
+                # the thinner element gives, the thicker carries (equal: j carries)
+                giver[nt] = i if h_i < h_j else j
+                carrier[nt] = j if h_i < h_j else i
+                moved[nt] = dV
+                rafts[nt] = raft
+                nt += 1
+        m += 1
+    if m > cap:
+        return -m
+    for t in range(nt):
+        g = giver[t]
+        thickness[g] = thickness[g] - moved[t] / area[g]
+    for t in range(nt):
+        c = carrier[t]
+        thickness[c] = thickness[c] + moved[t] / area[c]
+    for t in range(nt):
+        if rafts[t]:
+            rafted[carrier[t]] += moved[t]
+        else:
+            ridged[carrier[t]] += moved[t]
+    if hk.shape[1]:
+        _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, loss, gain,
+                          scratch)
+    if not ordered:
+        order = np.argsort(new_keys[:m])
+        new_keys[:m] = new_keys[:m][order]
+        new_conv[:m] = new_conv[:m][order]
+    keys[:m] = new_keys[:m]
+    converted[:m] = new_conv[:m]
+    keys[m:count] = -1
+    converted[m:count] = 0.0
+    return m
+
+
+@njit(cache=True)
+def _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, loss, gain,
+                      scratch):
+    """The categories of the elements of the first ``nt`` transfers (module docstring): a
+    giver's ice thins in proportion, ``h_k *= (h - L / A) / h`` (``L`` [m³] all it gave), a
+    carrier's gain ``G`` [m³] piles onto its thickest category ``m`` (the largest ``h_k`` with
+    ``a_k > 0``), ``h_m += G sum(a) / (a_m A)``, so that the element's volume ``A sum(a_k h_k) /
+    sum(a_k)`` changes by exactly ``G - L``; the fractions do not change. The thickness becomes
+    the categories' mean. ``loss``, ``gain`` are left zero."""
+    for t in range(nt):
+        loss[giver[t]] += moved[t]
+        gain[carrier[t]] += moved[t]
+    for t in range(2 * nt):
+        e = giver[t] if t < nt else carrier[t - nt]
+        if loss[e] == 0.0 and gain[e] == 0.0:
+            continue  # done already
+        a = fraction[e]
+        h = hk[e]
+        if loss[e] > 0.0:
+            h0 = row_mean(a, h, scratch)
+            r = (h0 - loss[e] / area[e]) / h0
+            for k in range(h.shape[0]):
+                h[k] *= r
+        if gain[e] > 0.0:
+            m = -1
+            for k in range(h.shape[0]):
+                if a[k] > 0.0 and (m < 0 or h[k] >= h[m]):
+                    m = k
+            h[m] += gain[e] * row_sum(a) / (a[m] * area[e])
+        thickness[e] = row_mean(a, h, scratch)
+        loss[e] = 0.0
+        gain[e] = 0.0
 
 
 class Ridging(Process):
@@ -60,57 +242,66 @@ class Ridging(Process):
             raise SceneError(f"{ctx.where(self.table)}: process 'ridging' needs the contact law "
                              "'ridging' (its plastic limit); set [contact] law = \"ridging\"")
         self.law = law.p
-        n = ctx.state.n * int(self.p["capacity"])
+        st = ctx.state
+        n = st.n * int(self.p["capacity"])
         #: pairs being converted: sorted keys (min * N + max) and the overlap area already
         #: converted [m²]; -1 / 0 beyond ``self.count``
         self.keys = np.full(n, -1, dtype=np.int64)
         self.converted = np.zeros(n)
         self.count = 0
+        self.law_vector = np.array([float(self.law[k]) for k in LAW_KEYS])
+        # the kernels' scratch, allocated once (the pair geometry grows with the pairs)
+        self._rm = np.empty((st.n, 3, 3))
+        self._nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
+        self._geo = np.empty((0, 4))
+        self._none = np.zeros((st.n, 0))
+        self._empty = np.zeros(0)
+        self._loss = self._gain = self._row = None
+        self._scratch = (np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.int64),
+                         np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.bool_))
 
     def apply(self, ctx, dt: float) -> None:
         if dt <= 0.0:
             return
-        st = ctx.state
-        pairs, area, width, force = overlaps(ctx.contacts)
-        i, j = pairs[:, 0], pairs[:, 1]
-        hi, hj = st.thickness[i], st.thickness[j]
-        ht = np.minimum(hi, hj)
-        law = self.law
-        raft = ht < law["raft_thickness"]
-        P = np.where(raft, law["raft_strength"], law["strength"])
-        # (an element melted in this step by an earlier process still has its pairs here)
-        alive = (st.flags[i] != MELTED) & (st.flags[j] != MELTED)
-        plastic = alive & (area > 0) & (force >= (1.0 - 1e-6) * P * ht * width)
-        keys = np.minimum(i, j).astype(np.int64) * st.n + np.maximum(i, j)
-        old = self.keys[:self.count]
-        at = np.searchsorted(old, keys)
-        at = np.minimum(at, max(self.count - 1, 0))
-        known = (self.count > 0) & (old[at] == keys) if self.count else np.zeros(len(keys), bool)
-        done = np.where(known, self.converted[:self.count][at] if self.count else 0.0, 0.0)
-        dA = np.where(plastic, np.maximum(area - done, 0.0), 0.0)
-        keep = (area > 0) & (known | plastic)
-        if keep.sum() > len(self.keys):
+        st, cm = ctx.state, ctx.contacts
+        npairs = len(cm.pairs)
+        if len(cm.pair_active) != npairs:
+            return self._forget_all()
+        if len(self._geo) < npairs:  # grown with the candidate list, never per step
+            self._geo = np.empty((npairs + npairs // 2, 4))
+        geo = self._geo[:npairs]
+        nch = chunks(st.n, ROTATION_NS)
+        with alone(nch):
+            rotation_matrices(st.q, self._rm, nch)
+        nch = chunks(npairs)
+        with alone(nch):
+            pair_geometry(self._rm, st.vert_offsets, st.verts, cm.pairs, cm.pair_active,
+                          st.flags, self.keys, self.count, float(cm.radius), self._nmax, geo,
+                          nch)
+        m = ridge_pairs(cm.pairs, cm.pair_rows, geo, st.thickness, st.area,
+                        st.flags, self.law_vector, self.keys, self.converted, self.count,
+                        *self._scratch, ctx.fields["ridged_volume"],
+                        ctx.fields["rafted_volume"], *self._categories(ctx))
+        if m < 0:
             raise SceneError(f"{ctx.where(self.table)}: more than {len(self.keys)} ridging pairs; "
                              "raise the process's capacity")
-        # the thinner element gives, the thicker carries (equal: j carries)
-        thin = np.where(hi < hj, i, j)
-        carrier = np.where(hi < hj, j, i)
-        dV = dA * ht
-        take = dV > 0
-        if take.any():
-            np.subtract.at(st.thickness, thin[take], dV[take] / st.area[thin[take]])
-            np.add.at(st.thickness, carrier[take], dV[take] / st.area[carrier[take]])
-            r = take & ~raft
-            f = take & raft
-            np.add.at(ctx.fields["ridged_volume"], carrier[r], dV[r])
-            np.add.at(ctx.fields["rafted_volume"], carrier[f], dV[f])
-        order = np.argsort(keys[keep], kind="stable")
-        m = int(keep.sum())
-        self.keys[:m] = keys[keep][order]
-        self.converted[:m] = np.maximum(done, np.where(plastic, area, 0.0))[keep][order]
-        self.keys[m:self.count] = -1
-        self.converted[m:self.count] = 0.0
         self.count = m
+
+    def _categories(self, ctx) -> tuple:
+        """The kernel's category arguments: fractions, thicknesses and scratch."""
+        cats = ctx.categories
+        if cats is None:
+            return self._none, self._none, self._empty, self._empty, self._empty
+        if self._loss is None:
+            n = ctx.state.n
+            self._loss, self._gain, self._row = np.zeros(n), np.zeros(n), np.empty(cats.K)
+        return cats.fraction, cats.thickness, self._loss, self._gain, self._row
+
+    def _forget_all(self) -> None:
+        """No colliding pairs: every remembered pair is forgotten."""
+        self.keys[:self.count] = -1
+        self.converted[:self.count] = 0.0
+        self.count = 0
 
     def history(self):
         return {"keys": self.keys.copy(), "converted": self.converted.copy(),

@@ -38,8 +38,9 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
-from siku_core.categories import category_mean
+from siku_core.categories import row_mean
 from siku_core.errors import DataError, SceneError
 from siku_core.ice import ElementField
 from siku_core.interfaces import Process
@@ -62,6 +63,57 @@ def stefan_thickness(h, hs, ki, ks, dT, dt, rho, L):
     b = hs / ks
     c = a * h * h + b * h + dT * dt / (rho * L)
     return (-b + np.sqrt(b * b + 4.0 * a * c)) / (2.0 * a)
+
+
+@njit(cache=True, inline="always")
+def _grow_one(h0, dT, dt, rho, F, L, hs, ki, ks):
+    """Thickness [m] after ``dt`` [s] from ``h0`` (Strang splitting of the ocean melt around
+    the exact conductive growth, module docstring), the arithmetic of
+    :func:`stefan_thickness` for one value."""
+    melt = 0.5 * F * dt / (rho * L)
+    h = h0 - melt
+    h = h if h > 0.0 else 0.0
+    a = 0.5 / ki
+    b = hs / ks
+    c = a * h * h + b * h + dT * dt / (rho * L)
+    return (-b + np.sqrt(b * b + 4.0 * a * c)) / (2.0 * a) - melt
+
+
+@njit(cache=True)
+def semtner_step(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, fraction, hk, grown,
+                 rate, gone, new, scratch):
+    """One application of the process (module docstring) to every element, in place:
+    thickness ``h`` [m], category thicknesses ``hk`` (``(n, K)``; ``(n, 0)``: no categories),
+    ``grown`` [m³] and ``rate`` [m/s]; ``dT`` [K] per element (or one for all); ``gone`` gets the
+    elements that melted away, their number returned. ``new``, ``scratch``: ``K`` values each.
+    """
+    K = hk.shape[1]
+    ng = 0
+    for e in range(h.shape[0]):
+        if flags[e] == MELTED:
+            rate[e] = 0.0
+            continue
+        h0 = h[e]
+        dTe = dT[e] if dT.shape[0] > 1 else dT[0]
+        if K == 0:
+            hn = _grow_one(h0, dTe, dt, rho[e], F, L, hs, ki, ks)
+        else:  # each category on its own, the fractions unchanged
+            for k in range(K):
+                x = _grow_one(hk[e, k], dTe, dt, rho[e], F, L, hs, ki, ks)
+                new[k] = 0.0 if x < 0.0 else x
+            hn = row_mean(fraction[e], new, scratch)
+        if hn < hmin:  # melted away: thickness and categories as they were
+            grown[e] += -area[e] * h0
+            rate[e] = -h0 / dt
+            gone[ng] = e
+            ng += 1
+            continue
+        grown[e] += area[e] * (hn - h0)
+        rate[e] = (hn - h0) / dt
+        h[e] = hn
+        for k in range(K):
+            hk[e, k] = new[k]
+    return ng
 
 
 class Thermodynamics(Process):
@@ -109,6 +161,12 @@ class Thermodynamics(Process):
         self.air = None
         if self.p["temperature_file"]:
             self.air = self._temperature_field(ctx)
+        # the kernel's scratch, allocated once
+        K = 0 if ctx.categories is None else ctx.categories.K
+        self._none = np.zeros((st.n, 0))
+        self._gone = np.empty(st.n, dtype=np.int64)
+        self._dT = np.zeros(1)
+        self._rows = (np.empty(K), np.empty(K))
         bad = st.thickness < self.p["min_thickness"]
         if bad.any():
             i = int(np.argmax(bad))
@@ -157,42 +215,23 @@ class Thermodynamics(Process):
         p = self.p
         if dt <= 0.0:  # no time: no change
             return
-        live = st.flags != MELTED
-        h0 = st.thickness.copy()
         # the temperature at the middle of the interval (exact for a constant one)
         Ts = self.surface_temperature(ctx.time - 0.5 * dt)
-        dT = np.maximum(p["freezing_temperature"] - Ts, 0.0)
+        if np.ndim(Ts):
+            dT = np.maximum(p["freezing_temperature"] - Ts, 0.0)
+        else:
+            dT = self._dT
+            dT[0] = max(p["freezing_temperature"] - Ts, 0.0)
         cats = ctx.categories
-        if cats is None:
-            h = self._grow(h0, dT, dt, self.rho)
-        else:  # each category on its own, the fractions unchanged
-            hk0 = cats.thickness.copy()
-            hk = np.maximum(self._grow(hk0, np.reshape(dT, (-1, 1)), dt, self.rho[:, None]),
-                            0.0)
-            h = category_mean(cats.fraction, hk)
-        gone = live & (h < p["min_thickness"])
-        grown = np.where(live, st.area * (h - h0), 0.0)
-        grown[gone] = -st.area[gone] * h0[gone]
-        h = np.where(live & ~gone, h, h0)
-        if cats is not None:
-            cats.thickness[:] = np.where((live & ~gone)[:, None], hk, hk0)
-        st.thickness[:] = h
-        ctx.fields["grown_volume"][:] += grown
-        ctx.fields["growth_rate"][:] = np.where(live, (h - h0) / dt, 0.0)
-        ctx.fields["growth_rate"][gone] = -h0[gone] / dt
-        if gone.any():
-            ctx.melt(np.flatnonzero(gone))
-
-    def _grow(self, h0, dT, dt: float, rho):
-        """Thickness [m] after ``dt`` [s] from ``h0`` (Strang splitting of the ocean melt
-        around the exact conductive growth, module docstring); arrays broadcast together."""
-        p = self.p
-        melt = 0.5 * p["ocean_heat_flux"] * dt / (rho * p["latent_heat"])
-        h = h0 - melt
-        h = np.where(h > 0.0, h, 0.0)
-        h = stefan_thickness(h, p["snow_thickness"], p["conductivity"],
-                             p["snow_conductivity"], dT, dt, rho, p["latent_heat"])
-        return h - melt
+        a, hk = (self._none, self._none) if cats is None else (cats.fraction, cats.thickness)
+        ng = semtner_step(st.thickness, st.flags, st.area, self.rho, dT, float(dt),
+                          float(p["ocean_heat_flux"]), float(p["latent_heat"]),
+                          float(p["snow_thickness"]), float(p["conductivity"]),
+                          float(p["snow_conductivity"]), float(p["min_thickness"]), a, hk,
+                          ctx.fields["grown_volume"], ctx.fields["growth_rate"], self._gone,
+                          *self._rows)
+        if ng:
+            ctx.melt(self._gone[:ng])
 
     def budget(self, ctx) -> float:
         return math.fsum(ctx.fields["grown_volume"])
