@@ -10,6 +10,25 @@ from .contact_frames import _width, j_to_i, relative_matrix
 from .geometry.clip import make_overlap_scratch, overlap_inline
 
 
+@njit(cache=True, inline="always")
+def _clip_pair(rm, offsets, verts, pair, R, inv_r, proj, xy, tag):
+    """Element ``i``'s outline, ``j``'s projected into ``i``'s frame (in ``proj``), ``j``'s
+    centre there and the contact loop's clip of the two, for ``pair = (i, j)`` [m, m²]."""
+    i = pair[0]
+    j = pair[1]
+    M = relative_matrix(rm, i, j)
+    oj = offsets[j]
+    nj = offsets[j + 1] - oj
+    for v in range(nj):
+        proj[v, 0], proj[v, 1] = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
+    pi = verts[offsets[i]:offsets[i + 1]]
+    pj = proj[:nj]
+    c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
+    area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x, c2y,
+                                                                       False)
+    return pi, pj, c2x, c2y, area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny
+
+
 @njit(cache=True)
 def pair_overlaps(rm, offsets, verts, pairs, ks, R, nmax):
     """Per candidate pair ``pairs[ks[a]]``: overlap area [m²] and contact width [m] for the
@@ -19,19 +38,8 @@ def pair_overlaps(rm, offsets, verts, pairs, ks, R, nmax):
     out = np.zeros((ks.shape[0], 2))
     inv_r = 1.0 / R
     for a in range(ks.shape[0]):
-        k = ks[a]
-        i = pairs[k, 0]
-        j = pairs[k, 1]
-        M = relative_matrix(rm, i, j)
-        oj = offsets[j]
-        nj = offsets[j + 1] - oj
-        for v in range(nj):
-            proj[v, 0], proj[v, 1] = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
-        pi = verts[offsets[i]:offsets[i + 1]]
-        pj = proj[:nj]
-        c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
-        area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x,
-                                                                           c2y, False)
+        pi, pj, c2x, c2y, area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = _clip_pair(
+            rm, offsets, verts, pairs[ks[a]], R, inv_r, proj, xy, tag)
         if area > 0.0:
             out[a, 0] = area
             out[a, 1] = _width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
@@ -51,19 +59,8 @@ def pair_contact_lines(rm, offsets, verts, pairs, ks, R, nmax):
     out = np.zeros((ks.shape[0], 2, 2))
     inv_r = 1.0 / R
     for a in range(ks.shape[0]):
-        k = ks[a]
-        i = pairs[k, 0]
-        j = pairs[k, 1]
-        M = relative_matrix(rm, i, j)
-        oj = offsets[j]
-        nj = offsets[j + 1] - oj
-        for v in range(nj):
-            proj[v, 0], proj[v, 1] = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R, inv_r)
-        pi = verts[offsets[i]:offsets[i + 1]]
-        pj = proj[:nj]
-        c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
-        area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x,
-                                                                           c2y, False)
+        pi, pj, c2x, c2y, area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = _clip_pair(
+            rm, offsets, verts, pairs[ks[a]], R, inv_r, proj, xy, tag)
         if not area > 0.0:
             continue
         if ncross != 2:

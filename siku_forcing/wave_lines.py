@@ -51,7 +51,7 @@ from .waves import _evaluate, _curvature, _wrap
 #: nodes of the interpolating polynomial (central interval: nodes -3 .. 4 around it)
 NODES = 8
 #: nodes per block of the tables (one matrix product per block and direction)
-BLOCK = 64
+NODE_BLOCK = 64
 
 
 def lagrange_constant(p: int = NODES, samples: int = 20001) -> float:
@@ -189,12 +189,12 @@ def _interpolate_curvature(lat, lon, se, sn, lat0, lon0, R, sin_d, cos_d, s0, h,
 
 @njit(cache=True, parallel=True, fastmath=True)
 def _tabulate(s0, k, phase, step, nb, Y):
-    """The tables ``T[d, Q p + c]`` at nodes ``p = b BLOCK + q``: ``sum_j [cos, sin](psi_j at
+    """The tables ``T[d, Q p + c]`` at nodes ``p = b NODE_BLOCK + q``: ``sum_j [cos, sin](psi_j at
     the block's first node) . Y[d, :, Q q + c]``, with ``exp(i psi)`` at the first node by the
     recurrence ``exp(i psi) <- exp(i psi) step_j`` over the blocks (``psi_j = k_j s + phase_j``;
     ``nb`` products: ``nb`` ulps). Parallel over the directions."""
     nd, J = k.shape
-    W = Y.shape[2]  # BLOCK Q values a block
+    W = Y.shape[2]  # NODE_BLOCK Q values a block
     T = np.zeros((nd, nb * W))
     for d in prange(nd):
         zr = np.empty(J)
@@ -243,21 +243,21 @@ class LineSea:
         self.bounds = error_bounds(field.amp, field.k, field.u_orbital, self.h)
         # per quantity w_j and the table's row [cos, sin](psi_j at the block's first node):
         # Re(w e^(i psi) M) = cos w Mr - sin w Mi, -Im(...) = -cos w Mi - sin w Mr
-        M = np.exp(1j * self.k[:, :, None] * (self.h * np.arange(BLOCK))[None, None, :])
+        M = np.exp(1j * self.k[:, :, None] * (self.h * np.arange(NODE_BLOCK))[None, None, :])
         Mr, Mi = M.real, M.imag
 
         def Y(w, kind):
             w = w[:, :, None]
             return np.concatenate([w * Mr, -w * Mi] if kind == "cos" else [-w * Mi, -w * Mr],
-                                  axis=1)  # (nd, 2J, BLOCK)
+                                  axis=1)  # (nd, 2J, NODE_BLOCK)
 
         ys = [Y(self.a, "cos"), Y(self.a * self.k, "sin"), Y(self.uo, "cos")]
         nd, J = self.k.shape
         # columns Q q + c: node q of a block, quantity c (F, G, U; and K)
-        self.Y3 = np.ascontiguousarray(np.stack(ys, axis=3).reshape(nd, 2 * J, 3 * BLOCK))
+        self.Y3 = np.ascontiguousarray(np.stack(ys, axis=3).reshape(nd, 2 * J, 3 * NODE_BLOCK))
         self.Y4 = np.ascontiguousarray(np.stack(ys + [Y(-self.a * self.k**2, "cos")],
-                                                axis=3).reshape(nd, 2 * J, 4 * BLOCK))
-        self.step = np.exp(1j * self.k * (BLOCK * self.h))  # from one block to the next
+                                                axis=3).reshape(nd, 2 * J, 4 * NODE_BLOCK))
+        self.step = np.exp(1j * self.k * (NODE_BLOCK * self.h))  # from one block to the next
         self.n_components = len(field.amp)
         self._key = None
 
@@ -272,16 +272,16 @@ class LineSea:
             return key[4]
         h = self.h
         s0 = lo - (NODES // 2 + 1) * h
-        nb = int(np.max(np.ceil((hi - s0 + (NODES // 2 + 2) * h) / (BLOCK * h))))
+        nb = int(np.max(np.ceil((hi - s0 + (NODES // 2 + 2) * h) / (NODE_BLOCK * h))))
         nd, J = self.k.shape
-        if nd * nb * BLOCK * J > len(lat) * self.n_components:
+        if nd * nb * NODE_BLOCK * J > len(lat) * self.n_components:
             self._key = None
             return False
         Y = self.Y4 if curvature else self.Y3
-        self.Q = Y.shape[2] // BLOCK
+        self.Q = Y.shape[2] // NODE_BLOCK
         self.T = _tabulate(s0, self.k, self.ph - self.om * t, self.step, nb, Y)
         self.s0 = s0
-        self._key = (t, curvature, s0 + (NODES // 2) * h, s0 + (nb * BLOCK - NODES // 2 - 1)
+        self._key = (t, curvature, s0 + (NODES // 2) * h, s0 + (nb * NODE_BLOCK - NODES // 2 - 1)
                      * h, True)
         return True
 

@@ -361,7 +361,8 @@ def floe_cells(grid, snap, floes: Floes, with_concentration: bool = False) -> di
     w = frac * snap.area[el]
     ice = np.bincount(cell, w, nc)
     floe_a = floes.area[floes.label][el]
-    out = {"floe_number": np.bincount(cell, w / floe_a, nc),
+    # (float even where no element reaches the grid: bincount of nothing is int64)
+    out = {"floe_number": np.bincount(cell, w / floe_a, nc).astype(float, copy=False),
            "floe_area_mean": cell_means(cell, w, ice, floe_a, np.nan),
            "floe_caliper_mean": cell_means(cell, w, ice, floes.caliper[floes.label][el],
                                            np.nan)}

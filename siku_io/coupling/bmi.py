@@ -184,7 +184,7 @@ class SikuBmi(Bmi):
         return "siku"
 
     def _wave_names(self, way: str) -> tuple[str, ...]:
-        from .waves import VARIABLES as WAVES
+        from .waves import WAVE_VARIABLES as WAVES
 
         if self.waves is None:
             return ()
@@ -208,7 +208,7 @@ class SikuBmi(Bmi):
 
     # ------------------------------------------------------------------ variables
     def _var(self, name: str):
-        from .waves import VARIABLES as WAVES
+        from .waves import WAVE_VARIABLES as WAVES
 
         if name in VARIABLES:
             return VARIABLES[name]
@@ -220,7 +220,7 @@ class SikuBmi(Bmi):
                           "spectral wave field, " + ", ".join(WAVES) + ")"))
 
     def get_var_grid(self, name: str) -> int:
-        from .waves import VARIABLES as WAVES
+        from .waves import WAVE_VARIABLES as WAVES
 
         self._var(name)
         return WAVES[name][4] if name in WAVES else 0

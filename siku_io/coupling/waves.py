@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 #: name -> (key, units, "in"/"out", description, grid)
-VARIABLES: dict[str, tuple[str, str, str, str, int]] = {
+WAVE_VARIABLES: dict[str, tuple[str, str, str, str, int]] = {
     "sea_surface_wave__incident_energy": (
         "E_in", "m2", "in", "variance a_j^2/2 of each component of the incident sea, entering "
         "across the open edges of the spectral grid", 2),
@@ -51,7 +51,7 @@ def spectral_field(sim):
 
 
 class WaveCoupling:
-    """Grids 1 and 2 and the variables of :data:`VARIABLES` for a spectral field."""
+    """Grids 1 and 2 and the variables of :data:`WAVE_VARIABLES` for a spectral field."""
 
     def __init__(self, field):
         self.field = field
