@@ -289,23 +289,43 @@ def pair_contribution(M, fx, fy, px, py, couple, inv_r, R, out, k):
 
 
 @njit(cache=True)
-def joint_constants(h, E, minv, ji, jj, ends_i, ends_j):
-    """Per joint: eq. 9 stiffness ``K`` [Pa] (lever arms: the joint midpoint in both frames)
-    and reduced mass [kg], which never change during a run."""
+def joint_arms(ends_i, ends_j):
+    """Per joint: the lever arms of eq. 9 [m], the distances from each element's centre to the
+    joint's midpoint in its own frame; they change only where a joint's line does."""
+    nj = ends_i.shape[0]
+    ri = np.empty(nj)
+    rj = np.empty(nj)
+    for k in range(nj):
+        ri[k] = math.hypot(0.5 * (ends_i[k, 0, 0] + ends_i[k, 1, 0]),
+                           0.5 * (ends_i[k, 0, 1] + ends_i[k, 1, 1]))
+        rj[k] = math.hypot(0.5 * (ends_j[k, 0, 0] + ends_j[k, 1, 0]),
+                           0.5 * (ends_j[k, 0, 1] + ends_j[k, 1, 1]))
+    return ri, rj
+
+
+@njit(cache=True, parallel=True)
+def joint_constants(h, E, minv, ji, jj, ri, rj):
+    """Per joint: eq. 9 stiffness ``K`` [Pa] (lever arms ``ri``, ``rj`` [m] of
+    :func:`joint_arms`) and reduced mass [kg], from the thickness [m], modulus [Pa] and inverse
+    masses [1/kg] of its elements: recomputed after a process changed the ice."""
     nj = ji.shape[0]
     K = np.empty(nj)
     meff = np.empty(nj)
-    for k in range(nj):
+    for k in prange(nj):
         i = ji[k]
         j = jj[k]
-        mx = 0.5 * (ends_i[k, 0, 0] + ends_i[k, 1, 0])
-        my = 0.5 * (ends_i[k, 0, 1] + ends_i[k, 1, 1])
-        ri = math.hypot(mx, my)
-        rj = math.hypot(0.5 * (ends_j[k, 0, 0] + ends_j[k, 1, 0]),
-                        0.5 * (ends_j[k, 0, 1] + ends_j[k, 1, 1]))
-        K[k] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
+        K[k] = eq9_stiffness(h[i], E[i], h[j], E[j], ri[k], rj[k])
         meff[k] = 1.0 / (minv[i] + minv[j])
     return K, meff
+
+
+@njit(cache=True, parallel=True)
+def _pair_masses(minv, pairs):
+    n = pairs.shape[0]
+    out = np.empty(n)
+    for k in prange(n):
+        out[k] = 1.0 / (minv[pairs[k, 0]] + minv[pairs[k, 1]])
+    return out
 
 
 def pair_masses(minv, pairs):
@@ -313,8 +333,8 @@ def pair_masses(minv, pairs):
     elements' inverse masses ``minv`` [1/kg] (zero for a static or steady element): a constant
     of the candidate list, as :func:`joint_constants` is of the joints (the same division, so
     the same value bit for bit as computed per contact)."""
-    with np.errstate(divide="ignore"):  # two held elements are never candidates
-        return 1.0 / (minv[pairs[:, 0]] + minv[pairs[:, 1]])
+    # (two held elements are never candidates: no division by zero)
+    return _pair_masses(minv, pairs)
 
 
 @njit(cache=True)

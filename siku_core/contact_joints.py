@@ -25,6 +25,7 @@ from .contact_frames import (
     element_index,
     find_shared_edges,
     frame_point,
+    joint_arms,
     joint_constants,
 )
 from .contact_law import (
@@ -103,8 +104,10 @@ class JointBook:
         #: breaks not yet taken by a writer (:meth:`take_breaks`)
         self._pending: list[int] = []
         self.hist = np.zeros((len(pairs), max(nh, 1)))
+        #: per joint: the lever arms of eq. 9 [m] (``joint_arms``), kept until a line changes
+        self.arms = joint_arms(self.ends_i, self.ends_j)
         self.jK, self.jmeff = joint_constants(st.thickness, self.E, self.minv, self.ji, self.jj,
-                                              self.ends_i, self.ends_j)
+                                              *self.arms)
         #: per joint: the edges of ``ji`` and ``jj`` it is frozen along (``face.joint_edges``)
         self.jedge = joint_edges(st.vert_offsets, st.verts, self.ji, self.jj, self.ends_i,
                                  self.ends_j)
@@ -277,15 +280,20 @@ class JointBook:
             self._ref_centers = None  # the refrozen pairs leave the candidate list
         return len(k)
 
-    def refresh_joint_constants(self) -> None:
+    def refresh_joint_constants(self, lines: bool = True) -> None:
         """Every joint's eq. 9 stiffness and reduced mass from the current thickness, rest
         state and masses (after a process changed them). A joint of an element that melted
         away is broken; it gets a finite reduced mass all the same (its element's own mass
-        stands in for the zero inverse mass of an element that no longer moves)."""
+        stands in for the zero inverse mass of an element that no longer moves). ``lines =
+        False``: no joint's line changed since the last refresh (only the ice did), so the lever
+        arms are kept."""
         st = self.state
+        arms = getattr(self, "arms", None)
+        if lines or arms is None or len(arms[0]) != len(self.ji):
+            self.arms = joint_arms(self.ends_i, self.ends_j)
         minv = np.where(st.flags == MELTED, 1.0 / st.m, self.minv)
         self.jK, self.jmeff = joint_constants(st.thickness, self.E, minv, self.ji, self.jj,
-                                              self.ends_i, self.ends_j)
+                                              *self.arms)
 
     def joint_gaps(self, k: np.ndarray) -> np.ndarray:
         """How far apart the two sides of joints ``k`` are now [m]: the larger distance

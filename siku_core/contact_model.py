@@ -315,7 +315,7 @@ class ContactModel(JointBook):
         self.minv = np.where(st.flags == FREE, 1.0 / st.m, 0.0)
         gone = st.flags == MELTED
         if self.n_joints:
-            self.refresh_joint_constants()
+            self.refresh_joint_constants(lines=False)
         if gone.any() and (self.gone is None or not np.array_equal(gone, self.gone)):
             self.gone = gone
             self.skip = st.flags != FREE

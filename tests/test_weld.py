@@ -111,8 +111,9 @@ def test_elements_held_in_contact_weld_after_the_set_time_to_one_step(jointed):
     cx, cy = to_tangent(st.q[i], from_tangent(st.q[j], 0.0, 0.0, sim.radius), sim.radius)
     assert d[1] * cx - d[0] * cy > 0
     # its stiffness is the eq. 9 one of every joint (E h over the lever arms)
-    from siku_core.contact_frames import joint_constants
-    K, _ = joint_constants(st.thickness, cm.E, cm.minv, cm.ji, cm.jj, cm.ends_i, cm.ends_j)
+    from siku_core.contact_frames import joint_arms, joint_constants
+    K, _ = joint_constants(st.thickness, cm.E, cm.minv, cm.ji, cm.jj,
+                           *joint_arms(cm.ends_i, cm.ends_j))
     assert cm.jK[k] == K[k] > 0
     assert sim.processes[0].diagnostics(sim.context)["welded_joints"] == 1.0
     sim.step()
