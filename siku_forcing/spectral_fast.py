@@ -29,7 +29,7 @@ from numba import njit, prange
 from siku_core import Param, SceneError, hookimpl
 
 from .spectral import _add
-from .waves import Jonswap, _wrap
+from .waves import Jonswap, _local, _wrap
 
 
 #: points per block of the sums: the innermost loops run over a block's points, which the
@@ -108,9 +108,7 @@ def _curvature(lat, lon, se, sn, lat0, lon0, R, A, k, nf, nd, sin_d, cos_d, K0, 
     out = np.zeros(n)
     c0 = math.cos(lat0)
     for i in prange(n):
-        x = R * c0 * _wrap(lon[i] - lon0)
-        y = R * (lat[i] - lat0)
-        m = c0 / max(math.cos(lat[i]), 1e-12)
+        x, y, m = _local(lat[i], lon[i], lat0, lon0, c0, R)
         acc = 0.0
         for d in range(nd):
             s = x * sin_d[d] + y * cos_d[d]

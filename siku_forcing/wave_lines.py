@@ -46,7 +46,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .waves import _evaluate, _curvature, _wrap
+from .waves import _curvature, _evaluate, _local, _wrap
 
 #: nodes of the interpolating polynomial (central interval: nodes -3 .. 4 around it)
 NODES = 8
@@ -138,9 +138,7 @@ def _interpolate(lat, lon, lat0, lon0, R, sin_d, cos_d, s0, h, T, Q):
     out = np.empty((n, 5))
     c0 = math.cos(lat0)
     for i in prange(n):
-        x = R * c0 * _wrap(lon[i] - lon0)
-        y = R * (lat[i] - lat0)
-        m = c0 / max(math.cos(lat[i]), 1e-12)
+        x, y, m = _local(lat[i], lon[i], lat0, lon0, c0, R)
         eta = 0.0
         gx = 0.0
         gy = 0.0
@@ -174,9 +172,7 @@ def _interpolate_curvature(lat, lon, se, sn, lat0, lon0, R, sin_d, cos_d, s0, h,
     out = np.empty(n)
     c0 = math.cos(lat0)
     for i in prange(n):
-        x = R * c0 * _wrap(lon[i] - lon0)
-        y = R * (lat[i] - lat0)
-        m = c0 / max(math.cos(lat[i]), 1e-12)
+        x, y, m = _local(lat[i], lon[i], lat0, lon0, c0, R)
         acc = 0.0
         for d in range(sin_d.shape[0]):
             u = (x * sin_d[d] + y * cos_d[d] - s0[d]) / h

@@ -137,6 +137,17 @@ def _wrap(d):
     return d
 
 
+@njit(cache=True, inline="always")
+def _local(lat, lon, lat0, lon0, c0, R):
+    """A point's plane coordinates ``x`` east, ``y`` north [m] about ``(lat0, lon0)`` [rad]
+    (``c0 = cos(lat0)``), and ``m = c0 / cos(lat)``, which turns a plane ``x`` derivative into
+    one per metre east at the point."""
+    x = R * c0 * _wrap(lon - lon0)
+    y = R * (lat - lat0)
+    m = c0 / max(math.cos(lat), 1e-12)
+    return x, y, m
+
+
 @njit(cache=True)
 def _plane(lat, lon, lat0, lon0, R):
     n = lat.shape[0]
@@ -153,11 +164,7 @@ def _plane(lat, lon, lat0, lon0, R):
 @njit(cache=True, inline="always")
 def _at(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo, out):
     """eta, d eta/d east, d eta/d north, u east, u north at one point into ``out[0:5]``."""
-    c0 = math.cos(lat0)
-    d = _wrap(lon - lon0)
-    x = R * c0 * d
-    y = R * (lat - lat0)
-    m = c0 / max(math.cos(lat), 1e-12)
+    x, y, m = _local(lat, lon, lat0, lon0, math.cos(lat0), R)
     eta = 0.0
     gx = 0.0
     gy = 0.0
@@ -196,10 +203,7 @@ def _curvature(t, lat, lon, se, sn, lat0, lon0, R, amp, kx, ky, om, ph):
     out = np.zeros(n)
     c0 = math.cos(lat0)
     for i in range(n):
-        d = _wrap(lon[i] - lon0)
-        x = R * c0 * d
-        y = R * (lat[i] - lat0)
-        m = c0 / max(math.cos(lat[i]), 1e-12)
+        x, y, m = _local(lat[i], lon[i], lat0, lon0, c0, R)
         acc = 0.0
         for j in range(amp.shape[0]):
             ks = kx[j] * m * se[i] + ky[j] * sn[i]
