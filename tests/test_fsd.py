@@ -196,18 +196,23 @@ def test_a_tail_of_one_area_has_no_power_law():
     assert np.isnan(power_law(np.full(20, 50.0) * (1 + 1e-14 * np.arange(20))).alpha)
 
 
+def break_line_grid():
+    """A 2 x 2 lonlat grid whose cell edges are the lines the broken pack was broken along."""
+    from siku_io.analysis.regular_grid import GridCfg
+
+    dlat = math.degrees(100.0 / 6_371_000.0)
+    dlon = dlat / math.cos(math.radians(2 * dlat))
+    return GridCfg(kind="lonlat", lon=(0.0, 6 * dlon), lat=(0.0, 4 * dlat), dlon=3 * dlon,
+                   dlat=2 * dlat, leads=False)
+
+
 def test_floe_sizes_per_cell_of_a_grid_along_the_break_lines(broken_pack):
     # a 2 x 2 lonlat grid whose cell edges are the lines the pack was broken along: every cell
     # holds one whole floe (3 x 2 elements)
     from siku_io.analysis.fsd import grid_distribution
-    from siku_io.analysis.regular_grid import GridCfg
 
     path, side, area = broken_pack
-    R = 6_371_000.0
-    dlat = math.degrees(100.0 / R)
-    dlon = dlat / math.cos(math.radians(2 * dlat))
-    cfg = GridCfg(kind="lonlat", lon=(0.0, 6 * dlon), lat=(0.0, 4 * dlat), dlon=3 * dlon,
-                  dlat=2 * dlat, leads=False)
+    cfg = break_line_grid()
     g = grid_distribution(path, cfg)
     floe = np.bincount(side, area)
     assert g["floe_number"].values == pytest.approx(np.ones((g.sizes["time"], 2, 2)), rel=1e-6)
@@ -259,14 +264,9 @@ def test_siku_grid_puts_the_floe_sizes_per_cell_among_its_fields(broken_pack):
     # the grid of the test above through siku grid: the same floe fields as siku fsd --grid
     from siku_io.analysis.fsd import grid_distribution
     from siku_io.analysis.gridded_fields import grid_output
-    from siku_io.analysis.regular_grid import GridCfg
 
     path, side, area = broken_pack
-    R = 6_371_000.0
-    dlat = math.degrees(100.0 / R)
-    dlon = dlat / math.cos(math.radians(2 * dlat))
-    cfg = GridCfg(kind="lonlat", lon=(0.0, 6 * dlon), lat=(0.0, 4 * dlat), dlon=3 * dlon,
-                  dlat=2 * dlat, leads=False)
+    cfg = break_line_grid()
     g = grid_output(path, cfg)
     want = grid_distribution(path, cfg)
     for k in ("floe_number", "floe_area_mean", "floe_caliper_mean"):
