@@ -37,8 +37,10 @@ PERIOD, AMP, T_R, STRENGTH, DT = 10.0, 0.5, 100.0, 2e5, 0.02
 M_DEG = 1.0 / 111194.92664455873   # one metre of longitude at the equator [deg]
 
 
-def strip_in_waves(strength: float = STRENGTH, duration: float = T_R, n: int = N):
-    """The strip of the module docstring as a ``Simulation`` (``n`` elements)."""
+def strip_in_waves(strength: float = STRENGTH, duration: float = T_R, n: int = N,
+                   dt: float = DT, ramp: float = T_R):
+    """The strip of the module docstring as a ``Simulation`` (``n`` elements, steps ``dt``
+    [s], the load's ramp ``ramp`` [s])."""
     from siku_core.scene import scene_from_text
     from siku_core.simulation import Simulation
 
@@ -47,7 +49,7 @@ def strip_in_waves(strength: float = STRENGTH, duration: float = T_R, n: int = N
 title = "floating strip in waves of rising amplitude"
 [time]
 duration = {duration}
-dt = {DT}
+dt = {dt}
 [materials.ice]
 density = {RHO_I}
 youngs_modulus = {E}
@@ -71,7 +73,7 @@ type = "linear_wave"
 params = {{ amplitude = {AMP}, period = {PERIOD}, direction = 90.0, origin = [0.0, 0.0] }}
 [[process]]
 name = "floating"
-params = {{ bending = true, ramp = {T_R}, flexural_strength = {strength}, steps_per_period = 8 }}
+params = {{ bending = true, ramp = {ramp}, flexural_strength = {strength}, steps_per_period = 8 }}
 """
     with warnings.catch_warnings():     # dt is above the in-plane joints' step: never stepped
         warnings.filterwarnings("ignore", message=".*allow_unstable_dt = true")
