@@ -75,20 +75,20 @@ class Steady:
         from scipy.sparse import csr_matrix, diags
         from scipy.sparse.linalg import splu
 
-        from .kernels import centres_and_frames
+        from .kernels import _attenuation, centres_and_frames
 
         fld = proc.field
-        if fld is None or len(fld.amp) != 1 or proc.beams is None or proc.memory is not None:
+        if (fld is None or len(fld.amp) != 1 or proc.beams is None or proc.memory is not None
+                or proc.kap.shape[0]):
             raise ValueError("Steady needs a floating process with bending = true, constant "
-                             "coefficients and a one-component wave field")
+                             "coefficients, no diffraction and a one-component wave field")
         st = ctx.state
         n = st.n
         lat, lon, e0, e1 = centres_and_frames(st.q)
         xc, yc = fld.plane(lat, lon)
         self.omega = w = float(fld.omega[0])
         self.k = float(fld.k[0])
-        att = np.exp(-self.k * proc.draft) if not math.isfinite(fld.h) or fld.h <= 0 else (
-            np.cosh(self.k * (fld.h - proc.draft)) / np.cosh(self.k * fld.h))
+        att = np.array([_attenuation(self.k, d, float(fld.h)) for d in proc.draft])
         F = np.zeros(3 * n, dtype=complex)
         for i in np.flatnonzero(proc.free):
             lo, hi = proc.qoff[i], proc.qoff[i + 1]
