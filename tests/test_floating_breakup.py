@@ -65,6 +65,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from siku_core.contact_law import BreakMode
 from siku_plugins.floating.steady import Steady, ramp
 
 _path = Path(__file__).resolve().parents[1] / "examples" / "floating" / "breakup.py"
@@ -90,6 +91,10 @@ def first_break():
 
 
 def test_the_strip_breaks_first_at_the_predicted_joint_and_step(first_break):
+    """The neglected terms of the prediction (module docstring), summed, are below its margins
+    at the steps before and at the predicted one and below the next joint's; the strip's
+    stresses before the break are the prediction's within that sum, and it breaks at the
+    predicted step and joint (asserted: within one step and one element), in flexure."""
     sim, pred, step, broken, before = first_break
     proc = sim.processes[0]
     n, j, low, high = pred.first_break(STRENGTH, T_R, DT, T_R)
@@ -100,7 +105,8 @@ def test_the_strip_breaks_first_at_the_predicted_joint_and_step(first_break):
     gamma = np.min(np.r_[proc.B3 / proc.M3, proc.B1 / proc.M1, proc.B2 / proc.M2]) / 2
     assert np.all(gamma * np.r_[proc.B3, proc.B1, proc.B2] < np.r_[proc.C3, proc.C1, proc.C2])
     start = (math.pi / T_R) ** 2 / 4 * np.max(np.abs(pred.S[2])) * math.exp(-gamma * t)
-    sub = pred.omega * DT / math.ceil(DT * 8 / proc.period_min)
+    spp = proc.p["steps_per_period"]
+    sub = pred.omega * DT / math.ceil(DT * spp / proc.period_min - 1e-9)     # omega delta_t
     verlet = sub**2 / 12 * np.max(np.abs(pred.S[0]))
     bound = (fourth + start + verlet) / STRENGTH
     assert bound < 1e-6
@@ -116,15 +122,17 @@ def test_the_strip_breaks_first_at_the_predicted_joint_and_step(first_break):
                                atol=bound * STRENGTH)
     assert abs(step - n) <= 1                                 # within one step
     assert len(broken) and np.all(np.abs(broken - j) <= 1)    # within one element
-    from siku_core.contact_law import BreakMode
     assert np.all(sim.contacts.break_mode[broken] == int(BreakMode.FLEXURE))
 
 
 def test_the_middle_of_the_strip_is_the_infinite_thin_plate(first_break):
-    """The prediction's stress amplitude and group delay in the middle of the strip are the
-    closed form's, within the weight-moment term it leaves out (and the discreteness beyond
-    sinc², ``(k s)^4 / 10``); the closed form's break time is the strip's within the edge
-    wave's gain at the ramp's rate and one step."""
+    """The prediction's stress amplitude in the middle of the strip is the closed form's,
+    within twice the weight-moment term it leaves out and ``(k s)^4 / 10`` (discreteness
+    beyond sinc², of that order: 2e-5 measured between elements of 1.5 and 6 m); its group
+    delay within the same and ``(k s)² /
+    12``, the size of the elements' correction to the amplitude, which the closed form's delay
+    does not carry (measured 5e-4). The closed form's break time is the strip's within the
+    edge wave's gain at the ramp's rate and one step."""
     sim, pred, step, broken, _ = first_break
     proc = sim.processes[0]
     sig, gain, tau = ex.closed_form(proc, pred)
