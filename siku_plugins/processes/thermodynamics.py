@@ -206,18 +206,21 @@ class Thermodynamics(Process):
     owned_fields = (
         ElementField("grown_volume", "m3", "ice volume added by thermodynamics since the start "
                      "(negative: melted)", grid="sum"),
-        ElementField("growth_rate", "m s-1", "thickness change by thermodynamics per second over "
-                     "its last interval", grid="mean"),
+        ElementField("growth_rate", "m s-1", "ice volume per element area grown by "
+                     "thermodynamics per second over its last interval (the thickness change, "
+                     "without thickness categories)", grid="mean"),
     )
 
-    #: the field of ``lateral = true``
-    LATERAL = ElementField("lateral_volume", "m3", "ice volume frozen in open water by "
-                           "thermodynamics since the start (part of grown_volume)", grid="sum")
+    #: fields declared by some parameters (``siku plugins`` lists them): ``lateral = true``
+    optional_fields = (
+        ElementField("lateral_volume", "m3", "ice volume frozen in open water by "
+                     "thermodynamics since the start (part of grown_volume)", grid="sum"),
+    )
 
     def __init__(self, params=None):
         super().__init__(params)
         if self.p["lateral"]:
-            self.owned_fields = type(self).owned_fields + (self.LATERAL,)
+            self.owned_fields = type(self).owned_fields + self.optional_fields
 
     def setup(self, ctx) -> None:
         self.ctx = ctx
