@@ -153,6 +153,12 @@ def test_lateral_growth_without_categories_is_refused_in_one_line():
         _three(_lateral(extra=", new_ice_category = 2"), dt=3600.0, steps=1)
 
 
+def test_floating_refuses_an_element_its_ice_does_not_cover_in_one_line():
+    # its floe of mass rho_i h A would weigh 1 / sum a_k times the engine's element
+    with pytest.raises(SceneError, match=r"floating': element 0 has ice on 0.5 of its area"):
+        _three('[[process]]\nname = "floating"\n', dt=1.0, steps=2)
+
+
 def test_lateral_growth_passes_the_process_conformance_suite(tmp_path):
     """Finite, its budget closes to 1e-10, idempotent, restart bit for bit, in the bonded pack
     whose every element has 90 % ice in two categories."""
