@@ -3,7 +3,7 @@
     python examples/miz/run.py [SCENE] [--out DIR] [--maps T1 T2 ...]
 
 SCENE: ``ice_edge.toml`` (default; the 3 km x 1.5 km Voronoi pack in a directional swell,
-about 8 minutes on two cores) or ``miz.toml`` (the 600 m x 80 m flume, under a minute).
+about 7 minutes of CPU) or ``miz.toml`` (the 600 m x 80 m flume, under a minute).
 Writes DIR/STEM.h5 (the run), DIR/STEM.fsd.nc (the floe size distribution of every snapshot,
 as ``siku fsd`` writes it) and DIR/STEM.png:
 
@@ -11,11 +11,14 @@ as ``siku fsd`` writes it) and DIR/STEM.png:
   the ice's outline;
 * middle row: every element coloured by the area of the floe it belongs to (elements joined by
   intact joints), at the same snapshots;
-* bottom row: (a) the breakup front (the farthest broken joint from the ice edge, in the middle
-  third of the pack across the waves) against time; (b) the amplitude attenuation rate k_i
+* bottom row: (a) the breakup front against time, in the middle third of the pack across the
+  waves: where the unbroken pack (the largest floe) begins (the median over ten bands of its
+  westernmost element) and the farthest broken joint; (b) the amplitude attenuation rate k_i
   against frequency fitted to the spectrum in the ice at the end (per component ``ln E_j``
-  against ``x`` over the middle third, times the cosine of its direction, ``/ (2 C)``; the
-  energy-weighted mean over the directions of a frequency) beside the law the scene uses and
+  against ``x`` over the middle third and the first kilometre of ice, times the cosine of its
+  direction, ``/ (2 C)``; the
+  energy-weighted mean over the directions of a frequency) beside the law the scene uses, the
+  law as the first-order upwind transport carries it on the grid's cells, and
   the range of Rogers et al. (2016) for pancake and frazil ice (k_i from 1e-6 to 1e-5 1/m over
   0.05-0.15 Hz, as Orzech et al. 2018 quote it); (c) the floe size distribution at the end with
   its power-law exponent, lower cut-off and standard error (Clauset et al. 2009, as ``siku
@@ -54,6 +57,33 @@ def _fit_rates(f, E, ice, strip):
             num, den = num + w * k, den + w
         rates.append(num / den if den > 0 else np.nan)
     return freqs, np.array(rates)
+
+
+def _latlon(q):
+    from siku_core.geometry.quat import latlon_of
+
+    return latlon_of(q)
+
+
+def _discrete_rates(f, dt, freqs, law):
+    """The rate [1/m] that the upwind transport of field ``f`` with the engine's step ``dt``
+    [s] (the sub-steps the Courant limit asks) gives under full ice of rate ``law``, per
+    frequency: ``-ln r cos(theta) / (2 dx)`` of its steady cell-to-cell ratio ``r``
+    (``siku_forcing.spectral_transport.steady_ratio``) for a component along ``x`` at the
+    angle theta, the energy-weighted mean over the directions, as :func:`_fit_rates` does."""
+    from siku_forcing.spectral_transport import steady_ratio
+
+    rate = np.max(np.abs(f.cx) / f.dx + np.abs(f.cy) / f.dy)
+    sub = dt / max(1, math.ceil(dt * rate / f.p["cfl"] - 1e-12))
+    out = []
+    for q, ki in zip(freqs, law):
+        num = den = 0.0
+        for j in np.flatnonzero((f.f == q) & (f.cx > 0.1 * f.cg)):
+            r = steady_ratio(f.cx[j] * sub / f.dx, 2.0 * f.cg[j] * ki * sub)
+            k = -math.log(r) * (f.cx[j] / f.cg[j]) / (2.0 * f.dx)
+            num, den = num + f.E_in[j] * k, den + f.E_in[j]
+        out.append(num / den)
+    return np.array(out)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -109,11 +139,21 @@ def main(argv: list[str] | None = None) -> None:
     bx, by = (f.plane(np.radians(blat), np.radians(blon)) if len(bt)
               else (np.zeros(0), np.zeros(0)))
     mid = np.abs(by - 0.5 * (y_lo + y_hi)) <= 0.5 * third
-    front = np.array([bx[mid & (bt <= s)].max() - x_edge if (mid & (bt <= s)).any() else np.nan
-                      for s in t])
+    reach = np.array([bx[mid & (bt <= s)].max() - x_edge if (mid & (bt <= s)).any()
+                      else np.nan for s in t])
 
     floes = [floe_labels(len(area), cm.ji, cm.jj, intact[i]) for i in range(n)]
     areas = [floe_areas(lab, c, area) for c, lab in floes]
+    # the front: where the unbroken pack (the largest floe) begins, the median over ten bands
+    # of the middle third of the westernmost element of that floe in the band
+    ex, ey = f.plane(*_latlon(q[0]))
+    band = np.floor((ey - (0.5 * (y_lo + y_hi) - 0.5 * third)) / (third / 10)).astype(int)
+    front = []
+    for (c, lab), a_ in zip(floes, areas):
+        big = lab == np.argmax(a_)
+        xs = [ex[big & (band == b)].min() for b in range(10) if (big & (band == b)).any()]
+        front.append(float(np.median(xs)) - x_edge if xs else np.nan)
+    front = np.array(front)
     ds = distribution(areas, t, min_tail=10)
     ds.attrs["kind"] = "siku floe size distribution"
     ds.attrs["source"] = f"examples/miz/run.py {scene.name}"
@@ -145,22 +185,29 @@ def main(argv: list[str] | None = None) -> None:
         for r in (0, 1):
             ax[r, c].set(xlabel="x (east) [m]", ylabel="y (north) [m]")
 
-    ax[2, 0].plot(t, front, "o-")
-    ax[2, 0].set(xlabel="time [s]", ylabel="breakup front from the ice edge [m]",
-                 title="the farthest broken joint (middle third)")
+    ax[2, 0].plot(t, front, "o-", label="the unbroken pack begins (median)")
+    ax[2, 0].plot(t, reach, "s:", label="the farthest broken joint")
+    ax[2, 0].set(xlabel="time [s]", ylabel="distance from the ice edge [m]",
+                 title="breakup front (middle third across the waves)")
+    ax[2, 0].legend(fontsize=8)
     ax[2, 0].grid(alpha=0.3)
 
     xc = f.x0 + (np.arange(f.nx) + 0.5) * f.dx
     yc = f.y0 + (np.arange(f.ny) + 0.5) * f.dy
-    reach = x_edge + 0.5 * (x_end - x_edge)
-    ice = (xc > x_edge + f.dx) & (xc < reach)
+    # fitted over the first kilometre (or half the pack): beyond, the oblique components in
+    # the middle third have entered across the pack's sides (ice_edge.toml: +-22.5 deg from
+    # the middle third's edge reach the pack's side 1.2 km from the edge)
+    x_fit = x_edge + min(1000.0, 0.5 * (x_end - x_edge))
+    ice = (xc > x_edge + f.dx) & (xc < x_fit)
     strip = np.abs(yc - 0.5 * (y_lo + y_hi)) <= 0.5 * third
     f._ice(q[-1])
     freqs, fit = _fit_rates(f, Es[-1], ice, strip)
     h_ice = float(np.median(sim.state.thickness))
     law = f.law.rate(freqs, h_ice, f.h)
+    disc = _discrete_rates(f, sim.dt, freqs, law)
     ax[2, 1].loglog(freqs, fit, "o", label="fitted to the spectrum in the ice")
     ax[2, 1].loglog(freqs, law, "k-", label=f"law: {f.law.name}, h = {h_ice:g} m")
+    ax[2, 1].loglog(freqs, disc, "k:", label=f"the law in the upwind scheme ({f.dx:g} m cells)")
     ax[2, 1].loglog([0.05, 0.15], [1e-6, 1e-5], "r--",
                     label="Rogers et al. (2016), pancake/frazil ice")
     ax[2, 1].set(xlabel="frequency [Hz]", ylabel="amplitude attenuation rate k_i [1/m]",
@@ -196,10 +243,12 @@ def main(argv: list[str] | None = None) -> None:
     png = out / f"{scene.stem}.png"
     fig.savefig(png, dpi=80)
 
-    print("front (middle third) from the ice edge: " + ", ".join(
+    print("farthest broken joint (middle third) from the ice edge: " + ", ".join(
+        f"{s:g} s {v:.0f} m" for s, v in zip(t, reach) if math.isfinite(v)))
+    print("front (the unbroken pack begins, middle third): " + ", ".join(
         f"{s:g} s {v:.0f} m" for s, v in zip(t, front) if math.isfinite(v)))
-    print("k_i fitted / law at " + ", ".join(
-        f"{u:.3f} Hz {v:.3g}/{w:.3g}" for u, v, w in zip(freqs, fit, law)))
+    print("k_i fitted / law / the law in the scheme at " + ", ".join(
+        f"{u:.3f} Hz {v:.3g}/{w:.3g}/{d:.3g}" for u, v, w, d in zip(freqs, fit, law, disc)))
     print(f"floes at the end: {int(ds['n_floes'][last])} ({int((bt <= t[-1]).sum())} joints "
           f"broken); alpha = {a:.3f} ± {se:.3f} above {amin:.4g} m2 ({ntail} floes)")
     print(png)
