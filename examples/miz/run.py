@@ -4,8 +4,8 @@
 
 SCENE: ``ice_edge.toml`` (default; the 3 km x 1.5 km Voronoi pack in a directional swell,
 about 7 minutes of CPU) or ``miz.toml`` (the 600 m x 80 m flume, under a minute).
-Writes DIR/STEM.h5 (the run), DIR/STEM.fsd.nc (the floe size distribution of every snapshot,
-as ``siku fsd`` writes it) and DIR/STEM.png:
+Writes DIR/STEM.h5 (the run), DIR/STEM.fsd.nc (the floe size distribution of every snapshot:
+the bins and power-law fit of ``siku fsd``, without the calipers) and DIR/STEM.png:
 
 * top row: the significant wave height of the spectral field's grid at four snapshots, with
   the ice's outline;
@@ -16,14 +16,14 @@ as ``siku fsd`` writes it) and DIR/STEM.png:
   westernmost element) and the farthest broken joint; (b) the amplitude attenuation rate k_i
   against frequency fitted to the spectrum in the ice at the end (per component ``ln E_j``
   against ``x`` over the middle third and the first kilometre of ice, times the cosine of its
-  direction, ``/ (2 C)``; the
-  energy-weighted mean over the directions of a frequency) beside the law the scene uses, the
-  law as the first-order upwind transport carries it on the grid's cells, and
-  the range of Rogers et al. (2016) for pancake and frazil ice (k_i from 1e-6 to 1e-5 1/m over
-  0.05-0.15 Hz, as Orzech et al. 2018 quote it); (c) the floe size distribution at the end with
-  its power-law exponent, lower cut-off and standard error (Clauset et al. 2009, as ``siku
-  fsd``), beside the observed exponents 1.65-2.03 for areas 50 m2 to 5 km2 (Denton &
-  Timmermans 2022). Prints the numbers.
+  direction, ``/ (2 C)``; the energy-weighted mean over the directions of a frequency) beside
+  the law the scene uses, the law as the first-order upwind transport carries it on the grid's
+  cells, and the range of Rogers et al. (2016) for pancake and frazil ice (k_i from 1e-6 to
+  1e-5 1/m over 0.05-0.15 Hz, as Orzech et al. 2018 quote it); (c) the floe size distribution
+  at the end with its power-law exponent, lower cut-off and standard error (Clauset et al.
+  2009, as ``siku fsd``), beside the observed exponents 1.65-2.03 for areas 50 m2 to 5 km2
+  (Denton & Timmermans 2022); (d) the number of floes and of broken joints over time. Prints the
+  numbers.
 """
 from __future__ import annotations
 
