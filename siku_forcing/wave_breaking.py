@@ -220,7 +220,8 @@ class FlexuralBreaking:
         cm = self.cm
         total = 0
         eps_f = np.full(cm.joint_slots, np.nan)
-        eps_f[cm.intact] = self.surface_strains(t, q, np.flatnonzero(cm.intact))
+        joints = np.flatnonzero(cm.intact)  # (the intact flags of the joints made so far)
+        eps_f[joints] = self.surface_strains(t, q, joints)
         known = np.full(cm.joint_slots, np.nan)  # min(eps_f, eps_r) of the last pass
         before = None  # floe labels of the last pass
         while True:
