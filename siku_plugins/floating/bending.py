@@ -153,13 +153,15 @@ class Beams:
 @njit(cache=True, error_model="numpy")
 def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw, amp, kx, ky,
                    om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, B3, M1, C1, B1,
-                   M2, C2, B2, load, indptr, indices, data, K, kidx, hist, head, u, v):
+                   M2, C2, B2, load, indptr, indices, data, K, kidx, hist, head, u, v, pw):
     """:func:`siku_plugins.floating.kernels.advance` with the beams' stiffness (CSR over the
     ``3 n`` degrees of freedom ``u``, velocities ``v``, both in place) and constant vertical
     loads ``load`` [N]: the same velocity Verlet, every element at once per sub-step. With
     ``K`` not empty (``radiation = "memory"``: kernels ``(S, 3, L)``, ``kidx``, ring buffers
     ``hist (n, 3, L)`` whose latest rates are at ``head``) the damping ``B v`` is the memory
-    force of ``siku_plugins.floating.memory.advance_modes`` (same scheme)."""
+    force of ``siku_plugins.floating.memory.advance_modes`` (same scheme). ``pw`` [W m-2]
+    receives each element's damping (or memory force) power per area averaged over the
+    sub-steps (trapezoid of ``B v²`` or ``mu v``)."""
     n = free.shape[0]
     natt = amp.shape[0]
     att = np.empty((n, natt))
@@ -207,7 +209,10 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
 
     forces(t0)
     hp = head
+    pw[:] = 0.0
+    _damping_work(n, free, mem, mu, B, v, -0.5, pw)
     for k in range(n_sub):
+        _damping_work(n, free, mem, mu, B, v, 1.0, pw)
         for r in range(3 * n):
             if free[r // 3]:
                 if mem:
@@ -233,6 +238,18 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
             for r in range(3 * n):
                 if free[r // 3]:
                     hist[r // 3, r % 3, hp] = v[r]
+    _damping_work(n, free, mem, mu, B, v, 0.5, pw)
+    for i in range(n):
+        pw[i] /= n_sub * area[i]
+
+
+@njit(cache=True, inline="always")
+def _damping_work(n, free, mem, mu, B, v, w, pw):
+    """Add ``w`` times each free element's damping (``mem``: memory) force times its rates
+    to ``pw``."""
+    for r in range(3 * n):
+        if free[r // 3]:
+            pw[r // 3] += w * (mu[r] if mem else B[r] * v[r]) * v[r]
 
 
 def equilibrium(proc, n: int) -> np.ndarray:

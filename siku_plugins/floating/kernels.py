@@ -274,7 +274,7 @@ def _load(k, i, S, E, r, kap, ext):
 def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                    lattice, qu, qv, qw,
             amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
+            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
     """Elements ``lo_e`` to ``hi_e`` of :func:`advance`."""
     natt = amp.shape[0]
     wave = natt > 0
@@ -313,7 +313,9 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
         den3 = 1.0 + hd * b3 / m3
         den1 = 1.0 + hd * b1 / m1
         den2 = 1.0 + hd * b2 / m2
+        e = -0.5 * (b3 * vzi * vzi + b1 * v1i * v1i + b2 * v2i * v2i)  # damping work: pw
         for k in range(n_sub):
+            e += b3 * vzi * vzi + b1 * v1i * v1i + b2 * v2i * v2i
             # buoyancy and wave load together saturate once the element is out of the
             # water (0) or under it (rho_w g A h): submergence d - ζ + (wave load)/(rho_w g A)
             fh = ka * (min(max(d - zi + f / area[i], 0.0), h[i]) - d)
@@ -329,6 +331,8 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
             vzi = (vzh + hd * fh / m3) / den3
             v1i = (v1h + hd * (-c1 * s1i + rho_g * g1) / m1) / den1
             v2i = (v2h + hd * (-c2 * s2i + rho_g * g2) / m2) / den2
+        e += 0.5 * (b3 * vzi * vzi + b1 * v1i * v1i + b2 * v2i * v2i)
+        pw[i] = e / (n_sub * area[i])
         z[i] = zi
         vz[i] = vzi
         pitch[i] = -(s1i * c - s2i * s)
@@ -341,34 +345,39 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
 def _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                       lattice, qu, qv, qw,
             amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
+            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
     n = z.shape[0]
     for ch in prange(nch):
         lo_e, hi_e = chunk_bounds(ch, nch, n)
         _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
                        qoff, lattice, qu, qv, qw,
                           amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
+                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch,
+                          pitch_rate, pw)
 
 
 def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, lattice, qu, qv, qw,
             amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate):
+            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
     """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
     the damping taken half explicitly (first half step) and half implicitly (second), so that
     the scheme is second order and, for the linear oscillator, stable for ``omega dt < 2``.
     The element's centre on the wave field's plane (``x = R cos(lat0) (lon - lon0)``, ``y = R
     (lat - lat0)``, as ``siku_forcing.waves``) and its local frame come from ``q``; the tilts
     are stepped as slopes along the principal axes (angle ``phi``: ``cphi, sphi``) and written
-    back as roll and pitch. The fields change in place; elements are independent, in ``nch``
-    chunks (``siku_core.parallel``), so the result does not depend on the threads."""
+    back as roll and pitch; ``pw`` [W m-2] receives the damping's power per area averaged over
+    the ``n_sub`` steps (trapezoid of ``B v²`` at the sub-steps). The fields change in place;
+    elements are independent, in ``nch`` chunks (``siku_core.parallel``), so the result does
+    not depend on the threads."""
     if nch > 1:
         _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
                           lattice, qu, qv, qw,
                           amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
+                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch,
+                          pitch_rate, pw)
     else:
         _advance_range(0, z.shape[0], n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
                        qoff, lattice, qu, qv, qw,
                           amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate)
+                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch,
+                          pitch_rate, pw)

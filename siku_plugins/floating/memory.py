@@ -115,13 +115,14 @@ def _lagged(Ki, row, hp, L):
 @njit(cache=True, error_model="numpy")
 def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
                   amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, M1, C1,
-                  M2, C2, K, kidx, hist, head, z, vz, roll, roll_rate, pitch, pitch_rate):
+                  M2, C2, K, kidx, hist, head, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
     """``n_sub`` sub-steps of ``dt`` [s] from ``t0`` of heave and the two principal slopes of
     every free element, each mode with its memory force ``mu = dt Σ_j w_j K_j x'_{n-j}``
     (velocity Verlet as ``siku_plugins.floating.kernels.advance``; ``mu`` explicit in the
     first half kick, its ``K_0`` term implicit in the second). ``K (S, 3, L)`` per shape and
     mode (heave, slope 1, slope 2), ``kidx`` each element's shape; ``hist (n, 3, L)`` the ring
-    buffers of the rates, ``hist[i, k, head]`` the latest."""
+    buffers of the rates, ``hist[i, k, head]`` the latest. ``pw`` [W m-2] receives the memory
+    force's power per area averaged over the sub-steps (trapezoid of ``mu x'``)."""
     L = K.shape[2]
     natt = amp.shape[0]
     wave = natt > 0
@@ -171,7 +172,9 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
             mu[m] = dt * (0.5 * Ki[m, 0] * hist[i, m, hp]
                           + _lagged(Ki[m], hist[i, m], (hp - 1) % L, L))
             den[m] = 1.0 + hd * 0.5 * dt * Ki[m, 0] / mm[m]
+        e = -0.5 * (mu[0] * v[0] + mu[1] * v[1] + mu[2] * v[2])   # the memory force's work
         for k in range(n_sub):
+            e += mu[0] * v[0] + mu[1] * v[1] + mu[2] * v[2]
             # heave: buoyancy and wave load saturate out of and under the water
             fk[0] = ka * (min(max(d - x[0] + f / area[i], 0.0), h[i]) - d)
             fk[1] = -cc[1] * x[1] + rho_g * g1
@@ -192,6 +195,8 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
             hp = (hp + 1) % L
             for m in range(3):
                 hist[i, m, hp] = v[m]
+        e += 0.5 * (mu[0] * v[0] + mu[1] * v[1] + mu[2] * v[2])
+        pw[i] = e / (n_sub * area[i])
         z[i] = x[0]
         vz[i] = v[0]
         pitch[i] = -(x[1] * c - x[2] * s)

@@ -88,6 +88,10 @@ FIELDS = (
     ElementField("roll_rate", "rad s-1", "rate of roll"),
     ElementField("pitch", "rad", "tilt about the element's local y axis (+x side down)"),
     ElementField("pitch_rate", "rad s-1", "rate of pitch"),
+    ElementField("wave_radiated_power", "W m-2", "rate at which the element's radiation "
+                 "damping takes energy from its heave, roll and pitch, per unit area, averaged "
+                 "over the last step (B33 z'^2 + B_1 s_1'^2 + B_2 s_2'^2, or the memory "
+                 "force's work, over the area)"),
 )
 
 
@@ -97,6 +101,7 @@ class Floating(Process):
 
     name = "floating"
     owned_fields = FIELDS
+    diagnostic_units: ClassVar[dict[str, str]] = {"wave_radiated_power": "W"}
     params: ClassVar[dict[str, Param]] = {
         "rho_water": Param(1026.0, "kg/m^3", "water density rho_w", min=1e-6),
         "g": Param(9.81, "m/s^2", "gravitational acceleration", min=1e-6),
@@ -383,9 +388,10 @@ class Floating(Process):
     def apply(self, ctx, dt: float) -> None:
         if dt <= 0.0 or not self._floats:
             return
+        f = ctx.fields
+        f["wave_radiated_power"][:] = 0.0     # the kernels write the free elements'
         if self.beams is not None or self._loaded:
             return self._apply_coupled(ctx, dt)
-        f = ctx.fields
         n_sub = self._n_sub(ctx, dt)
         mem = self.memory
         st = ctx.state
@@ -400,7 +406,7 @@ class Floating(Process):
                           self.qw, *wave, self.rho_g, self.draft, self.h, self.area, self.M3,
                           self.M1, self.C1, self.M2, self.C2, mem.K, mem.kidx, mem.hist,
                           mem.head, f["heave"], f["heave_rate"], f["roll"], f["roll_rate"],
-                          f["pitch"], f["pitch_rate"])
+                          f["pitch"], f["pitch_rate"], f["wave_radiated_power"])
             mem.head = (mem.head + n_sub) % mem.K.shape[2]
             return
         work = FLOAT_NS * (n_sub + 1)     # per element; below PARALLEL_MIN: one chunk
@@ -409,7 +415,7 @@ class Floating(Process):
                 self.sphi, self.qoff, self.lattice, self.qu, self.qv, self.qw, *wave, self.rho_g,
                 self.draft, self.h, self.area, self.M3, self.B3, self.M1, self.C1, self.B1,
                 self.M2, self.C2, self.B2, f["heave"], f["heave_rate"], f["roll"],
-                f["roll_rate"], f["pitch"], f["pitch_rate"])
+                f["roll_rate"], f["pitch"], f["pitch_rate"], f["wave_radiated_power"])
 
     def _wave_args(self, ctx) -> tuple:
         """The kernels' arguments of the wave (``amp`` to ``ext``)."""
@@ -428,6 +434,11 @@ class Floating(Process):
             raise SceneError(f"{ctx.where(self.table)}: process 'floating': radiation = "
                              f"'memory' was set up for steps of {mem.dt_p:g} s, not {dt:g} s")
         return mem.n_sub
+
+    def diagnostics(self, ctx):
+        """``wave_radiated_power`` [W]: the radiation damping's power over all elements."""
+        return {"wave_radiated_power": float(np.sum(ctx.fields["wave_radiated_power"]
+                                                    * self.area))}
 
     def history(self):
         mem = self.memory
@@ -475,7 +486,8 @@ class Floating(Process):
         advance_bonded(n_sub, dt / n_sub, float(ctx.time - dt), self.free, xc, yc, e0, e1,
                        self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw, *wave,
                        self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
-                       self.C1, self.B1, self.M2, self.C2, self.B2, self.load, *csr, *hist, u, v)
+                       self.C1, self.B1, self.M2, self.C2, self.B2, self.load, *csr, *hist, u, v,
+                       f["wave_radiated_power"])
         if mem is not None:
             mem.head = (mem.head + n_sub) % mem.K.shape[2]
         U, W = u.reshape(-1, 3), v.reshape(-1, 3)
