@@ -231,7 +231,8 @@ def test_restart_is_bit_for_bit(tmp_path):
     rest = Simulation(scene_from_text(block(p, **common), str(tmp_path / "s.toml")),
                       out=tmp_path / "b.h5", progress=False, restart=tmp_path / "a.h5")
     rest.run()
-    for name in ("heave", "heave_rate", "roll", "roll_rate", "pitch", "pitch_rate"):
+    for name in ("heave", "heave_rate", "roll", "roll_rate", "pitch", "pitch_rate",
+                 "wave_radiated_power"):
         np.testing.assert_array_equal(rest.context.fields[name],
                                       whole.context.fields[name], err_msg=name)
 
