@@ -128,6 +128,12 @@ class Spectral(WaveField):
         ElementField("wave_drag_power", "W m-2", "rate of work of the wave drag on the "
                      "element against the orbital flow, F_drag . u_orbital / area (power the "
                      "waves lose to the element's drag)"),
+        ElementField("wave_attenuation", "m-1", "the law's amplitude attenuation rate in the "
+                     "element's cell, C k_i weighted by the energy flux c_g E of the "
+                     "components"),
+        ElementField("wave_response_attenuation", "m-1", "amplitude attenuation rate the "
+                     "ice's response implies in the element's cell: the drag and radiated "
+                     "power of its elements over 2 rho g sum c_g E"),
     )
     diagnostic_units: ClassVar[dict[str, str]] = {
         "wave_power_absorbed": "W", "wave_energy": "J", "wave_drag_power": "W"}
@@ -354,6 +360,37 @@ class Spectral(WaveField):
             c = self.element_cell
             fields["wave_height"][:] = self.height().ravel()[c]
             fields["wave_dissipation"][:] = self.dissipation().ravel()[c]
+            k_law, k_resp = self.attenuations(self.response_power())
+            fields["wave_attenuation"][:] = k_law.ravel()[c]
+            fields["wave_response_attenuation"][:] = k_resp.ravel()[c]
+
+    def response_power(self) -> np.ndarray:
+        """Power [W] per element that the ice's own motion takes from the waves over the last
+        step: its drag's work against the orbital flow (``wave_drag_power``) plus the radiation
+        damping's work of a ``floating`` process (``wave_radiated_power``) if the scene has
+        one, both times the element's area."""
+        st = self.ctx.state
+        power = np.zeros(st.n) + getattr(self, "drag_power", 0.0)
+        if "wave_radiated_power" in self.ctx.fields:
+            power += self.ctx.fields["wave_radiated_power"] * st.area
+        return power
+
+    def attenuations(self, power) -> tuple[np.ndarray, np.ndarray]:
+        """The amplitude attenuation rates [1/m] per cell ``(ny, nx)`` of the law and of the
+        ice's response to ``power`` [W] per element, both defined by the energy balance:
+        ``d(c_g E)/dx = -2 k c_g E`` makes the power absorbed per unit area ``P = 2 k rho g
+        c_g E`` for one component, so for the spectrum ``k = P / (2 rho g sum_j c_g E_j)``, the
+        rates weighted by the energy flux. The law's ``P`` is :meth:`dissipation` (so its
+        ``k`` is the flux-weighted mean of ``C k_i``); the response's is ``power`` summed over
+        the elements whose centres lie in the cell, over the cell's area. Zero in a cell
+        without wave energy."""
+        flux = 2.0 * RHO_WATER * self.p["g"] * np.einsum("j,jyx->yx", self.cg, self.E)
+        nc = self.nx * self.ny
+        p_resp = np.bincount(self.element_cell, power, nc).reshape(self.ny, self.nx) / (
+            self.dx * self.dy)
+        ok = flux > 0
+        den = np.where(ok, flux, 1.0)
+        return (np.where(ok, self.dissipation() / den, 0.0), np.where(ok, p_resp / den, 0.0))
 
     # ------------------------------------------------------------------ bookkeeping
     def diagnostics(self, ctx):
