@@ -24,7 +24,10 @@ many equal sub-steps as the Courant limit ``cfl`` asks. Per element the field re
 parameterised loss) and ``wave_drag_power`` (the rate of work of the element's wave drag
 against the orbital flow per unit area, ``F_drag · u / S`` [W m-2], the loss the ice's own
 response takes, to set beside the parameterised one; the transport does not subtract it);
-their totals are diagnostics. What the transport does not represent: wind
+their totals are diagnostics. ``wave_attenuation`` and ``wave_response_attenuation`` [1/m] are
+the rates ``k = P / (2 rho g sum c_g E)`` of the element's cell for the law's ``P`` and for the
+power the ice's response takes (drag and a ``floating`` process's radiation damping):
+:meth:`Spectral.attenuations`. What the transport does not represent: wind
 input, nonlinear transfer, whitecapping, refraction, reflection and scattering into other
 directions; the ice changes the amplitude only, never the wavelength or the group velocity.
 """

@@ -56,6 +56,11 @@ so the process sets no limit on the scene's ``dt`` (the period error is ``(2 pi 
 steps_per_period)² / 24``, 0.04 % by default). The wave load is evaluated at every sub-step
 with the element's horizontal position at the end of the engine's step.
 
+``wave_radiated_power`` [W m-2]: the rate at which each element's radiation damping takes
+energy from its motion, per unit area, averaged over the step (trapezoid over the sub-steps of
+``B33 ζ'² + B_1 s_1'² + B_2 s_2'²``, or of the memory force times the rates); its total [W] is
+the diagnostic of the same name.
+
 Only free elements float; static, steady and melted ones keep zero heave and tilt.
 """
 from __future__ import annotations
