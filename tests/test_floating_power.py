@@ -115,3 +115,4 @@ def test_the_field_is_declared_with_units_and_its_total_is_a_diagnostic(tmp_path
         v = ds["wave_radiated_power"]
         assert v.attrs["units"] == "W m-2"
         assert float(v.isel(time=-1).values.ravel()[0]) == f[0]
+
