@@ -16,6 +16,7 @@ import numpy as np
 from .contact_frames import (
     ROW_SIZE,
     element_index,
+    joint_arms,
     pair_masses,
     rotation_matrices,
     rotations_within,
@@ -33,6 +34,7 @@ from .errors import SceneError
 from .geometry.clip import REL_TOL
 from .geometry.face import edge_table
 from .geometry.quat import centers
+from .ice_follow import follow_contacts
 from .interfaces import BroadPhase
 from .parallel import GATHER_NS, ROTATION_NS, alone, chunks
 from .plugins import package_of
@@ -93,6 +95,8 @@ class ContactModel(JointBook):
         self.skin = skin / R
         self.radii = st.radius / R + 0.5 * self.skin
         self.pairs = np.zeros((0, 2), dtype=np.int64)
+        self._no_elements = np.zeros(0, dtype=np.int64)
+        self._jscratch = np.zeros(0)  # (ice_changed)
         self._set_pair_index()
         self._ref_centers: np.ndarray | None = None
         self.rm = np.empty((st.n, 3, 3))
@@ -307,20 +311,35 @@ class ContactModel(JointBook):
         self._jev = evaluator_of(self.law, "joint_evaluator") if self.law.uses_joints else None
         self._cev = evaluator_of(self.law, "collision_evaluator")
 
-    def ice_changed(self) -> None:
+    def ice_changed(self, elements: np.ndarray | None = None, flags: bool = True) -> None:
         """The constants that follow the thickness and flags, recomputed after a process
         changed them (``siku_core.ice``): inverse and reduced masses, the joints' eq. 9
-        stiffness (from ``E h``); melted elements leave the candidate list at once."""
+        stiffness (from ``E h``); melted elements leave the candidate list at once.
+
+        ``elements``: only these changed (int64; ``None``: any may have), so only they and
+        their joints and candidate pairs are recomputed (the same values:
+        :func:`~siku_core.ice_follow.follow_contacts`); ``flags``: whether a flag may have
+        changed."""
         st = self.state
-        self.minv = np.where(st.flags == FREE, 1.0 / st.m, 0.0)
+        full = elements is None
+        if full:
+            elements = self._no_elements
+        if len(self.arms[0]) != len(self.ji):
+            self.arms = joint_arms(self.ends_i, self.ends_j)
+        ri, rj = self.arms
+        if len(self._jscratch) != len(self.ji):
+            self._jscratch = np.empty(len(self.ji))
+        follow_contacts(elements, len(elements), full, st.thickness, self.E, st.m, st.flags,
+                        self.minv, self.ji, self.jj, ri, rj, self.jK, self.jmeff, self.joff,
+                        self.jidx, self.pairs, self.pmeff, self.poff, self.pidx,
+                        self._jscratch)
+        if not flags:
+            return
         gone = st.flags == MELTED
-        if self.n_joints:
-            self.refresh_joint_constants(lines=False)
         if gone.any() and (self.gone is None or not np.array_equal(gone, self.gone)):
             self.gone = gone
             self.skip = st.flags != FREE
             self._ref_centers = None  # rebuilt at the next evaluation, without them
-        self.pmeff = pair_masses(self.minv, self.pairs)
 
     # ------------------------------------------------------------------ per-contact history
     def history(self) -> dict[str, np.ndarray]:

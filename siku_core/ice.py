@@ -45,6 +45,7 @@ import numpy as np
 
 from .categories import CATEGORY_FIELDS, Categories, category_mean, category_problem
 from .errors import PluginError, SceneError, StabilityError
+from .ice_follow import few, follow_elements, scan_ice
 from .state import MELTED
 from .stress import STRESS_FIELDS
 
@@ -167,6 +168,11 @@ class IceBook:
             self._flags_seen = st.flags.copy()
             #: thickness at the last stable-step check
             self._h_checked = st.thickness.copy()
+            #: the elements whose thickness or flag changed (first ones; ``scan_ice``)
+            self._changed = np.empty(st.n, dtype=np.int64)
+            #: whether every element's mass, inertia and contact constants follow its thickness
+            #: by ``element_mass`` (after the first refresh; before it, the set-up's values)
+            self._followed = False
 
     # ------------------------------------------------------------------ fields
     def element_fields(self) -> dict[str, np.ndarray]:
@@ -262,35 +268,41 @@ class IceBook:
 
     def after_processes(self, who: str) -> None:
         """After processes ran: if a thickness or flag changed, recompute what depends on it
-        and check the step (``who`` names the processes for the message)."""
+        and check the step (``who`` names the processes for the message). One compiled pass
+        finds the changed elements (:func:`~siku_core.ice_follow.scan_ice`); only they and
+        their joints and pairs are recomputed."""
         st = self._sim.state
-        h_changed = not np.array_equal(st.thickness, self._h_seen)
-        f_changed = not np.array_equal(st.flags, self._flags_seen)
-        if not (h_changed or f_changed):
+        nc, h_changed, f_changed, bad, drift = scan_ice(
+            st.thickness, st.flags, self._h_seen, self._flags_seen, self._h_checked, RECHECK,
+            self._changed)
+        if not nc:
             return
-        bad = ~(np.isfinite(st.thickness) & (st.thickness > 0))
-        if bad.any():
-            i = int(np.argmax(bad))
+        if bad >= 0:
             raise StabilityError(
-                f"{who} set the thickness of element {i} to {st.thickness[i]!r} m at t = "
+                f"{who} set the thickness of element {bad} to {st.thickness[bad]!r} m at t = "
                 f"{self._sim.time:g} s; a thickness must stay finite and positive (melt an "
                 "element with ctx.melt instead)")
         # the stable step moves with the thickness (mass, stiffness): checked again once some
         # element's thickness has changed by more than RECHECK since the last check
-        drift = np.abs(st.thickness - self._h_checked) > RECHECK * self._h_checked
-        self.refresh(check=h_changed and bool(drift.any()), who=who)
+        self.refresh(check=h_changed and drift, who=who,
+                     elements=self._changed[:nc] if few(nc, st.n) else None, flags=f_changed)
 
-    def refresh(self, check: bool = True, who: str = "") -> None:
+    def refresh(self, check: bool = True, who: str = "", elements: np.ndarray | None = None,
+                flags: bool = True) -> None:
         """Mass, inertia and the contact model's constants from the thickness and flags; then
-        (``check``) the stable step."""
+        (``check``) the stable step. ``elements``: only these changed (``None``: any may
+        have); ``flags``: whether a flag may have changed."""
         sim = self._sim
         st = sim.state
-        np.multiply(self.rho * st.thickness, st.area, out=st.m)
-        np.multiply(self.rho * st.thickness, self.J, out=st.I)
-        self._h_seen[:] = st.thickness
-        self._flags_seen[:] = st.flags
+        # every element at the first refresh (before it, the values are the set-up's)
+        full = elements is None or not self._followed
+        self._followed = True
+        if full:
+            elements = self._changed[:0]
+        follow_elements(elements, len(elements), full, st.thickness, st.flags, self.rho,
+                        st.area, self.J, st.m, st.I, self._h_seen, self._flags_seen)
         if sim.contacts is not None:
-            sim.contacts.ice_changed()
+            sim.contacts.ice_changed(None if full else elements, flags)
         if check:
             sim.check_time_step(after=who)
             self._h_checked[:] = st.thickness

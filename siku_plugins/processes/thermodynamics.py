@@ -79,25 +79,42 @@ def _grow_one(h0, dT, dt, rho, F, L, hs, ki, ks):
     return (-b + np.sqrt(b * b + 4.0 * a * c)) / (2.0 * a) - melt
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def _grow_all(h, rho, dT, dt, F, L, hs, ki, ks, out):
+    """``out[e]``: :func:`_grow_one` of every element without categories (melted ones too:
+    :func:`semtner_step` drops them), in a loop of its own so that it runs on vectors of
+    elements (the same arithmetic per element)."""
+    if dT.shape[0] > 1:
+        for e in range(h.shape[0]):
+            out[e] = _grow_one(h[e], dT[e], dt, rho[e], F, L, hs, ki, ks)
+    else:
+        dT0 = dT[0]
+        for e in range(h.shape[0]):
+            out[e] = _grow_one(h[e], dT0, dt, rho[e], F, L, hs, ki, ks)
+
+
+@njit(cache=True, error_model="numpy")
 def semtner_step(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, fraction, hk, grown,
-                 rate, gone, new, scratch):
+                 rate, gone, new, scratch, grow):
     """One application of the process (module docstring) to every element, in place:
     thickness ``h`` [m], category thicknesses ``hk`` (``(n, K)``; ``(n, 0)``: no categories),
     ``grown`` [m³] and ``rate`` [m/s]; ``dT`` [K] per element (or one for all); ``gone`` gets the
-    elements that melted away, their number returned. ``new``, ``scratch``: ``K`` values each.
+    elements that melted away, their number returned. ``new``, ``scratch``: ``K`` values each;
+    ``grow``: ``n`` values (the new thickness without categories, :func:`_grow_all`).
     """
     K = hk.shape[1]
+    if K == 0:
+        _grow_all(h, rho, dT, dt, F, L, hs, ki, ks, grow)
     ng = 0
     for e in range(h.shape[0]):
         if flags[e] == MELTED:
             rate[e] = 0.0
             continue
         h0 = h[e]
-        dTe = dT[e] if dT.shape[0] > 1 else dT[0]
         if K == 0:
-            hn = _grow_one(h0, dTe, dt, rho[e], F, L, hs, ki, ks)
+            hn = grow[e]
         else:  # each category on its own, the fractions unchanged
+            dTe = dT[e] if dT.shape[0] > 1 else dT[0]
             for k in range(K):
                 x = _grow_one(hk[e, k], dTe, dt, rho[e], F, L, hs, ki, ks)
                 new[k] = 0.0 if x < 0.0 else x
@@ -166,7 +183,7 @@ class Thermodynamics(Process):
         self._none = np.zeros((st.n, 0))
         self._gone = np.empty(st.n, dtype=np.int64)
         self._dT = np.zeros(1)
-        self._rows = (np.empty(K), np.empty(K))
+        self._rows = (np.empty(K), np.empty(K), np.empty(st.n if K == 0 else 0))
         bad = st.thickness < self.p["min_thickness"]
         if bad.any():
             i = int(np.argmax(bad))
