@@ -16,8 +16,11 @@ mass ``m = rho h A`` and polar moment ``I = rho h J`` (``J`` the polygon's polar
 of area), the contact model's reduced masses and eq. 9 joint stiffnesses (from ``E h``), and
 the stable step (again once some element's thickness has changed by more than :data:`RECHECK`
 since the last check), which stops the run with one line naming the element if ``dt`` is no
-longer safe. A scene with neither declared fields nor processes allocates nothing here and runs as
-before.
+longer safe. It does so in compiled passes (:mod:`siku_core.ice_follow`) for the elements whose
+thickness or flag changed and their joints and pairs only, or for all of them in one pass each
+when a quarter or more changed; mass from thickness is
+:func:`~siku_core.ice_follow.element_mass`. A scene with neither declared fields nor processes
+allocates nothing here and runs as before.
 
 Thickness categories (:mod:`siku_core.categories`, a scene whose element sources give them):
 ``ctx.categories`` holds the fraction ``a_k`` and thickness ``h_k`` of every element's categories,
