@@ -12,9 +12,9 @@ phase is the engine's follow-up of a thickness change: mass, inertia, the contac
 reduced masses and joint stiffnesses), the contact phases (joints, broad phase, collisions,
 contact sum) per element-step [ns], which carry most of the spread between runs of the same
 scene, the ratio to the run without processes, and the median over the rounds of the time per
-element-step and of the ``processes`` share (``--only`` runs some cases). Targets (issue: ice that changes):
-thermodynamics at most 5 % of the step, ridging at most 10 %, the run without processes as fast
-as before (``bench.fingerprint`` checks it is also bit for bit the same).
+element-step and of the ``processes`` share (``--only`` runs some cases). Targets (issue: ice
+that changes): thermodynamics at most 5 % of the step, ridging at most 10 %, the run without
+processes as fast as before (``bench.fingerprint`` checks it is also bit for bit the same).
 
     python -m bench.processes --rounds 3 --steps 50
     python -m bench.processes --only "pack none" "pack ridging"
