@@ -16,6 +16,7 @@ import numpy as np
 from .contact_frames import (
     ROW_SIZE,
     element_index,
+    joint_arms,
     pair_masses,
     rotation_matrices,
     rotations_within,
@@ -33,6 +34,7 @@ from .errors import SceneError
 from .geometry.clip import REL_TOL
 from .geometry.face import edge_table
 from .geometry.quat import centers
+from .ice_follow import follow_contacts
 from .interfaces import BroadPhase
 from .parallel import GATHER_NS, ROTATION_NS, alone, chunks
 from .plugins import package_of
@@ -93,6 +95,11 @@ class ContactModel(JointBook):
         self.skin = skin / R
         self.radii = st.radius / R + 0.5 * self.skin
         self.pairs = np.zeros((0, 2), dtype=np.int64)
+        self._no_elements = np.zeros(0, dtype=np.int64)
+        self._jscratch = np.zeros(0)  # (ice_changed)
+        #: whether the collision loop keeps every overlapping pair's contact width
+        #: (:meth:`keep_widths`)
+        self.widths_kept = False
         self._set_pair_index()
         self._ref_centers: np.ndarray | None = None
         self.rm = np.empty((st.n, 3, 3))
@@ -128,6 +135,9 @@ class ContactModel(JointBook):
         self.poff, self.pidx, self.pside = element_index(
             np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
         self.pface = self._faces(p)
+        #: per candidate pair: its contact width at the last evaluation that found it
+        #: overlapping [m] (empty unless :meth:`keep_widths`)
+        self.pair_width = np.zeros(len(p) if self.widths_kept else 0)
         #: per candidate pair: its reduced mass [kg]
         self.pmeff = pair_masses(self.minv, p)
         #: per candidate pair: its per-contact history row (zero unless in contact), and
@@ -233,12 +243,14 @@ class ContactModel(JointBook):
         where[order] = np.arange(len(order))
         old = where[:len(keys)]
         rows, active, hint = self.pair_rows, self.pair_active, self.separating_hint
-        chist, contact = self.chist, self.pair_contact
+        chist, contact, widths = self.chist, self.pair_contact, self.pair_width
         self.pairs = np.ascontiguousarray(every[order])
         self._set_pair_index()
         self.pair_rows[old] = rows
         self.pair_active[old] = active
         self.separating_hint[old] = hint
+        if self.widths_kept:
+            self.pair_width[old] = widths
         if self.n_contact_hist:
             self.chist[old] = chist
             self.pair_contact[old] = contact
@@ -272,6 +284,7 @@ class ContactModel(JointBook):
                 switches.pretest, self.pair_rows, self.pair_active, chunks(len(pairs)), self.margin,
                 self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
                 self.chist if self.n_contact_hist else None, commit,
+                self.pair_width if self.widths_kept else None,
             )
             if commit:
                 self.n_overlap = n
@@ -296,7 +309,6 @@ class ContactModel(JointBook):
         tm["collisions"] += t4 - t3
         tm["contact_sum"] += (t1 - t0) + (t5 - t4)
 
-
     def setup(self) -> None:
         """The law's parameter vectors, and its evaluators compiled once for the engine's
         argument types (before step 1): a fault is a one-line :class:`PluginError`."""
@@ -307,20 +319,40 @@ class ContactModel(JointBook):
         self._jev = evaluator_of(self.law, "joint_evaluator") if self.law.uses_joints else None
         self._cev = evaluator_of(self.law, "collision_evaluator")
 
-    def ice_changed(self) -> None:
+    def keep_widths(self) -> None:
+        """From now on the collision loop keeps the contact width of every pair it finds
+        overlapping in ``pair_width`` [m] (for a component that compares a pair's force with a
+        limit per unit width: the ``ridging`` process)."""
+        if not self.widths_kept:
+            self.widths_kept = True
+            self.pair_width = np.zeros(len(self.pairs))
+
+    def ice_changed(self, elements: np.ndarray | None = None, flags: bool = True) -> None:
         """The constants that follow the thickness and flags, recomputed after a process
         changed them (``siku_core.ice``): inverse and reduced masses, the joints' eq. 9
-        stiffness (from ``E h``); melted elements leave the candidate list at once."""
+        stiffness (from ``E h``); melted elements leave the candidate list at once. Only
+        ``elements`` (``None``: all) and their joints and pairs changed
+        (:func:`~siku_core.ice_follow.follow_contacts`), and a flag only if ``flags``."""
         st = self.state
-        self.minv = np.where(st.flags == FREE, 1.0 / st.m, 0.0)
+        full = elements is None
+        if full:
+            elements = self._no_elements
+        if len(self.arms[0]) != len(self.ji):
+            self.arms = joint_arms(self.ends_i, self.ends_j)
+        ri, rj = self.arms
+        if len(self._jscratch) != len(self.ji):
+            self._jscratch = np.empty(len(self.ji))
+        follow_contacts(elements, len(elements), full, st.thickness, self.E, st.m, st.flags,
+                        self.minv, self.ji, self.jj, ri, rj, self.jK, self.jmeff, self.joff,
+                        self.jidx, self.pairs, self.pmeff, self.poff, self.pidx,
+                        self._jscratch)
+        if not flags:
+            return
         gone = st.flags == MELTED
-        if self.n_joints:
-            self.refresh_joint_constants(lines=False)
         if gone.any() and (self.gone is None or not np.array_equal(gone, self.gone)):
             self.gone = gone
             self.skip = st.flags != FREE
             self._ref_centers = None  # rebuilt at the next evaluation, without them
-        self.pmeff = pair_masses(self.minv, self.pairs)
 
     # ------------------------------------------------------------------ per-contact history
     def history(self) -> dict[str, np.ndarray]:

@@ -17,9 +17,13 @@ of area, ``v`` the ice volume per area, :func:`~siku_core.categories.ice_per_are
 ``sum a_k h_k`` with thickness categories), the contact model's reduced masses and eq. 9
 joint stiffnesses (from ``E h``), and the stable step (again once some element's thickness,
 or its ice volume per area, has changed by more than :data:`RECHECK` since the last check),
-which stops the run with one line naming the element if ``dt`` is no
-longer safe. A scene with neither declared fields nor processes allocates nothing here and runs as
-before.
+which stops the run with one line naming the element if ``dt`` is no longer safe. Without
+categories it does so in compiled passes (:mod:`siku_core.ice_follow`) for the elements whose
+thickness or flag changed and their joints and pairs only, or for all of them in one pass each
+when a quarter or more changed; mass from thickness is
+:func:`~siku_core.ice_follow.element_mass`. With categories every element's mass follows ``v``
+in one NumPy pass. A scene with neither declared fields nor processes allocates nothing here
+and runs as before.
 
 Thickness categories (:mod:`siku_core.categories`, a scene whose element sources give them):
 ``ctx.categories`` holds the fraction ``a_k`` and thickness ``h_k`` of every element's categories,
@@ -48,6 +52,7 @@ import numpy as np
 from .categories import (CATEGORY_FIELDS, Categories, category_mean, category_problem,
                          ice_per_area)
 from .errors import PluginError, SceneError, StabilityError
+from .ice_follow import few, follow_elements, scan_ice
 from .state import MELTED
 from .stress import STRESS_FIELDS
 
@@ -173,6 +178,11 @@ class IceBook:
             #: thickness and ice volume per area at the last stable-step check
             self._h_checked = st.thickness.copy()
             self._v_checked = ice_per_area(st.thickness, categories).copy()
+            #: the elements whose thickness or flag changed (first ones; ``scan_ice``)
+            self._changed = np.empty(st.n, dtype=np.int64)
+            #: whether every element's mass, inertia and contact constants follow its thickness
+            #: by ``element_mass`` (after the first refresh; before it, the set-up's values)
+            self._followed = False
 
     # ------------------------------------------------------------------ fields
     def element_fields(self) -> dict[str, np.ndarray]:
@@ -269,44 +279,62 @@ class IceBook:
 
     def after_processes(self, who: str) -> None:
         """After processes ran: if a thickness or flag changed, recompute what depends on it
-        and check the step (``who`` names the processes for the message)."""
+        and check the step (``who`` names the processes for the message). One compiled pass
+        finds the changed elements (:func:`~siku_core.ice_follow.scan_ice`); only they and
+        their joints and pairs are recomputed."""
         st = self._sim.state
-        h_changed = self._cats_changed or not np.array_equal(st.thickness, self._h_seen)
-        f_changed = not np.array_equal(st.flags, self._flags_seen)
-        if not (h_changed or f_changed):
+        nc, h_changed, f_changed, bad, drift = scan_ice(
+            st.thickness, st.flags, self._h_seen, self._flags_seen, self._h_checked, RECHECK,
+            self._changed)
+        cats = self.categories is not None
+        if cats and self._cats_changed:  # fractions alone may have changed: every element
+            h_changed = True
+            nc = max(nc, st.n)
+        if not nc:
             return
-        bad = ~(np.isfinite(st.thickness) & (st.thickness > 0))
-        if bad.any():
-            i = int(np.argmax(bad))
+        if bad >= 0:
             raise StabilityError(
-                f"{who} set the thickness of element {i} to {st.thickness[i]!r} m at t = "
+                f"{who} set the thickness of element {bad} to {st.thickness[bad]!r} m at t = "
                 f"{self._sim.time:g} s; a thickness must stay finite and positive (melt an "
                 "element with ctx.melt instead)")
         # the stable step moves with the thickness (mass, stiffness): checked again once some
         # element's thickness has changed by more than RECHECK since the last check
-        drift = np.abs(st.thickness - self._h_checked) > RECHECK * self._h_checked
-        if self.categories is not None:  # the mass also moves with the concentration
+        if cats:  # the mass also moves with the concentration
             v = ice_per_area(st.thickness, self.categories)
-            drift |= np.abs(v - self._v_checked) > RECHECK * self._v_checked
-        self.refresh(check=h_changed and bool(drift.any()), who=who)
+            drift = drift or bool((np.abs(v - self._v_checked) > RECHECK * self._v_checked).any())
+        self.refresh(check=h_changed and drift, who=who,
+                     elements=self._changed[:nc] if not cats and few(nc, st.n) else None,
+                     flags=f_changed)
 
-    def refresh(self, check: bool = True, who: str = "") -> None:
+    def refresh(self, check: bool = True, who: str = "", elements: np.ndarray | None = None,
+                flags: bool = True) -> None:
         """Mass, inertia and the contact model's constants from the thickness and flags; then
-        (``check``) the stable step."""
+        (``check``) the stable step. ``elements``: only these changed (``None``: any may
+        have); ``flags``: whether a flag may have changed."""
         sim = self._sim
         st = sim.state
-        v = ice_per_area(st.thickness, self.categories)  # [m], the concentration counted
-        np.multiply(self.rho * v, st.area, out=st.m)
-        np.multiply(self.rho * v, self.J, out=st.I)
-        self._h_seen[:] = st.thickness
+        # every element at the first refresh (before it, the values are the set-up's) and in a
+        # scene with categories (the mass follows the ice volume per area, module docstring)
+        full = elements is None or not self._followed or self.categories is not None
+        self._followed = True
+        if full:
+            elements = self._changed[:0]
+        if self.categories is None:
+            follow_elements(elements, len(elements), full, st.thickness, st.flags, self.rho,
+                            st.area, self.J, st.m, st.I, self._h_seen, self._flags_seen)
+        else:
+            v = ice_per_area(st.thickness, self.categories)  # [m], the concentration counted
+            np.multiply(self.rho * v, st.area, out=st.m)
+            np.multiply(self.rho * v, self.J, out=st.I)
+            self._h_seen[:] = st.thickness
+            self._flags_seen[:] = st.flags
         self._cats_changed = False
-        self._flags_seen[:] = st.flags
         if sim.contacts is not None:
-            sim.contacts.ice_changed()
+            sim.contacts.ice_changed(None if full else elements, flags)
         if check:
             sim.check_time_step(after=who)
             self._h_checked[:] = st.thickness
-            self._v_checked[:] = v
+            self._v_checked[:] = ice_per_area(st.thickness, self.categories)
 
     def melt(self, elements: np.ndarray) -> int:
         """Flag ``elements`` as melted (module docstring); returns how many were not already."""

@@ -28,6 +28,17 @@ changes by exactly ``dV``.
 
 Declared per-element fields (summed on grids): ``ridged_volume`` and ``rafted_volume`` [m³],
 the volume the element has received by ridging and by rafting since the start.
+
+Cost. The plastic test compares the force a pair carried in the last evaluation with the limit
+``P h w`` at the contact width ``w`` of the state after the step, which needs the pair's overlap
+clipped again. Only candidates are clipped (:func:`ridge_candidates`): the remembered pairs and
+the pairs whose force was at least :data:`NEAR_LIMIT` (a half) of the limit at the width of
+that evaluation (which the contact model keeps, ``ContactModel.keep_widths``). A pair left out
+would pass the test only if its contact width fell below about half its value within one step
+while its force stayed below half the limit: a contact that is coming apart (its width
+collapsing onto a vertex), whose remaining sliver of overlap the test of the next width would
+take for a plastic one; such pairs are no longer converted (before, they were: in the cold-snap
+example with ridging every step, one pair of this kind in the first 75 steps, 8 m² of overlap).
 """
 from __future__ import annotations
 
@@ -39,12 +50,12 @@ import numpy as np
 from numba import njit, prange
 
 from siku_core.categories import row_mean, row_sum
-from siku_core.contact_frames import _width, j_to_i, relative_matrix, rotation_matrices
+from siku_core.contact_frames import _rotation_row, _width, j_to_i, relative_matrix
 from siku_core.errors import SceneError
 from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
 from siku_core.ice import ElementField
 from siku_core.interfaces import Process
-from siku_core.parallel import ROTATION_NS, alone, chunk_bounds, chunks
+from siku_core.parallel import alone, chunk_bounds, chunks
 from siku_core.params import Param
 from siku_core.state import MELTED
 
@@ -52,39 +63,72 @@ from siku_core.state import MELTED
 LAW_KEYS = ("strength", "raft_thickness", "raft_strength")
 
 
+#: a colliding pair is a candidate (its overlap clipped again after the step) when its force
+#: in the last evaluation was at least this share of the plastic limit at that evaluation's
+#: contact width, or when it is remembered (module docstring, "Cost")
+NEAR_LIMIT = 0.5
+
+
+@njit(cache=True)
+def ridge_candidates(pairs, active, rows, widths, thickness, flags, law, keys, count, poff,
+                     pidx, q, rm, mark, cand, known_at):
+    """The colliding pairs (``active[k] == 1``) the process looks at, in ascending ``k``, into
+    ``cand``: the remembered ones (their place in the first ``count`` sorted ``keys`` goes to
+    ``known_at``, -1 for the others, found through the element-to-pair index ``poff, pidx``)
+    and those without a melted element whose force ``rows[k]`` (on ``i``, columns 0 and 1) was
+    at least :data:`NEAR_LIMIT` of the plastic limit ``P h w`` at the evaluation's contact
+    width ``widths[k]`` [m] (``law``: ``(strength, raft_thickness, raft_strength)``); their
+    elements' rotation matrices ``rm`` from ``q``. ``mark`` (one per pair, -1) is scratch, left
+    -1. Returns the number of candidates."""
+    n = thickness.shape[0]
+    strength, raft_h, raft_p = law[0], law[1], law[2]
+    for r in range(count):
+        i = keys[r] // n
+        j = keys[r] % n
+        for s in range(poff[i], poff[i + 1]):
+            k = pidx[s]
+            if (pairs[k, 0] == i and pairs[k, 1] == j) or (pairs[k, 0] == j and pairs[k, 1] == i):
+                mark[k] = r
+                break
+    nc = 0
+    for k in range(pairs.shape[0]):
+        r = mark[k]
+        if r >= 0:
+            mark[k] = -1
+        if active[k] != 1:
+            continue
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        if r < 0:
+            if flags[i] == MELTED or flags[j] == MELTED:
+                continue  # neither remembered nor possibly plastic: nothing to do
+            ht = min(thickness[i], thickness[j])
+            lim = NEAR_LIMIT * (raft_p if ht < raft_h else strength) * ht * widths[k]
+            if rows[k, 0] * rows[k, 0] + rows[k, 1] * rows[k, 1] < lim * lim:
+                continue  # well below the limit
+        cand[nc] = k
+        known_at[nc] = r
+        nc += 1
+        _rotation_row(q, rm, i)
+        _rotation_row(q, rm, j)
+    return nc
+
+
 @njit(cache=True, parallel=True)
-def pair_geometry(rm, offsets, verts, pairs, active, flags, keys, count, R, nmax, geo, nch):
-    """Per candidate pair ``k`` of the contact model that collides (``active[k] == 1``) and
-    is either remembered (its key among the first ``count`` sorted ``keys``) or has no melted
-    element: ``geo[k] = (overlap area [m²], contact width [m], where its key is or would be in
-    keys, remembered)`` of the rotation matrices ``rm`` by the contact loop's own functions
-    (as :func:`siku_core.contact_overlaps.pair_overlaps`); ``geo[k, 0] = -1`` for every other
-    pair. ``nch`` chunks, each writing its own rows."""
-    n = flags.shape[0]
-    npairs = pairs.shape[0]
+def pair_geometry(rm, offsets, verts, pairs, cand, nc, R, nmax, geo, nch):
+    """Per candidate ``a < nc`` (pair ``cand[a]``): ``geo[a] = (overlap area [m²], contact
+    width [m])`` of the rotation matrices ``rm`` by the contact loop's own functions (as
+    :func:`siku_core.contact_overlaps.pair_overlaps`). ``nch`` chunks, each writing its own
+    rows."""
     inv_r = 1.0 / R
     for c in prange(nch):
-        lo_k, hi_k = chunk_bounds(c, nch, npairs)
+        lo_a, hi_a = chunk_bounds(c, nch, nc)
         xy, tag = make_overlap_scratch(nmax, nmax)
         proj = np.empty((nmax, 2))
-        for k in range(lo_k, hi_k):
-            geo[k, 0] = -1.0
-            if active[k] != 1:
-                continue
+        for a in range(lo_a, hi_a):
+            k = cand[a]
             i = pairs[k, 0]
             j = pairs[k, 1]
-            key = min(i, j) * n + max(i, j)
-            lo = 0  # the key among the remembered ones (binary search)
-            hi = count
-            while lo < hi:
-                mid = (lo + hi) // 2
-                if keys[mid] < key:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            known = lo < count and keys[lo] == key
-            if not known and (flags[i] == MELTED or flags[j] == MELTED):
-                continue  # neither remembered nor possibly plastic: nothing to do
             M = relative_matrix(rm, i, j)
             oj = offsets[j]
             nj = offsets[j + 1] - oj
@@ -99,19 +143,18 @@ def pair_geometry(rm, offsets, verts, pairs, active, flags, keys, count, R, nmax
             width = 0.0
             if area > 0.0:
                 width = _width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
-            geo[k, 0] = area
-            geo[k, 1] = width
-            geo[k, 2] = lo
-            geo[k, 3] = 1.0 if known else 0.0
+            geo[a, 0] = area
+            geo[a, 1] = width
 
 
 @njit(cache=True)
-def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, count,
-                new_keys, new_conv, giver, carrier, moved, rafts, ridged, rafted, fraction, hk,
-                loss, gain, scratch):
-    """One application of the process (module docstring) to the colliding pairs of the
-    contact model, their overlaps in ``geo`` (:func:`pair_geometry`), ``rows`` their force
-    rows (the force on ``i`` in columns 0 and 1), in place: ``thickness``, ``ridged``,
+def ridge_pairs(pairs, rows, cand, known_at, nc, geo, thickness, area, flags, law, keys,
+                converted, count, new_keys, new_conv, giver, carrier, moved, rafts, ridged, rafted,
+                fraction, hk, loss, gain, scratch):
+    """One application of the process (module docstring) to the candidate pairs ``cand[:nc]``
+    of the contact model (:func:`ridge_candidates`; ``known_at``: their place among the
+    remembered ones or -1), their overlaps in ``geo`` (:func:`pair_geometry`), ``rows`` their
+    force rows (the force on ``i`` in columns 0 and 1), in place: ``thickness``, ``ridged``,
     ``rafted`` and the remembered pairs (sorted ``keys``, ``converted``, the first ``count``);
     ``law`` is ``(strength, raft_thickness, raft_strength)``. Returns the number of pairs
     remembered now, or minus it (and nothing changed) when that exceeds ``len(keys)``.
@@ -127,14 +170,15 @@ def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, 
     m = 0  # pairs remembered from now on
     nt = 0  # volume transfers (each by a remembered pair)
     ordered = True
-    for k in range(pairs.shape[0]):
-        area_ij = geo[k, 0]
+    for a in range(nc):
+        area_ij = geo[a, 0]
         if not area_ij > 0.0:
-            continue  # not colliding, nothing to do, or no longer overlapping (forgotten)
+            continue  # no longer overlapping (forgotten)
+        k = cand[a]
         i = pairs[k, 0]
         j = pairs[k, 1]
-        known = geo[k, 3] != 0.0
-        done = converted[int(geo[k, 2])] if known else 0.0
+        known = known_at[a] >= 0
+        done = converted[known_at[a]] if known else 0.0
         h_i = thickness[i]
         h_j = thickness[j]
         ht = min(h_i, h_j)
@@ -143,7 +187,7 @@ def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, 
         # (an element melted in this step by an earlier process still has its pairs here)
         alive = flags[i] != MELTED and flags[j] != MELTED
         force = math.hypot(rows[k, 0], rows[k, 1])
-        plastic = alive and force >= (1.0 - 1e-6) * P * ht * geo[k, 1]
+        plastic = alive and force >= (1.0 - 1e-6) * P * ht * geo[a, 1]
         if not (known or plastic):
             continue
         if m < cap:
@@ -260,10 +304,14 @@ class Ridging(Process):
         self.converted = np.zeros(n)
         self.count = 0
         self.law_vector = np.array([float(self.law[k]) for k in LAW_KEYS])
-        # the kernels' scratch, allocated once (the pair geometry grows with the pairs)
+        cm.keep_widths()  # the contact widths of the evaluations, for ridge_candidates
+        # the kernels' scratch, allocated once (the per-pair ones grow with the pairs)
         self._rm = np.empty((st.n, 3, 3))
         self._nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
-        self._geo = np.empty((0, 4))
+        self._geo = np.empty((0, 2))
+        self._mark = np.empty(0, dtype=np.int64)
+        self._cand = np.empty(0, dtype=np.int64)
+        self._known_at = np.empty(0, dtype=np.int64)
         self._none = np.zeros((st.n, 0))
         self._empty = np.zeros(0)
         self._loss = self._gain = self._row = None
@@ -277,21 +325,26 @@ class Ridging(Process):
         npairs = len(cm.pairs)
         if len(cm.pair_active) != npairs:
             return self._forget_all()
-        if len(self._geo) < npairs:  # grown with the candidate list, never per step
-            self._geo = np.empty((npairs + npairs // 2, 4))
-        geo = self._geo[:npairs]
-        nch = chunks(st.n, ROTATION_NS)
-        with alone(nch):
-            rotation_matrices(st.q, self._rm, nch)
-        nch = chunks(npairs)
-        with alone(nch):
-            pair_geometry(self._rm, st.vert_offsets, st.verts, cm.pairs, cm.pair_active,
-                          st.flags, self.keys, self.count, float(cm.radius), self._nmax, geo,
-                          nch)
-        m = ridge_pairs(cm.pairs, cm.pair_rows, geo, st.thickness, st.area,
-                        st.flags, self.law_vector, self.keys, self.converted, self.count,
-                        *self._scratch, ctx.fields["ridged_volume"],
-                        ctx.fields["rafted_volume"], *self._categories(ctx))
+        if len(self._mark) < npairs:  # grown with the candidate list, never per step
+            size = npairs + npairs // 2
+            self._geo = np.empty((size, 2))
+            self._mark = np.full(size, -1, dtype=np.int64)
+            self._cand = np.empty(size, dtype=np.int64)
+            self._known_at = np.empty(size, dtype=np.int64)
+        nc = ridge_candidates(cm.pairs, cm.pair_active, cm.pair_rows, cm.pair_width,
+                              st.thickness, st.flags, self.law_vector, self.keys, self.count,
+                              cm.poff, cm.pidx, st.q, self._rm, self._mark, self._cand,
+                              self._known_at)
+        if nc:
+            nch = chunks(nc)
+            with alone(nch):
+                pair_geometry(self._rm, st.vert_offsets, st.verts, cm.pairs, self._cand, nc,
+                              float(cm.radius), self._nmax, self._geo, nch)
+        m = ridge_pairs(cm.pairs, cm.pair_rows, self._cand, self._known_at, nc, self._geo,
+                        st.thickness, st.area, st.flags, self.law_vector, self.keys,
+                        self.converted, self.count, *self._scratch,
+                        ctx.fields["ridged_volume"], ctx.fields["rafted_volume"],
+                        *self._categories(ctx))
         if m < 0:
             raise SceneError(f"{ctx.where(self.table)}: more than {len(self.keys)} ridging pairs; "
                              "raise the process's capacity")

@@ -96,26 +96,42 @@ def _grow_one(h0, dT, dt, rho, F, L, hs, ki, ks):
     return (-b + np.sqrt(b * b + 4.0 * a * c)) / (2.0 * a) - melt
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def _grow_all(h, rho, dT, dt, F, L, hs, ki, ks, out):
+    """``out[e]``: :func:`_grow_one` of every element without categories (melted ones too:
+    :func:`semtner_step` drops them), in a loop of its own so that it runs on vectors of
+    elements (the same arithmetic per element)."""
+    if dT.shape[0] > 1:
+        for e in range(h.shape[0]):
+            out[e] = _grow_one(h[e], dT[e], dt, rho[e], F, L, hs, ki, ks)
+    else:
+        dT0 = dT[0]
+        for e in range(h.shape[0]):
+            out[e] = _grow_one(h[e], dT0, dt, rho[e], F, L, hs, ki, ks)
+
+
+@njit(cache=True, error_model="numpy")
 def semtner_step(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, fraction, hk, grown,
-                 rate, gone, new, scratch, lateral, lateral_volume):
+                 rate, gone, new, scratch, lateral, lateral_volume, grow):
     """One application of the process (module docstring) to every element, in place:
     thickness ``h`` [m], category thicknesses ``hk`` (``(n, K)``; ``(n, 0)``: no categories),
     ``grown`` [m³] and ``rate`` [m/s]; ``dT`` [K] per element (or one for all); ``gone`` gets the
     elements that melted away, their number returned. ``new``, ``scratch``: ``K`` values each.
     ``lateral``: ``(C_o, h_0, n)`` of the open-water growth (empty: none), which changes
-    ``fraction`` and adds to ``lateral_volume`` [m³].
+    ``fraction`` and adds to ``lateral_volume`` [m³]. ``grow``: ``n`` values (the new thickness
+    without categories, :func:`_grow_all`).
     """
     K = hk.shape[1]
+    if K == 0:
+        _grow_all(h, rho, dT, dt, F, L, hs, ki, ks, grow)
     ng = 0
     for e in range(h.shape[0]):
         if flags[e] == MELTED:
             rate[e] = 0.0
             continue
         h0 = h[e]
-        dTe = dT[e] if dT.shape[0] > 1 else dT[0]
         if K == 0:
-            hn = _grow_one(h0, dTe, dt, rho[e], F, L, hs, ki, ks)
+            hn = grow[e]
             if hn < hmin:  # melted away: thickness as it was
                 grown[e] += -area[e] * h0
                 rate[e] = -h0 / dt
@@ -126,6 +142,7 @@ def semtner_step(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, fraction, 
             rate[e] = (hn - h0) / dt
             h[e] = hn
             continue
+        dTe = dT[e] if dT.shape[0] > 1 else dT[0]
         a = fraction[e]
         for k in range(K):  # the ice volume per area before, sum a_k h_k [m]
             scratch[k] = a[k] * hk[e, k]
@@ -239,6 +256,8 @@ class Thermodynamics(Process):
         self._dT = np.zeros(1)
         self._rows = (np.empty(K), np.empty(K))
         self._lateral = self._lateral_vector(ctx, K)
+        #: the new thickness of every element without categories (:func:`_grow_all`)
+        self._grow = np.empty(st.n if K == 0 else 0)
         bad = st.thickness < self.p["min_thickness"]
         if bad.any():
             i = int(np.argmax(bad))
@@ -321,7 +340,8 @@ class Thermodynamics(Process):
                           float(p["snow_conductivity"]), float(p["min_thickness"]), a, hk,
                           ctx.fields["grown_volume"], ctx.fields["growth_rate"], self._gone,
                           *self._rows, self._lateral,
-                          ctx.fields["lateral_volume"] if len(self._lateral) else self._empty)
+                          ctx.fields["lateral_volume"] if len(self._lateral) else self._empty,
+                          self._grow)
         if ng:
             ctx.melt(self._gone[:ng])
 

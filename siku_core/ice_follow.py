@@ -1,0 +1,151 @@
+"""What follows a change of the ice, compiled (:meth:`siku_core.ice.IceBook.after_processes`).
+
+After the processes of a step, one pass over the elements (:func:`scan_ice`) finds the elements
+whose thickness or flag changed, the first whose thickness is no longer finite and positive, and
+whether some thickness moved by more than ``RECHECK`` since the last stable-step check; then
+only the changed elements get their mass, moment of inertia and inverse mass again
+(:func:`follow_elements`), and only their joints and candidate pairs their eq. 9 stiffness and
+reduced masses (:func:`follow_contacts`, through the element-to-contact indexes, or in one pass
+over all joints and pairs when most elements changed). Every value is computed by the same
+arithmetic as a recomputation of everything (``m = rho h A`` by :func:`element_mass`,
+:func:`~siku_core.contact_frames.eq9_stiffness`, ``1 / (1/m_i + 1/m_j)``), so the result is the
+same to the bit; an unchanged element keeps values that already follow its thickness.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .contact_frames import eq9_stiffness
+from .state import FREE, MELTED
+
+
+@njit(cache=True, inline="always")
+def few(nc, n):
+    """Whether a change of ``nc`` of ``n`` elements is followed element by element (else in
+    one pass over every element, joint and pair, which is cheaper when a quarter or more of
+    the elements changed: thermodynamics changes them all)."""
+    return 4 * nc < n
+
+
+@njit(cache=True, inline="always")
+def element_mass(rho, h, area, J):
+    """Mass [kg] and polar moment of inertia [kg m²] of an element of density ``rho``
+    [kg/m³], thickness ``h`` [m], area ``area`` [m²] and polar second moment of area ``J``
+    [m⁴]: ``m = rho h A``, ``I = rho h J``. The one place where the engine computes an element's
+    mass from its thickness after a process changed it."""
+    rh = rho * h
+    return rh * area, rh * J
+
+
+@njit(cache=True, error_model="numpy")
+def scan_ice(h, flags, h_seen, flags_seen, h_checked, recheck, changed):
+    """Compare thickness ``h`` [m] and ``flags`` with what was last followed (``h_seen``,
+    ``flags_seen``). Returns ``(number changed, whether a thickness changed, whether a flag
+    changed, the first element whose thickness is not finite and positive or -1, whether some
+    element's thickness differs from ``h_checked`` by more than ``recheck`` of it)``; when few
+    changed (:func:`few`), the changed elements go to ``changed`` (in order). The counts are
+    one pass without branches (vectors of elements), the list a second one."""
+    n = h.shape[0]
+    nc = 0
+    nh = 0
+    nf = 0
+    nbad = 0
+    ndrift = 0
+    for e in range(n):
+        he = h[e]
+        dh = he != h_seen[e]
+        df = flags[e] != flags_seen[e]
+        nc += dh or df
+        nh += dh
+        nf += df
+        nbad += not (he > 0.0 and he < np.inf)
+        c = h_checked[e]
+        ndrift += abs(he - c) > recheck * c
+    bad = -1
+    if nbad:
+        for e in range(n):
+            if not (h[e] > 0.0 and h[e] < np.inf):
+                bad = e
+                break
+    if 0 < nc and few(nc, n):
+        nc = 0
+        for e in range(n):
+            if h[e] != h_seen[e] or flags[e] != flags_seen[e]:
+                changed[nc] = e
+                nc += 1
+    return nc, nh > 0, nf > 0, bad, ndrift > 0
+
+
+@njit(cache=True, error_model="numpy")
+def follow_elements(idx, nc, full, h, flags, rho, area, J, m, I, h_seen, flags_seen):  # noqa: E741
+    """Mass ``m`` [kg] and moment ``I`` [kg m²] of elements ``idx[:nc]`` (``full``: of every
+    element) from their thickness (:func:`element_mass`); ``h_seen``, ``flags_seen`` take their
+    thickness and flag."""
+    if full:
+        for e in range(h.shape[0]):
+            m[e], I[e] = element_mass(rho[e], h[e], area[e], J[e])
+        h_seen[:] = h
+        flags_seen[:] = flags
+        return
+    for a in range(nc):
+        e = idx[a]
+        m[e], I[e] = element_mass(rho[e], h[e], area[e], J[e])
+        h_seen[e] = h[e]
+        flags_seen[e] = flags[e]
+
+
+@njit(cache=True, error_model="numpy")
+def _joint(k, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff):
+    """Joint ``k``'s eq. 9 stiffness and reduced mass (as ``contact_frames.joint_constants``;
+    an element melted away stands in with its own mass)."""
+    i = ji[k]
+    j = jj[k]
+    jK[k] = eq9_stiffness(h[i], E[i], h[j], E[j], ri[k], rj[k])
+    mi = 1.0 / m[i] if flags[i] == MELTED else minv[i]
+    mj = 1.0 / m[j] if flags[j] == MELTED else minv[j]
+    jmeff[k] = 1.0 / (mi + mj)
+
+
+@njit(cache=True, error_model="numpy")
+def follow_contacts(idx, nc, full, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff, joff, jidx,
+                    pairs, pmeff, poff, pidx, scratch):
+    """The contact model's constants of the elements ``idx[:nc]``: inverse mass ``minv``
+    [1/kg] (0 for an element that is not free), and of their joints (``jK`` [Pa], ``jmeff``
+    [kg]; lever arms ``ri``, ``rj`` [m]) and candidate pairs (``pmeff`` [kg]), found through the
+    element-to-contact indexes ``joff, jidx`` and ``poff, pidx``; ``full``: of every element,
+    joint and pair instead, each in two passes: the sums, gathered from the elements, then the
+    divisions, which run on vectors of contacts (the same values; ``scratch``: one per
+    joint)."""
+    if full:
+        for e in range(m.shape[0]):
+            minv[e] = 1.0 / m[e] if flags[e] == FREE else 0.0
+        for k in range(ji.shape[0]):  # eq9_stiffness and the reduced mass, split in two
+            i = ji[k]
+            j = jj[k]
+            a = h[i] * E[i]
+            b = h[j] * E[j]
+            scratch[k] = a * b
+            jK[k] = a * rj[k] + b * ri[k]
+            mi = 1.0 / m[i] if flags[i] == MELTED else minv[i]
+            mj = 1.0 / m[j] if flags[j] == MELTED else minv[j]
+            jmeff[k] = mi + mj
+        for k in range(ji.shape[0]):
+            d = jK[k]
+            jK[k] = scratch[k] / d if d > 0.0 else 0.0
+            jmeff[k] = 1.0 / jmeff[k]
+        for k in range(pairs.shape[0]):
+            pmeff[k] = minv[pairs[k, 0]] + minv[pairs[k, 1]]
+        for k in range(pairs.shape[0]):
+            pmeff[k] = 1.0 / pmeff[k]
+        return
+    for a in range(nc):
+        e = idx[a]
+        minv[e] = 1.0 / m[e] if flags[e] == FREE else 0.0
+    for a in range(nc):
+        e = idx[a]
+        for s in range(joff[e], joff[e + 1]):
+            _joint(jidx[s], h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff)
+        for s in range(poff[e], poff[e + 1]):
+            k = pidx[s]
+            pmeff[k] = 1.0 / (minv[pairs[k, 0]] + minv[pairs[k, 1]])
