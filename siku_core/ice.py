@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, Any, Iterable
 import numpy as np
 
 from .categories import CATEGORY_FIELDS, Categories, category_mean, category_problem
+from .diagnostics import same
 from .errors import PluginError, SceneError, StabilityError
 from .state import MELTED
 from .stress import STRESS_FIELDS
@@ -264,8 +265,8 @@ class IceBook:
         """After processes ran: if a thickness or flag changed, recompute what depends on it
         and check the step (``who`` names the processes for the message)."""
         st = self._sim.state
-        h_changed = not np.array_equal(st.thickness, self._h_seen)
-        f_changed = not np.array_equal(st.flags, self._flags_seen)
+        h_changed = not same(st.thickness, self._h_seen)
+        f_changed = not same(st.flags, self._flags_seen)
         if not (h_changed or f_changed):
             return
         bad = ~(np.isfinite(st.thickness) & (st.thickness > 0))
