@@ -299,13 +299,16 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pin
     S = np.empty((natt, 6))
     Z = np.empty(zsize)
     E, rk = clock(t0, dt, n_sub if wave else 0, om, ramp)
+    d_att = math.nan
     for i in range(lo_e, hi_e):
         if not free[i]:
             continue
         xc, yc, e0, e1 = wave_frame(q, i, wave, R, c0, lat0, lon0)
         d = draft[i]
-        for j in range(natt):
-            att[j] = _attenuation(kk[j], d, depth)
+        if d != d_att:     # the last element's draft: the same factors
+            for j in range(natt):
+                att[j] = _attenuation(kk[j], d, depth)
+            d_att = d
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
         _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp, kx, ky,
