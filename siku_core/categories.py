@@ -7,8 +7,15 @@ that ice's thickness ``h_k`` [m] (``>= 0``). The element's thickness is the mean
 
     h = sum_k a_k h_k / sum_k a_k
 
-(:func:`category_mean`), so its mass ``rho h A``, polar moment ``rho h J`` and in-plane
-stiffness ``E h`` follow from the categories through the thickness as before. A scene has
+(:func:`category_mean`), used where the ice's own thickness counts (in-plane stiffness ``E h``,
+plastic limits, drafts). Its ice volume counts only the ice, the concentration ``sum_k a_k``
+included (:func:`element_volume`):
+
+    V = A sum_k a_k h_k        (A the element's area [m²]; V [m³])
+
+so its mass is ``m = rho V`` and its polar moment ``I = rho J sum_k a_k h_k`` (``J`` the
+polygon's polar second moment of area [m⁴]): an element whose fractions sum to ``c < 1``
+weighs ``c`` times what a full cover of its mean thickness would. A scene has
 categories when one of its element sources gives them (an ``[elements.mesh.cover]`` with
 ``category``); an element its source gives no categories (coast and landfast cells, the elements
 of other sources) has all its ice in the first category (``a = (1, 0, ..., 0)``) and every
@@ -33,6 +40,22 @@ CATEGORY_FIELDS = {
                           "thickness category"),
     "category_thickness": ("m", "ice thickness of each thickness category"),
 }
+
+
+def ice_per_area(thickness: np.ndarray, categories: Categories | None = None) -> np.ndarray:
+    """Ice volume per unit element area [m] of every element: ``thickness`` itself (the same
+    array) without categories, ``sum_k a_k h_k`` with them (module docstring). The one rule
+    siku's mass, inertia and volume budgets use."""
+    if categories is None:
+        return thickness
+    return np.sum(categories.fraction * categories.thickness, axis=1)
+
+
+def element_volume(area: np.ndarray, thickness: np.ndarray,
+                   categories: Categories | None = None) -> np.ndarray:
+    """Ice volume [m³] of every element of ``area`` [m²] and ``thickness`` [m]: ``A h``, or
+    ``A sum_k a_k h_k`` with categories (:func:`ice_per_area`)."""
+    return area * ice_per_area(thickness, categories)
 
 
 def category_mean(a: np.ndarray, h: np.ndarray) -> np.ndarray:

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from pydantic import ValidationError
 
-from .categories import Categories, categories_of
+from .categories import Categories, categories_of, ice_per_area
 from .errors import SceneError
 from .geometry.batch import elements_from_lonlat
 from .geometry.quat import east_north_local
@@ -149,8 +149,9 @@ def build_elements_and_categories(scene: Scene, registry: "Registry | None" = No
         polys.append(loc)
     cats = categories_of([s.categories for s in specs], thick, [s.label for s in specs])
     rho = np.array([cfg.materials[mats[k]].density for k in material]) if n else np.zeros(0)
-    m = rho * thick * area
-    inertia = rho * thick * J
+    v = ice_per_area(thick, cats)  # ice volume per area [m]: mass counts the concentration
+    m = rho * v * area
+    inertia = rho * v * J
     static = flags == STATIC
     V[static] = 0.0
     w[static] = 0.0

@@ -12,10 +12,12 @@ ice area, or the sum, as declared), ``siku plugins`` lists them.
 A scene with processes (``[[process]]`` tables, :class:`~siku_core.interfaces.Process`) has a
 time-dependent ``thickness`` [m], ``mass`` [kg] and ``flags`` in its outputs; after the processes
 of a step have run, :meth:`IceBook.after_processes` recomputes what depends on the thickness:
-mass ``m = rho h A`` and polar moment ``I = rho h J`` (``J`` the polygon's polar second moment
-of area), the contact model's reduced masses and eq. 9 joint stiffnesses (from ``E h``), and
-the stable step (again once some element's thickness has changed by more than :data:`RECHECK`
-since the last check), which stops the run with one line naming the element if ``dt`` is no
+mass ``m = rho v A`` and polar moment ``I = rho v J`` (``J`` the polygon's polar second moment
+of area, ``v`` the ice volume per area, :func:`~siku_core.categories.ice_per_area`: ``h``, or
+``sum a_k h_k`` with thickness categories), the contact model's reduced masses and eq. 9
+joint stiffnesses (from ``E h``), and the stable step (again once some element's thickness,
+or its ice volume per area, has changed by more than :data:`RECHECK` since the last check),
+which stops the run with one line naming the element if ``dt`` is no
 longer safe. A scene with neither declared fields nor processes allocates nothing here and runs as
 before.
 
@@ -43,7 +45,8 @@ from typing import TYPE_CHECKING, Any, Iterable
 
 import numpy as np
 
-from .categories import CATEGORY_FIELDS, Categories, category_mean, category_problem
+from .categories import (CATEGORY_FIELDS, Categories, category_mean, category_problem,
+                         ice_per_area)
 from .diagnostics import same
 from .errors import PluginError, SceneError, StabilityError
 from .state import MELTED
@@ -162,12 +165,15 @@ class IceBook:
             mats = list(sim.scene.cfg.materials.values())
             self.rho = np.array([mats[k].density for k in st.material], dtype=float)
             with np.errstate(divide="ignore", invalid="ignore"):
-                #: polar second moment of area of each polygon [m^4], I / (rho h)
-                self.J = st.I / (self.rho * st.thickness)
+                #: polar second moment of area of each polygon [m^4], I / (rho v)
+                self.J = st.I / (self.rho * ice_per_area(st.thickness, categories))
             self._h_seen = st.thickness.copy()
             self._flags_seen = st.flags.copy()
-            #: thickness at the last stable-step check
+            #: whether a process changed some element's categories since the last refresh
+            self._cats_changed = False
+            #: thickness and ice volume per area at the last stable-step check
             self._h_checked = st.thickness.copy()
+            self._v_checked = ice_per_area(st.thickness, categories).copy()
 
     # ------------------------------------------------------------------ fields
     def element_fields(self) -> dict[str, np.ndarray]:
@@ -250,6 +256,7 @@ class IceBook:
         if not (cat.any() or alone.any()):
             return
         rows = np.flatnonzero(cat)
+        self._cats_changed |= bool(len(rows))
         found = category_problem(c.fraction[rows], c.thickness[rows])
         if found is not None:
             i, what = found
@@ -265,7 +272,7 @@ class IceBook:
         """After processes ran: if a thickness or flag changed, recompute what depends on it
         and check the step (``who`` names the processes for the message)."""
         st = self._sim.state
-        h_changed = not same(st.thickness, self._h_seen)
+        h_changed = self._cats_changed or not same(st.thickness, self._h_seen)
         f_changed = not same(st.flags, self._flags_seen)
         if not (h_changed or f_changed):
             return
@@ -279,6 +286,9 @@ class IceBook:
         # the stable step moves with the thickness (mass, stiffness): checked again once some
         # element's thickness has changed by more than RECHECK since the last check
         drift = np.abs(st.thickness - self._h_checked) > RECHECK * self._h_checked
+        if self.categories is not None:  # the mass also moves with the concentration
+            v = ice_per_area(st.thickness, self.categories)
+            drift |= np.abs(v - self._v_checked) > RECHECK * self._v_checked
         self.refresh(check=h_changed and bool(drift.any()), who=who)
 
     def refresh(self, check: bool = True, who: str = "") -> None:
@@ -286,15 +296,18 @@ class IceBook:
         (``check``) the stable step."""
         sim = self._sim
         st = sim.state
-        np.multiply(self.rho * st.thickness, st.area, out=st.m)
-        np.multiply(self.rho * st.thickness, self.J, out=st.I)
+        v = ice_per_area(st.thickness, self.categories)  # [m], the concentration counted
+        np.multiply(self.rho * v, st.area, out=st.m)
+        np.multiply(self.rho * v, self.J, out=st.I)
         self._h_seen[:] = st.thickness
+        self._cats_changed = False
         self._flags_seen[:] = st.flags
         if sim.contacts is not None:
             sim.contacts.ice_changed()
         if check:
             sim.check_time_step(after=who)
             self._h_checked[:] = st.thickness
+            self._v_checked[:] = v
 
     def melt(self, elements: np.ndarray) -> int:
         """Flag ``elements`` as melted (module docstring); returns how many were not already."""

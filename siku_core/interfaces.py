@@ -265,8 +265,9 @@ class Process(Component):
     integrator does) and never writes files (writers do).
 
     ``conserves`` names what the process keeps constant (``"volume"``: the total ice volume
-    ``sum(area h)``); ``budget(ctx)`` returns the volume it added since the start [m³]
-    (growth minus melt) for the conformance suite's volume budget.
+    ``sum(area h)``, ``sum(area sum_k a_k h_k)`` with thickness categories:
+    ``siku_core.categories.element_volume``); ``budget(ctx)`` returns the volume it added
+    since the start [m³] (growth minus melt) for the conformance suite's volume budget.
     """
 
     kind = "process"

@@ -112,7 +112,12 @@ def test_the_cover_categories_are_kept_and_give_the_element_thickness(tmp_path):
     assert np.array_equal(st.thickness, cats.mean())
     np.testing.assert_allclose(st.thickness, (SHARE * SCALE).sum() * cats.thickness[:, 1],
                                rtol=1e-12)
-    np.testing.assert_allclose(st.m, RHO * st.thickness * st.area, rtol=1e-15)
+    # the mass counts the ice only: rho A sum a_k h_k, the concentration times a full cover's
+    v = (cats.fraction * cats.thickness).sum(1)
+    np.testing.assert_allclose(st.m, RHO * v * st.area, rtol=1e-15)
+    np.testing.assert_allclose(st.m, RHO * cats.fraction.sum(1) * st.thickness * st.area,
+                               rtol=4e-16 * 4)
+    assert (cats.fraction.sum(1) < 0.99).any()  # the rule matters in this cover
 
 
 @pytest.mark.parametrize("Ts,every", [(-30.0, None), (-15.0, 6 * 3600.0)])
@@ -135,7 +140,7 @@ def test_each_category_grows_by_stefans_law_and_the_thickness_stays_their_mean(
     single = np.sqrt((a0 * h0).sum(1) ** 2 / a0.sum(1) ** 2
                      + 2 * K_I * (T_F - Ts) * sim.time / (RHO * L_F))
     assert (sim.state.thickness > single).all()
-    np.testing.assert_allclose(sim.state.m, RHO * sim.state.thickness * sim.state.area,
+    np.testing.assert_allclose(sim.state.m, RHO * (a0 * cats.thickness).sum(1) * sim.state.area,
                                rtol=1e-15)
 
 
@@ -359,10 +364,10 @@ class _RidgeTrio(ElementSource):
 
 def test_ridged_ice_piles_onto_the_carriers_thickest_category_and_conserves_volume():
     """The carrier's ridged volume ``dV`` goes into its thickest category ``m``: ``h_m``
-    grows by ``dV sum(a) / (a_m A)`` and its other categories stay as they were; a giver's
+    grows by ``dV / (a_m A)`` and its other categories stay as they were; a giver's
     categories (the thin ice's, the wall's if it gave) thin in proportion; the fractions never
-    change; the volume ``sum A h`` is conserved to round-off and every thickness is its
-    categories' mean."""
+    change; the volume ``sum A sum_k a_k h_k`` is conserved to round-off and every thickness is
+    its categories' mean."""
     txt = scene_text([], dt=0.25, duration=100.0, extra=(
         '[[elements.source]]\nname = "ridge_trio"\n\n[contact]\nlaw = "ridging"\n'
         'joints = "none"\n\n[[process]]\nname = "ridging"\n'))
@@ -379,14 +384,15 @@ def test_ridged_ice_piles_onto_the_carriers_thickest_category_and_conserves_volu
     assert np.array_equal(st.thickness, cats.mean())
     # the carrier: its thin category untouched, its thickest one carries the ridge
     assert cats.thickness[1, 0] == h0[1, 0]
-    grow = ridged[1] * a0[1].sum() / (a0[1, 1] * st.area[1])
+    grow = ridged[1] / (a0[1, 1] * st.area[1])
     assert cats.thickness[1, 1] == pytest.approx(h0[1, 1] + grow, rel=1e-12)
     # the givers: every category thinner by the ratio of the element's thickness
     for e in (0, 2):
         np.testing.assert_allclose(cats.thickness[e], st.thickness[e] / t0[e] * h0[e],
                                    rtol=1e-12)
     assert st.thickness[2] < t0[2]
-    lost = st.area[[0, 2]] @ (t0[[0, 2]] - st.thickness[[0, 2]])
+    v0, v1 = (a0 * h0).sum(1), (cats.fraction * cats.thickness).sum(1)
+    lost = st.area[[0, 2]] @ (v0[[0, 2]] - v1[[0, 2]])
     assert lost == pytest.approx(ridged[1], rel=1e-9)
 
 

@@ -113,7 +113,8 @@ def test_the_ice_area_matches_the_field_within_one_row_of_cells(tmp_path):
 
 def test_thickness_categories_give_the_mean_thickness_and_mass(tmp_path):
     """g_k = a_k / sum a_k, thickness sum g_k h_k (the contact laws take their in-plane
-    stiffness E h from it), mass rho A sum g_k h_k."""
+    stiffness E h from it), mass rho A sum a_k h_k (the ice only: the concentration times
+    rho A sum g_k h_k)."""
     _write(tmp_path / "c.nc", categories=True)
     st = build_elements(_scene(tmp_path, 'file = "c.nc"\nconcentration = "aicen"\n'
                                           'thickness = "hicen"\ncategory = "ncat"'))
@@ -123,7 +124,7 @@ def test_thickness_categories_give_the_mean_thickness_and_mass(tmp_path):
     h = thick(mesh.seeds[kept, 0], mesh.seeds[kept, 1])
     mean = (0.2 * 0.5 + 0.3 * 1.0 + 0.5 * 1.5) * h  # sum_k g_k h_k
     np.testing.assert_allclose(st.thickness, mean, rtol=1e-12)
-    np.testing.assert_allclose(st.m, RHO * mean * st.area, rtol=1e-12)
+    np.testing.assert_allclose(st.m, RHO * c[kept] * mean * st.area, rtol=1e-12)
 
 
 def test_a_curvilinear_grid_is_sampled_at_the_nearest_point(tmp_path):

@@ -10,13 +10,14 @@ built-in or third-party, must pass.
 
 Each check runs the process in a small bonded pack (12 elements of 2 km, jointed by
 ``distributed_spring`` or the ``law`` given, at rest, no forcing; 40 steps of 0.4 s, the
-process every step unless ``every`` is given) and raises ``AssertionError`` saying what
+process every step unless ``every`` is given; with ``categories = (a_k, h_k)`` every element has
+those thickness categories) and raises ``AssertionError`` saying what
 failed:
 
 * :func:`check_process_finite`: thickness finite and positive, declared fields finite, every
   run's state finite;
 * :func:`check_process_conservation`: a process that ``conserves`` ``"volume"`` keeps the total
-  ice volume ``sum(area h)`` of the elements not melted to 1e-12 relative; any other process
+  ice volume (:func:`ice_volume`) of the elements not melted to 1e-12 relative; any other process
   changes it by exactly its ``budget`` (growth minus melt) to 1e-10 relative;
 * :func:`check_process_idempotent`: applied over no time (``dt = 0``) it changes nothing, and
   two runs of the same scene end bit for bit equal;
@@ -32,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from ..categories import element_volume
 from ..plugins import Registry
 from ..scene import scene_from_text
 from ..state import MELTED
@@ -51,10 +53,11 @@ def process_registry(cls: type, registry: Registry | None = None) -> Registry:
 def process_scene_text(name: str, params: Mapping[str, Any] | None = None,
                        every: float | None = None, steps: int = STEPS, dt: float = DT,
                        out: str | None = None, thickness: float = 0.5,
-                       law: str = "distributed_spring") -> str:
+                       law: str = "distributed_spring", categories: Any = None) -> str:
     """The conformance scene (module docstring) with process ``name`` and ``params``; ``out``
     writes an HDF5 file every 10 steps; ``law``: the contact law (a process that needs one,
-    e.g. ``ridging``)."""
+    e.g. ``ridging``); ``categories``: ``(a_k, h_k)`` [1], [m] that every element of the pack
+    has (thickness categories; a process that needs them, e.g. lateral growth)."""
     proc = f'[[process]]\nname = "{name}"\n'
     if params:
         proc += f"params = {toml_value(dict(params))}\n"
@@ -62,8 +65,13 @@ def process_scene_text(name: str, params: Mapping[str, Any] | None = None,
         proc += f"every = {every!r}\n"
     output = (f'\n[output]\nfile = {toml_value(out)}\nevery = {10 * dt!r}\n'
               if out is not None else "")
-    return scene_text([], packs=[square_pack(0.0, 80.0, 4, 3, size=2000.0)], dt=dt,
-                      duration=steps * dt, thickness=thickness,
+    pack = square_pack(0.0, 80.0, 4, 3, size=2000.0)
+    if categories is not None:  # the same pack from the source that adds categories
+        src = f'[[elements.source]]\nname = "{CATEGORY_PACK}"\nparams = ' \
+              f'{toml_value(pack)}\n\n'
+        return scene_text([], dt=dt, duration=steps * dt, thickness=thickness,
+                          extra=src + f'[contact]\nlaw = "{law}"\n\n' + proc + output)
+    return scene_text([], packs=[pack], dt=dt, duration=steps * dt, thickness=thickness,
                       extra=f'[contact]\nlaw = "{law}"\n\n' + proc + output)
 
 
@@ -74,15 +82,43 @@ def process_simulation(cls: type, params: Mapping[str, Any] | None = None, *,
 
     text = process_scene_text(cls.name, params, out=None if out is None else str(out), **kwargs)
     scene = scene_from_text(text, f"<process conformance {cls.name}>")
+    registry = process_registry(cls)
+    if kwargs.get("categories") is not None:
+        registry = registry_with("element_source", category_pack(kwargs["categories"]),
+                                 registry)
     return Simulation(scene, out=False if out is None else out, restart=restart,
-                      progress=False, registry=process_registry(cls))
+                      progress=False, registry=registry)
+
+
+#: the element source of the conformance scene with categories
+CATEGORY_PACK = "conformance_category_pack"
+
+
+def category_pack(categories: Any) -> type:
+    """The ``pack`` element source (``siku_plugins.sources``) whose every element has the
+    thickness categories ``categories`` (``(a_k, h_k)``): the conformance scene's with them."""
+    from siku_plugins.sources import PackSource
+
+    cats = tuple(np.asarray(x, dtype=float) for x in categories)
+
+    class CategoryPack(PackSource):
+        name = CATEGORY_PACK
+
+        def build(self, scene, seed, where):
+            out = super().build(scene, seed, where)
+            for spec in out:
+                spec.categories = cats
+            return out
+
+    return CategoryPack
 
 
 def ice_volume(sim: Any) -> float:
-    """Total ice volume ``sum(area h)`` of the elements not melted [m³]."""
+    """Total ice volume of the elements not melted [m³]: ``sum(area h)``, or with thickness
+    categories ``sum(area sum_k a_k h_k)`` (:func:`~siku_core.categories.element_volume`)."""
     st = sim.state
     live = st.flags != MELTED
-    return math.fsum(st.area[live] * st.thickness[live])
+    return math.fsum(element_volume(st.area, st.thickness, sim.context.categories)[live])
 
 
 def _procs(sim: Any, cls: type) -> list:

@@ -5,8 +5,11 @@ Per cell, at each gridded time (``siku_io.analysis.regular_grid`` gives the over
 each element with each cell and the cell's true area ``A_c``):
 
 * ``concentration`` = sum of ``fraction × area`` over the elements / ``A_c`` [1] (CF
-  ``sea_ice_area_fraction``; overlapping elements may push it above 1);
-* ``thickness`` = ice volume / ``A_c`` [m] (the mean thickness of the whole cell);
+  ``sea_ice_area_fraction``; overlapping elements may push it above 1; with thickness
+  categories each element counts its ice, ``fraction × area × sum a_k``);
+* ``thickness`` = ice volume / ``A_c`` [m] (the mean thickness of the whole cell; an element's
+  volume is ``area × thickness``, with categories ``area × sum a_k h_k``:
+  ``siku_core.categories.element_volume``);
 * ``u``, ``v``: mass-weighted mean velocity [m/s], east/north on a lonlat grid, along the grid
   axes on a polar stereographic one;
 * strain rates [1/s] from the element centres inside the cell by the line integral around their
@@ -42,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from siku_core import DataError
+from siku_core.categories import Categories, ice_per_area
 from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.stress import principal
 from siku_io.analysis.regular_grid import Grid, GridCfg
@@ -178,8 +182,14 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
     el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
     w = frac * snap.area[el]
     ice = np.bincount(cell, w, nc)
-    out = {"concentration": ice / A,
-           "thickness": np.bincount(cell, w * snap.thickness[el], nc) / A}
+    if snap.categories is None:
+        out = {"concentration": ice / A,
+               "thickness": np.bincount(cell, w * snap.thickness[el], nc) / A}
+    else:  # the ice of an element covers sum a_k of it; its volume is A sum a_k h_k
+        cats = Categories(*snap.categories)
+        out = {"concentration": np.bincount(cell, w * cats.fraction.sum(axis=1)[el], nc) / A,
+               "thickness": np.bincount(cell, w * ice_per_area(snap.thickness, cats)[el],
+                                        nc) / A}
     gu, gv = grid.rotate(snap.u, snap.v, snap.lon)
     wm = frac * snap.mass[el]
     msum = np.bincount(cell, wm, nc)

@@ -14,11 +14,14 @@ record nearest to ``[time] start``. Each ice cell of the mesh is sampled at its 
 Thickness categories (``category = "ncat"``, the report's thickness distribution ``g(h)``):
 both variables carry a category dimension, the per-category area fraction ``a_k`` and thickness
 ``h_k``. The element's concentration is ``sum a_k``, its distribution ``g_k = a_k / sum a_k``
-and its thickness the mean ``sum g_k h_k = sum a_k h_k / sum a_k``; mass ``rho A sum g_k h_k``
-and the in-plane contact stiffness, which adds over parallel layers (``E sum g_k h_k``), both
-follow from that mean. The element keeps its categories (``a_k``, ``h_k``:
-:mod:`siku_core.categories`), which processes change and outputs carry; fractions that sum
-above 1, or a negative fraction or thickness, are refused, naming the cell.
+and its thickness the mean ``sum g_k h_k = sum a_k h_k / sum a_k``: the in-plane contact
+stiffness, which adds over parallel layers (``E sum g_k h_k``), follows from that mean; its
+mass counts only the ice, ``rho A sum a_k h_k`` (the concentration times that of a full cover
+of the mean thickness: :func:`siku_core.categories.element_volume`). Without categories the
+concentration only selects the cells: an element's ice covers it whole (mass ``rho h A``). The
+element keeps its categories (``a_k``, ``h_k``: :mod:`siku_core.categories`), which processes
+change and outputs carry; fractions that sum above 1, or a negative fraction or thickness, are
+refused, naming the cell.
 """
 from __future__ import annotations
 

@@ -65,6 +65,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from siku_core.categories import SUM_TOLERANCE
 from siku_core.errors import SceneError
 from siku_core.ice import ElementField
 from siku_core.parallel import ITEM_NS, PARALLEL_MIN, chunks
@@ -174,6 +175,15 @@ class Floating(Process):
                 raise SceneError(f"{where}: material '{name}' has density {mat.density:g} "
                                  f"kg/m3, not below the water's {rho_w:g} kg/m3: it cannot "
                                  "float")
+        cats = ctx.categories
+        if cats is not None:  # a floe's mass rho_i h A: its ice must cover it whole
+            c = cats.fraction.sum(axis=1)
+            bad = self.free & (c < 1.0 - SUM_TOLERANCE)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise SceneError(f"{where}: element {i} has ice on {c[i]:.6g} of its area "
+                                 "(thickness categories); a floating element is a floe that "
+                                 "its ice covers whole")
         h = st.thickness.astype(float)
         self.h = h
         self.draft = h * rho_i / rho_w

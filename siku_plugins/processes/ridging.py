@@ -17,11 +17,14 @@ element that has melted away are left alone. A pair that stops overlapping is fo
 starts from zero if it meets again). Elastic overlaps (below the plastic limit) are never
 converted.
 
-With thickness categories (``ctx.categories``, :mod:`siku_core.categories`) the carrier's gain
-piles onto its thickest category ``m`` (the largest ``h_k`` with ``a_k > 0``), ``h_m += dV
-sum(a) / (a_m A_c)``, and the giver's ice thins as a whole, every ``h_k`` by the factor ``(h_t -
-dV / A_t) / h_t``; the fractions do not change and the element volume ``A sum(a_k h_k) /
-sum(a_k)`` changes by exactly ``dV``.
+With thickness categories (``ctx.categories``, :mod:`siku_core.categories`) an element's ice
+volume is ``A sum(a_k h_k)`` (:func:`~siku_core.categories.element_volume`), so the overlap
+``dA`` of the giver holds ``dV = dA v_t``, ``v_t = sum a_k h_k`` its ice per area (its
+concentration times ``h_t``; the thinner element is still the one of smaller mean thickness
+``h_t``). The carrier's gain piles onto its thickest category ``m`` (the largest ``h_k`` with
+``a_k > 0``), ``h_m += dV / (a_m A_c)``, and the giver's ice thins as a whole, every ``h_k`` by
+the factor ``(v_t - dV / A_t) / v_t``; the fractions do not change and each element volume
+changes by exactly ``dV``.
 
 Declared per-element fields (summed on grids): ``ridged_volume`` and ``rafted_volume`` [m³],
 the volume the element has received by ridging and by rafting since the start.
@@ -150,6 +153,11 @@ def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, 
             new_keys[m] = key
             new_conv[m] = max(done, area_ij if plastic else 0.0)
             dV = max(area_ij - done, 0.0) * ht if plastic else 0.0
+            if dV > 0.0 and hk.shape[1]:  # the giver's ice per area, sum a_k h_k
+                g = i if h_i < h_j else j
+                for q in range(hk.shape[1]):
+                    scratch[q] = fraction[g, q] * hk[g, q]
+                dV = max(area_ij - done, 0.0) * row_sum(scratch)
             if dV > 0.0:
                 # the thinner element gives, the thicker carries (equal: j carries)
                 giver[nt] = i if h_i < h_j else j
@@ -189,11 +197,11 @@ def ridge_pairs(pairs, rows, geo, thickness, area, flags, law, keys, converted, 
 def _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, loss, gain,
                       scratch):
     """The categories of the elements of the first ``nt`` transfers (module docstring): a
-    giver's ice thins in proportion, ``h_k *= (h - L / A) / h`` (``L`` [m³] all it gave), a
-    carrier's gain ``G`` [m³] piles onto its thickest category ``m`` (the largest ``h_k`` with
-    ``a_k > 0``), ``h_m += G sum(a) / (a_m A)``, so that the element's volume ``A sum(a_k h_k) /
-    sum(a_k)`` changes by exactly ``G - L``; the fractions do not change. The thickness becomes
-    the categories' mean. ``loss``, ``gain`` are left zero."""
+    giver's ice thins in proportion, ``h_k *= (v - L / A) / v`` (``L`` [m³] all it gave, ``v =
+    sum a_k h_k``), a carrier's gain ``G`` [m³] piles onto its thickest category ``m`` (the
+    largest ``h_k`` with ``a_k > 0``), ``h_m += G / (a_m A)``, so that the element's volume
+    ``A sum(a_k h_k)`` changes by exactly ``G - L``; the fractions do not change. The thickness
+    becomes the categories' mean. ``loss``, ``gain`` are left zero."""
     for t in range(nt):
         loss[giver[t]] += moved[t]
         gain[carrier[t]] += moved[t]
@@ -204,8 +212,10 @@ def _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, 
         a = fraction[e]
         h = hk[e]
         if loss[e] > 0.0:
-            h0 = row_mean(a, h, scratch)
-            r = (h0 - loss[e] / area[e]) / h0
+            for k in range(h.shape[0]):
+                scratch[k] = a[k] * h[k]
+            v0 = row_sum(scratch)
+            r = (v0 - loss[e] / area[e]) / v0
             for k in range(h.shape[0]):
                 h[k] *= r
         if gain[e] > 0.0:
@@ -213,7 +223,7 @@ def _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, 
             for k in range(h.shape[0]):
                 if a[k] > 0.0 and (m < 0 or h[k] >= h[m]):
                     m = k
-            h[m] += gain[e] * row_sum(a) / (a[m] * area[e])
+            h[m] += gain[e] / (a[m] * area[e])
         thickness[e] = row_mean(a, h, scratch)
         loss[e] = 0.0
         gain[e] = 0.0

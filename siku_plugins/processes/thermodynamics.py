@@ -25,12 +25,29 @@ mean ``sum a_k h_k / sum a_k`` of the result. An element thinner than ``min_thic
 mean thickness, with categories) has melted away: the engine flags it
 ``melted`` (it stops, its joints break, it touches nothing) and its volume leaves the budget.
 
-Declared per-element fields: ``grown_volume`` [m³], the ice volume this process added to the
-element since the start (negative: melted; summed on grids) and ``growth_rate`` [m/s], the
-thickness change per second over the last interval (a cell mean on grids).
+Lateral (open-water) growth (``lateral = true``, categories needed): the open water of an
+element, the share ``o = 1 - sum a_k`` of its area ``A``, loses the heat
+``Q_o = C_o (T_f - T_s) - F_w`` [W/m²] (``C_o`` a bulk transfer coefficient [W/(m² K)], the same
+surface air temperature ``T_s``; nothing when ``Q_o <= 0``) and freezes new ice of thickness
+``h_0`` [m] (Hibler's 1979 demarcation thickness) into the category ``n`` (``new_ice_category``):
 
-Reference: Semtner, A. J. (1976), A model for the thermodynamic growth of sea ice in numerical
-investigations of climate, J. Phys. Oceanogr. 6, 379-389.
+    d(A o)/dt = -A o Q_o / (rho_i L_f h_0),    dV/dt = A o Q_o / (rho_i L_f)
+
+integrated exactly over ``dt``: ``o`` falls to ``o exp(-dt / tau)``, ``tau = rho_i L_f h_0 /
+Q_o``, the fraction ``a_n`` grows by the difference ``da`` (so the fractions never sum above 1)
+and ``h_n`` becomes ``(a_n h_n + da h_0) / (a_n + da)``: the volume ``A da h_0`` is added. It
+runs after the growth of the existing ice (ice formed in an interval grows from the next).
+
+Declared per-element fields: ``grown_volume`` [m³], the ice volume this process added to the
+element since the start (negative: melted; summed on grids), ``growth_rate`` [m/s], the ice
+volume per element area grown per second over the last interval (the thickness change without
+categories; a cell mean on grids) and, with ``lateral``, ``lateral_volume`` [m³], the part of
+``grown_volume`` frozen in open water. Volumes count as the engine does:
+``A sum_k a_k h_k`` (:func:`~siku_core.categories.element_volume`).
+
+References: Semtner, A. J. (1976), A model for the thermodynamic growth of sea ice in numerical
+investigations of climate, J. Phys. Oceanogr. 6, 379-389. Hibler, W. D. (1979), A dynamic
+thermodynamic sea ice model, J. Phys. Oceanogr. 9, 815-846.
 """
 from __future__ import annotations
 
@@ -40,7 +57,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from siku_core.categories import row_mean
+from siku_core.categories import row_mean, row_sum
 from siku_core.errors import DataError, SceneError
 from siku_core.ice import ElementField
 from siku_core.interfaces import Process
@@ -81,11 +98,13 @@ def _grow_one(h0, dT, dt, rho, F, L, hs, ki, ks):
 
 @njit(cache=True)
 def semtner_step(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, fraction, hk, grown,
-                 rate, gone, new, scratch):
+                 rate, gone, new, scratch, lateral, lateral_volume):
     """One application of the process (module docstring) to every element, in place:
     thickness ``h`` [m], category thicknesses ``hk`` (``(n, K)``; ``(n, 0)``: no categories),
     ``grown`` [m³] and ``rate`` [m/s]; ``dT`` [K] per element (or one for all); ``gone`` gets the
     elements that melted away, their number returned. ``new``, ``scratch``: ``K`` values each.
+    ``lateral``: ``(C_o, h_0, n)`` of the open-water growth (empty: none), which changes
+    ``fraction`` and adds to ``lateral_volume`` [m³].
     """
     K = hk.shape[1]
     ng = 0
@@ -97,22 +116,53 @@ def semtner_step(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, fraction, 
         dTe = dT[e] if dT.shape[0] > 1 else dT[0]
         if K == 0:
             hn = _grow_one(h0, dTe, dt, rho[e], F, L, hs, ki, ks)
-        else:  # each category on its own, the fractions unchanged
-            for k in range(K):
-                x = _grow_one(hk[e, k], dTe, dt, rho[e], F, L, hs, ki, ks)
-                new[k] = 0.0 if x < 0.0 else x
-            hn = row_mean(fraction[e], new, scratch)
+            if hn < hmin:  # melted away: thickness as it was
+                grown[e] += -area[e] * h0
+                rate[e] = -h0 / dt
+                gone[ng] = e
+                ng += 1
+                continue
+            grown[e] += area[e] * (hn - h0)
+            rate[e] = (hn - h0) / dt
+            h[e] = hn
+            continue
+        a = fraction[e]
+        for k in range(K):  # the ice volume per area before, sum a_k h_k [m]
+            scratch[k] = a[k] * hk[e, k]
+        v0 = row_sum(scratch)
+        for k in range(K):  # each category on its own, the fractions unchanged
+            x = _grow_one(hk[e, k], dTe, dt, rho[e], F, L, hs, ki, ks)
+            new[k] = 0.0 if x < 0.0 else x
+        hn = row_mean(a, new, scratch)
         if hn < hmin:  # melted away: thickness and categories as they were
-            grown[e] += -area[e] * h0
-            rate[e] = -h0 / dt
+            grown[e] += -area[e] * v0
+            rate[e] = -v0 / dt
             gone[ng] = e
             ng += 1
             continue
-        grown[e] += area[e] * (hn - h0)
-        rate[e] = (hn - h0) / dt
-        h[e] = hn
+        if lateral.shape[0]:
+            Q = lateral[0] * dTe - F  # open-water heat loss [W/m²]
+            if Q > 0.0:
+                hnew = lateral[1]
+                n = int(lateral[2])
+                o = 1.0 - row_sum(a)
+                if o > 0.0:
+                    da = -o * math.expm1(-Q * dt / (rho[e] * L * hnew))
+                    an = a[n]
+                    a[n] = an + da
+                    new[n] = (an * new[n] + da * hnew) / a[n]
+                    over = row_sum(a) - 1.0
+                    if over > 0.0:  # round-off: the fractions never sum above 1
+                        a[n] -= over
+                    lateral_volume[e] += area[e] * (a[n] - an) * hnew
+                    hn = row_mean(a, new, scratch)
         for k in range(K):
             hk[e, k] = new[k]
+            scratch[k] = a[k] * new[k]
+        v1 = row_sum(scratch)
+        grown[e] += area[e] * (v1 - v0)
+        rate[e] = (v1 - v0) / dt
+        h[e] = hn
     return ng
 
 
@@ -144,13 +194,33 @@ class Thermodynamics(Process):
                                  "(positive: melts)"),
         "min_thickness": Param(0.05, "m", "an element thinner than this has melted away",
                                min=0.0),
+        "lateral": Param(False, "", "open water freezes new ice (lateral growth; needs "
+                         "thickness categories)", type=bool),
+        "open_water_transfer": Param(13.0, "W m-2 K-1", "open-water heat loss per kelvin "
+                                     "below freezing C_o (lateral)", min=0.0),
+        "new_ice_thickness": Param(0.5, "m", "thickness h_0 of the ice that forms in open "
+                                   "water (lateral; Hibler 1979)", min=1e-3),
+        "new_ice_category": Param(0, "1", "category (0-based) that receives the new ice "
+                                  "(lateral)", type=int, min=0),
     }
     owned_fields = (
         ElementField("grown_volume", "m3", "ice volume added by thermodynamics since the start "
                      "(negative: melted)", grid="sum"),
-        ElementField("growth_rate", "m s-1", "thickness change by thermodynamics per second over "
-                     "its last interval", grid="mean"),
+        ElementField("growth_rate", "m s-1", "ice volume per element area grown by "
+                     "thermodynamics per second over its last interval (the thickness change, "
+                     "without thickness categories)", grid="mean"),
     )
+
+    #: fields declared by some parameters (``siku plugins`` lists them): ``lateral = true``
+    optional_fields = (
+        ElementField("lateral_volume", "m3", "ice volume frozen in open water by "
+                     "thermodynamics since the start (part of grown_volume)", grid="sum"),
+    )
+
+    def __init__(self, params=None):
+        super().__init__(params)
+        if self.p["lateral"]:
+            self.owned_fields = type(self).owned_fields + self.optional_fields
 
     def setup(self, ctx) -> None:
         self.ctx = ctx
@@ -164,14 +234,35 @@ class Thermodynamics(Process):
         # the kernel's scratch, allocated once
         K = 0 if ctx.categories is None else ctx.categories.K
         self._none = np.zeros((st.n, 0))
+        self._empty = np.zeros(0)
         self._gone = np.empty(st.n, dtype=np.int64)
         self._dT = np.zeros(1)
         self._rows = (np.empty(K), np.empty(K))
+        self._lateral = self._lateral_vector(ctx, K)
         bad = st.thickness < self.p["min_thickness"]
         if bad.any():
             i = int(np.argmax(bad))
             raise SceneError(f"{ctx.where(self.table)}: element {i} starts {st.thickness[i]:g} m "
                              f"thick, below min_thickness = {self.p['min_thickness']:g} m")
+
+    def _lateral_vector(self, ctx, K: int) -> np.ndarray:
+        """``(C_o, h_0, n)`` of the open-water growth, empty without (module docstring)."""
+        p = self.p
+        if not p["lateral"]:
+            return np.zeros(0)
+        where = ctx.where(self.table)
+        if K == 0:
+            raise SceneError(f"{where}: lateral = true needs thickness categories (an "
+                             "[elements.mesh.cover] with category): without, an element "
+                             "has no open water")
+        if p["new_ice_category"] >= K:
+            raise SceneError(f"{where}: new_ice_category = {p['new_ice_category']}; the scene "
+                             f"has {K} categories (0 to {K - 1})")
+        if p["new_ice_thickness"] < p["min_thickness"]:
+            raise SceneError(f"{where}: new_ice_thickness = {p['new_ice_thickness']:g} m is "
+                             f"below min_thickness = {p['min_thickness']:g} m")
+        return np.array([float(p["open_water_transfer"]), float(p["new_ice_thickness"]),
+                         float(p["new_ice_category"])])
 
     def _temperature_field(self, ctx) -> Any:
         """The gridded air temperature, read as the first component of a ``gridded`` field,
@@ -229,7 +320,8 @@ class Thermodynamics(Process):
                           float(p["snow_thickness"]), float(p["conductivity"]),
                           float(p["snow_conductivity"]), float(p["min_thickness"]), a, hk,
                           ctx.fields["grown_volume"], ctx.fields["growth_rate"], self._gone,
-                          *self._rows)
+                          *self._rows, self._lateral,
+                          ctx.fields["lateral_volume"] if len(self._lateral) else self._empty)
         if ng:
             ctx.melt(self._gone[:ng])
 
