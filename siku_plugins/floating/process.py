@@ -393,11 +393,8 @@ class Floating(Process):
         if mem is not None:
             from .memory import advance_modes
 
-            fld = self.field
             wave = self._wave_args(ctx)
-            geo = (fld.lat0, fld.lon0, float(fld.radius)) if fld is not None else (0.0, 0.0,
-                                                                                   1.0)
-            advance_modes(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *geo,
+            advance_modes(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *self._geo(),
                           self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv,
                           self.qw, *wave, self.rho_g, self.draft, self.h, self.area, self.M3,
                           self.M1, self.C1, self.M2, self.C2, mem.K, mem.kidx, mem.hist,
@@ -414,14 +411,15 @@ class Floating(Process):
                 self.exchange_load(ctx), f["heave"], f["heave_rate"], f["roll"],
                 f["roll_rate"], f["pitch"], f["pitch_rate"])
 
-    def _packed(self, ctx) -> tuple:
-        """``(amp, (par, ..., wv, kap))``: the arguments of ``kernels.advance`` that do not
-        change between steps (``kernels.pack``), built once (again should the wave field
-        rebuild its components, ``amp`` the witness)."""
+    def _geo(self) -> tuple:
         fld = self.field
+        return (fld.lat0, fld.lon0, float(fld.radius)) if fld is not None else (0.0, 0.0, 1.0)
+
+    def _packed(self, ctx) -> tuple:
+        """``(amp, (par, ..., wv, kap))``: ``kernels.advance``'s arguments that do not change
+        between steps (``kernels.pack``; built again should the field rebuild its ``amp``)."""
         wave = self._wave_args(ctx)
-        geo = (fld.lat0, fld.lon0, float(fld.radius)) if fld is not None else (0.0, 0.0, 1.0)
-        args = pack(*geo, wave[6], wave[8], self.rho_g, self.cphi, self.sphi, self.draft,
+        args = pack(*self._geo(), wave[6], wave[8], self.rho_g, self.cphi, self.sphi, self.draft,
                     self.h, self.area, self.M3, self.B3, self.M1, self.C1, self.B1, self.M2,
                     self.C2, self.B2, self.qoff, self.lattice, self.qu, self.qv, self.qw,
                     *wave[:6])
