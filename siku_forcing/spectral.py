@@ -248,8 +248,12 @@ class Spectral(WaveField):
         self.C = np.minimum(area / (self.dx * self.dy), 1.0).reshape(self.ny, self.nx)
         h = np.bincount(cell, a * st.thickness, nc) / np.where(area > 0, area, 1.0)
         self.h_ice = h.reshape(self.ny, self.nx)
-        self.ki = np.asarray(self.law.rate(self.f[:, None, None], self.h_ice[None],
-                                           self.h), float) * np.ones(self.E.shape)
+        # the law's rate depends on the thickness only: kept while no cell's thickness changes
+        # (ice that does not move or grow: the rate of every step would be the same array)
+        if getattr(self, "_ki_h", None) is None or not np.array_equal(self._ki_h, self.h_ice):
+            self.ki = np.asarray(self.law.rate(self.f[:, None, None], self.h_ice[None],
+                                               self.h), float) * np.ones(self.E.shape)
+            self._ki_h = self.h_ice
         self.element_cell = cell
 
     # ------------------------------------------------------------------ evolution
@@ -328,6 +332,12 @@ class Spectral(WaveField):
         if self.ctx.committing:
             self.advance(t, q)
             self._report()
+        if drag == 0.0 and not slope:  # no force: the sea acts on the ice by breaking only
+            if self.ctx.committing:
+                self.drag_power = np.zeros(len(q))
+                if "wave_drag_power" in self.ctx.fields:
+                    self.ctx.fields["wave_drag_power"][:] = 0.0
+            return
         lat, lon = self._latlon(q)
         r = self._sums(t, lat, lon)
         power = np.zeros(len(q))

@@ -144,22 +144,37 @@ class FlexuralBreaking:
         #: long as the joint slots, so that joints a process creates are checked too
         self.strain = np.full(cm.joint_slots, np.nan)
 
-    def strains(self, t: float, q: np.ndarray, joints: np.ndarray) -> np.ndarray:
-        """``min(eps_f, eps_r)`` of intact ``joints`` at time ``t`` [s] for state ``q``."""
-        cm, f, st, ctx = self.cm, self.field, self.ctx.state, self.ctx
+    def surface_strains(self, t: float, q: np.ndarray, joints: np.ndarray) -> np.ndarray:
+        """``eps_f = (h / 2) |d²eta / ds²|`` [1] of ``joints`` across their edges at time ``t``
+        [s] for state ``q``."""
+        cm, f, st = self.cm, self.field, self.ctx.state
         lat, lon, de, dn = (a[joints] for a in cm.joint_lines(q))
+        h = 0.5 * (st.thickness[cm.ji[joints]] + st.thickness[cm.jj[joints]])
+        # across the joint: the normal of its edge
+        return 0.5 * h * np.abs(f.curvature(t, lat, lon, dn, -de))
+
+    def strains(self, t: float, q: np.ndarray, joints: np.ndarray, eps_f=None, floes=None,
+                only=None) -> np.ndarray:
+        """``min(eps_f, eps_r)`` [1] of intact ``joints`` at time ``t`` [s] for state ``q``.
+        ``eps_f``: their surface strains if known (:meth:`surface_strains`); ``floes``:
+        ``(count, label)`` of the current joints if known; ``only`` (bool over ``joints``): the
+        joints whose rigid limit is computed (the others get ``eps_f``)."""
+        cm, f, st, ctx = self.cm, self.field, self.ctx.state, self.ctx
+        if eps_f is None:
+            eps_f = self.surface_strains(t, q, joints)
         # the joints' ice as it is now (a process may have changed the thickness or made the
         # joint)
         ji, jj = cm.ji[joints], cm.jj[joints]
         h = 0.5 * (st.thickness[ji] + st.thickness[jj])
         E = 0.5 * (cm.E[ji] + cm.E[jj])
-        # across the joint: the normal of its edge
-        eps_f = 0.5 * h * np.abs(f.curvature(t, lat, lon, dn, -de))
         out = eps_f.copy()
         hot = eps_f > self.eps_c
+        if only is not None:
+            hot &= only
         if not hot.any():
             return out
-        count, label = cm.floe_labels()
+        lat, lon, de, dn = (a[joints] for a in cm.joint_lines(q))
+        count, label = cm.floe_labels() if floes is None else floes
         clat, clon = latlon_of(q)
         cx, cy = f.plane(clat, clon)
         eta = f.evaluate(t, clat, clon)["eta"]
@@ -193,27 +208,59 @@ class FlexuralBreaking:
         return out
 
     def check(self, t: float, q: np.ndarray) -> int:
-        """Break joints as the module docstring says; the number broken."""
+        """Break joints as the module docstring says; the number broken.
+
+        Within one check the sea and the elements stand still, so a joint's surface strain is
+        computed once, and its rigid-floe strain again only when its floe changed (lost or
+        gained elements) since the last pass: the same strains as computing everything at every
+        pass, at the cost of the floes that split."""
         if t < self.next_check:
             return 0
         self.next_check = t + self.every
         cm = self.cm
         total = 0
+        eps_f = np.full(cm.joint_slots, np.nan)
+        joints = np.flatnonzero(cm.intact)  # (the intact flags of the joints made so far)
+        eps_f[joints] = self.surface_strains(t, q, joints)
+        known = np.full(cm.joint_slots, np.nan)  # min(eps_f, eps_r) of the last pass
+        before = None  # floe labels of the last pass
         while True:
             joints = np.flatnonzero(cm.intact)
             if not len(joints):
                 return total
-            eps = self.strains(t, q, joints)
+            floes = cm.floe_labels()
+            same = _unchanged_floes(floes, before)
+            redo = ~same[floes[1][cm.ji[joints]]]
+            eps = self.strains(t, q, joints, eps_f[joints], floes, redo)
+            eps[~redo] = known[joints[~redo]]
+            known[joints] = eps
+            before = floes
             self.strain[:] = np.nan
             self.strain[joints] = eps
             over = eps > self.eps_c
             if not over.any():
                 return total
             # per floe, the joint of largest strain
-            _, label = cm.floe_labels()
+            label = floes[1]
             fl = label[cm.ji[joints[over]]]
             k = joints[over]
             e = eps[over]
             best = np.lexsort((-e, fl))
             first = np.r_[True, fl[best][1:] != fl[best][:-1]]
             total += cm.break_joints(k[best][first], BREAK_FLEXURE, t)
+
+
+def _unchanged_floes(floes, before) -> np.ndarray:
+    """Per floe of ``floes`` (``(count, label)``): whether it holds exactly the elements of one
+    floe of ``before`` (None: no floe is known)."""
+    count, label = floes
+    if before is None:
+        return np.zeros(count, dtype=bool)
+    old = before[1]
+    lo = np.full(count, np.iinfo(np.int64).max)
+    hi = np.full(count, -1)
+    np.minimum.at(lo, label, old)
+    np.maximum.at(hi, label, old)
+    size = np.bincount(label, minlength=count)
+    old_size = np.bincount(old, minlength=before[0])
+    return (lo == hi) & (size == old_size[np.clip(lo, 0, before[0] - 1)])

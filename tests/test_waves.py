@@ -262,3 +262,56 @@ def test_breaking_needs_joints():
                     forcing=[{"source": "waves", "params": {"breaking": True}, "field": wave}])
     with pytest.raises(Exception, match="breaking = true need"):
         Simulation(sc, out=False, progress=False)
+
+
+def test_breaking_check_equals_recomputing_every_strain_at_every_pass():
+    """A check computes a joint's surface strain once and its rigid-floe strain again only when
+    its floe changed: the same joints break, in the same order, as with every strain of every
+    intact joint computed again at every pass (the check before that saving). A JONSWAP sea on
+    a Voronoi floe with a stiff plate, so that both limits decide some joints."""
+    from siku_core.contact_law import BREAK_FLEXURE
+    from siku_core.testing import scene_text
+    from siku_core.scene import scene_from_text
+
+    def build():
+        txt = scene_text([], dt=1e-4, duration=1e-4, forcing=[{
+            "source": "waves", "params": {"breaking": True, "drag": False, "slope": False,
+                                          "critical_strain": 3e-5},
+            "field": {"type": "jonswap", "params": {"hs": 1.5, "tp": 6.0, "n_frequencies": 8,
+                                                    "n_directions": 4}}}],
+            thickness=1.0, materials={"ice": {"youngs_modulus": 1e9}},
+            run={"allow_unstable_dt": True},
+            extra='[[elements.source]]\nname = "floe"\nparams = { outline = "rectangle", '
+                  'length = 120.0, width = 40.0, element_size = 5.0, seed = 3 }\n'
+                  '[contact]\nlaw = "distributed_spring"\nparams = {tensile_strain = 1.0}\n')
+        return Simulation(scene_from_text(txt, "<floe>"), out=False, progress=False)
+
+    def naive_check(br, t, q):
+        cm = br.cm
+        while True:
+            joints = np.flatnonzero(cm.intact)
+            eps = br.strains(t, q, joints)
+            over = eps > br.eps_c
+            if not over.any():
+                return
+            _, label = cm.floe_labels()
+            fl, k, e = label[cm.ji[joints[over]]], joints[over], eps[over]
+            best = np.lexsort((-e, fl))
+            first = np.r_[True, fl[best][1:] != fl[best][:-1]]
+            cm.break_joints(k[best][first], BREAK_FLEXURE, t)
+
+    new, old = build(), build()
+    rigid = False
+    for t in np.linspace(0.0, 4.5, 4):
+        b_new, b_old = new.forcing[0].breaker, old.forcing[0].breaker
+        b_new.check(t, new.state.q)
+        naive_check(b_old, t, old.state.q)
+        joints = np.flatnonzero(old.contacts.intact)
+        if len(joints):
+            eps_f = b_old.surface_strains(t, old.state.q, joints)
+            rigid |= bool((b_old.strains(t, old.state.q, joints) < eps_f).any())
+    cn, co = new.contacts, old.contacts
+    assert (~cn.intact).sum() > 10 and (cn.intact).sum() > 10
+    assert rigid  # the rigid limit decided some joints
+    assert np.array_equal(cn.intact, co.intact)
+    assert np.array_equal(cn.take_breaks()["joint"], co.take_breaks()["joint"])

@@ -4,8 +4,10 @@
 
 NAME: ``default`` (the default scene: damage at 0 h and 24 h, and broken joints with leads on a
 polar stereographic grid), ``case`` (the 2001-04-06 case study on stand-in winds), ``waves``
-(fragment length against wave amplitude), ``two_way`` (the coupled wave flume) and ``ice_life``
-(the cold snap and thaw of ``examples/ice_life``: thickness change and volume budget). Runs take
+(fragment length against wave amplitude), ``two_way`` (the coupled wave flume), ``ice_life``
+(the cold snap and thaw of ``examples/ice_life``: thickness change and volume budget) and
+``ice_edge`` (the ice edge experiment of ``examples/miz``: wave height and floe size over time,
+attenuation and floe size distribution; about ten minutes). Runs take
 place in a temporary folder (a copy of ``examples/`` where a picture needs it); only the
 pictures are written, into ``--out`` (default: this folder). The default scene and the case run
 24 h each (about six and four minutes on two cores); ``--hours`` shortens them (tests).
@@ -21,7 +23,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
-NAMES = ("default", "case", "waves", "two_way", "ice_life")
+NAMES = ("default", "case", "waves", "two_way", "ice_life", "ice_edge")
 
 
 def _run(cmd: list[str], cwd: Path) -> None:
@@ -88,6 +90,12 @@ def ice_life(work: Path, out: Path, hours: float) -> list[Path]:
     return made
 
 
+def ice_edge(work: Path, out: Path, hours: float) -> list[Path]:
+    _run([sys.executable, str(ROOT / "examples" / "miz" / "run.py"), "ice_edge.toml", "--out",
+          str(work)], work)
+    return [Path(shutil.copyfile(work / "ice_edge.png", out / "ice_edge.png"))]
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python docs/gallery/make_gallery.py",
                                  description=__doc__.split("\n\n")[0])
@@ -100,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     out = args.out.resolve()
     steps = {"default": default, "case": case, "waves": waves, "two_way": two_way,
-             "ice_life": ice_life}
+             "ice_life": ice_life, "ice_edge": ice_edge}
     with tempfile.TemporaryDirectory(prefix="siku_gallery_") as tmp:
         base = Path(tmp)
         if args.keep is not None:
