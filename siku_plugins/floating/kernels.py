@@ -160,31 +160,40 @@ def _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp,
     nv = voff[i + 1] - vlo
     m6 = m6a[i]
     w2 = 2 * (m6 - 1)
+    # the tables are indexed through unsigned integers: no test for a negative index (the
+    # points' loop takes half the time; the same arithmetic)
     for j in range(amp.shape[0]):
         ka = kx[j] * e0 - ky[j] * e1     # d psi / d qa
         kb = kx[j] * e1 + ky[j] * e0     # d psi / d qb
         for v in range(nv):
-            cr, ci = _cis((ka * vx[vlo + v] + kb * vy[vlo + v]) / m6)
+            u = np.uint64(vlo + v)
+            cr, ci = _cis((ka * vx[u] + kb * vy[u]) / m6)
             pr = 1.0
             pim = 0.0
             base = v * w2
-            Z[base] = 1.0
-            Z[base + 1] = 0.0
+            Z[np.uint64(base)] = 1.0
+            Z[np.uint64(base + 1)] = 0.0
             for m in range(2, w2, 2):
                 pr, pim = pr * cr - pim * ci, pr * ci + pim * cr
-                Z[base + m] = pr
-                Z[base + m + 1] = pim
+                Z[np.uint64(base + m)] = pr
+                Z[np.uint64(base + m + 1)] = pim
         r0 = 0.0
         i0 = 0.0
         r1 = 0.0
         i1 = 0.0
         r2 = 0.0
         i2 = 0.0
-        for p in range(lo, hi):
-            a = ia[p]
-            b = ib[p]
-            xr = Z[a] * Z[b] - Z[a + 1] * Z[b + 1]
-            xi = Z[a] * Z[b + 1] + Z[a + 1] * Z[b]
+        for p in range(np.uint64(lo), np.uint64(hi)):
+            a = np.uint64(ia[p])
+            b = np.uint64(ib[p])
+            a1 = np.uint64(ia[p] + 1)
+            b1 = np.uint64(ib[p] + 1)
+            za = Z[a]
+            za1 = Z[a1]
+            zb = Z[b]
+            zb1 = Z[b1]
+            xr = za * zb - za1 * zb1
+            xi = za * zb1 + za1 * zb
             wc = qw[p] * xr
             ws = qw[p] * xi
             r0 += wc
@@ -271,26 +280,36 @@ def _load(k, i, S, E, r, kap, ext):
 
 
 @njit(cache=True, error_model="numpy")
-def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
-                   lattice, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
+def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts,
+                   zsize, wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate,
+                   pw):
     """Elements ``lo_e`` to ``hi_e`` of :func:`advance`."""
+    lat0, lon0, R, depth, ramp, rho_g = par[0], par[1], par[2], par[3], par[4], par[5]
+    cphi, sphi, draft, h, area = elem[0], elem[1], elem[2], elem[3], elem[4]
+    M3, B3, M1, C1, B1, M2, C2, B2 = (elem[5], elem[6], elem[7], elem[8], elem[9], elem[10],
+                                      elem[11], elem[12])
+    qoff, voff, m6a = ints[0], ints[1], ints[2]
+    qw, qu, qv = pts[0], pts[1], pts[2]
+    ia, ib = pint[0], pint[1]
+    vx, vy = verts[0], verts[1]
+    amp, kx, ky, om, ph, kk = wv[0], wv[1], wv[2], wv[3], wv[4], wv[5]
     natt = amp.shape[0]
     wave = natt > 0
     c0 = math.cos(lat0)
     att = np.empty(natt)
     S = np.empty((natt, 6))
-    voff, vx, vy, m6a, ia, ib, zsize = lattice
     Z = np.empty(zsize)
     E, rk = clock(t0, dt, n_sub if wave else 0, om, ramp)
+    d_att = math.nan
     for i in range(lo_e, hi_e):
         if not free[i]:
             continue
         xc, yc, e0, e1 = wave_frame(q, i, wave, R, c0, lat0, lon0)
         d = draft[i]
-        for j in range(natt):
-            att[j] = _attenuation(kk[j], d, depth)
+        if d != d_att:     # the last element's draft: the same factors
+            for j in range(natt):
+                att[j] = _attenuation(kk[j], d, depth)
+            d_att = d
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
         _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp, kx, ky,
@@ -342,23 +361,17 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
-                      lattice, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
+def _advance_parallel(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsize,
+                      wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
     n = z.shape[0]
     for ch in prange(nch):
         lo_e, hi_e = chunk_bounds(ch, nch, n)
-        _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
-                       qoff, lattice, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch,
-                          pitch_rate, pw)
+        _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts,
+                       zsize, wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw)
 
 
-def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, lattice, qu, qv, qw,
-            amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-            M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
+def advance(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsize, wv, kap, ext,
+            z, vz, roll, roll_rate, pitch, pitch_rate, pw):
     """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
     the damping taken half explicitly (first half step) and half implicitly (second), so that
     the scheme is second order and, for the linear oscillator, stable for ``omega dt < 2``.
@@ -366,18 +379,42 @@ def advance(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, lattic
     (lat - lat0)``, as ``siku_forcing.waves``) and its local frame come from ``q``; the tilts
     are stepped as slopes along the principal axes (angle ``phi``: ``cphi, sphi``) and written
     back as roll and pitch; ``pw`` [W m-2] receives the damping's power per area averaged over
-    the ``n_sub`` steps (trapezoid of ``B v²`` at the sub-steps). The fields change in place;
-    elements are independent, in ``nch`` chunks (``siku_core.parallel``), so the result does
-    not depend on the threads."""
+    the ``n_sub`` steps (trapezoid of ``B v²`` at the sub-steps). The fields ``z`` [m], ``vz``
+    [m/s], ``roll``, ``pitch`` [rad] and their rates [rad/s] change in place; elements are
+    independent, in ``nch`` chunks (``siku_core.parallel``), so the result does not depend on
+    the threads.
+
+    What does not change between steps comes packed in a few arrays (a call costs tens of
+    nanoseconds per array argument; :func:`pack` builds them): ``par`` = ``(lat0, lon0 [rad],
+    R [m], depth [m], ramp [s], rho_w g [N/m³])``; ``elem`` (``(13, n)``) = ``cphi, sphi``,
+    draft, thickness [m], area [m²], ``M3`` [kg], ``B3`` [kg/s], ``M1, C1, B1, M2, C2, B2``
+    (kg m², N m, N m s of the tilts); ``ints`` (``(3, n + 1)``) = the quadrature's offsets
+    ``qoff``, the lattice's ``voff`` and ``m6``; ``pts`` (``(3, P)``) = weights [m²] and
+    principal coordinates ``u, v`` [m] of the points; ``pint`` (``(2, P)``) = their ``ia,
+    ib``; ``verts`` (``(2, V)``) = ``vx, vy`` [m] (``siku_plugins.floating.geometry
+    .lattice_arrays``, table of ``zsize``); ``wv`` (``(6, M)``) = the wave's ``amp`` [m],
+    ``kx, ky`` [1/m], ``omega`` [rad/s], ``phase`` [rad], ``k`` [1/m]; ``kap`` and ``ext`` as
+    :func:`_excite`."""
     if nch > 1:
-        _advance_parallel(nch, n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff,
-                          lattice, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch,
-                          pitch_rate, pw)
+        _advance_parallel(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsize,
+                          wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw)
     else:
-        _advance_range(0, z.shape[0], n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi,
-                       qoff, lattice, qu, qv, qw,
-                          amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-                          M3, B3, M1, C1, B1, M2, C2, B2, z, vz, roll, roll_rate, pitch,
-                          pitch_rate, pw)
+        _advance_range(0, z.shape[0], n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts,
+                       zsize, wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw)
+
+
+def pack(lat0, lon0, R, depth, ramp, rho_g, cphi, sphi, draft, h, area, M3, B3, M1, C1, B1, M2,
+         C2, B2, qoff, lattice, qu, qv, qw, amp, kx, ky, om, ph, kk) -> tuple:
+    """``(par, elem, ints, pts, pint, verts, zsize, wv)`` of :func:`advance` from the separate
+    values (the same numbers, copied into rows)."""
+    voff, vx, vy, m6, ia, ib, zsize = lattice
+    n = len(draft)
+    ints = np.zeros((3, n + 1), dtype=np.int64)
+    ints[0] = qoff
+    ints[1] = voff
+    ints[2, :n] = m6
+    return (np.array([lat0, lon0, R, depth, ramp, rho_g], dtype=float),
+            np.array([cphi, sphi, draft, h, area, M3, B3, M1, C1, B1, M2, C2, B2], dtype=float),
+            ints, np.array([qw, qu, qv], dtype=float), np.array([ia, ib], dtype=np.int64),
+            np.array([vx, vy], dtype=float), int(zsize),
+            np.array([amp, kx, ky, om, ph, kk], dtype=float))

@@ -79,7 +79,7 @@ from siku_core.params import Param
 from siku_core.state import FREE
 
 from .geometry import lattice_arrays, principal, quadrature, second_moments
-from .kernels import advance
+from .kernels import advance, pack
 
 #: one element's load and sub-step [ns, one thread]: its chunks (``siku_core.parallel.chunks``)
 FLOAT_NS = 150.0
@@ -287,6 +287,7 @@ class Floating(Process):
             self.memory.n_sub, self.memory.dt_p = n_sub, dt_p
             self._periods()
         self._floats, self._loaded = bool(self.free.any()), bool(self.load.any())
+        self._pack = None
         # the start: every free element at the scene's initial heave and tilts
         f = ctx.fields
         for key in ("heave", "roll", "pitch"):
@@ -400,13 +401,11 @@ class Floating(Process):
         n_sub = self._n_sub(ctx, dt)
         mem = self.memory
         st = ctx.state
-        fld = self.field
-        wave = self._wave_args(ctx)
-        geo = (fld.lat0, fld.lon0, float(fld.radius)) if fld is not None else (0.0, 0.0, 1.0)
         if mem is not None:
             from .memory import advance_modes
 
-            advance_modes(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *geo,
+            wave = self._wave_args(ctx)
+            advance_modes(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *self._geo(),
                           self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv,
                           self.qw, *wave, self.rho_g, self.draft, self.h, self.area, self.M3,
                           self.M1, self.C1, self.M2, self.C2, mem.K, mem.kidx, mem.hist,
@@ -416,11 +415,26 @@ class Floating(Process):
             return
         work = FLOAT_NS * (n_sub + 1)     # per element; below PARALLEL_MIN: one chunk
         nch = chunks(st.n, work) if st.n * work >= PARALLEL_MIN * ITEM_NS else 1
-        advance(nch, n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *geo, self.cphi,
-                self.sphi, self.qoff, self.lattice, self.qu, self.qv, self.qw, *wave, self.rho_g,
-                self.draft, self.h, self.area, self.M3, self.B3, self.M1, self.C1, self.B1,
-                self.M2, self.C2, self.B2, f["heave"], f["heave_rate"], f["roll"],
+        packed = self._pack
+        if packed is None or (self.field is not None and packed[0] is not self.field.amp):
+            packed = self._pack = self._packed(ctx)
+        advance(nch, n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *packed[1],
+                self.exchange_load(ctx), f["heave"], f["heave_rate"], f["roll"],
                 f["roll_rate"], f["pitch"], f["pitch_rate"], f["wave_radiated_power"])
+
+    def _geo(self) -> tuple:
+        fld = self.field
+        return (fld.lat0, fld.lon0, float(fld.radius)) if fld is not None else (0.0, 0.0, 1.0)
+
+    def _packed(self, ctx) -> tuple:
+        """``(amp, (par, ..., wv, kap))``: ``kernels.advance``'s arguments that do not change
+        between steps (``kernels.pack``; built again should the field rebuild its ``amp``)."""
+        wave = self._wave_args(ctx)
+        args = pack(*self._geo(), wave[6], wave[8], self.rho_g, self.cphi, self.sphi, self.draft,
+                    self.h, self.area, self.M3, self.B3, self.M1, self.C1, self.B1, self.M2,
+                    self.C2, self.B2, self.qoff, self.lattice, self.qu, self.qv, self.qw,
+                    *wave[:6])
+        return wave[0], args + (wave[7],)
 
     def _wave_args(self, ctx) -> tuple:
         """The kernels' arguments of the wave (``amp`` to ``ext``)."""
