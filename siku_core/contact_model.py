@@ -97,9 +97,7 @@ class ContactModel(JointBook):
         self.pairs = np.zeros((0, 2), dtype=np.int64)
         self._no_elements = np.zeros(0, dtype=np.int64)
         self._jscratch = np.zeros(0)  # (ice_changed)
-        #: whether the collision loop keeps every overlapping pair's contact width
-        #: (:meth:`keep_widths`)
-        self.widths_kept = False
+        self.widths_kept = False  # the loop keeps the pairs' contact widths (keep_widths)
         self._set_pair_index()
         self._ref_centers: np.ndarray | None = None
         self.rm = np.empty((st.n, 3, 3))
@@ -135,8 +133,7 @@ class ContactModel(JointBook):
         self.poff, self.pidx, self.pside = element_index(
             np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
         self.pface = self._faces(p)
-        #: per candidate pair: its contact width at the last evaluation that found it
-        #: overlapping [m] (empty unless :meth:`keep_widths`)
+        #: per candidate pair: its contact width [m] when last found overlapping (keep_widths)
         self.pair_width = np.zeros(len(p) if self.widths_kept else 0)
         #: per candidate pair: its reduced mass [kg]
         self.pmeff = pair_masses(self.minv, p)

@@ -160,7 +160,7 @@ def test_with_radiation_memory_the_radiated_work_is_the_energy_released(band):
     pitched, after 60 s (a millionth of the energy left) ``∫ P A dt = E0`` within the kernel's
     truncation (1e-3 relative, ``tests/test_floating_memory.py``) and the scheme's
     ``(omega h)²``."""
-    from test_floating_power import energy
+    from test_floating_power import energy, radiated_work
 
     txt = block(f'{MEM}, hydro_cache = "{band[0]}", initial_heave = 0.05, '
                 'initial_roll = 0.002, initial_pitch = -0.001', duration=60.0, dt=0.02)
@@ -168,10 +168,7 @@ def test_with_radiation_memory_the_radiated_work_is_the_energy_released(band):
     proc = sim.processes[0]
     f = sim.context.fields
     e0 = energy(proc, f)
-    work = 0.0
-    for _ in range(sim.n_steps):
-        sim.step()
-        work += f["wave_radiated_power"][0] * proc.area[0] * sim.dt
+    work = radiated_work(sim)
     e1 = energy(proc, f)
     assert e1 < 1e-6 * e0
     wh = math.sqrt(max(proc.C3[0] / proc.M3[0], proc.C1[0] / proc.M1[0])) * proc.memory.dt

@@ -24,6 +24,18 @@ def energy(proc, f):
                   + proc.M2[0] * v2**2 + proc.C2[0] * s2**2)
 
 
+def radiated_work(sim) -> float:
+    """Run ``sim`` to its end: the work [J] of element 0's radiation damping, the sum of
+    ``wave_radiated_power A dt``."""
+    proc = sim.processes[0]
+    f = sim.context.fields
+    work = 0.0
+    for _ in range(sim.n_steps):
+        sim.step()
+        work += f["wave_radiated_power"][0] * proc.area[0] * sim.dt
+    return work
+
+
 def decay(spp, dt=0.05, duration=12.0):
     """A block released with heave, roll and pitch in still water (linear: it stays within its
     freeboard): ``(E0, E_end, ∫ P A dt, omega_max h, (B/M)_max h)``, ``h`` the sub-step."""
@@ -33,10 +45,7 @@ def decay(spp, dt=0.05, duration=12.0):
     proc = sim.processes[0]
     f = sim.context.fields
     e0 = energy(proc, f)
-    work = 0.0
-    for _ in range(sim.n_steps):
-        sim.step()
-        work += f["wave_radiated_power"][0] * proc.area[0] * dt
+    work = radiated_work(sim)
     n_sub = math.ceil(dt * spp / proc.period_min - 1e-9)
     h = dt / n_sub
     w = max(math.sqrt(c / m) for c, m in ((proc.C3, proc.M3), (proc.C1, proc.M1),

@@ -84,7 +84,8 @@ def process_simulation(cls: type, params: Mapping[str, Any] | None = None, *,
     scene = scene_from_text(text, f"<process conformance {cls.name}>")
     registry = process_registry(cls)
     if kwargs.get("categories") is not None:
-        registry = registry_with("element_source", category_pack(kwargs["categories"]),
+        pack = registry.get("element_source", "pack")
+        registry = registry_with("element_source", category_pack(kwargs["categories"], pack),
                                  registry)
     return Simulation(scene, out=False if out is None else out, restart=restart,
                       progress=False, registry=registry)
@@ -94,14 +95,12 @@ def process_simulation(cls: type, params: Mapping[str, Any] | None = None, *,
 CATEGORY_PACK = "conformance_category_pack"
 
 
-def category_pack(categories: Any) -> type:
-    """The ``pack`` element source (``siku_plugins.sources``) whose every element has the
+def category_pack(categories: Any, pack: type) -> type:
+    """The element source ``pack`` (the registry's ``pack``) whose every element has the
     thickness categories ``categories`` (``(a_k, h_k)``): the conformance scene's with them."""
-    from siku_plugins.sources import PackSource
-
     cats = tuple(np.asarray(x, dtype=float) for x in categories)
 
-    class CategoryPack(PackSource):
+    class CategoryPack(pack):
         name = CATEGORY_PACK
 
         def build(self, scene, seed, where):

@@ -269,3 +269,55 @@ def equilibrium(proc, n: int) -> np.ndarray:
     u = np.zeros(3 * n)
     u[keep] = spsolve(K.tocsr()[keep][:, keep].tocsc(), F[keep])
     return u.reshape(n, 3)
+
+
+def apply_coupled(proc, ctx, dt: float) -> None:
+    """The ``floating`` process ``proc``'s ``apply`` with beams between jointed elements or
+    loads: all elements together in each sub-step (:func:`advance_bonded`)."""
+    from .kernels import centres_and_frames
+
+    st = ctx.state
+    f = ctx.fields
+    bm = proc.beams
+    if bm is not None and not np.array_equal(bm.seen, bm.cm.intact):
+        bm.assemble(proc)       # joints broke (the law, a restart) since the last step
+        proc.period_min = min(proc.period_min, bm.period_min)
+    n_sub = proc._n_sub(ctx, dt)
+    fld = proc.field
+    wave = proc._wave_args(ctx)
+    if fld is not None:
+        lat, lon, e0, e1 = centres_and_frames(st.q)
+        xc, yc = fld.plane(lat, lon)
+    else:
+        xc = yc = e1 = np.zeros(st.n)
+        e0 = np.ones(st.n)
+    if bm is not None:
+        csr = (bm.indptr, bm.indices, bm.data)
+    else:
+        csr = (np.zeros(3 * st.n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+               np.zeros(0))
+    c, s = proc.cphi, proc.sphi
+    sx, sy = -f["pitch"], f["roll"]
+    wx, wy = -f["pitch_rate"], f["roll_rate"]
+    u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
+    v = np.column_stack([f["heave_rate"], wx * c + wy * s, -wx * s + wy * c]).ravel()
+    mem = proc.memory
+    hist = ((mem.K, mem.kidx, mem.hist, mem.head) if mem is not None else
+            (np.zeros((0, 3, 1)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)), 0))
+    advance_bonded(n_sub, dt / n_sub, float(ctx.time - dt), proc.free, xc, yc, e0, e1,
+                   proc.qoff, proc.qa, proc.qb, proc.qu, proc.qv, proc.qw, *wave,
+                   proc.rho_g, proc.draft, proc.h, proc.area, proc.M3, proc.B3, proc.M1,
+                   proc.C1, proc.B1, proc.M2, proc.C2, proc.B2, proc.load, *csr, *hist, u, v,
+                   f["wave_radiated_power"])
+    if mem is not None:
+        mem.head = (mem.head + n_sub) % mem.K.shape[2]
+    U, W = u.reshape(-1, 3), v.reshape(-1, 3)
+    f["heave"][:] = U[:, 0]
+    f["heave_rate"][:] = W[:, 0]
+    f["pitch"][:] = -(U[:, 1] * c - U[:, 2] * s)
+    f["roll"][:] = U[:, 1] * s + U[:, 2] * c
+    f["pitch_rate"][:] = -(W[:, 1] * c - W[:, 2] * s)
+    f["roll_rate"][:] = W[:, 1] * s + W[:, 2] * c
+    if bm is not None:
+        if bm.break_overstressed(proc, u, proc.p["flexural_strength"], ctx.time):
+            proc.period_min = min(proc.period_min, bm.period_min)

@@ -397,7 +397,9 @@ class Floating(Process):
         f = ctx.fields
         f["wave_radiated_power"][:] = 0.0     # the kernels write the free elements'
         if self.beams is not None or self._loaded:
-            return self._apply_coupled(ctx, dt)
+            from .bending import apply_coupled
+
+            return apply_coupled(self, ctx, dt)
         n_sub = self._n_sub(ctx, dt)
         mem = self.memory
         st = ctx.state
@@ -467,58 +469,6 @@ class Floating(Process):
         if self.memory is not None:
             self.memory.hist[:] = arrays["rates"]
             self.memory.head = int(arrays["head"])
-
-    def _apply_coupled(self, ctx, dt: float) -> None:
-        """:meth:`apply` with beams between jointed elements or loads
-        (``siku_plugins.floating.bending``): all elements together in each sub-step."""
-        from .bending import advance_bonded
-        from .kernels import centres_and_frames
-
-        st = ctx.state
-        f = ctx.fields
-        bm = self.beams
-        if bm is not None and not np.array_equal(bm.seen, bm.cm.intact):
-            bm.assemble(self)       # joints broke (the law, a restart) since the last step
-            self.period_min = min(self.period_min, bm.period_min)
-        n_sub = self._n_sub(ctx, dt)
-        fld = self.field
-        wave = self._wave_args(ctx)
-        if fld is not None:
-            lat, lon, e0, e1 = centres_and_frames(st.q)
-            xc, yc = fld.plane(lat, lon)
-        else:
-            xc = yc = e1 = np.zeros(st.n)
-            e0 = np.ones(st.n)
-        if bm is not None:
-            csr = (bm.indptr, bm.indices, bm.data)
-        else:
-            csr = (np.zeros(3 * st.n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
-                   np.zeros(0))
-        c, s = self.cphi, self.sphi
-        sx, sy = -f["pitch"], f["roll"]
-        wx, wy = -f["pitch_rate"], f["roll_rate"]
-        u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
-        v = np.column_stack([f["heave_rate"], wx * c + wy * s, -wx * s + wy * c]).ravel()
-        mem = self.memory
-        hist = ((mem.K, mem.kidx, mem.hist, mem.head) if mem is not None else
-                (np.zeros((0, 3, 1)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)), 0))
-        advance_bonded(n_sub, dt / n_sub, float(ctx.time - dt), self.free, xc, yc, e0, e1,
-                       self.qoff, self.qa, self.qb, self.qu, self.qv, self.qw, *wave,
-                       self.rho_g, self.draft, self.h, self.area, self.M3, self.B3, self.M1,
-                       self.C1, self.B1, self.M2, self.C2, self.B2, self.load, *csr, *hist, u, v,
-                       f["wave_radiated_power"])
-        if mem is not None:
-            mem.head = (mem.head + n_sub) % mem.K.shape[2]
-        U, W = u.reshape(-1, 3), v.reshape(-1, 3)
-        f["heave"][:] = U[:, 0]
-        f["heave_rate"][:] = W[:, 0]
-        f["pitch"][:] = -(U[:, 1] * c - U[:, 2] * s)
-        f["roll"][:] = U[:, 1] * s + U[:, 2] * c
-        f["pitch_rate"][:] = -(W[:, 1] * c - W[:, 2] * s)
-        f["roll_rate"][:] = W[:, 1] * s + W[:, 2] * c
-        if bm is not None:
-            if bm.break_overstressed(self, u, self.p["flexural_strength"], ctx.time):
-                self.period_min = min(self.period_min, bm.period_min)
 
     def equilibrium(self, ctx) -> np.ndarray:
         """The static state ``(n, 3)`` under the scene's ``loads`` in still water
