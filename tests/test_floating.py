@@ -249,6 +249,9 @@ def test_a_scene_without_floating_allocates_nothing():
      "no such folder"),
     (dict(size=1.0, thickness=2.0), "capsize"),
     (dict(params="damping_ratio = -0.1"), "damping_ratio"),
+    # a negative draft h rho_i / rho_w needs a negative thickness or density: refused first
+    (dict(thickness=-1.0), "elements.thickness"),
+    (dict(density=-910.0), "materials.ice.density"),
 ])
 def test_bad_input_is_one_line(kw, words):
     with pytest.raises(SceneError, match=words):

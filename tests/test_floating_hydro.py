@@ -103,6 +103,21 @@ def test_without_capytaine_the_scene_says_so(cache, monkeypatch):
             steps=1)
 
 
+def test_a_shape_capytaine_cannot_mesh_is_one_line(tmp_path, monkeypatch):
+    """capytaine refusing the element's prism mesh (its ``Mesh`` raising, as it does for a
+    degenerate one) is one line naming the element, not capytaine's traceback; a fresh cache so
+    that capytaine is asked."""
+    def refuse(*args, **kwargs):
+        raise ValueError("a panel has zero area")
+
+    import capytaine
+
+    monkeypatch.setattr(capytaine, "Mesh", refuse)
+    with pytest.raises(SceneError, match="capytaine could not solve element 0's prism "
+                                         r"\(ValueError: a panel has zero area\)"):
+        run(block_scene(tmp_path, "initial_heave = 0.2", duration=0.02, dt=0.01), steps=1)
+
+
 @pytest.mark.parametrize("T", [4.0, 5.0, 8.0])
 def test_heave_in_waves_is_capytaines_rao(cache, T):
     """The block in a small monochromatic wave (amplitude 2 cm: within its freeboard), with
