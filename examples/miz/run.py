@@ -3,7 +3,7 @@
     python examples/miz/run.py [SCENE] [--out DIR] [--maps T1 T2 ...]
 
 SCENE: ``ice_edge.toml`` (default; the 3 km x 1.5 km Voronoi pack in a directional swell,
-about 7 minutes of CPU) or ``miz.toml`` (the 600 m x 80 m flume, under a minute).
+about 5.5 minutes on two idle cores) or ``miz.toml`` (the 600 m x 80 m flume, under a minute).
 Writes DIR/STEM.h5 (the run), DIR/STEM.fsd.nc (the floe size distribution of every snapshot:
 the bins and power-law fit of ``siku fsd``, without the calipers) and DIR/STEM.png:
 
