@@ -289,7 +289,7 @@ class IceBook:
         cats = self.categories is not None
         if cats and self._cats_changed:  # fractions alone may have changed: every element
             h_changed = True
-            nc = max(nc, st.n)
+            nc = st.n
         if not nc:
             return
         if bad >= 0:
