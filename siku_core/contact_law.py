@@ -105,7 +105,10 @@ OUT_LAYOUT = (
     ("out[2]", "N m", ("couple on `j` about the local vertical, counter-clockwise positive; `i` "
                       "gets the opposite")),
     ("out[3]", "1", ("joint evaluators: 0 while the joint holds, else its break mode "
-                    "(`BREAK_*`); the joint then carries no force from this step on")),
+                    "(`BREAK_*`); the joint then carries no force from this step on. "
+                    "Collision evaluators: 1 when a plastic limit capped the normal force "
+                    "(the `ridging` law), else 0; kept per pair only when a component asks "
+                    "(`ContactModel.keep_caps`)")),
 )
 
 

@@ -218,7 +218,7 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
 @njit(parallel=True, cache=CACHE)
 def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                       nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges,
-                      chist, commit, widths):
+                      chist, commit, caps):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -239,17 +239,18 @@ def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R
             counts[c] = _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, active, lo, hi, xy, tag,
                                          proj, g, res, margin, hint, drop, face, scale, blk,
-                                         edges, chist, commit, hrow, widths)
+                                         edges, chist, commit, hrow, caps)
     return counts.sum()
 
 
 @njit(cache=CACHE, _nrt=NRT)
 def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk, nb,
-                     chist, commit, hrow, widths):
+                     chist, commit, hrow, caps):
     """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
     ``blk``, ``BLK_*``) into ``out`` and ``on``; with ``CHIST``, pair ``k``'s history row
     ``chist[k]`` goes to the evaluator in ``hrow`` and back to ``chist[k]`` when ``commit``;
-    ``widths[k]`` gets the contact width where ``widths`` is not empty.
+    ``caps[k]`` gets the evaluator's ``res[3]`` (1: the law capped the normal force) where
+    ``caps`` is not empty.
     Apart from the geometry that finds them, a contact's evaluation is a chain of dependent
     square roots and divisions (lever arms, stiffness, damping); evaluated in a loop of their
     own, the chains of consecutive contacts overlap in the processor instead of waiting for the
@@ -298,20 +299,20 @@ def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res
             evaluate(g, pars, res)
         pair_contribution(M, res[0], res[1], cx, cy, res[2], inv_r, R, out, k)
         active[k] = 1
-        if widths.shape[0]:
-            widths[k] = g[G_WIDTH]
+        if caps.shape[0]:
+            caps[k] = 1 if res[3] != 0.0 else 0
 
 
 @njit(cache=CACHE, _nrt=NRT)
 def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                      pretest, out, active, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
-                     scale, blk, edges, chist, commit, hrow, widths):
+                     scale, blk, edges, chist, commit, hrow, caps):
     """Pairs ``lo <= k < hi`` of :func:`~siku_core.contacts.collision_forces`; returns how
     many overlap. ``xy``, ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers
     (clipping, partner vertices, geometry, result, a block of overlaps waiting for
     :func:`_collision_block`); ``chist``, ``commit``, ``hrow``: the per-contact history
-    (``CHIST``), whether it changes, the task's row buffer; ``widths``: the contact widths
-    [m] of the overlapping pairs (empty: not kept). One compiled loop on purpose: the
+    (``CHIST``), whether it changes, the task's row buffer; ``caps``: per pair, whether the
+    law capped its normal force (empty: not kept). One compiled loop on purpose: the
     geometry, the pretest and the block hand-off share the task's buffers, and a split would
     cost calls in the hot loop."""
     inv_r = 1.0 / R
@@ -389,11 +390,11 @@ def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
         nb += 1
         if nb == CBLOCK:
             _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res,
-                             blk, nb, chist, commit, hrow, widths)
+                             blk, nb, chist, commit, hrow, caps)
             no += nb
             nb = 0
     if nb:
         _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk,
-                         nb, chist, commit, hrow, widths)
+                         nb, chist, commit, hrow, caps)
         no += nb
     return no

@@ -97,7 +97,7 @@ class ContactModel(JointBook):
         self.pairs = np.zeros((0, 2), dtype=np.int64)
         self._no_elements = np.zeros(0, dtype=np.int64)
         self._jscratch = np.zeros(0)  # (ice_changed)
-        self.widths_kept = False  # the loop keeps the pairs' contact widths (keep_widths)
+        self.caps_kept = False  # the loop keeps whether the law capped each pair (keep_caps)
         self._set_pair_index()
         self._ref_centers: np.ndarray | None = None
         self.rm = np.empty((st.n, 3, 3))
@@ -133,8 +133,8 @@ class ContactModel(JointBook):
         self.poff, self.pidx, self.pside = element_index(
             np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
         self.pface = self._faces(p)
-        #: per candidate pair: its contact width [m] when last found overlapping (keep_widths)
-        self.pair_width = np.zeros(len(p) if self.widths_kept else 0)
+        #: per candidate pair: 1 if the law capped its normal force when last found overlapping
+        self.pair_capped = np.zeros(len(p) if self.caps_kept else 0, dtype=np.int8)
         #: per candidate pair: its reduced mass [kg]
         self.pmeff = pair_masses(self.minv, p)
         #: per candidate pair: its per-contact history row (zero unless in contact), and
@@ -240,14 +240,14 @@ class ContactModel(JointBook):
         where[order] = np.arange(len(order))
         old = where[:len(keys)]
         rows, active, hint = self.pair_rows, self.pair_active, self.separating_hint
-        chist, contact, widths = self.chist, self.pair_contact, self.pair_width
+        chist, contact, caps = self.chist, self.pair_contact, self.pair_capped
         self.pairs = np.ascontiguousarray(every[order])
         self._set_pair_index()
         self.pair_rows[old] = rows
         self.pair_active[old] = active
         self.separating_hint[old] = hint
-        if self.widths_kept:
-            self.pair_width[old] = widths
+        if self.caps_kept:
+            self.pair_capped[old] = caps
         if self.n_contact_hist:
             self.chist[old] = chist
             self.pair_contact[old] = contact
@@ -281,7 +281,7 @@ class ContactModel(JointBook):
                 switches.pretest, self.pair_rows, self.pair_active, chunks(len(pairs)), self.margin,
                 self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
                 self.chist if self.n_contact_hist else None, commit,
-                self.pair_width if self.widths_kept else None,
+                self.pair_capped if self.caps_kept else None,
             )
             if commit:
                 self.n_overlap = n
@@ -316,13 +316,12 @@ class ContactModel(JointBook):
         self._jev = evaluator_of(self.law, "joint_evaluator") if self.law.uses_joints else None
         self._cev = evaluator_of(self.law, "collision_evaluator")
 
-    def keep_widths(self) -> None:
-        """From now on the collision loop keeps the contact width of every pair it finds
-        overlapping in ``pair_width`` [m] (for a component that compares a pair's force with a
-        limit per unit width: the ``ridging`` process)."""
-        if not self.widths_kept:
-            self.widths_kept = True
-            self.pair_width = np.zeros(len(self.pairs))
+    def keep_caps(self) -> None:
+        """From now on the collision loop keeps in ``pair_capped`` whether the law capped each
+        overlapping pair's normal force (its ``out[3]``; for the ``ridging`` process)."""
+        if not self.caps_kept:
+            self.caps_kept = True
+            self.pair_capped = np.zeros(len(self.pairs), dtype=np.int8)
 
     def ice_changed(self, elements: np.ndarray | None = None, flags: bool = True) -> None:
         """The constants that follow the thickness and flags, recomputed after a process

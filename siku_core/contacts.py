@@ -44,7 +44,7 @@ def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
 
 def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, active, nch, margin=None, hint=None, drop=False, face=None,
-                     scale=None, edges=None, chist=None, commit=False, widths=None):
+                     scale=None, edges=None, chist=None, commit=False, caps=None):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
     :func:`~siku_core.geometry.clip.separating_edge` finds an edge line that separates or touches
     them) and evaluate the overlapping ones into ``out[k]`` with ``active[k] = 1`` (``0`` for the
@@ -67,9 +67,10 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
     ``chist`` (per pair, float64 ``(K, C)``; ``None`` for a law without per-contact history):
     the pairs' history rows, passed to the evaluator ``evaluate(g, pars, hist, out)`` of an
     overlapping pair and updated from it only when ``commit`` (the rows of the other pairs are
-    left as they are: the caller drops them, ``ContactModel``); ``widths`` (per pair, m;
-    ``None``: not kept): the contact width of every overlapping pair, written where
-    ``active[k] = 1`` (others keep what they held).
+    left as they are: the caller drops them, ``ContactModel``); ``caps`` (per pair, int8;
+    ``None``: not kept): 1 where the evaluator capped the normal force (its ``out[3]``, the
+    ``ridging`` law's plastic limit), else 0, written where ``active[k] = 1`` (others keep what
+    they held).
     """
     if margin is None:
         margin = np.zeros(offsets.shape[0] - 1)
@@ -81,22 +82,22 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
         scale = np.zeros(offsets.shape[0] - 1)
     if edges is None:
         edges = edge_table(offsets, verts)
-    if widths is None:
-        widths = _NO_WIDTHS
+    if caps is None:
+        caps = _NO_CAPS
     history = chist is not None
     if not history:
         chist = _NO_HISTORY
     loops = instantiate(contact_loops, evaluate, history)
     return loops._collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
                                    nmax, pretest, out, active, nch, tasks(nch), margin, hint, drop,
-                                   face, scale, edges, chist, bool(commit), widths)
+                                   face, scale, edges, chist, bool(commit), caps)
 
 
 #: what the collision loop gets for ``chist`` under a law without per-contact history (the
 #: loop never reads it: ``contact_loops.CHIST`` prunes the branches)
 _NO_HISTORY = np.zeros((0, 0))
-#: ... and for ``widths`` when no component keeps them
-_NO_WIDTHS = np.zeros(0)
+#: ... and for ``caps`` when no component keeps them
+_NO_CAPS = np.zeros(0, dtype=np.int8)
 
 
 def gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout,

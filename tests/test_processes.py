@@ -467,52 +467,108 @@ def _overlap_in_plane(sim, i, j):
     return _clip_area(st.polygon(i), pj)
 
 
-def ridging_scene(steps=400):
+def ridging_scene(steps=400, diamond=False):
+    """A static wall (5 m), a free carrier (2 m) pressed on it, and thin ice (0.5 m) driven
+    west into the carrier at 5 cm/s: a square face to face (1 m apart), or with ``diamond`` a
+    square turned by 45 degrees whose corner (0.5 m apart) presses into the carrier's face, so
+    that the contact width (twice the depth) grows in every step."""
     size = 2000.0
     dlon = math.degrees(size / 6371000.0) / math.cos(math.radians(80.0))
+    thin = {"center": (dlon * 1.0005, 80.0), "flag": "steady", "velocity": (-0.05, 0.0),
+            "thickness": 0.5}
+    if diamond:  # half-diagonals of 1000 m along the parallel and the meridian
+        a = math.degrees(0.5 * size / 6371000.0)
+        x0, da = dlon * 1.00025, a / math.cos(math.radians(80.0))
+        thin = {k: v for k, v in thin.items() if k != "center"}
+        thin["vertices"] = [[x0 - da, 80.0], [x0, 80.0 - a], [x0 + da, 80.0], [x0, 80.0 + a]]
     els = [{"center": (-dlon, 80.0), "flag": "static", "thickness": 5.0},  # a thick wall
            {"center": (0.0, 80.0), "thickness": 2.0},  # the carrier, pressed on the wall
-           {"center": (dlon * 1.0005, 80.0), "flag": "steady", "velocity": (-0.05, 0.0),
-            "thickness": 0.5}]  # thin ice driven west at 5 cm/s
+           thin]
     txt = scene_text(els, size=size, dt=0.25, duration=steps * 0.25, extra=(
         '[contact]\nlaw = "ridging"\njoints = "none"\n\n[[process]]\nname = "ridging"\n'))
     return Simulation(scene_from_text(txt, "<ridging>"), out=False, progress=False)
 
 
-def test_ridging_caps_the_force_conserves_volume_and_converts_the_overlap():
-    from siku_core.contact_overlaps import overlaps
+def _ridge_by_hand(sim, steps, P=2.75e4):
+    """Step ``sim`` (:func:`ridging_scene`) and follow the ridging of the thin ice (2) onto the
+    carrier (1) by hand; yields per step ``(force [N], limit [N], width before, width after
+    [m], plastic, ridged [m³], expected [m³], h_thin [m])``. The law caps the normal force at
+    ``P h w`` of the evaluation, which siku2 makes at the state before the step: the pair is
+    plastic when its force (the generalised force on ``i``, equal to the contact force to
+    ``(size / R)² ~ 1e-7``) is at least ``1 - 1e-6`` of ``P h w`` at the width before the step;
+    then the growth of the overlap after the step (clipped here) beyond the largest area
+    converted is ice of thickness ``h_thin`` moved onto the carrier."""
+    from siku_core.contact_frames import rotation_matrices
+    from siku_core.contact_overlaps import overlaps, pair_overlaps
 
-    sim = ridging_scene()
-    st = sim.state
-    v0 = ice_volume(sim)
-    P = 2.75e4
-    expected = 0.0  # the ridged volume, by hand: sum of dA h_thin over the plastic steps
-    converted = 0.0
-    h_thin = 0.5
-    plastic_steps = 0
-    for _ in range(400):
+    st, cm = sim.state, sim.contacts
+    rm = np.empty((st.n, 3, 3))
+    nmax = int(np.max(np.diff(st.vert_offsets)))
+    expected = converted = 0.0
+    h_thin = float(st.thickness[2])
+    for _ in range(steps):
+        rotation_matrices(st.q, rm, 1)
+        w0 = pair_overlaps(rm, st.vert_offsets, st.verts, np.array([[1, 2]]), np.array([0]),
+                           float(cm.radius), nmax)[0, 1]
+        h0 = h_thin
         sim.step()
-        ridged = sim.context.fields["ridged_volume"][1]
-        if ridged == 0.0:
-            continue
-        pairs, area, width, force = overlaps(sim.contacts)
-        k = [n for n, (a, b) in enumerate(pairs) if {a, b} == {1, 2}][0]
-        # once reached, the force stays at the plastic limit P* h w (to 1 %)
-        assert force[k] == pytest.approx(P * h_thin * width[k], rel=0.01)
-        plastic_steps += 1
+        pairs, _, width, force = overlaps(cm)
+        ks = [n for n, (a, b) in enumerate(pairs) if {a, b} == {1, 2}]
+        f = float(force[ks[0]]) if ks else 0.0
+        w1 = float(width[ks[0]]) if ks else 0.0
+        plastic = f > 0.0 and w0 > 0.0 and f >= (1 - 1e-6) * P * h0 * w0
         A = _overlap_in_plane(sim, 1, 2)
-        plastic = force[k] >= (1 - 1e-6) * P * h_thin * width[k]
         if plastic and A > converted:
             dV = (A - converted) * h_thin
             expected += dV
             h_thin -= dV / st.area[2]
             converted = A
+        if A == 0.0:
+            converted = 0.0  # apart: forgotten
+        yield (f, P * h0 * w0, w0, w1, plastic, float(sim.context.fields["ridged_volume"][1]),
+               expected, h_thin)
+
+
+def test_ridging_caps_the_force_conserves_volume_and_converts_the_overlap():
+    sim = ridging_scene()
+    st = sim.state
+    v0 = ice_volume(sim)
+    plastic_steps = 0
+    for force, limit, _, _, plastic, ridged, expected, h_thin in _ridge_by_hand(sim, 400):
         assert ridged == pytest.approx(expected, rel=1e-9)
         assert st.thickness[2] == pytest.approx(h_thin, rel=1e-12)
+        if plastic_steps:  # once reached, the force stays at the plastic limit P* h w (to 1 %)
+            assert force == pytest.approx(limit, rel=0.01)
+        plastic_steps += plastic
     assert plastic_steps > 100 and expected > 2e3  # m3: a real ridge
     assert sim.context.fields["ridged_volume"][2] == 0.0  # the thin ice carries nothing
     assert ice_volume(sim) == pytest.approx(v0, rel=1e-12)  # ridging alone conserves volume
     assert st.thickness[1] > 2.0  # the ridge: thicker ice on the carrier
+
+
+def test_ridging_converts_a_capped_pair_whose_contact_widens_in_the_step():
+    """A corner pressed into a face: the contact width grows in every step, so the force the
+    law capped at ``P h w`` of the evaluation falls short of ``P h w`` after the step. The pair
+    is converted in every step the law capped it (before the law's flag, the process compared
+    the force with the limit at the width after the step and converted nothing here)."""
+    sim = ridging_scene(steps=240, diamond=True)
+    v0 = ice_volume(sim)
+    # the engine's clip and the test's agree to the round-off of coordinates of 1000 m, eps
+    # (1000 m)² per area; the ridged volume adds one area difference times h = 0.5 m per step
+    # converted (while the overlap is still a sliver of a few m², more than 1e-9 of it)
+    per_step = np.finfo(float).eps * 1000.0**2 * 0.5  # m³
+    capped = 0
+    for force, limit, w0, w1, plastic, ridged, expected, _ in _ridge_by_hand(sim, 240):
+        if plastic:
+            capped += 1
+            assert force == pytest.approx(limit, rel=1e-6)  # at the limit of the evaluation
+            assert w1 > w0 * (1 + 1e-3)  # ... and the contact widened in the step
+            assert force < (1 - 1e-6) * limit * w1 / w0  # below the limit after the step
+            assert ridged > 0.0
+        assert ridged == pytest.approx(expected, rel=1e-9, abs=capped * per_step)
+    assert capped > 100 and expected > 10.0  # m³
+    assert ridged == pytest.approx(expected, rel=1e-9)
+    assert ice_volume(sim) == pytest.approx(v0, rel=1e-12)
 
 
 def test_ridging_needs_the_ridging_law():

@@ -19,6 +19,7 @@ from siku_core.contact_law import (
     G_VX,
     G_VY,
     G_WIDTH,
+    OUT_BREAK,
     OUT_COUPLE,
     OUT_FX,
     OUT_FY,
@@ -36,7 +37,9 @@ CP = COLLISION_RECORD.index
 @njit(cache=True, inline="always")
 def collision_force(g, sqrt_area, zeta, eta, mu, fmax, out):
     """The force of eqs. 9–11 on ``j`` into ``out`` (see :func:`collision_evaluator`), its
-    normal part capped at ``fmax`` [N] (``inf``: no cap; the ridging law's plastic limit)."""
+    normal part capped at ``fmax`` [N] (``inf``: no cap; the ridging law's plastic limit).
+    ``out[OUT_BREAK]`` (unused by collisions otherwise) is 1 when the cap bound the normal
+    force (``fn >= fmax``), else 0: the plastic flag the ``ridging`` process reads."""
     A = g[G_AREA]
     nx, ny = g[G_NX], g[G_NY]
     K = g[G_K]
@@ -54,7 +57,8 @@ def collision_force(g, sqrt_area, zeta, eta, mu, fmax, out):
     c = 2.0 * zeta * math.sqrt(k * g[G_MEFF])
     vn = vx * nx + vy * ny
     fn = fel - c * vn
-    if fn > fmax:
+    capped = fn >= fmax
+    if capped:
         fn = fmax
     fx = fn * nx - eta * A * vx
     fy = fn * ny - eta * A * vy
@@ -68,6 +72,7 @@ def collision_force(g, sqrt_area, zeta, eta, mu, fmax, out):
     out[OUT_FX] = fx
     out[OUT_FY] = fy
     out[OUT_COUPLE] = 0.0
+    out[OUT_BREAK] = 1.0 if capped else 0.0
 
 
 @njit(cache=True)

@@ -2,11 +2,13 @@
 
 With the ``ridging`` contact law, two elements pressed together beyond the plastic limit ``P h
 w`` (the law's module docstring) no longer push harder: they overlap further. This process turns
-that overlap into ridged ice. For every colliding pair whose contact force is at the plastic
-limit (to 1e-6), the growth ``dA`` [m²] of its overlap area beyond the largest one already
-converted is ice of the thinner element (thickness ``h_t``) piled onto the thicker one (the
-carrier; on equal thickness, the second of the pair): the volume ``dV = dA h_t`` [m³] moves from
-the thinner element to the carrier,
+that overlap into ridged ice. For every colliding pair whose normal force the law capped at the
+plastic limit in the last evaluation (the law says so: its collision evaluator writes the flag
+``out[3]``, which the contact model keeps per pair, ``ContactModel.keep_caps``), the growth
+``dA`` [m²] of its overlap area, clipped again in the state after the step, beyond the largest
+one already converted is ice of the thinner element (thickness ``h_t``) piled onto the thicker
+one (the carrier; on equal thickness, the second of the pair): the volume ``dV = dA h_t`` [m³]
+moves from the thinner element to the carrier,
 
     h_t -= dV / A_t,    h_c += dV / A_c,
 
@@ -29,28 +31,19 @@ changes by exactly ``dV``.
 Declared per-element fields (summed on grids): ``ridged_volume`` and ``rafted_volume`` [m³],
 the volume the element has received by ridging and by rafting since the start.
 
-Cost. The plastic test compares the force a pair carried in the last evaluation with the limit
-``P h w`` at the contact width ``w`` of the state after the step, which needs the pair's overlap
-clipped again. Only candidates are clipped (:func:`ridge_candidates`): the remembered pairs and
-the pairs whose force was at least :data:`NEAR_LIMIT` (a half) of the limit at the width of
-that evaluation (which the contact model keeps, ``ContactModel.keep_widths``). A pair left out
-would pass the test only if its contact width fell below about half its value within one step
-while its force stayed below half the limit: a contact that is coming apart (its width
-collapsing onto a vertex), whose remaining sliver of overlap the test of the next width would
-take for a plastic one; such pairs are no longer converted (before, they were: in the cold-snap
-example with ridging every step, one pair of this kind in the first 75 steps, 8 m² of overlap).
+Cost. Only candidates have their overlap clipped again (:func:`ridge_candidates`): the
+remembered pairs and the pairs the law capped, in one pass over the colliding pairs that reads
+the flags.
 """
 from __future__ import annotations
 
 from typing import ClassVar
 
-import math
-
 import numpy as np
 from numba import njit, prange
 
 from siku_core.categories import row_mean, row_sum
-from siku_core.contact_frames import _rotation_row, _width, j_to_i, relative_matrix
+from siku_core.contact_frames import _rotation_row, j_to_i, relative_matrix
 from siku_core.errors import SceneError
 from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
 from siku_core.ice import ElementField
@@ -63,25 +56,17 @@ from siku_core.state import MELTED
 LAW_KEYS = ("strength", "raft_thickness", "raft_strength")
 
 
-#: a colliding pair is a candidate (its overlap clipped again after the step) when its force
-#: in the last evaluation was at least this share of the plastic limit at that evaluation's
-#: contact width, or when it is remembered (module docstring, "Cost")
-NEAR_LIMIT = 0.5
-
-
 @njit(cache=True)
-def ridge_candidates(pairs, active, rows, widths, thickness, flags, law, keys, count, poff,
-                     pidx, q, rm, mark, cand, known_at):
+def ridge_candidates(pairs, active, caps, flags, keys, count, poff, pidx, q, rm, mark, cand,
+                     known_at):
     """The colliding pairs (``active[k] == 1``) the process looks at, in ascending ``k``, into
     ``cand``: the remembered ones (their place in the first ``count`` sorted ``keys`` goes to
     ``known_at``, -1 for the others, found through the element-to-pair index ``poff, pidx``)
-    and those without a melted element whose force ``rows[k]`` (on ``i``, columns 0 and 1) was
-    at least :data:`NEAR_LIMIT` of the plastic limit ``P h w`` at the evaluation's contact
-    width ``widths[k]`` [m] (``law``: ``(strength, raft_thickness, raft_strength)``); their
-    elements' rotation matrices ``rm`` from ``q``. ``mark`` (one per pair, -1) is scratch, left
-    -1. Returns the number of candidates."""
-    n = thickness.shape[0]
-    strength, raft_h, raft_p = law[0], law[1], law[2]
+    and those without a melted element whose normal force the law capped at the plastic limit
+    in the last evaluation (``caps[k] == 1``, kept by the contact model:
+    ``ContactModel.keep_caps``); their elements' rotation matrices ``rm`` from ``q``. ``mark``
+    (one per pair, -1) is scratch, left -1. Returns the number of candidates."""
+    n = flags.shape[0]
     for r in range(count):
         i = keys[r] // n
         j = keys[r] % n
@@ -99,13 +84,8 @@ def ridge_candidates(pairs, active, rows, widths, thickness, flags, law, keys, c
             continue
         i = pairs[k, 0]
         j = pairs[k, 1]
-        if r < 0:
-            if flags[i] == MELTED or flags[j] == MELTED:
-                continue  # neither remembered nor possibly plastic: nothing to do
-            ht = min(thickness[i], thickness[j])
-            lim = NEAR_LIMIT * (raft_p if ht < raft_h else strength) * ht * widths[k]
-            if rows[k, 0] * rows[k, 0] + rows[k, 1] * rows[k, 1] < lim * lim:
-                continue  # well below the limit
+        if r < 0 and (caps[k] == 0 or flags[i] == MELTED or flags[j] == MELTED):
+            continue  # neither remembered nor plastic: nothing to do
         cand[nc] = k
         known_at[nc] = r
         nc += 1
@@ -116,8 +96,8 @@ def ridge_candidates(pairs, active, rows, widths, thickness, flags, law, keys, c
 
 @njit(cache=True, parallel=True)
 def pair_geometry(rm, offsets, verts, pairs, cand, nc, R, nmax, geo, nch):
-    """Per candidate ``a < nc`` (pair ``cand[a]``): ``geo[a] = (overlap area [m²], contact
-    width [m])`` of the rotation matrices ``rm`` by the contact loop's own functions (as
+    """Per candidate ``a < nc`` (pair ``cand[a]``): ``geo[a]``, its overlap area [m²] for the
+    rotation matrices ``rm``, by the contact loop's own functions (as
     :func:`siku_core.contact_overlaps.pair_overlaps`). ``nch`` chunks, each writing its own
     rows."""
     inv_r = 1.0 / R
@@ -136,28 +116,22 @@ def pair_geometry(rm, offsets, verts, pairs, cand, nc, R, nmax, geo, nch):
                 proj[v, 0], proj[v, 1] = j_to_i(M, verts[oj + v, 0], verts[oj + v, 1], R,
                                                 inv_r)
             pi = verts[offsets[i]:offsets[i + 1]]
-            pj = proj[:nj]
             c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
-            area, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag,
-                                                                               c2x, c2y, False)
-            width = 0.0
-            if area > 0.0:
-                width = _width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
-            geo[a, 0] = area
-            geo[a, 1] = width
+            geo[a] = overlap_inline(pi, proj[:nj], xy, tag, c2x, c2y, False)[0]
 
 
 @njit(cache=True)
-def ridge_pairs(pairs, rows, cand, known_at, nc, geo, thickness, area, flags, law, keys,
+def ridge_pairs(pairs, caps, cand, known_at, nc, geo, thickness, area, flags, raft_h, keys,
                 converted, count, new_keys, new_conv, giver, carrier, moved, rafts, ridged, rafted,
                 fraction, hk, loss, gain, scratch):
     """One application of the process (module docstring) to the candidate pairs ``cand[:nc]``
     of the contact model (:func:`ridge_candidates`; ``known_at``: their place among the
-    remembered ones or -1), their overlaps in ``geo`` (:func:`pair_geometry`), ``rows`` their
-    force rows (the force on ``i`` in columns 0 and 1), in place: ``thickness``, ``ridged``,
-    ``rafted`` and the remembered pairs (sorted ``keys``, ``converted``, the first ``count``);
-    ``law`` is ``(strength, raft_thickness, raft_strength)``. Returns the number of pairs
-    remembered now, or minus it (and nothing changed) when that exceeds ``len(keys)``.
+    remembered ones or -1), their overlap areas in ``geo`` (:func:`pair_geometry`), ``caps``
+    whether the law capped each pair's normal force in the last evaluation, in place:
+    ``thickness``, ``ridged``, ``rafted`` and the remembered pairs (sorted ``keys``,
+    ``converted``, the first ``count``); ice thinner than ``raft_h`` (the law's
+    ``raft_thickness``, m) rafts. Returns the number of pairs remembered now, or minus it (and
+    nothing changed) when that exceeds ``len(keys)``.
 
     The transfers apply in pair order, every loss first, then every gain (the order of the
     former ``np.subtract.at`` and ``np.add.at``). With thickness categories (``fraction``,
@@ -165,13 +139,12 @@ def ridge_pairs(pairs, rows, cand, known_at, nc, geo, thickness, area, flags, la
     changed by :func:`_ridge_categories`. ``new_keys`` ... ``rafts`` (``len(keys)`` each),
     ``loss``, ``gain`` (``n``, zero) and ``scratch`` (``K``) are scratch."""
     cap = keys.shape[0]
-    strength, raft_h, raft_p = law[0], law[1], law[2]
     n = thickness.shape[0]
     m = 0  # pairs remembered from now on
     nt = 0  # volume transfers (each by a remembered pair)
     ordered = True
     for a in range(nc):
-        area_ij = geo[a, 0]
+        area_ij = geo[a]
         if not area_ij > 0.0:
             continue  # no longer overlapping (forgotten)
         k = cand[a]
@@ -183,11 +156,9 @@ def ridge_pairs(pairs, rows, cand, known_at, nc, geo, thickness, area, flags, la
         h_j = thickness[j]
         ht = min(h_i, h_j)
         raft = ht < raft_h
-        P = raft_p if raft else strength
         # (an element melted in this step by an earlier process still has its pairs here)
         alive = flags[i] != MELTED and flags[j] != MELTED
-        force = math.hypot(rows[k, 0], rows[k, 1])
-        plastic = alive and force >= (1.0 - 1e-6) * P * ht * geo[a, 1]
+        plastic = alive and caps[k] != 0
         if not (known or plastic):
             continue
         if m < cap:
@@ -303,12 +274,12 @@ class Ridging(Process):
         self.keys = np.full(n, -1, dtype=np.int64)
         self.converted = np.zeros(n)
         self.count = 0
-        self.law_vector = np.array([float(self.law[k]) for k in LAW_KEYS])
-        cm.keep_widths()  # the contact widths of the evaluations, for ridge_candidates
+        self.raft_h = float(self.law["raft_thickness"])
+        cm.keep_caps()  # whether the law capped each pair, for ridge_candidates and ridge_pairs
         # the kernels' scratch, allocated once (the per-pair ones grow with the pairs)
         self._rm = np.empty((st.n, 3, 3))
         self._nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
-        self._geo = np.empty((0, 2))
+        self._geo = np.empty(0)
         self._mark = np.empty(0, dtype=np.int64)
         self._cand = np.empty(0, dtype=np.int64)
         self._known_at = np.empty(0, dtype=np.int64)
@@ -327,21 +298,20 @@ class Ridging(Process):
             return self._forget_all()
         if len(self._mark) < npairs:  # grown with the candidate list, never per step
             size = npairs + npairs // 2
-            self._geo = np.empty((size, 2))
+            self._geo = np.empty(size)
             self._mark = np.full(size, -1, dtype=np.int64)
             self._cand = np.empty(size, dtype=np.int64)
             self._known_at = np.empty(size, dtype=np.int64)
-        nc = ridge_candidates(cm.pairs, cm.pair_active, cm.pair_rows, cm.pair_width,
-                              st.thickness, st.flags, self.law_vector, self.keys, self.count,
-                              cm.poff, cm.pidx, st.q, self._rm, self._mark, self._cand,
-                              self._known_at)
+        nc = ridge_candidates(cm.pairs, cm.pair_active, cm.pair_capped, st.flags, self.keys,
+                              self.count, cm.poff, cm.pidx, st.q, self._rm, self._mark,
+                              self._cand, self._known_at)
         if nc:
             nch = chunks(nc)
             with alone(nch):
                 pair_geometry(self._rm, st.vert_offsets, st.verts, cm.pairs, self._cand, nc,
                               float(cm.radius), self._nmax, self._geo, nch)
-        m = ridge_pairs(cm.pairs, cm.pair_rows, self._cand, self._known_at, nc, self._geo,
-                        st.thickness, st.area, st.flags, self.law_vector, self.keys,
+        m = ridge_pairs(cm.pairs, cm.pair_capped, self._cand, self._known_at, nc, self._geo,
+                        st.thickness, st.area, st.flags, self.raft_h, self.keys,
                         self.converted, self.count, *self._scratch,
                         ctx.fields["ridged_volume"], ctx.fields["rafted_volume"],
                         *self._categories(ctx))
