@@ -216,7 +216,7 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
 
 
 @njit(parallel=True, cache=CACHE)
-def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+def _collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                       nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges,
                       chist, commit, widths):
     counts = np.zeros(nch, dtype=np.int64)
@@ -236,7 +236,7 @@ def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R
             if c >= nch:
                 break
             lo, hi = chunk_bounds(c, nch, pairs.shape[0])
-            counts[c] = _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets,
+            counts[c] = _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, active, lo, hi, xy, tag,
                                          proj, g, res, margin, hint, drop, face, scale, blk,
                                          edges, chist, commit, hrow, widths)
@@ -244,7 +244,7 @@ def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R
 
 
 @njit(cache=CACHE, _nrt=NRT)
-def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk, nb,
+def _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res, blk, nb,
                      chist, commit, hrow, widths):
     """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
     ``blk``, ``BLK_*``) into ``out`` and ``on``; with ``CHIST``, pair ``k``'s history row
@@ -276,7 +276,7 @@ def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res
         g[G_NY] = blk[b + BLK_NY]
         g[G_WIDTH] = blk[b + BLK_WIDTH]
         g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
-        g[G_MEFF] = meff[k]
+        g[G_MEFF] = 1.0 / (minv[i] + minv[j])  # the reduced mass [kg]
         g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
         g[G_AREA_I] = area[i]
         g[G_AREA_J] = area[j]
@@ -303,7 +303,7 @@ def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res
 
 
 @njit(cache=CACHE, _nrt=NRT)
-def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      pretest, out, active, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
                      scale, blk, edges, chist, commit, hrow, widths):
     """Pairs ``lo <= k < hi`` of :func:`~siku_core.contacts.collision_forces`; returns how
@@ -388,12 +388,12 @@ def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
             blk[b + BLK_M + m] = M[m]
         nb += 1
         if nb == CBLOCK:
-            _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res,
+            _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res,
                              blk, nb, chist, commit, hrow, widths)
             no += nb
             nb = 0
     if nb:
-        _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk,
+        _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res, blk,
                          nb, chist, commit, hrow, widths)
         no += nb
     return no

@@ -17,7 +17,6 @@ from .contact_frames import (
     ROW_SIZE,
     element_index,
     joint_arms,
-    pair_masses,
     rotation_matrices,
     rotations_within,
 )
@@ -135,8 +134,6 @@ class ContactModel(JointBook):
         self.pface = self._faces(p)
         #: per candidate pair: its contact width [m] when last found overlapping (keep_widths)
         self.pair_width = np.zeros(len(p) if self.widths_kept else 0)
-        #: per candidate pair: its reduced mass [kg]
-        self.pmeff = pair_masses(self.minv, p)
         #: per candidate pair: its per-contact history row (zero unless in contact), and
         #: whether it was in contact at the last committed evaluation; ``(0, 0)`` and ``(0,)``
         #: under a law without per-contact history
@@ -276,7 +273,7 @@ class ContactModel(JointBook):
         t3 = time.perf_counter()
         if len(pairs):
             n = collision_forces(
-                self._cev, self._cpars, self.rm, V, w, self.pmeff, st.thickness,
+                self._cev, self._cpars, self.rm, V, w, self.minv, st.thickness,
                 self.E, st.area, st.vert_offsets, st.verts, pairs, R, self.nmax,
                 switches.pretest, self.pair_rows, self.pair_active, chunks(len(pairs)), self.margin,
                 self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
@@ -337,12 +334,11 @@ class ContactModel(JointBook):
         if len(self.arms[0]) != len(self.ji):
             self.arms = joint_arms(self.ends_i, self.ends_j)
         ri, rj = self.arms
-        if len(self._jscratch) != len(self.ji):
-            self._jscratch = np.empty(len(self.ji))
+        if len(self._jscratch) != 2 * st.n:
+            self._jscratch = np.empty(2 * st.n)
         follow_contacts(elements, len(elements), full, st.thickness, self.E, st.m, st.flags,
                         self.minv, self.ji, self.jj, ri, rj, self.jK, self.jmeff, self.joff,
-                        self.jidx, self.pairs, self.pmeff, self.poff, self.pidx,
-                        self._jscratch)
+                        self.jidx, self._jscratch)
         if not flags:
             return
         gone = st.flags == MELTED

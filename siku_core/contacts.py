@@ -42,7 +42,7 @@ def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0,
                                tasks(nch))
 
 
-def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, active, nch, margin=None, hint=None, drop=False, face=None,
                      scale=None, edges=None, chist=None, commit=False, widths=None):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
@@ -54,9 +54,11 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
     the test would have found the pair apart, and no more than the touching area where the
     test with the margin would have).
 
-    ``meff`` (per pair, kg): the pair's reduced mass (:func:`pair_masses`); ``margin`` (per
-    element ``i``, m; zeros by default): the test's margin; ``hint`` (per pair, int16,
-    updated): the edge that separated the pair last, tried first; ``drop``: touching
+    ``minv`` (per element, 1/kg): the inverse mass, 0 for a static or steady element (an
+    overlapping pair's reduced mass ``1 / (minv_i + minv_j)`` [kg] is computed as it is
+    evaluated); ``margin`` (per element ``i``, m; zeros by default): the test's margin;
+    ``hint`` (per pair, int16, updated): the edge that separated the pair last, tried first;
+    ``drop``: touching
     overlaps (area at most the clip's tolerance) carry no force (``contact.touching =
     "ignore"``, with ``margin = REL_TOL L_i / 3``, so that the test settles such pairs);
     ``face`` (per pair, int16 ``(K, 2)``, ``-1`` for none): the edges of ``i`` and ``j`` the
@@ -87,7 +89,7 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
     if not history:
         chist = _NO_HISTORY
     loops = instantiate(contact_loops, evaluate, history)
-    return loops._collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+    return loops._collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                                    nmax, pretest, out, active, nch, tasks(nch), margin, hint, drop,
                                    face, scale, edges, chist, bool(commit), widths)
 
