@@ -70,6 +70,7 @@ from siku_core.contact_law import (
 )
 from siku_core.geometry.clip import REL_TOL, make_overlap_scratch, overlap_inline, separating_edge
 from siku_core.geometry.face import touching_face_u
+from siku_core.ice_follow import joints_from
 from siku_core.parallel import chunk_bounds, claim
 
 # ------------------------------------------------------------------------------ the binding
@@ -132,7 +133,8 @@ BLK_SIZE = BLK_M + 9
 # parallel compilation of a large loop body takes twice as long as compiling it serially.
 @njit(parallel=True, cache=CACHE)
 def _joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                  jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, nt):
+                  jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, nt, fresh,
+                  ri, rj):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -146,15 +148,20 @@ def _joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, j
             lo, hi = chunk_bounds(c, nch, ji.shape[0])
             counts[c] = _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i,
                                      ends_j, L0, width, jK, jmeff, intact, break_mode, hist, R, dt,
-                                     commit, out, active, lo, hi, g, res, scratch)
+                                     commit, out, active, lo, hi, g, res, scratch, fresh, ri, rj)
     return counts.sum()
 
 
 @njit(cache=CACHE, _nrt=NRT)
 def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff, intact,
-                 break_mode, hist, R, dt, commit, out, active, lo, hi, g, res, scratch):
+                 break_mode, hist, R, dt, commit, out, active, lo, hi, g, res, scratch, fresh, ri,
+                 rj):
     """Joints ``lo <= k < hi`` of :func:`~siku_core.contacts.joint_forces`; returns how many
-    broke. ``g``, ``res``, ``scratch``: the task's buffers (geometry, result, history row)."""
+    broke. ``g``, ``res``, ``scratch``: the task's buffers (geometry, result, history row).
+    ``fresh`` (not empty): the joints' constants ``jK``, ``jmeff`` are first computed from it
+    (:func:`~siku_core.ice_follow.joints_from`, lever arms ``ri``, ``rj``)."""
+    if fresh.shape[0]:
+        joints_from(lo, hi, fresh, ji, jj, ri, rj, jK, jmeff)
     nh = hist.shape[1]
     inv_r = 1.0 / R
     nb = 0

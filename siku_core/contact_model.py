@@ -262,9 +262,11 @@ class ContactModel(JointBook):
             broke = joint_forces(
                 self._jev, self._jpars, self.rm, V, w, st.thickness, self.E,
                 self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
-                self.jK, self.jmeff, self.intact, self.break_mode, self.hist, R, self.time_step(),
-                commit, self.joint_rows, self.joint_active, chunks(self.n_joints),
+                self._jK, self._jmeff, self.intact, self.break_mode, self.hist, R,
+                self.time_step(), commit, self.joint_rows, self.joint_active,
+                chunks(self.n_joints), self._jscratch if self._joints_stale else None, self.arms,
             )
+            self._joints_stale = False
             if commit and broke:
                 self.n_broken_total += broke
                 self._record_breaks(t)
@@ -323,10 +325,14 @@ class ContactModel(JointBook):
 
     def ice_changed(self, elements: np.ndarray | None = None, flags: bool = True) -> None:
         """The constants that follow the thickness and flags, recomputed after a process
-        changed them (``siku_core.ice``): inverse and reduced masses, the joints' eq. 9
-        stiffness (from ``E h``); melted elements leave the candidate list at once. Only
-        ``elements`` (``None``: all) and their joints and pairs changed
-        (:func:`~siku_core.ice_follow.follow_contacts`), and a flag only if ``flags``."""
+        changed them (``siku_core.ice``): inverse masses, the joints' eq. 9 stiffness (from
+        ``E h``) and reduced masses; melted elements leave the candidate list at once. Only
+        ``elements`` (``None``: all) and their joints changed
+        (:func:`~siku_core.ice_follow.follow_contacts`), and a flag only if ``flags``. After a
+        change of every element the joints' constants are computed by the next joint loop
+        (``_joints_stale``: in its parallel chunks, from the per-element values gathered here;
+        read before, ``jK`` and ``jmeff`` compute them first); a candidate pair's reduced mass
+        by the collision loop."""
         st = self.state
         full = elements is None
         if full:
@@ -336,9 +342,13 @@ class ContactModel(JointBook):
         ri, rj = self.arms
         if len(self._jscratch) != 2 * st.n:
             self._jscratch = np.empty(2 * st.n)
-        follow_contacts(elements, len(elements), full, st.thickness, self.E, st.m, st.flags,
-                        self.minv, self.ji, self.jj, ri, rj, self.jK, self.jmeff, self.joff,
+        # (element by element, constants that wait for the joint loop are computed first)
+        jK, jmeff = (self._jK, self._jmeff) if full else (self.jK, self.jmeff)
+        follow_contacts(elements, len(elements), full, False, st.thickness, self.E, st.m,
+                        st.flags, self.minv, self.ji, self.jj, ri, rj, jK, jmeff, self.joff,
                         self.jidx, self._jscratch)
+        if full:
+            self._joints_stale = True
         if not flags:
             return
         gone = st.flags == MELTED

@@ -32,14 +32,24 @@ from .parallel import chunk_bounds, claim, tasks
 
 
 def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                 jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch):
+                 jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, fresh=None,
+                 arms=None):
     """Evaluate every intact joint into ``out[k]`` (``ROW_*``) and ``active[k]``; returns the number
     that broke (only when ``commit``; their break mode, the evaluator's ``out[3]``, goes to
-    ``break_mode[k]``)."""
+    ``break_mode[k]``). ``fresh`` (two values per element, ``h E`` [Pa m] and the inverse mass
+    a joint counts [1/kg]; :func:`~siku_core.ice_follow.follow_contacts`) and ``arms`` (the
+    lever arms ``ri, rj`` [m]): every joint's ``jK``, ``jmeff`` are first computed from them,
+    in the same parallel loop (after a process changed the ice)."""
     loops = instantiate(contact_loops, evaluate)
+    if fresh is None:
+        fresh, arms = _NO_FRESH, (_NO_FRESH, _NO_FRESH)
     return loops._joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
                                jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch,
-                               tasks(nch))
+                               tasks(nch), fresh, *arms)
+
+
+#: what the joint loop gets for ``fresh`` and the lever arms when its constants are current
+_NO_FRESH = np.zeros(0)
 
 
 def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,

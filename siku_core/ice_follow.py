@@ -110,33 +110,44 @@ def _joint(k, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff):
 
 
 @njit(cache=True, error_model="numpy")
-def follow_contacts(idx, nc, full, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff, joff, jidx,
-                    scratch):
+def joints_from(lo, hi, fresh, ji, jj, ri, rj, jK, jmeff):
+    """Eq. 9 stiffness ``jK`` [Pa] and reduced mass ``jmeff`` [kg] of joints ``lo <= k < hi``
+    (as :func:`_joint`) from ``fresh``, two values per element written by
+    :func:`follow_contacts`: ``h E`` [Pa m] and the inverse mass a joint counts [1/kg] (that
+    of an element melted away too); lever arms ``ri``, ``rj`` [m]. On vectors of joints."""
+    n = fresh.shape[0] // 2
+    for k in range(lo, hi):
+        i = ji[k]
+        j = jj[k]
+        a = fresh[i]
+        b = fresh[j]
+        d = a * rj[k] + b * ri[k]
+        jK[k] = a * b / d if d > 0.0 else 0.0
+        jmeff[k] = 1.0 / (fresh[n + i] + fresh[n + j])
+
+
+@njit(cache=True, error_model="numpy")
+def follow_contacts(idx, nc, full, joints, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff,
+                    joff, jidx, fresh):
     """The contact model's constants of the elements ``idx[:nc]``: inverse mass ``minv``
     [1/kg] (0 for an element that is not free) and the eq. 9 stiffness ``jK`` [Pa] and reduced
     mass ``jmeff`` [kg] of their joints (lever arms ``ri``, ``rj`` [m]), found through the
-    element-to-joint index ``joff, jidx``; ``full``: of every element and joint instead, in two
-    passes: per element, on vectors, what a joint gathers (``h E`` and the inverse mass a joint
-    counts, in ``scratch``, two values per element), then per joint. (A candidate pair's
-    reduced mass is computed by the collision loop from ``minv``.)"""
+    element-to-joint index ``joff, jidx``. ``full``: of every element and joint instead, in
+    two passes: per element, on vectors, what a joint gathers (``fresh``, two values per
+    element: ``h E`` and the inverse mass a joint counts), then per joint
+    (:func:`joints_from`), which ``joints = False`` leaves to the joint loop
+    (:meth:`~siku_core.contact_model.ContactModel.ice_changed`). (A candidate pair's reduced
+    mass is computed by the collision loop from ``minv``.)"""
     if full:
         n = m.shape[0]
-        hE = scratch[:n]
-        jinv = scratch[n:2 * n]
         for e in range(n):
             f = flags[e]
             r = 1.0 / m[e]
             minv[e] = r if f == FREE else 0.0
-            jinv[e] = r if f == FREE or f == MELTED else 0.0  # as _joint
-            hE[e] = h[e] * E[e]
-        for k in range(ji.shape[0]):  # eq9_stiffness and the reduced mass, as _joint
-            i = ji[k]
-            j = jj[k]
-            a = hE[i]
-            b = hE[j]
-            d = a * rj[k] + b * ri[k]
-            jK[k] = a * b / d if d > 0.0 else 0.0
-            jmeff[k] = 1.0 / (jinv[i] + jinv[j])
+            fresh[e] = h[e] * E[e]
+            fresh[n + e] = r if f == FREE or f == MELTED else 0.0  # as _joint
+        if joints:
+            joints_from(0, ji.shape[0], fresh, ji, jj, ri, rj, jK, jmeff)
         return
     for a in range(nc):
         e = idx[a]
