@@ -324,15 +324,11 @@ class ContactModel(JointBook):
             self.pair_width = np.zeros(len(self.pairs))
 
     def ice_changed(self, elements: np.ndarray | None = None, flags: bool = True) -> None:
-        """The constants that follow the thickness and flags, recomputed after a process
-        changed them (``siku_core.ice``): inverse masses, the joints' eq. 9 stiffness (from
-        ``E h``) and reduced masses; melted elements leave the candidate list at once. Only
-        ``elements`` (``None``: all) and their joints changed
-        (:func:`~siku_core.ice_follow.follow_contacts`), and a flag only if ``flags``. After a
-        change of every element the joints' constants are computed by the next joint loop
-        (``_joints_stale``: in its parallel chunks, from the per-element values gathered here;
-        read before, ``jK`` and ``jmeff`` compute them first); a candidate pair's reduced mass
-        by the collision loop."""
+        """After a process changed thickness or flags (``siku_core.ice``): inverse masses, the
+        joints' eq. 9 stiffness and reduced masses (after a change of every element, in the
+        next joint loop's chunks; ``jK``, ``jmeff`` read before compute them); melted elements
+        leave the candidate list. ``elements``: only these changed (``None``: all), ``flags``:
+        a flag may have (:func:`~siku_core.ice_follow.follow_contacts`)."""
         st = self.state
         full = elements is None
         if full:
@@ -342,7 +338,6 @@ class ContactModel(JointBook):
         ri, rj = self.arms
         if len(self._jscratch) != 2 * st.n:
             self._jscratch = np.empty(2 * st.n)
-        # (element by element, constants that wait for the joint loop are computed first)
         jK, jmeff = (self._jK, self._jmeff) if full else (self.jK, self.jmeff)
         follow_contacts(elements, len(elements), full, False, st.thickness, self.E, st.m,
                         st.flags, self.minv, self.ji, self.jj, ri, rj, jK, jmeff, self.joff,
