@@ -53,7 +53,7 @@ def measure(kind: str, n: int, law: str | None, spinup: int, reps: int) -> dict:
 
     def collisions():
         return collision_forces(
-            cm._cev, cm._cpars, cm.rm, st.V, st.w, cm.pmeff, st.thickness, cm.E, st.area,
+            cm._cev, cm._cpars, cm.rm, st.V, st.w, cm.minv, st.thickness, cm.E, st.area,
             st.vert_offsets, st.verts, pairs, sim.radius, cm.nmax, switches.pretest, cm.pair_rows,
             cm.pair_active, chunks(len(pairs)), cm.margin, cm.separating_hint, cm.drop_touching,
             cm.pface, cm.scale, cm.edges)

@@ -8,8 +8,9 @@ one hour of the shipped default scene, each as: no process; ``thermodynamics`` e
 ``--rounds`` times, each after a first step that compiles its kernels; each prints its best wall
 time per element-step [ns], the share of the step spent in the ``processes`` phase
 (``Simulation.timings``), the share spent in the processes' own ``apply`` (the rest of the
-phase is the engine's follow-up of a thickness change: mass, inertia, the contact model's
-reduced masses and joint stiffnesses), the contact phases (joints, broad phase, collisions,
+phase is the engine's follow-up of a thickness change: mass, inertia, inverse masses and the
+joints' constants, which after a change of every element the next joint loop computes, in the
+``joints`` phase), the contact phases (joints, broad phase, collisions,
 contact sum) per element-step [ns], which carry most of the spread between runs of the same
 scene, the ratio to the run without processes, and the median over the rounds of the time per
 element-step and of the ``processes`` share (``--only`` runs some cases). Targets (issue: ice

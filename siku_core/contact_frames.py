@@ -319,24 +319,6 @@ def joint_constants(h, E, minv, ji, jj, ri, rj):
     return K, meff
 
 
-@njit(cache=True, parallel=True)
-def _pair_masses(minv, pairs):
-    n = pairs.shape[0]
-    out = np.empty(n)
-    for k in prange(n):
-        out[k] = 1.0 / (minv[pairs[k, 0]] + minv[pairs[k, 1]])
-    return out
-
-
-def pair_masses(minv, pairs):
-    """Reduced mass ``1 / (1/m_i + 1/m_j)`` [kg] of every pair ``(i, j)`` of ``pairs``, from the
-    elements' inverse masses ``minv`` [1/kg] (zero for a static or steady element): a constant
-    of the candidate list, as :func:`joint_constants` is of the joints (the same division, so
-    the same value bit for bit as computed per contact)."""
-    # (two held elements are never candidates: no division by zero)
-    return _pair_masses(minv, pairs)
-
-
 @njit(cache=True)
 def element_index(a, b, n):
     """CSR index from elements to contacts ``k`` with ends ``a[k]``, ``b[k]``: element ``e``'s

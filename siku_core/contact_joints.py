@@ -34,6 +34,7 @@ from .contact_law import (
     BreakMode,
 )
 from .errors import SceneError
+from .ice_follow import joints_from
 from .state import MELTED
 from .geometry.face import joint_edges
 from .geometry.quat import centers, east_north_row, from_tangent, xyz_to_latlon
@@ -118,6 +119,41 @@ class JointBook:
     @property
     def n_joints(self) -> int:
         return len(self.ji)
+
+    #: whether the joints' constants wait for the next joint loop to follow a change of the
+    #: ice (``ContactModel.ice_changed``: from ``_jscratch``); reading ``jK`` or ``jmeff``
+    #: computes them first
+    _joints_stale = False
+
+    @property
+    def jK(self) -> np.ndarray:
+        """Per joint: eq. 9 stiffness [Pa] (:func:`~siku_core.contact_frames.eq9_stiffness`)."""
+        if self._joints_stale:
+            self._follow_joints()
+        return self._jK
+
+    @jK.setter
+    def jK(self, value: np.ndarray) -> None:
+        self._jK = value
+        self._joints_stale = False
+
+    @property
+    def jmeff(self) -> np.ndarray:
+        """Per joint: reduced mass ``1 / (1/m_i + 1/m_j)`` [kg]."""
+        if self._joints_stale:
+            self._follow_joints()
+        return self._jmeff
+
+    @jmeff.setter
+    def jmeff(self, value: np.ndarray) -> None:
+        self._jmeff = value
+        self._joints_stale = False
+
+    def _follow_joints(self) -> None:
+        """The joints' constants that wait for the joint loop, computed now (the same values)."""
+        self._joints_stale = False
+        joints_from(0, len(self.ji), self._jscratch, self.ji, self.jj, *self.arms, self._jK,
+                    self._jmeff)
 
     #: per-joint arrays that live in the reserved slots (:meth:`reserve_joints`); the joint
     #: constants ``jK, jmeff`` and the per-element index are recomputed from them

@@ -70,6 +70,7 @@ from siku_core.contact_law import (
 )
 from siku_core.geometry.clip import REL_TOL, make_overlap_scratch, overlap_inline, separating_edge
 from siku_core.geometry.face import touching_face_u
+from siku_core.ice_follow import joints_from
 from siku_core.parallel import chunk_bounds, claim
 
 # ------------------------------------------------------------------------------ the binding
@@ -132,7 +133,8 @@ BLK_SIZE = BLK_M + 9
 # parallel compilation of a large loop body takes twice as long as compiling it serially.
 @njit(parallel=True, cache=CACHE)
 def _joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                  jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, nt):
+                  jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, nt, fresh,
+                  ri, rj):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -146,15 +148,20 @@ def _joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, j
             lo, hi = chunk_bounds(c, nch, ji.shape[0])
             counts[c] = _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i,
                                      ends_j, L0, width, jK, jmeff, intact, break_mode, hist, R, dt,
-                                     commit, out, active, lo, hi, g, res, scratch)
+                                     commit, out, active, lo, hi, g, res, scratch, fresh, ri, rj)
     return counts.sum()
 
 
 @njit(cache=CACHE, _nrt=NRT)
 def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff, intact,
-                 break_mode, hist, R, dt, commit, out, active, lo, hi, g, res, scratch):
+                 break_mode, hist, R, dt, commit, out, active, lo, hi, g, res, scratch, fresh, ri,
+                 rj):
     """Joints ``lo <= k < hi`` of :func:`~siku_core.contacts.joint_forces`; returns how many
-    broke. ``g``, ``res``, ``scratch``: the task's buffers (geometry, result, history row)."""
+    broke. ``g``, ``res``, ``scratch``: the task's buffers (geometry, result, history row).
+    ``fresh`` (not empty): the joints' constants ``jK``, ``jmeff`` are first computed from it
+    (:func:`~siku_core.ice_follow.joints_from`, lever arms ``ri``, ``rj``)."""
+    if fresh.shape[0]:
+        joints_from(lo, hi, fresh, ji, jj, ri, rj, jK, jmeff)
     nh = hist.shape[1]
     inv_r = 1.0 / R
     nb = 0
@@ -216,7 +223,7 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
 
 
 @njit(parallel=True, cache=CACHE)
-def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+def _collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                       nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges,
                       chist, commit, caps):
     counts = np.zeros(nch, dtype=np.int64)
@@ -236,7 +243,7 @@ def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R
             if c >= nch:
                 break
             lo, hi = chunk_bounds(c, nch, pairs.shape[0])
-            counts[c] = _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets,
+            counts[c] = _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, active, lo, hi, xy, tag,
                                          proj, g, res, margin, hint, drop, face, scale, blk,
                                          edges, chist, commit, hrow, caps)
@@ -244,7 +251,7 @@ def _collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R
 
 
 @njit(cache=CACHE, _nrt=NRT)
-def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk, nb,
+def _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res, blk, nb,
                      chist, commit, hrow, caps):
     """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
     ``blk``, ``BLK_*``) into ``out`` and ``on``; with ``CHIST``, pair ``k``'s history row
@@ -277,7 +284,7 @@ def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res
         g[G_NY] = blk[b + BLK_NY]
         g[G_WIDTH] = blk[b + BLK_WIDTH]
         g[G_K] = eq9_stiffness(h[i], E[i], h[j], E[j], ri, rj)
-        g[G_MEFF] = meff[k]
+        g[G_MEFF] = 1.0 / (minv[i] + minv[j])  # the reduced mass [kg]
         g[G_VX], g[G_VY] = relative_velocity_m(M, V, w, i, j, cx, cy, xj, yj)
         g[G_AREA_I] = area[i]
         g[G_AREA_J] = area[j]
@@ -304,7 +311,7 @@ def _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res
 
 
 @njit(cache=CACHE, _nrt=NRT)
-def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      pretest, out, active, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
                      scale, blk, edges, chist, commit, hrow, caps):
     """Pairs ``lo <= k < hi`` of :func:`~siku_core.contacts.collision_forces`; returns how
@@ -389,12 +396,12 @@ def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
             blk[b + BLK_M + m] = M[m]
         nb += 1
         if nb == CBLOCK:
-            _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res,
+            _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res,
                              blk, nb, chist, commit, hrow, caps)
             no += nb
             nb = 0
     if nb:
-        _collision_block(pars, V, w, meff, h, E, area, pairs, R, out, active, g, res, blk,
+        _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res, blk,
                          nb, chist, commit, hrow, caps)
         no += nb
     return no

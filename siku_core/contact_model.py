@@ -17,7 +17,6 @@ from .contact_frames import (
     ROW_SIZE,
     element_index,
     joint_arms,
-    pair_masses,
     rotation_matrices,
     rotations_within,
 )
@@ -135,8 +134,6 @@ class ContactModel(JointBook):
         self.pface = self._faces(p)
         #: per candidate pair: 1 if the law capped its normal force when last found overlapping
         self.pair_capped = np.zeros(len(p) if self.caps_kept else 0, dtype=np.int8)
-        #: per candidate pair: its reduced mass [kg]
-        self.pmeff = pair_masses(self.minv, p)
         #: per candidate pair: its per-contact history row (zero unless in contact), and
         #: whether it was in contact at the last committed evaluation; ``(0, 0)`` and ``(0,)``
         #: under a law without per-contact history
@@ -265,9 +262,11 @@ class ContactModel(JointBook):
             broke = joint_forces(
                 self._jev, self._jpars, self.rm, V, w, st.thickness, self.E,
                 self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
-                self.jK, self.jmeff, self.intact, self.break_mode, self.hist, R, self.time_step(),
-                commit, self.joint_rows, self.joint_active, chunks(self.n_joints),
+                self._jK, self._jmeff, self.intact, self.break_mode, self.hist, R,
+                self.time_step(), commit, self.joint_rows, self.joint_active,
+                chunks(self.n_joints), self._jscratch if self._joints_stale else None, self.arms,
             )
+            self._joints_stale = False
             if commit and broke:
                 self.n_broken_total += broke
                 self._record_breaks(t)
@@ -276,7 +275,7 @@ class ContactModel(JointBook):
         t3 = time.perf_counter()
         if len(pairs):
             n = collision_forces(
-                self._cev, self._cpars, self.rm, V, w, self.pmeff, st.thickness,
+                self._cev, self._cpars, self.rm, V, w, self.minv, st.thickness,
                 self.E, st.area, st.vert_offsets, st.verts, pairs, R, self.nmax,
                 switches.pretest, self.pair_rows, self.pair_active, chunks(len(pairs)), self.margin,
                 self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
@@ -324,11 +323,11 @@ class ContactModel(JointBook):
             self.pair_capped = np.zeros(len(self.pairs), dtype=np.int8)
 
     def ice_changed(self, elements: np.ndarray | None = None, flags: bool = True) -> None:
-        """The constants that follow the thickness and flags, recomputed after a process
-        changed them (``siku_core.ice``): inverse and reduced masses, the joints' eq. 9
-        stiffness (from ``E h``); melted elements leave the candidate list at once. Only
-        ``elements`` (``None``: all) and their joints and pairs changed
-        (:func:`~siku_core.ice_follow.follow_contacts`), and a flag only if ``flags``."""
+        """After a process changed thickness or flags (``siku_core.ice``): inverse masses, the
+        joints' eq. 9 stiffness and reduced masses (after a change of every element, in the
+        next joint loop's chunks; ``jK``, ``jmeff`` read before compute them); melted elements
+        leave the candidate list. ``elements``: only these changed (``None``: all), ``flags``:
+        a flag may have (:func:`~siku_core.ice_follow.follow_contacts`)."""
         st = self.state
         full = elements is None
         if full:
@@ -336,12 +335,14 @@ class ContactModel(JointBook):
         if len(self.arms[0]) != len(self.ji):
             self.arms = joint_arms(self.ends_i, self.ends_j)
         ri, rj = self.arms
-        if len(self._jscratch) != len(self.ji):
-            self._jscratch = np.empty(len(self.ji))
-        follow_contacts(elements, len(elements), full, st.thickness, self.E, st.m, st.flags,
-                        self.minv, self.ji, self.jj, ri, rj, self.jK, self.jmeff, self.joff,
-                        self.jidx, self.pairs, self.pmeff, self.poff, self.pidx,
-                        self._jscratch)
+        if len(self._jscratch) != 2 * st.n:
+            self._jscratch = np.empty(2 * st.n)
+        jK, jmeff = (self._jK, self._jmeff) if full else (self.jK, self.jmeff)
+        follow_contacts(elements, len(elements), full, False, st.thickness, self.E, st.m,
+                        st.flags, self.minv, self.ji, self.jj, ri, rj, jK, jmeff, self.joff,
+                        self.jidx, self._jscratch)
+        if full:
+            self._joints_stale = True
         if not flags:
             return
         gone = st.flags == MELTED

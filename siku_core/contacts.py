@@ -32,17 +32,27 @@ from .parallel import chunk_bounds, claim, tasks
 
 
 def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                 jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch):
+                 jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, fresh=None,
+                 arms=None):
     """Evaluate every intact joint into ``out[k]`` (``ROW_*``) and ``active[k]``; returns the number
     that broke (only when ``commit``; their break mode, the evaluator's ``out[3]``, goes to
-    ``break_mode[k]``)."""
+    ``break_mode[k]``). ``fresh`` (two values per element, ``h E`` [Pa m] and the inverse mass
+    a joint counts [1/kg]; :func:`~siku_core.ice_follow.follow_contacts`) and ``arms`` (the
+    lever arms ``ri, rj`` [m]): every joint's ``jK``, ``jmeff`` are first computed from them,
+    in the same parallel loop (after a process changed the ice)."""
     loops = instantiate(contact_loops, evaluate)
+    if fresh is None:
+        fresh, arms = _NO_FRESH, (_NO_FRESH, _NO_FRESH)
     return loops._joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
                                jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch,
-                               tasks(nch))
+                               tasks(nch), fresh, *arms)
 
 
-def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+#: what the joint loop gets for ``fresh`` and the lever arms when its constants are current
+_NO_FRESH = np.zeros(0)
+
+
+def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, active, nch, margin=None, hint=None, drop=False, face=None,
                      scale=None, edges=None, chist=None, commit=False, caps=None):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
@@ -54,9 +64,11 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
     the test would have found the pair apart, and no more than the touching area where the
     test with the margin would have).
 
-    ``meff`` (per pair, kg): the pair's reduced mass (:func:`pair_masses`); ``margin`` (per
-    element ``i``, m; zeros by default): the test's margin; ``hint`` (per pair, int16,
-    updated): the edge that separated the pair last, tried first; ``drop``: touching
+    ``minv`` (per element, 1/kg): the inverse mass, 0 for a static or steady element (an
+    overlapping pair's reduced mass ``1 / (minv_i + minv_j)`` [kg] is computed as it is
+    evaluated); ``margin`` (per element ``i``, m; zeros by default): the test's margin;
+    ``hint`` (per pair, int16, updated): the edge that separated the pair last, tried first;
+    ``drop``: touching
     overlaps (area at most the clip's tolerance) carry no force (``contact.touching =
     "ignore"``, with ``margin = REL_TOL L_i / 3``, so that the test settles such pairs);
     ``face`` (per pair, int16 ``(K, 2)``, ``-1`` for none): the edges of ``i`` and ``j`` the
@@ -88,7 +100,7 @@ def collision_forces(evaluate, pars, rm, V, w, meff, h, E, area, offsets, verts,
     if not history:
         chist = _NO_HISTORY
     loops = instantiate(contact_loops, evaluate, history)
-    return loops._collision_forces(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
+    return loops._collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                                    nmax, pretest, out, active, nch, tasks(nch), margin, hint, drop,
                                    face, scale, edges, chist, bool(commit), caps)
 

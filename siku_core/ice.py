@@ -10,20 +10,19 @@ units, the xarray engine reads them, ``siku grid`` puts them on grids (the cell 
 ice area, or the sum, as declared), ``siku plugins`` lists them.
 
 A scene with processes (``[[process]]`` tables, :class:`~siku_core.interfaces.Process`) has a
-time-dependent ``thickness`` [m], ``mass`` [kg] and ``flags`` in its outputs; after the processes
-of a step have run, :meth:`IceBook.after_processes` recomputes what depends on the thickness:
-mass ``m = rho v A`` and polar moment ``I = rho v J`` (``J`` the polygon's polar second moment
-of area, ``v`` the ice volume per area, :func:`~siku_core.categories.ice_per_area`: ``h``, or
-``sum a_k h_k`` with thickness categories), the contact model's reduced masses and eq. 9
-joint stiffnesses (from ``E h``), and the stable step (again once some element's thickness,
-or its ice volume per area, has changed by more than :data:`RECHECK` since the last check),
-which stops the run with one line naming the element if ``dt`` is no longer safe. Without
-categories it does so in compiled passes (:mod:`siku_core.ice_follow`) for the elements whose
-thickness or flag changed and their joints and pairs only, or for all of them in one pass each
-when a quarter or more changed; mass from thickness is
-:func:`~siku_core.ice_follow.element_mass`. With categories every element's mass follows ``v``
-in one NumPy pass. A scene with neither declared fields nor processes allocates nothing here
-and runs as before.
+time-dependent ``thickness`` [m], ``mass`` [kg] and ``flags`` in its outputs; after the processes of
+a step have run, :meth:`IceBook.after_processes` recomputes what depends on the thickness: mass
+``m = rho v A`` and polar moment ``I = rho v J`` (``J`` the polygon's polar second moment of area,
+``v`` the ice volume per area, :func:`~siku_core.categories.ice_per_area`: ``h``, or ``sum a_k h_k``
+with thickness categories), the contact model's inverse masses and the joints' reduced masses and
+eq. 9 stiffnesses (from ``E h``), and the stable step (again once some element's thickness, or its
+ice volume per area, has changed by more than :data:`RECHECK` since the last check), which stops the
+run with one line naming the element if ``dt`` is no longer safe. Without categories it does so in
+compiled passes (:mod:`siku_core.ice_follow`) for the elements whose thickness or flag changed and
+their joints only, or for all of them when a quarter or more changed (the joints' constants then in
+the next joint loop); mass from thickness is :func:`~siku_core.ice_follow.element_mass`. With
+categories every element's mass follows ``v`` in one NumPy pass. A scene with neither declared
+fields nor processes allocates nothing here and runs as before.
 
 Thickness categories (:mod:`siku_core.categories`, a scene whose element sources give them):
 ``ctx.categories`` holds the fraction ``a_k`` and thickness ``h_k`` of every element's categories,
@@ -281,7 +280,7 @@ class IceBook:
         """After processes ran: if a thickness or flag changed, recompute what depends on it
         and check the step (``who`` names the processes for the message). One compiled pass
         finds the changed elements (:func:`~siku_core.ice_follow.scan_ice`); only they and
-        their joints and pairs are recomputed."""
+        their joints are recomputed."""
         st = self._sim.state
         nc, h_changed, f_changed, bad, drift = scan_ice(
             st.thickness, st.flags, self._h_seen, self._flags_seen, self._h_checked, RECHECK,

@@ -4,12 +4,14 @@ After the processes of a step, one pass over the elements (:func:`scan_ice`) fin
 whose thickness or flag changed, the first whose thickness is no longer finite and positive, and
 whether some thickness moved by more than ``RECHECK`` since the last stable-step check; then
 only the changed elements get their mass, moment of inertia and inverse mass again
-(:func:`follow_elements`), and only their joints and candidate pairs their eq. 9 stiffness and
-reduced masses (:func:`follow_contacts`, through the element-to-contact indexes, or in one pass
-over all joints and pairs when most elements changed). Every value is computed by the same
-arithmetic as a recomputation of everything (``m = rho h A`` by :func:`element_mass`,
+(:func:`follow_elements`), and only their joints their eq. 9 stiffness and reduced masses
+(:func:`follow_contacts`, through the element-to-joint index, or in one pass over all joints
+when most elements changed). Every value is computed by the same arithmetic as a recomputation
+of everything (``m = rho h A`` by :func:`element_mass`,
 :func:`~siku_core.contact_frames.eq9_stiffness`, ``1 / (1/m_i + 1/m_j)``), so the result is the
-same to the bit; an unchanged element keeps values that already follow its thickness.
+same to the bit; an unchanged element keeps values that already follow its thickness. A
+candidate pair's reduced mass follows by itself: the collision loop computes it from the
+inverse masses as it evaluates an overlapping pair.
 """
 from __future__ import annotations
 
@@ -108,36 +110,44 @@ def _joint(k, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff):
 
 
 @njit(cache=True, error_model="numpy")
-def follow_contacts(idx, nc, full, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff, joff, jidx,
-                    pairs, pmeff, poff, pidx, scratch):
+def joints_from(lo, hi, fresh, ji, jj, ri, rj, jK, jmeff):
+    """Eq. 9 stiffness ``jK`` [Pa] and reduced mass ``jmeff`` [kg] of joints ``lo <= k < hi``
+    (as :func:`_joint`) from ``fresh``, two values per element written by
+    :func:`follow_contacts`: ``h E`` [Pa m] and the inverse mass a joint counts [1/kg] (that
+    of an element melted away too); lever arms ``ri``, ``rj`` [m]. On vectors of joints."""
+    n = fresh.shape[0] // 2
+    for k in range(lo, hi):
+        i = ji[k]
+        j = jj[k]
+        a = fresh[i]
+        b = fresh[j]
+        d = a * rj[k] + b * ri[k]
+        jK[k] = a * b / d if d > 0.0 else 0.0
+        jmeff[k] = 1.0 / (fresh[n + i] + fresh[n + j])
+
+
+@njit(cache=True, error_model="numpy")
+def follow_contacts(idx, nc, full, joints, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff,
+                    joff, jidx, fresh):
     """The contact model's constants of the elements ``idx[:nc]``: inverse mass ``minv``
-    [1/kg] (0 for an element that is not free), and of their joints (``jK`` [Pa], ``jmeff``
-    [kg]; lever arms ``ri``, ``rj`` [m]) and candidate pairs (``pmeff`` [kg]), found through the
-    element-to-contact indexes ``joff, jidx`` and ``poff, pidx``; ``full``: of every element,
-    joint and pair instead, each in two passes: the sums, gathered from the elements, then the
-    divisions, which run on vectors of contacts (the same values; ``scratch``: one per
-    joint)."""
+    [1/kg] (0 for an element that is not free) and the eq. 9 stiffness ``jK`` [Pa] and reduced
+    mass ``jmeff`` [kg] of their joints (lever arms ``ri``, ``rj`` [m]), found through the
+    element-to-joint index ``joff, jidx``. ``full``: of every element and joint instead, in
+    two passes: per element, on vectors, what a joint gathers (``fresh``, two values per
+    element: ``h E`` and the inverse mass a joint counts), then per joint
+    (:func:`joints_from`), which ``joints = False`` leaves to the joint loop
+    (:meth:`~siku_core.contact_model.ContactModel.ice_changed`). (A candidate pair's reduced
+    mass is computed by the collision loop from ``minv``.)"""
     if full:
-        for e in range(m.shape[0]):
-            minv[e] = 1.0 / m[e] if flags[e] == FREE else 0.0
-        for k in range(ji.shape[0]):  # eq9_stiffness and the reduced mass, split in two
-            i = ji[k]
-            j = jj[k]
-            a = h[i] * E[i]
-            b = h[j] * E[j]
-            scratch[k] = a * b
-            jK[k] = a * rj[k] + b * ri[k]
-            mi = 1.0 / m[i] if flags[i] == MELTED else minv[i]
-            mj = 1.0 / m[j] if flags[j] == MELTED else minv[j]
-            jmeff[k] = mi + mj
-        for k in range(ji.shape[0]):
-            d = jK[k]
-            jK[k] = scratch[k] / d if d > 0.0 else 0.0
-            jmeff[k] = 1.0 / jmeff[k]
-        for k in range(pairs.shape[0]):
-            pmeff[k] = minv[pairs[k, 0]] + minv[pairs[k, 1]]
-        for k in range(pairs.shape[0]):
-            pmeff[k] = 1.0 / pmeff[k]
+        n = m.shape[0]
+        for e in range(n):
+            f = flags[e]
+            r = 1.0 / m[e]
+            minv[e] = r if f == FREE else 0.0
+            fresh[e] = h[e] * E[e]
+            fresh[n + e] = r if f == FREE or f == MELTED else 0.0  # as _joint
+        if joints:
+            joints_from(0, ji.shape[0], fresh, ji, jj, ri, rj, jK, jmeff)
         return
     for a in range(nc):
         e = idx[a]
@@ -146,6 +156,3 @@ def follow_contacts(idx, nc, full, h, E, m, flags, minv, ji, jj, ri, rj, jK, jme
         e = idx[a]
         for s in range(joff[e], joff[e + 1]):
             _joint(jidx[s], h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff)
-        for s in range(poff[e], poff[e + 1]):
-            k = pidx[s]
-            pmeff[k] = 1.0 / (minv[pairs[k, 0]] + minv[pairs[k, 1]])

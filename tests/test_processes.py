@@ -99,6 +99,45 @@ def test_mass_inertia_and_joint_stiffness_follow_the_thickness():
     np.testing.assert_allclose(grown.contacts.jmeff, fresh.contacts.jmeff, rtol=1e-15 * 8)
 
 
+def test_joint_constants_left_to_the_joint_loop_are_the_ones_computed_at_once():
+    """After thermodynamics changed every element, the joints' eq. 9 stiffness and reduced mass
+    wait for the next joint loop (ContactModel.ice_changed); read before it, they are computed
+    at once. Either way they are ``contact_frames.joint_constants`` of the new ice bit for bit,
+    and a run that reads them after every step reaches the same state, bit for bit, as one
+    that leaves them to the joint loop."""
+    from siku_core.contact_frames import joint_constants
+
+    pack = [square_pack(0.0, 80.0, 4, 3, size=2000.0)]
+    extra = ('[contact]\nlaw = "distributed_spring"\n\n[[process]]\nname = "thermodynamics"\n'
+             'params = { surface_temperature = -40.0, ocean_heat_flux = 50.0 }\n')
+    txt = scene_text([], packs=pack, dt=0.4, duration=4.0, thickness=0.5, extra=extra)
+
+    def build():
+        sim = Simulation(scene_from_text(txt, "<pack>"), out=False, progress=False)
+        sim.state.thickness[:] = np.linspace(0.3, 1.2, sim.state.n)  # every joint differs
+        return sim
+
+    eager, lazy = build(), build()
+    cm = eager.contacts
+    eager.run(steps=1)  # (the first step checks the stable step: it reads them)
+    for _ in range(5):
+        eager.run(steps=1)
+        assert cm._joints_stale  # every element changed: left to the joint loop
+        st = eager.state
+        minv = np.where(st.flags == MELTED, 1.0 / st.m, cm.minv)
+        K, meff = joint_constants(st.thickness, cm.E, minv, cm.ji, cm.jj, *cm.arms)
+        np.testing.assert_array_equal(cm.jK, K)  # read now: computed at once
+        np.testing.assert_array_equal(cm.jmeff, meff)
+        assert not cm._joints_stale
+    lazy.run(steps=6)
+    assert lazy.contacts._joints_stale
+    for name in ("q", "V", "w", "thickness", "m"):
+        np.testing.assert_array_equal(getattr(lazy.state, name), getattr(eager.state, name))
+    np.testing.assert_array_equal(lazy.contacts.jK, cm.jK)
+    np.testing.assert_array_equal(lazy.contacts.jmeff, cm.jmeff)
+    assert np.ptp(cm.jK) > 0.1 * cm.jK.max()
+
+
 def test_an_element_that_melts_away_leaves_the_contact_phase_and_the_budget():
     txt = scene_text([], packs=[square_pack(0.0, 80.0, 2, 1, size=2000.0)], dt=0.4,
                      duration=40.0, thickness=0.3, extra=(

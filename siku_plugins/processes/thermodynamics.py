@@ -97,17 +97,27 @@ def _grow_one(h0, dT, dt, rho, F, L, hs, ki, ks):
 
 
 @njit(cache=True, error_model="numpy")
-def _grow_all(h, rho, dT, dt, F, L, hs, ki, ks, out):
-    """``out[e]``: :func:`_grow_one` of every element without categories (melted ones too:
-    :func:`semtner_step` drops them), in a loop of its own so that it runs on vectors of
-    elements (the same arithmetic per element)."""
-    if dT.shape[0] > 1:
-        for e in range(h.shape[0]):
-            out[e] = _grow_one(h[e], dT[e], dt, rho[e], F, L, hs, ki, ks)
-    else:
-        dT0 = dT[0]
-        for e in range(h.shape[0]):
-            out[e] = _grow_one(h[e], dT0, dt, rho[e], F, L, hs, ki, ks)
+def _grow_all(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, grown, rate, out):
+    """Every element without categories in one pass without branches, on vectors of elements
+    (the arithmetic of :func:`semtner_step` per element): thickness ``h`` [m], ``grown``
+    [m³] and ``rate`` [m/s] of the elements that are not melted (``rate`` 0 for those that
+    are); an element thinner than ``hmin`` [m] after the step keeps its thickness and counts
+    ``-A h`` as grown. ``out[e]``: the new thickness before that test. Returns how many melted
+    away now."""
+    ng = 0
+    s = 1 if dT.shape[0] > 1 else 0  # dT per element, or one for all
+    for e in range(h.shape[0]):
+        h0 = h[e]
+        hn = _grow_one(h0, dT[s * e], dt, rho[e], F, L, hs, ki, ks)
+        out[e] = hn
+        live = flags[e] != MELTED
+        stay = not hn < hmin
+        d = hn - h0 if stay else -h0  # melted away: its thickness as it was leaves the budget
+        grown[e] = grown[e] + area[e] * d if live else grown[e]
+        rate[e] = d / dt if live else 0.0
+        h[e] = hn if live and stay else h0
+        ng += 1 if live and not stay else 0
+    return ng
 
 
 @njit(cache=True, error_model="numpy")
@@ -118,29 +128,23 @@ def semtner_step(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, fraction, 
     ``grown`` [m³] and ``rate`` [m/s]; ``dT`` [K] per element (or one for all); ``gone`` gets the
     elements that melted away, their number returned. ``new``, ``scratch``: ``K`` values each.
     ``lateral``: ``(C_o, h_0, n)`` of the open-water growth (empty: none), which changes
-    ``fraction`` and adds to ``lateral_volume`` [m³]. ``grow``: ``n`` values (the new thickness
-    without categories, :func:`_grow_all`).
+    ``fraction`` and adds to ``lateral_volume`` [m³]. ``grow``: ``n`` values (without
+    categories, :func:`_grow_all`).
     """
     K = hk.shape[1]
     if K == 0:
-        _grow_all(h, rho, dT, dt, F, L, hs, ki, ks, grow)
+        ng = _grow_all(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, grown, rate, grow)
+        if ng:  # the elements that melted away, in order
+            ng = 0
+            for e in range(h.shape[0]):
+                if flags[e] != MELTED and grow[e] < hmin:
+                    gone[ng] = e
+                    ng += 1
+        return ng
     ng = 0
     for e in range(h.shape[0]):
         if flags[e] == MELTED:
             rate[e] = 0.0
-            continue
-        h0 = h[e]
-        if K == 0:
-            hn = grow[e]
-            if hn < hmin:  # melted away: thickness as it was
-                grown[e] += -area[e] * h0
-                rate[e] = -h0 / dt
-                gone[ng] = e
-                ng += 1
-                continue
-            grown[e] += area[e] * (hn - h0)
-            rate[e] = (hn - h0) / dt
-            h[e] = hn
             continue
         dTe = dT[e] if dT.shape[0] > 1 else dT[0]
         a = fraction[e]
