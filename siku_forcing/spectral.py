@@ -88,6 +88,10 @@ class Spectral(WaveField):
     """A wave spectrum that evolves over a grid and is damped by the ice (module docstring)."""
 
     name = "spectral"
+    #: the sea differs from cell to cell: a ``floating`` process shares this instance (the run's,
+    #: ``Context.forcing_field``) and loads each element with its cell's amplitudes
+    #: (:meth:`_amplitudes`, :meth:`cells`)
+    local_sea = True
     params: ClassVar[dict[str, Param]] = {
         "spectrum": Param("jonswap", "", "incident sea: jonswap, monochromatic or table",
                           type=str, choices=("jonswap", "monochromatic", "table")),
