@@ -15,7 +15,9 @@ The elements feel the local sea: at a point in cell ``c`` the component ``j`` ha
 ``a_j = sqrt(2 E_j[c])`` and the phase of the incident component, ``psi_j = k_j·x - omega_j t +
 phi_j``; elevation, slope, orbital velocity and curvature are the sums of
 :mod:`siku_forcing.waves` with these amplitudes, so the ``waves`` forcing (drag, slope force,
-flexural breaking) acts as with a uniform sea. Points outside the grid take the nearest cell.
+flexural breaking) acts as with a uniform sea, and so does a ``floating`` process, which shares
+this instance (:attr:`Spectral.local_sea`) and loads each element with the amplitudes of its
+cell (``siku_plugins.floating.process``). Points outside the grid take the nearest cell.
 
 The sea advances when the engine commits a step (the first force evaluation of a step), in as
 many equal sub-steps as the Courant limit ``cfl`` asks. Per element the field reports

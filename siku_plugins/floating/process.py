@@ -32,9 +32,11 @@ field of the scene's first ``[[forcing]]`` table that has one (``linear_wave``, 
 ``wave = "none"``: still water): ``eta_d = sum a_j att_j cos(psi_j)``, ``att_j = e^{-k_j d}``
 in deep water, ``cosh(k_j (H - d)) / cosh(k_j H)`` in water of depth ``H``, integrated over the
 element's bottom by quadrature (``siku_plugins.floating.geometry``; by default as fine as the
-shortest wave needs) at its present horizontal position. ``wave = "exchange"``: a coupled
-model's elevation and dynamic pressure through the BMI (``siku_plugins.floating.coupled``).
-Side-wall pressures and diffraction are not included (the wave's load is Froude–Krylov only).
+shortest wave needs) at its present horizontal position; in a ``spectral`` field (a sea the
+ice damps) ``a_j = sqrt(2 E_j)`` of the cell of the element's centre (:meth:`Floating._local`).
+``wave = "exchange"``: a coupled model's elevation and dynamic pressure through the BMI
+(``siku_plugins.floating.coupled``). Side-wall pressures and diffraction are not included (the
+wave's load is Froude–Krylov only).
 
 Added mass and damping: with ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
 ``A_k = added_inertia rho_w A^{1/2} J_k`` and the damping as a fraction of critical, ``B33 = 2
@@ -446,11 +448,9 @@ class Floating(Process):
         return wave[0], args, wave[7]
 
     def _local(self, ctx) -> tuple:
-        """``(acell, cell)``: the amplitudes [m] per grid cell and component, ``(C, M)``, and
-        the cell of every element, ``(n,)`` int64, that the kernels load the elements with.
-        A ``spectral`` field's local sea (``siku_forcing.spectral``: ``sqrt(2 E_j)`` of the
-        cell of the element's centre now, as its horizontal forces and breaking check use);
-        for any other field one row, the incident amplitudes, and every cell 0."""
+        """``(acell (C, M) [m], cell (n,))``, the amplitudes the kernels load element ``i``
+        with, ``acell[cell[i]]``: a ``spectral`` field's ``sqrt(2 E_j)`` per cell and the cells
+        of the centres now (as its forces and breaking check use); else the incident ``amp``."""
         fld = self.field
         if fld is not None and getattr(fld, "local_sea", False):
             return fld._amplitudes()[0], fld.cells(*fld._latlon(ctx.state.q))[0]
