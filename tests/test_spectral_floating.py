@@ -149,3 +149,25 @@ def test_a_restart_with_floating_elements_in_the_spectral_sea_is_bit_for_bit(tmp
     assert np.abs(whole.context.fields["heave"]).max() > 0
     for k in (*MODES, "wave_radiated_power"):
         assert np.array_equal(second.context.fields[k], whole.context.fields[k]), k
+
+
+def test_the_elements_cells_are_the_fields_cells_of_their_centres(tmp_path):
+    """``Spectral.element_cells`` (one compiled pass, what the floating process uses) gives
+    :meth:`Spectral.cells` of the centres exactly, inside the grid, on it and beyond it
+    (clipped), for any heading."""
+    from siku_core.geometry.quat import latlon_of, q_from_latlon, qmul
+
+    sim = build(flume(tmp_path, spectral()))
+    f = sim.forcing[0].field
+    rng = np.random.default_rng(7)
+    n = 4000
+    x = rng.uniform(-100.0, 500.0, n)          # the grid is 0..400 m by -10..10 m
+    y = rng.uniform(-30.0, 30.0, n)
+    x[:200] = 20.0 * rng.integers(-2, 22, 200)  # on cell edges
+    q = np.array([q_from_latlon(yy / R_EARTH, xx / R_EARTH) for xx, yy in zip(x, y)])
+    a = rng.uniform(0, 2 * np.pi, n)            # spun about the vertical: the same centre
+    spin = np.column_stack([np.cos(a / 2), np.zeros(n), np.zeros(n), np.sin(a / 2)])
+    q = np.array([qmul(qi, si) for qi, si in zip(q, spin)])
+    want, inside = f.cells(*latlon_of(q))
+    assert not inside.all() and inside.any()
+    assert np.array_equal(f.element_cells(q), want)

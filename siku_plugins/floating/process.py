@@ -453,7 +453,7 @@ class Floating(Process):
         of the centres now (as its forces and breaking check use); else the incident ``amp``."""
         fld = self.field
         if fld is not None and getattr(fld, "local_sea", False):
-            return fld._amplitudes()[0], fld.cells(*fld._latlon(ctx.state.q))[0]
+            return fld._amplitudes()[0], fld.element_cells(ctx.state.q)
         uni = self._uniform
         amp = fld._args()[3] if fld is not None else _NO_AMP
         if uni is None or uni[1].shape[0] != ctx.state.n or uni[2] is not amp:
