@@ -22,7 +22,9 @@ scene                     ``scene`` (the loaded :class:`~siku_core.scene.Scene`,
                           file and table)
 registry                  ``registry`` (look-ups by kind and name),
                           ``component(kind, name, params, table)`` (build a validated
-                          component, e.g. a field a source makes itself)
+                          component, e.g. a field a source makes itself),
+                          ``forcing_field(k)`` (the field the run built for
+                          ``[[forcing]]`` table ``k``: an evolving sea is shared)
 joints and contacts       ``contacts``: the run's contact model or ``None`` (joint lines,
                           floes, ``break_joints``)
 diagnostics and fields    ``diagnostics()``, ``element_fields()``, ``timings``
@@ -147,6 +149,12 @@ class Context:
         """A component of ``kind`` registered as ``name`` (or ``package.module:Class``), with
         ``params`` validated as for the scene table ``table`` (messages name it)."""
         return self._sim._component(kind, name, params, table)
+
+    def forcing_field(self, k: int) -> "Component | None":
+        """The field the run built for ``[[forcing]]`` table ``k`` (``None`` if it has none):
+        the instance the forcing source evaluates, so a component that needs the same evolving
+        sea (a ``spectral`` wave field's local spectrum) reads it rather than a copy."""
+        return self._sim.forcing[k].field
 
     # ------------------------------------------------------------------ joints and contacts
     @property

@@ -15,7 +15,9 @@ The elements feel the local sea: at a point in cell ``c`` the component ``j`` ha
 ``a_j = sqrt(2 E_j[c])`` and the phase of the incident component, ``psi_j = k_j·x - omega_j t +
 phi_j``; elevation, slope, orbital velocity and curvature are the sums of
 :mod:`siku_forcing.waves` with these amplitudes, so the ``waves`` forcing (drag, slope force,
-flexural breaking) acts as with a uniform sea. Points outside the grid take the nearest cell.
+flexural breaking) acts as with a uniform sea, and so does a ``floating`` process, which shares
+this instance (:attr:`Spectral.local_sea`) and loads each element with the amplitudes of its
+cell (``siku_plugins.floating.process``). Points outside the grid take the nearest cell.
 
 The sea advances when the engine commits a step (the first force evaluation of a step), in as
 many equal sub-steps as the Courant limit ``cfl`` asks. Per element the field reports
@@ -84,10 +86,34 @@ def _cell_sums(t, lat, lon, cell, lat0, lon0, R, amp, kx, ky, om, ph, uo, se, sn
     return out
 
 
+@njit(cache=True)
+def _element_cells(q, lat0, lon0, R, x0, y0, dx, dy, nx, ny):
+    """:meth:`Spectral.cells` of the centres of elements at orientations ``q``, in one pass
+    (the same arithmetic as ``latlon_of``, ``_plane`` and the floors: the same cells)."""
+    n = q.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    c0 = math.cos(lat0)
+    for i in range(n):
+        w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        cx = 2 * (x * z + w * y)
+        cy = 2 * (y * z - w * x)
+        cz = 1 - 2 * (x * x + y * y)
+        lat = math.atan2(cz, math.hypot(cx, cy))
+        lon = math.atan2(cy, cx)
+        ix = math.floor((R * c0 * _wrap(lon - lon0) - x0) / dx)
+        iy = math.floor((R * (lat - lat0) - y0) / dy)
+        out[i] = min(max(iy, 0), ny - 1) * nx + min(max(ix, 0), nx - 1)
+    return out
+
+
 class Spectral(WaveField):
     """A wave spectrum that evolves over a grid and is damped by the ice (module docstring)."""
 
     name = "spectral"
+    #: the sea differs from cell to cell: a ``floating`` process shares this instance (the run's,
+    #: ``Context.forcing_field``) and loads each element with its cell's amplitudes
+    #: (:meth:`_amplitudes`, :meth:`cells`)
+    local_sea = True
     params: ClassVar[dict[str, Param]] = {
         "spectrum": Param("jonswap", "", "incident sea: jonswap, monochromatic or table",
                           type=str, choices=("jonswap", "monochromatic", "table")),
@@ -244,6 +270,12 @@ class Spectral(WaveField):
         iy = np.floor((y - self.y0) / self.dy).astype(np.int64)
         inside = (ix >= 0) & (ix < self.nx) & (iy >= 0) & (iy < self.ny)
         return np.clip(iy, 0, self.ny - 1) * self.nx + np.clip(ix, 0, self.nx - 1), inside
+
+    def element_cells(self, q) -> np.ndarray:
+        """The cell (clipped to the grid) of the centre of every element at orientation ``q``:
+        :meth:`cells` of their positions, in one compiled pass."""
+        return _element_cells(q, self.lat0, self.lon0, float(self.radius), self.x0, self.y0,
+                              self.dx, self.dy, self.nx, self.ny)
 
     def _ice(self, q):
         """Concentration, thickness and attenuation rate per cell from the elements at

@@ -151,9 +151,10 @@ class Beams:
 
 
 @njit(cache=True, error_model="numpy")
-def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw, amp, kx, ky,
-                   om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, B3, M1, C1, B1,
-                   M2, C2, B2, load, indptr, indices, data, K, kidx, hist, head, u, v, pw):
+def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw, acell, cell,
+                   kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, B3, M1,
+                   C1, B1, M2, C2, B2, load, indptr, indices, data, K, kidx, hist, head, u, v,
+                   pw):
     """:func:`siku_plugins.floating.kernels.advance` with the beams' stiffness (CSR over the
     ``3 n`` degrees of freedom ``u``, velocities ``v``, both in place) and constant vertical
     loads ``load`` [N]: the same velocity Verlet, every element at once per sub-step. With
@@ -161,9 +162,10 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
     ``hist (n, 3, L)`` whose latest rates are at ``head``) the damping ``B v`` is the memory
     force of ``siku_plugins.floating.memory.advance_modes`` (same scheme). ``pw`` [W m-2]
     receives each element's damping (or memory force) power per area averaged over the
-    sub-steps (trapezoid of ``B v²`` or ``mu v``)."""
+    sub-steps (trapezoid of ``B v²`` or ``mu v``). Element ``i`` feels the amplitudes
+    ``acell[cell[i]]`` [m] (``kernels.advance``)."""
     n = free.shape[0]
-    natt = amp.shape[0]
+    natt = kx.shape[0]
     att = np.empty((n, natt))
     for i in range(n):
         for j in range(natt):
@@ -195,7 +197,8 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
             if not free[i]:
                 continue
             f, g1, g2 = _excite(t, i, xc[i], yc[i], e0[i], e1[i], qoff[i], qoff[i + 1], qa,
-                                qb, qu, qv, qw, amp, kx, ky, om, ph, att[i], kap, ramp, ext)
+                                qb, qu, qv, qw, acell[cell[i]], kx, ky, om, ph, att[i], kap,
+                                ramp, ext)
             d = draft[i]
             ka = rho_g * area[i]
             F[3 * i] = ka * (min(max(d - u[3 * i] + f / area[i], 0.0), h[i]) - d) + load[i]
@@ -305,7 +308,8 @@ def apply_coupled(proc, ctx, dt: float) -> None:
     hist = ((mem.K, mem.kidx, mem.hist, mem.head) if mem is not None else
             (np.zeros((0, 3, 1)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)), 0))
     advance_bonded(n_sub, dt / n_sub, float(ctx.time - dt), proc.free, xc, yc, e0, e1,
-                   proc.qoff, proc.qa, proc.qb, proc.qu, proc.qv, proc.qw, *wave,
+                   proc.qoff, proc.qa, proc.qb, proc.qu, proc.qv, proc.qw, *proc._local(ctx),
+                   *wave[1:],
                    proc.rho_g, proc.draft, proc.h, proc.area, proc.M3, proc.B3, proc.M1,
                    proc.C1, proc.B1, proc.M2, proc.C2, proc.B2, proc.load, *csr, *hist, u, v,
                    f["wave_radiated_power"])

@@ -281,8 +281,8 @@ def _load(k, i, S, E, r, kap, ext):
 
 @njit(cache=True, error_model="numpy")
 def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts,
-                   zsize, wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate,
-                   pw):
+                   zsize, wv, acell, cell, kap, ext, z, vz, roll, roll_rate, pitch,
+                   pitch_rate, pw):
     """Elements ``lo_e`` to ``hi_e`` of :func:`advance`."""
     lat0, lon0, R, depth, ramp, rho_g = par[0], par[1], par[2], par[3], par[4], par[5]
     cphi, sphi, draft, h, area = elem[0], elem[1], elem[2], elem[3], elem[4]
@@ -292,8 +292,8 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pin
     qw, qu, qv = pts[0], pts[1], pts[2]
     ia, ib = pint[0], pint[1]
     vx, vy = verts[0], verts[1]
-    amp, kx, ky, om, ph, kk = wv[0], wv[1], wv[2], wv[3], wv[4], wv[5]
-    natt = amp.shape[0]
+    kx, ky, om, ph, kk = wv[1], wv[2], wv[3], wv[4], wv[5]
+    natt = kx.shape[0]
     wave = natt > 0
     c0 = math.cos(lat0)
     att = np.empty(natt)
@@ -312,8 +312,8 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pin
             d_att = d
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
-        _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp, kx, ky,
-                      att, S, Z)
+        _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw,
+                      acell[cell[i]], kx, ky, att, S, Z)
         _turn(xc, yc, kx, ky, ph, S)
         f, g1, g2 = _load(0, i, S, E, rk, kap, ext)
         c = cphi[i]
@@ -362,16 +362,17 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pin
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _advance_parallel(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsize,
-                      wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
+                      wv, acell, cell, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
     n = z.shape[0]
     for ch in prange(nch):
         lo_e, hi_e = chunk_bounds(ch, nch, n)
         _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts,
-                       zsize, wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw)
+                       zsize, wv, acell, cell, kap, ext, z, vz, roll, roll_rate, pitch,
+                       pitch_rate, pw)
 
 
-def advance(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsize, wv, kap, ext,
-            z, vz, roll, roll_rate, pitch, pitch_rate, pw):
+def advance(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsize, wv, acell,
+            cell, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
     """``n_sub`` steps of ``dt`` [s] from ``t0`` [s] for every free element: velocity Verlet,
     the damping taken half explicitly (first half step) and half implicitly (second), so that
     the scheme is second order and, for the linear oscillator, stable for ``omega dt < 2``.
@@ -392,15 +393,23 @@ def advance(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsiz
     ``qoff``, the lattice's ``voff`` and ``m6``; ``pts`` (``(3, P)``) = weights [m²] and
     principal coordinates ``u, v`` [m] of the points; ``pint`` (``(2, P)``) = their ``ia,
     ib``; ``verts`` (``(2, V)``) = ``vx, vy`` [m] (``siku_plugins.floating.geometry
-    .lattice_arrays``, table of ``zsize``); ``wv`` (``(6, M)``) = the wave's ``amp`` [m],
-    ``kx, ky`` [1/m], ``omega`` [rad/s], ``phase`` [rad], ``k`` [1/m]; ``kap`` and ``ext`` as
-    :func:`_excite`."""
+    .lattice_arrays``, table of ``zsize``); ``wv`` (``(6, M)``) = the wave's incident ``amp``
+    [m], ``kx, ky`` [1/m], ``omega`` [rad/s], ``phase`` [rad], ``k`` [1/m]; ``kap`` and ``ext``
+    as :func:`_excite`.
+
+    The amplitudes an element feels are the row ``acell[cell[i]]`` (``(C, M)`` [m], ``cell``
+    ``(n,)`` int64): the local sea of a ``spectral`` field, ``sqrt(2 E_j)`` of the element's
+    grid cell (``siku_forcing.spectral``); for a uniform sea one row, the incident ``amp``, and
+    every ``cell`` 0. Looked up once per element and step (the sums of :func:`_sums_lattice`
+    carry it), so the local sea costs no more per sub-step than a uniform one."""
     if nch > 1:
         _advance_parallel(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsize,
-                          wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw)
+                          wv, acell, cell, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate,
+                          pw)
     else:
         _advance_range(0, z.shape[0], n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts,
-                       zsize, wv, kap, ext, z, vz, roll, roll_rate, pitch, pitch_rate, pw)
+                       zsize, wv, acell, cell, kap, ext, z, vz, roll, roll_rate, pitch,
+                       pitch_rate, pw)
 
 
 def pack(lat0, lon0, R, depth, ramp, rho_g, cphi, sphi, draft, h, area, M3, B3, M1, C1, B1, M2,

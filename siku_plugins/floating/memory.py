@@ -114,17 +114,19 @@ def _lagged(Ki, row, hp, L):
 
 @njit(cache=True, error_model="numpy")
 def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
-                  amp, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, M1, C1,
-                  M2, C2, K, kidx, hist, head, z, vz, roll, roll_rate, pitch, pitch_rate, pw):
+                  acell, cell, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
+                  M3, M1, C1, M2, C2, K, kidx, hist, head, z, vz, roll, roll_rate, pitch,
+                  pitch_rate, pw):
     """``n_sub`` sub-steps of ``dt`` [s] from ``t0`` of heave and the two principal slopes of
     every free element, each mode with its memory force ``mu = dt Σ_j w_j K_j x'_{n-j}``
     (velocity Verlet as ``siku_plugins.floating.kernels.advance``; ``mu`` explicit in the
     first half kick, its ``K_0`` term implicit in the second). ``K (S, 3, L)`` per shape and
     mode (heave, slope 1, slope 2), ``kidx`` each element's shape; ``hist (n, 3, L)`` the ring
     buffers of the rates, ``hist[i, k, head]`` the latest. ``pw`` [W m-2] receives the memory
-    force's power per area averaged over the sub-steps (trapezoid of ``mu x'``)."""
+    force's power per area averaged over the sub-steps (trapezoid of ``mu x'``). Element ``i``
+    feels the amplitudes ``acell[cell[i]]`` [m] (``kernels.advance``)."""
     L = K.shape[2]
-    natt = amp.shape[0]
+    natt = kx.shape[0]
     wave = natt > 0
     c0 = math.cos(lat0)
     att = np.empty(natt)
@@ -146,6 +148,7 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
             att[j] = _attenuation(kk[j], d, depth)
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
+        amp = acell[cell[i]]
         f, g1, g2 = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky,
                             om, ph, att, kap, ramp, ext)
         c = cphi[i]

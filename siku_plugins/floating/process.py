@@ -32,9 +32,11 @@ field of the scene's first ``[[forcing]]`` table that has one (``linear_wave``, 
 ``wave = "none"``: still water): ``eta_d = sum a_j att_j cos(psi_j)``, ``att_j = e^{-k_j d}``
 in deep water, ``cosh(k_j (H - d)) / cosh(k_j H)`` in water of depth ``H``, integrated over the
 element's bottom by quadrature (``siku_plugins.floating.geometry``; by default as fine as the
-shortest wave needs) at its present horizontal position. ``wave = "exchange"``: a coupled
-model's elevation and dynamic pressure through the BMI (``siku_plugins.floating.coupled``).
-Side-wall pressures and diffraction are not included (the wave's load is Froude–Krylov only).
+shortest wave needs) at its present horizontal position; in a ``spectral`` field (a sea the
+ice damps) ``a_j = sqrt(2 E_j)`` of the cell of the element's centre (:meth:`Floating._local`).
+``wave = "exchange"``: a coupled model's elevation and dynamic pressure through the BMI
+(``siku_plugins.floating.coupled``). Side-wall pressures and diffraction are not included (the
+wave's load is Froude–Krylov only).
 
 Added mass and damping: with ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
 ``A_k = added_inertia rho_w A^{1/2} J_k`` and the damping as a fraction of critical, ``B33 = 2
@@ -83,7 +85,7 @@ from .kernels import advance, pack
 
 #: one element's load and sub-step [ns, one thread]: its chunks (``siku_core.parallel.chunks``)
 FLOAT_NS = 150.0
-_NO_EXT, _NO_KAP = np.zeros((0, 3)), np.zeros((0, 0, 3, 2))
+_NO_EXT, _NO_KAP, _NO_AMP = np.zeros((0, 3)), np.zeros((0, 0, 3, 2)), np.zeros(0)
 
 FIELDS = (
     ElementField("heave", "m", "rise of the element's centre of mass above its floating "
@@ -287,7 +289,7 @@ class Floating(Process):
             self.memory.n_sub, self.memory.dt_p = n_sub, dt_p
             self._periods()
         self._floats, self._loaded = bool(self.free.any()), bool(self.load.any())
-        self._pack = None
+        self._pack = self._uniform = None
         # the start: every free element at the scene's initial heave and tilts
         f = ctx.fields
         for key in ("heave", "roll", "pitch"):
@@ -367,6 +369,11 @@ class Floating(Process):
                                   f"forcing[{k}].field")
             if not hasattr(field, "components") or not hasattr(field, "plane"):
                 continue
+            if getattr(field, "local_sea", False):
+                # a sea that evolves (``spectral``): the forcing's own instance, whose spectrum
+                # the run advances, so the elements float in the sea their cells hold now
+                self.field = ctx.forcing_field(k)
+                return
             field.setup(ctx)
             self.field = field
             return
@@ -409,10 +416,11 @@ class Floating(Process):
             wave = self._wave_args(ctx)
             advance_modes(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *self._geo(),
                           self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv,
-                          self.qw, *wave, self.rho_g, self.draft, self.h, self.area, self.M3,
-                          self.M1, self.C1, self.M2, self.C2, mem.K, mem.kidx, mem.hist,
-                          mem.head, f["heave"], f["heave_rate"], f["roll"], f["roll_rate"],
-                          f["pitch"], f["pitch_rate"], f["wave_radiated_power"])
+                          self.qw, *self._local(ctx), *wave[1:], self.rho_g, self.draft,
+                          self.h, self.area, self.M3, self.M1, self.C1, self.M2, self.C2,
+                          mem.K, mem.kidx, mem.hist, mem.head, f["heave"], f["heave_rate"],
+                          f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"],
+                          f["wave_radiated_power"])
             mem.head = (mem.head + n_sub) % mem.K.shape[2]
             return
         work = FLOAT_NS * (n_sub + 1)     # per element; below PARALLEL_MIN: one chunk
@@ -421,22 +429,37 @@ class Floating(Process):
         if packed is None or (self.field is not None and packed[0] is not self.field.amp):
             packed = self._pack = self._packed(ctx)
         advance(nch, n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *packed[1],
-                self.exchange_load(ctx), f["heave"], f["heave_rate"], f["roll"],
-                f["roll_rate"], f["pitch"], f["pitch_rate"], f["wave_radiated_power"])
+                *self._local(ctx), packed[2], self.exchange_load(ctx), f["heave"],
+                f["heave_rate"], f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"],
+                f["wave_radiated_power"])
 
     def _geo(self) -> tuple:
         fld = self.field
         return (fld.lat0, fld.lon0, float(fld.radius)) if fld is not None else (0.0, 0.0, 1.0)
 
     def _packed(self, ctx) -> tuple:
-        """``(amp, (par, ..., wv, kap))``: ``kernels.advance``'s arguments that do not change
+        """``(amp, (par, ..., wv), kap)``: ``kernels.advance``'s arguments that do not change
         between steps (``kernels.pack``; built again should the field rebuild its ``amp``)."""
         wave = self._wave_args(ctx)
         args = pack(*self._geo(), wave[6], wave[8], self.rho_g, self.cphi, self.sphi, self.draft,
                     self.h, self.area, self.M3, self.B3, self.M1, self.C1, self.B1, self.M2,
                     self.C2, self.B2, self.qoff, self.lattice, self.qu, self.qv, self.qw,
                     *wave[:6])
-        return wave[0], args + (wave[7],)
+        return wave[0], args, wave[7]
+
+    def _local(self, ctx) -> tuple:
+        """``(acell (C, M) [m], cell (n,))``, the amplitudes the kernels load element ``i``
+        with, ``acell[cell[i]]``: a ``spectral`` field's ``sqrt(2 E_j)`` per cell and the cells
+        of the centres now (as its forces and breaking check use); else the incident ``amp``."""
+        fld = self.field
+        if fld is not None and getattr(fld, "local_sea", False):
+            return fld._amplitudes()[0], fld.element_cells(ctx.state.q)
+        uni = self._uniform
+        amp = fld._args()[3] if fld is not None else _NO_AMP
+        if uni is None or uni[1].shape[0] != ctx.state.n or uni[2] is not amp:
+            uni = self._uniform = (np.ascontiguousarray(amp, dtype=float).reshape(1, -1).copy(),
+                                   np.zeros(ctx.state.n, dtype=np.int64), amp)
+        return uni[0], uni[1]
 
     def _wave_args(self, ctx) -> tuple:
         """The kernels' arguments of the wave (``amp`` to ``ext``)."""

@@ -79,9 +79,10 @@ class Steady:
 
         fld = proc.field
         if (fld is None or len(fld.amp) != 1 or proc.beams is None or proc.memory is not None
-                or proc.kap.shape[0]):
+                or proc.kap.shape[0] or getattr(fld, "local_sea", False)):
             raise ValueError("Steady needs a floating process with bending = true, constant "
-                             "coefficients, no diffraction and a one-component wave field")
+                             "coefficients, no diffraction and a uniform one-component wave "
+                             "field (not a spectral sea that the ice damps)")
         st = ctx.state
         n = st.n
         lat, lon, e0, e1 = centres_and_frames(st.q)
