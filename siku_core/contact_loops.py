@@ -313,9 +313,9 @@ def _collision_chunk(pars, rm, V, w, meff, h, E, area, offsets, verts, pairs, R,
     :func:`_collision_block`); ``chist``, ``commit``, ``hrow``: the per-contact history
     (``CHIST``), whether it changes, the task's row buffer; ``widths``: the contact widths
     [m] of the overlapping pairs (empty: not kept); ``chint``: the pairs' crossing edges for
-    the coherent clip (``geometry.coherent``; empty: the clip in full). One compiled loop on purpose: the
-    geometry, the pretest and the block hand-off share the task's buffers, and a split would
-    cost calls in the hot loop."""
+    the coherent clip (``geometry.coherent``; empty: the clip in full). One compiled loop on
+    purpose: the geometry, the pretest and the block hand-off share the task's buffers, and a
+    split would cost calls in the hot loop."""
     inv_r = 1.0 / R
     no = 0
     nb = 0

@@ -167,14 +167,9 @@ class ContactModel(JointBook):
         hit = sk[at] == pk
         return hit, order[at[hit]]
 
-    def _hinted(self) -> tuple[np.ndarray, np.ndarray]:
-        """Ordered pairs ``(i, j)`` with a coherent-clip hint, and their hints (copies)."""
-        on = self.clip_hint >= 0
-        return self.pairs[on], self.clip_hint[on].copy()
-
     def _carry_hints(self, pairs: np.ndarray, hints: np.ndarray) -> None:
-        """Give the current candidates the coherent-clip hints of the same ordered pairs before
-        a rebuild (a hint is only a guess that the clip checks: one lost costs a full clip)."""
+        """The coherent clip's ``hints`` of ordered ``pairs`` to the same pairs in the new list
+        (only a guess that the clip checks: one lost costs a full clip)."""
         if len(self.clip_hint):
             n = self.state.n
             hit, src = self._match(pairs[:, 0] * n + pairs[:, 1],
@@ -226,7 +221,7 @@ class ContactModel(JointBook):
         if self.n_contact_hist:
             kept = self._chist_pending or self._contact_rows()
             self._chist_pending = None
-        hinted = self._hinted()
+        hinted = self.pairs[self.clip_hint >= 0], self.clip_hint[self.clip_hint >= 0]
         pairs = np.asarray(self.broad.pairs(c, self.radii, self.skip), dtype=np.int64)
         if self.gone is not None and len(pairs):  # melted elements touch nothing
             pairs = pairs[~(self.gone[pairs[:, 0]] | self.gone[pairs[:, 1]])]

@@ -13,19 +13,22 @@ computes ``X`` and ``Y`` and that polygon, and checks that it is the overlap; it
 (:func:`~siku_core.geometry.clip.overlap_inline`) and reads the new crossing edges from its
 result (:func:`crossing_edges`).
 
-The check (``K = COH_K`` times the clip's tolerance ``tol``, ``|e|`` an edge's length): ``P``'s
-edge ``a`` goes from outside ``Q``'s line ``b`` to inside it and ``c`` from inside ``d`` to
-outside (strict signs); ``X`` lies more than ``K tol`` inside every line of ``Q`` but ``b``
-and of ``P`` but ``a``, ``Y`` likewise but ``d`` and ``c``; every vertex of ``P``'s chain lies
-more than ``K tol`` inside every line of ``Q`` and every vertex of ``Q``'s chain inside every
-line of ``P``; consecutive chain vertices are more than ``K tol`` apart; the area exceeds twice
-the clip's touching area. Then (exact arithmetic) ``P``'s boundary from ``X`` to ``Y`` lies in
-``Q`` and ``Q``'s from ``Y`` to ``X`` in ``P`` (convexity), so the two arcs are the whole
-boundary of the overlap; and none of the clip's tolerance rules can act: no two of the
-polygon's vertices lie within ``tol`` (each is ``K tol`` from the lines its neighbours lie on),
-no edge lies within ``tol`` of a line of the other polygon (one end of each is ``K tol`` from
-every such line but its own), so the clip's polygon is this one (to round-off), its boundary
-classes change exactly at ``X`` and ``Y`` and ``ncross = 2``.
+The check (``K = COH_K`` times the clip's tolerance ``tol``): ``P``'s edge ``a`` goes from
+outside ``Q``'s line ``b`` to inside it and ``c`` from inside ``d`` to outside (strict signs),
+which puts ``X`` and ``Y`` inside ``P``'s edges; ``X`` lies more than ``K tol`` inside every line
+of ``Q`` but ``b``, ``Y`` every one but ``d``; every vertex of ``P``'s chain lies more than ``K
+tol`` inside every line of ``Q``, every vertex of ``Q``'s chain inside every line of ``P``, and
+consecutive chain vertices are more than ``K tol`` apart; where ``Q``'s chain is empty (the
+edge ``Y → X`` lies on ``Q``'s line ``b``) ``X`` and ``Y`` also lie that far inside every line
+of ``P`` but their own; the area exceeds twice the clip's touching area. Then (exact
+arithmetic) ``X`` and ``Y`` are points of both boundaries, ``P``'s boundary from ``X`` to ``Y``
+lies in ``Q`` and ``Q``'s from ``Y`` to ``X`` in ``P`` (convexity), and the two arcs, both
+counter-clockwise, are the whole boundary of the overlap. None of the clip's tolerance rules
+can act: every edge of the polygon has an end more than ``K tol`` from each line of the other
+polygon that it does not lie on (so no edge is "shared" and no two neighbours merge), so the
+clip's polygon is this one to round-off, its boundary classes change exactly at ``X`` and
+``Y``, and ``ncross = 2``. ``tests/contacts/test_coherent_clip.py`` tries every possible hint
+of fuzzed pairs: each one the check accepts gives the clip's overlap.
 
 What differs from the full clip: round-off only. The clip computes a crossing on an edge of its
 working polygon that earlier passes may already have cut (``X`` from a cut end instead of the

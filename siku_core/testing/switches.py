@@ -13,5 +13,6 @@ pretest = True
 face_path = True
 #: clip each overlapping pair from the edges its boundaries crossed at the last evaluation
 #: (``geometry.coherent``: the same results to round-off) instead of in full; read when the
-#: candidate list is indexed. Off: measured slower or not worth its round-off (bench/RESULTS.md)
+#: candidate list is indexed. Off until measured on an idle machine; restarts would differ at
+#: round-off (the hints are not in the restart file): bench/RESULTS.md
 coherent_clip = False
