@@ -176,6 +176,9 @@ def _requires(n: int, steps: int) -> dict:
 
 
 def _worker(args: argparse.Namespace) -> None:
+    if os.environ.get("SIKU_BENCH_COHERENT") == "1":  # --coherent
+        from siku_core.testing import switches
+        switches.coherent_clip = True
     if args.worker == "requires":
         print(json.dumps(_requires(args.sizes[0], args.steps)))
         return
@@ -358,6 +361,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-floor", action="store_true",
                     help="skip the planar C floor (bench/floor.c; needs a C compiler)")
     ap.add_argument("--json", help="also write the raw results to this file")
+    ap.add_argument("--coherent", action="store_true",
+                    help="the coherent clip (siku_core.geometry.coherent; off by default)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.quick:
@@ -380,6 +385,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         args.threads = [t for t in args.threads if t <= avail] or [1]
     env = dict(os.environ)
+    env["SIKU_BENCH_COHERENT"] = "1" if args.coherent else "0"
     tmp = None
     if args.cold:
         tmp = tempfile.TemporaryDirectory(prefix="siku-bench-")

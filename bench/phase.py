@@ -15,6 +15,7 @@ modes"), so kernel changes are compared over several processes, not one.
 
     python -m bench.phase bonded --law mohr_coulomb --reps 60
     python -m bench.phase collision --processes 6
+    python -m bench.phase collision --coherent     # the coherent clip (geometry.coherent)
 """
 from __future__ import annotations
 
@@ -41,8 +42,11 @@ def _best(fn, reps: int) -> tuple[float, object]:
     return best, res
 
 
-def measure(kind: str, n: int, law: str | None, spinup: int, reps: int) -> dict:
-    """Best seconds of one call of each contact phase on ``kind`` after ``spinup`` steps."""
+def measure(kind: str, n: int, law: str | None, spinup: int, reps: int,
+            coherent: bool = False) -> dict:
+    """Best seconds of one call of each contact phase on ``kind`` after ``spinup`` steps
+    (``coherent``: with the coherent clip, ``switches.coherent_clip``, from the spin-up on)."""
+    switches.coherent_clip = coherent
     sim = Simulation(scene(kind, n, law), out=False)
     for _ in range(spinup):
         sim.step()
@@ -56,7 +60,7 @@ def measure(kind: str, n: int, law: str | None, spinup: int, reps: int) -> dict:
             cm._cev, cm._cpars, cm.rm, st.V, st.w, cm.minv, st.thickness, cm.E, st.area,
             st.vert_offsets, st.verts, pairs, sim.radius, cm.nmax, switches.pretest, cm.pair_rows,
             cm.pair_active, chunks(len(pairs)), cm.margin, cm.separating_hint, cm.drop_touching,
-            cm.pface, cm.scale, cm.edges)
+            cm.pface, cm.scale, cm.edges, chint=cm.clip_hint if len(cm.clip_hint) else None)
 
     def joints():
         return joint_forces(
@@ -92,6 +96,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--spinup", type=int, default=20, help="steps before timing")
     ap.add_argument("--reps", type=int, default=40, help="calls per phase (best kept)")
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--coherent", action="store_true",
+                    help="the coherent clip (siku_core.geometry.coherent)")
     ap.add_argument("--processes", type=int, default=1,
                     help="fresh processes, each printing its own best")
     a = ap.parse_args(argv)
@@ -104,6 +110,8 @@ def main(argv: list[str] | None = None) -> int:
                 "--spinup", str(a.spinup), "--reps", str(a.reps), "--threads", str(a.threads)]
         if a.law:
             args += ["--law", a.law]
+        if a.coherent:
+            args.append("--coherent")
         for _ in range(a.processes):
             rc = subprocess.run(args).returncode
             if rc:
@@ -111,11 +119,11 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     numba.set_num_threads(min(a.threads, numba.config.NUMBA_NUM_THREADS))
     try:
-        r = measure(a.kind, a.elements, a.law, a.spinup, a.reps)
+        r = measure(a.kind, a.elements, a.law, a.spinup, a.reps, a.coherent)
     except ValueError as exc:
         print(exc, file=sys.stderr)
         return 2
-    print(report(a.kind, a.law, r), flush=True)
+    print(report(a.kind, a.law, r) + (" [coherent clip]" if a.coherent else ""), flush=True)
     return 0
 
 

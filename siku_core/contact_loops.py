@@ -69,6 +69,7 @@ from siku_core.contact_law import (
     J_W,
 )
 from siku_core.geometry.clip import REL_TOL, make_overlap_scratch, overlap_inline, separating_edge
+from siku_core.geometry.coherent import overlap_coherent
 from siku_core.geometry.face import touching_face_u
 from siku_core.ice_follow import joints_from
 from siku_core.parallel import chunk_bounds, claim
@@ -225,7 +226,7 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
 @njit(parallel=True, cache=CACHE)
 def _collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                       nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges,
-                      chist, commit, caps):
+                      chist, commit, caps, chint):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -246,7 +247,7 @@ def _collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R
             counts[c] = _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, active, lo, hi, xy, tag,
                                          proj, g, res, margin, hint, drop, face, scale, blk,
-                                         edges, chist, commit, hrow, caps)
+                                         edges, chist, commit, hrow, caps, chint)
     return counts.sum()
 
 
@@ -313,15 +314,16 @@ def _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res
 @njit(cache=CACHE, _nrt=NRT)
 def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      pretest, out, active, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
-                     scale, blk, edges, chist, commit, hrow, caps):
+                     scale, blk, edges, chist, commit, hrow, caps, chint):
     """Pairs ``lo <= k < hi`` of :func:`~siku_core.contacts.collision_forces`; returns how
     many overlap. ``xy``, ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers
     (clipping, partner vertices, geometry, result, a block of overlaps waiting for
     :func:`_collision_block`); ``chist``, ``commit``, ``hrow``: the per-contact history
     (``CHIST``), whether it changes, the task's row buffer; ``caps``: per pair, whether the
-    law capped its normal force (empty: not kept). One compiled loop on purpose: the
-    geometry, the pretest and the block hand-off share the task's buffers, and a split would
-    cost calls in the hot loop."""
+    law capped its normal force (empty: not kept); ``chint``: the pairs' crossing edges for
+    the coherent clip (``geometry.coherent``; empty: the clip in full). One compiled loop on
+    purpose: the geometry, the pretest and the block hand-off share the task's buffers, and a
+    split would cost calls in the hot loop."""
     inv_r = 1.0 / R
     no = 0
     nb = 0
@@ -376,8 +378,12 @@ def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                     hint[k] = e
                     continue
             c2x, c2y = j_to_i(M, 0.0, 0.0, R, inv_r)
-            a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(pi, pj, xy, tag, c2x,
-                                                                           c2y, drop)
+            if chint.shape[0]:
+                a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_coherent(
+                    pi, pj, xy, tag, c2x, c2y, drop, chint, k)
+            else:
+                a, cx, cy, ncross, p1x, p1y, p2x, p2y, nx, ny = overlap_inline(
+                    pi, pj, xy, tag, c2x, c2y, drop)
             if a <= 0.0:
                 if ncross < 0:
                     active[k] = 2  # touching, dropped: no force; no separating-axis test next time

@@ -31,6 +31,7 @@ from .contact_law import (
 from .contacts import collision_forces, gather_forces, joint_forces
 from .errors import SceneError
 from .geometry.clip import REL_TOL
+from .geometry.coherent import NO_HINT
 from .geometry.face import edge_table
 from .geometry.quat import centers
 from .ice_follow import follow_contacts
@@ -129,6 +130,9 @@ class ContactModel(JointBook):
         self.pair_rows = np.zeros((len(p), ROW_SIZE))
         self.pair_active = np.zeros(len(p), dtype=np.int8)
         self.separating_hint = np.zeros(len(p), dtype=np.int16)
+        #: per candidate pair: the edges its overlap's boundaries crossed at last (the coherent
+        #: clip, ``geometry.coherent``; empty while ``switches.coherent_clip`` is off)
+        self.clip_hint = np.full(len(p) if switches.coherent_clip else 0, NO_HINT, np.int32)
         self.poff, self.pidx, self.pside = element_index(
             np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), n)
         self.pface = self._faces(p)
@@ -145,15 +149,29 @@ class ContactModel(JointBook):
         """Give the current candidates in contact the history ``rows`` of the pairs with keys
         ``keys`` (:meth:`_keys`, those in contact before a rebuild, or restored): a pair keeps
         its row while it stays a candidate, whatever its place in the list."""
-        if not len(keys) or not len(self.pairs):
-            return
+        hit, src = self._match(keys, self._keys(self.pairs[:, 0], self.pairs[:, 1]))
+        self.chist[hit] = rows[src]
+        self.pair_contact[hit] = True
+
+    @staticmethod
+    def _match(keys: np.ndarray, pk: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Which of the keys ``pk`` are among ``keys`` (mask), and where (indices into it)."""
+        if not len(keys) or not len(pk):
+            return np.zeros(len(pk), bool), np.zeros(0, np.int64)
         order = np.argsort(keys, kind="stable")
         sk = keys[order]
-        pk = self._keys(self.pairs[:, 0], self.pairs[:, 1])
         at = np.minimum(np.searchsorted(sk, pk), len(sk) - 1)
         hit = sk[at] == pk
-        self.chist[hit] = rows[order[at[hit]]]
-        self.pair_contact[hit] = True
+        return hit, order[at[hit]]
+
+    def _carry_hints(self, pairs: np.ndarray, hints: np.ndarray) -> None:
+        """The coherent clip's ``hints`` of ordered ``pairs`` to the same pairs in the new list
+        (only a guess that the clip checks: one lost costs a full clip)."""
+        if len(self.clip_hint):
+            n = self.state.n
+            hit, src = self._match(pairs[:, 0] * n + pairs[:, 1],
+                                   self.pairs[:, 0] * n + self.pairs[:, 1])
+            self.clip_hint[hit] = hints[src]
 
     def _contact_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """Keys and history rows of the candidates in contact (copies)."""
@@ -200,6 +218,7 @@ class ContactModel(JointBook):
         if self.n_contact_hist:
             kept = self._chist_pending or self._contact_rows()
             self._chist_pending = None
+        hinted = self.pairs[self.clip_hint >= 0], self.clip_hint[self.clip_hint >= 0]
         pairs = np.asarray(self.broad.pairs(c, self.radii, self.skip), dtype=np.int64)
         if self.gone is not None and len(pairs):  # melted elements touch nothing
             pairs = pairs[~(self.gone[pairs[:, 0]] | self.gone[pairs[:, 1]])]
@@ -210,6 +229,7 @@ class ContactModel(JointBook):
         self._set_pair_index()
         if self.n_contact_hist:
             self._carry_contact_history(*kept)
+        self._carry_hints(*hinted)
         self._ref_centers = c
         self.rebuilds += 1
         return self.pairs
@@ -237,6 +257,7 @@ class ContactModel(JointBook):
         where[order] = np.arange(len(order))
         old = where[:len(keys)]
         rows, active, hint = self.pair_rows, self.pair_active, self.separating_hint
+        chint = self.clip_hint
         chist, contact, caps = self.chist, self.pair_contact, self.pair_capped
         self.pairs = np.ascontiguousarray(every[order])
         self._set_pair_index()
@@ -245,6 +266,8 @@ class ContactModel(JointBook):
         self.separating_hint[old] = hint
         if self.caps_kept:
             self.pair_capped[old] = caps
+        if len(self.clip_hint):
+            self.clip_hint[old] = chint
         if self.n_contact_hist:
             self.chist[old] = chist
             self.pair_contact[old] = contact
@@ -281,6 +304,7 @@ class ContactModel(JointBook):
                 self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
                 self.chist if self.n_contact_hist else None, commit,
                 self.pair_capped if self.caps_kept else None,
+                self.clip_hint if len(self.clip_hint) else None,
             )
             if commit:
                 self.n_overlap = n

@@ -54,7 +54,8 @@ _NO_FRESH = np.zeros(0)
 
 def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, active, nch, margin=None, hint=None, drop=False, face=None,
-                     scale=None, edges=None, chist=None, commit=False, caps=None):
+                     scale=None, edges=None, chist=None, commit=False, caps=None,
+                     chint=None):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
     :func:`~siku_core.geometry.clip.separating_edge` finds an edge line that separates or touches
     them) and evaluate the overlapping ones into ``out[k]`` with ``active[k] = 1`` (``0`` for the
@@ -82,7 +83,10 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     left as they are: the caller drops them, ``ContactModel``); ``caps`` (per pair, int8;
     ``None``: not kept): 1 where the evaluator capped the normal force (its ``out[3]``, the
     ``ridging`` law's plastic limit), else 0, written where ``active[k] = 1`` (others keep what
-    they held).
+    they held); ``chint`` (per pair, int32, updated;
+    ``None``: off): the crossing edges each pair's overlap had last, from which the coherent
+    clip (:func:`~siku_core.geometry.coherent.overlap_coherent`) computes it again (the same
+    results to round-off; where its check fails, the full clip bit for bit).
     """
     if margin is None:
         margin = np.zeros(offsets.shape[0] - 1)
@@ -99,10 +103,12 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     history = chist is not None
     if not history:
         chist = _NO_HISTORY
+    if chint is None:
+        chint = _NO_HINTS
     loops = instantiate(contact_loops, evaluate, history)
     return loops._collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                                    nmax, pretest, out, active, nch, tasks(nch), margin, hint, drop,
-                                   face, scale, edges, chist, bool(commit), caps)
+                                   face, scale, edges, chist, bool(commit), caps, chint)
 
 
 #: what the collision loop gets for ``chist`` under a law without per-contact history (the
@@ -110,6 +116,8 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
 _NO_HISTORY = np.zeros((0, 0))
 #: ... and for ``caps`` when no component keeps them
 _NO_CAPS = np.zeros(0, dtype=np.int8)
+#: ... and for ``chint`` without the coherent clip
+_NO_HINTS = np.zeros(0, dtype=np.int32)
 
 
 def gather_forces(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside, pout,

@@ -11,3 +11,8 @@ pretest = True
 #: instead of clipping it; off only to measure what that changes (read when the candidate
 #: list is indexed)
 face_path = True
+#: clip each overlapping pair from the edges its boundaries crossed at the last evaluation
+#: (``geometry.coherent``: the same results to round-off) instead of in full; read when the
+#: candidate list is indexed. Off until measured on an idle machine; restarts would differ at
+#: round-off (the hints are not in the restart file): bench/RESULTS.md
+coherent_clip = False
