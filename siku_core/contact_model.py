@@ -5,7 +5,6 @@ which :class:`ContactModel` extends.
 """
 from __future__ import annotations
 
-import math
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -407,43 +406,11 @@ class ContactModel(JointBook):
 
     # ------------------------------------------------------------------ stability, history
     def stiffness_bound(self) -> tuple[float, int]:
-        """Largest ``omega`` [rad/s] by a Gershgorin bound over each element's contacts.
+        """Largest ``omega`` [rad/s] and its element, by a Gershgorin bound over each element's
+        contacts (:func:`siku_core.stable_step.gershgorin_bound`)."""
+        from .stable_step import gershgorin_bound
 
-        Per element: joints contribute ``K w`` (translation) and ``K w (r² + w²/12)`` (rotation),
-        edges without a joint a collision budget of ``h E`` each. ``omega² <= 2 k_sum / m`` and
-        ``2 k_rot / I``. Returns ``(omega_max, element)``.
-        """
-        st = self.state
-        n = st.n
-        ktr = np.zeros(n)
-        krot = np.zeros(n)
-        njoint = np.zeros(n)
-        if self.n_joints and self.law.uses_joints:
-            mid_i = 0.5 * (self.ends_i[:, 0] + self.ends_i[:, 1])
-            mid_j = 0.5 * (self.ends_j[:, 0] + self.ends_j[:, 1])
-            ri = np.hypot(*mid_i.T)
-            rj = np.hypot(*mid_j.T)
-            hi, hj = st.thickness[self.ji], st.thickness[self.jj]
-            Ei, Ej = self.E[self.ji], self.E[self.jj]
-            K = hi * Ei * hj * Ej / (hi * Ei * rj + hj * Ej * ri)
-            k = K * self.width * self.law.stiffness_factor()
-            np.add.at(ktr, self.ji, k)
-            np.add.at(ktr, self.jj, k)
-            np.add.at(krot, self.ji, k * (ri**2 + self.width**2 / 12))
-            np.add.at(krot, self.jj, k * (rj**2 + self.width**2 / 12))
-            np.add.at(njoint, self.ji, 1)
-            np.add.at(njoint, self.jj, 1)
-        nedge = np.diff(st.vert_offsets)
-        free_edges = np.maximum(nedge - njoint, 0)
-        kc = free_edges * st.thickness * self.E
-        ktr += kc
-        krot += kc * st.radius**2
-        free = st.flags == FREE
-        if not free.any():
-            return 0.0, -1
-        om2 = np.where(free, np.maximum(2 * ktr / st.m, 2 * krot / st.I), 0.0)
-        i = int(np.argmax(om2))
-        return math.sqrt(om2[i]), i
+        return gershgorin_bound(self)
 
     def stability_limit(self, ctx) -> tuple[float, str] | None:
         """The smaller of two estimates of the contact phase's stable step: ``2 / omega`` of

@@ -12,8 +12,8 @@ of the template with the binding fixed: it renders :data:`HEADER` (a :class:`str
 that imports the evaluator and sets the options) above the template's source, unchanged, writes
 the result once to the user's cache directory and imports it; numba then caches its loops like
 any other module's. The file name carries a hash of that text, of the evaluator's module
-source, of the sources of the ``siku_core`` modules whose compiled functions the template
-calls, and of the siku version, so editing any of them produces a fresh module. Nothing reads a
+source, of the sources of the modules whose compiled functions the template or the evaluator's
+module call (followed through those modules in turn), and of the siku version, so editing any of them produces a fresh module. Nothing reads a
 function's source text: the only source used is the template module's file, as it is.
 
 Where no file can serve (an evaluator that its module does not hold under its name: a closure,
@@ -114,14 +114,24 @@ evaluate = without_nrt(evaluate)  # the same function, compiled without referenc
 NRT = False"""
 
 
-def _dependencies(template: types.ModuleType) -> list[str]:
-    """The template module and the ``siku_core`` modules it imports compiled code from (the
-    numba geometry kernels), whose source the cache key must include."""
-    out = {template.__name__}
-    for v in vars(template).values():
-        m = getattr(getattr(v, "py_func", None), "__module__", None)
-        if m and m.startswith("siku_core"):
-            out.add(m)
+def _dependencies(*roots: types.ModuleType) -> list[str]:
+    """The modules ``roots`` and every module they import compiled code from, followed
+    through those modules in turn (the numba geometry kernels of ``siku_core``; a law's
+    evaluator that calls another law's force function): the cache key must include their
+    source, since numba's cache of a function does not see changes in the functions it calls
+    (a law whose evaluator calls ``collision_force`` of another module: that module's change
+    must make a fresh instance)."""
+    out: set[str] = set()
+    todo = [r.__name__ for r in roots]
+    while todo:
+        name = todo.pop()
+        if name in out or name not in sys.modules:
+            continue
+        out.add(name)
+        for v in vars(sys.modules[name]).values():
+            m = getattr(getattr(v, "py_func", None), "__module__", None)
+            if m and m not in out and not m.startswith("numba"):
+                todo.append(m)
     return sorted(out)
 
 
@@ -229,7 +239,8 @@ def _generated(template: types.ModuleType, evaluator: Any, free: Any,
         tsrc = Path(template.__file__).read_text()
         esrc = inspect.getsource(sys.modules[emod])
         # numba's cache does not see changes in the functions a loop calls: hash them too
-        dsrc = "".join(inspect.getsource(sys.modules[m]) for m in _dependencies(template))
+        dsrc = "".join(inspect.getsource(sys.modules[m])
+                       for m in _dependencies(template, sys.modules[emod]))
     except (OSError, TypeError, KeyError):
         return None
     header = HEADER.substitute(

@@ -165,3 +165,19 @@ def test_an_evaluator_not_importable_by_name_gets_the_generic_instance(fresh_cac
     for a, b in zip(*states):
         assert np.array_equal(a, b)
     assert not states[0][2].all()
+
+
+def test_the_key_follows_the_modules_an_evaluator_calls_into():
+    """The ridging law's evaluator calls ``collision_force`` of the collision law's module:
+    that module's source is in the key (a change there once left a cached loop running the
+    old force function, whose cap flag the ridging process never saw), and so are the
+    geometry kernels the template calls, followed through the modules that call them."""
+    import sys
+
+    from siku_plugins.contact_laws import ridging
+
+    deps = kernel_cache._dependencies(contact_loops, sys.modules[ridging.__name__])
+    assert "siku_plugins.contact_laws.collision" in deps
+    assert "siku_plugins.contact_laws.ridging" in deps
+    assert "siku_core.geometry.clip" in deps
+    assert not any(m.startswith("numba") for m in deps)
