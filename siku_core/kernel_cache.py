@@ -13,7 +13,8 @@ that imports the evaluator and sets the options) above the template's source, un
 the result once to the user's cache directory and imports it; numba then caches its loops like
 any other module's. The file name carries a hash of that text, of the evaluator's module
 source, of the sources of the modules whose compiled functions the template or the evaluator's
-module call (followed through those modules in turn), and of the siku version, so editing any of them produces a fresh module. Nothing reads a
+module call (followed through those modules in turn), and of the siku version, so editing
+any of them produces a fresh module. Nothing reads a
 function's source text: the only source used is the template module's file, as it is.
 
 Where no file can serve (an evaluator that its module does not hold under its name: a closure,
