@@ -325,3 +325,26 @@ def apply_coupled(proc, ctx, dt: float) -> None:
     if bm is not None:
         if bm.break_overstressed(proc, u, proc.p["flexural_strength"], ctx.time):
             proc.period_min = min(proc.period_min, bm.period_min)
+
+
+def shortest_period(proc) -> float:
+    """Shortest natural period [s] of any free element's heave, roll and pitch modes of the
+    floating process ``proc`` and of its beams (``inf`` without a free element)."""
+    free = proc.free
+    out = math.inf
+    if free.any():
+        w2 = np.concatenate([(proc.C3 / proc.M3)[free], (proc.C1 / proc.M1)[free],
+                             (proc.C2 / proc.M2)[free]])
+        out = float(2 * math.pi / math.sqrt(w2.max()))
+    if getattr(proc, "beams", None) is not None:
+        out = min(out, proc.beams.period_min)
+    return out
+
+
+def joint_stresses(proc, f) -> np.ndarray:
+    """Bending stress [Pa] at every joint line of the floating process ``proc`` from its
+    per-element fields ``f`` (heave, roll, pitch)."""
+    c, s = proc.cphi, proc.sphi
+    sx, sy = -f["pitch"], f["roll"]
+    u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
+    return proc.beams.stress(u)

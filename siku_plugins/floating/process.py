@@ -81,6 +81,7 @@ from siku_core.params import Param
 from siku_core.state import FREE
 
 from .geometry import lattice_arrays, principal, quadrature, second_moments
+from .bending import equilibrium, joint_stresses, shortest_period
 from .kernels import advance, pack
 
 #: one element's load and sub-step [ns, one thread]: its chunks (``siku_core.parallel.chunks``)
@@ -338,16 +339,7 @@ class Floating(Process):
         self._periods()
 
     def _periods(self) -> None:
-        free = self.free
-        if free.any():
-            w2 = np.concatenate([(self.C3 / self.M3)[free], (self.C1 / self.M1)[free],
-                                 (self.C2 / self.M2)[free]])
-            #: shortest natural period of any free element's modes [s]
-            self.period_min = float(2 * math.pi / math.sqrt(w2.max()))
-        else:
-            self.period_min = math.inf
-        if getattr(self, "beams", None) is not None:
-            self.period_min = min(self.period_min, self.beams.period_min)
+        self.period_min = shortest_period(self)
 
     def _wave(self, ctx) -> None:
         """The wave field of the first ``[[forcing]]`` table that has one (module docstring),
@@ -496,17 +488,11 @@ class Floating(Process):
     def equilibrium(self, ctx) -> np.ndarray:
         """The static state ``(n, 3)`` under the scene's ``loads`` in still water
         (``siku_plugins.floating.bending.equilibrium``): what a damped run settles to."""
-        from .bending import equilibrium
-
         return equilibrium(self, ctx.state.n)
 
     def stresses(self, ctx) -> np.ndarray:
         """Bending stress [Pa] at every joint line now (``bending = true``)."""
-        f = ctx.fields
-        c, s = self.cphi, self.sphi
-        sx, sy = -f["pitch"], f["roll"]
-        u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
-        return self.beams.stress(u)
+        return joint_stresses(self, ctx.fields)
 
     def describe(self):
         out = super().describe()
