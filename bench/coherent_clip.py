@@ -25,7 +25,7 @@ import numba
 import numpy as np
 from numba import njit
 
-from bench.clip_variants import _quads
+from bench.clip_variants import _quads, differences
 from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
 from siku_core.geometry.coherent import coherent_overlap, crossing_edges, overlap_coherent
 
@@ -70,15 +70,7 @@ def _compare(Q, C, h, out):
         out[n, :] = 0.0
         if not b[0]:
             continue
-        big = np.abs(Q[n]).max()
-        out[n, 0] = 1.0
-        out[n, 1] = abs(b[1] - e[0]) / e[0]
-        out[n, 2] = max(abs(b[2] - e[1]), abs(b[3] - e[2])) / big
-        same = math.hypot(b[5] - e[4], b[6] - e[5]) + math.hypot(b[7] - e[6], b[8] - e[7])
-        swap = math.hypot(b[5] - e[6], b[6] - e[7]) + math.hypot(b[7] - e[4], b[8] - e[5])
-        out[n, 3] = min(same, swap) / big
-        out[n, 4] = max(abs(b[9] - e[8]), abs(b[10] - e[9]))
-        out[n, 5] = 1.0 if b[4] == e[3] else 0.0
+        differences(b, e, np.abs(Q[n]).max(), out[n])
 
 
 def _best(fn, Q, C, h0, reps=5, rounds=10) -> float:
