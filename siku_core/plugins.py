@@ -37,6 +37,7 @@ import pluggy
 from .errors import PluginError
 from .interfaces import KINDS, Component
 from .params import Param
+from .versions import api_mismatch
 
 hookspec = pluggy.HookspecMarker("siku")
 hookimpl = pluggy.HookimplMarker("siku")
@@ -264,6 +265,8 @@ def check_component(kind: str, cls: Any, package: str) -> None:
         )
     if not cls.name or not isinstance(cls.name, str):
         raise PluginError(f"{kind} class {cls.__qualname__} from '{package}' has no 'name'")
+    if cls.requires_api is not None and (why := api_mismatch(cls.requires_api)):
+        raise PluginError(f"{kind} '{cls.name}' from package '{package}' is refused: {why}")
     for meth, expected in base.required.items():
         fn = getattr(cls, meth, None)
         if fn is None or getattr(fn, "__isabstractmethod__", False):
@@ -337,7 +340,7 @@ def _dist_of(module_name: str, top_map: dict[str, list[str]] | None = None) -> t
     except Exception:  # pragma: no cover - metadata quirks
         pass
     if top in _own_modules():  # siku itself, e.g. run from a source tree without metadata
-        from . import __version__
+        from .versions import __version__
 
         return "siku", __version__
     # not installed (registered with register_module): the package's own __version__, if any
