@@ -11,6 +11,10 @@ every 0.2.x and may go in 0.3.0 at the earliest). Every old place uses one of th
 * a module that moved leaves a shim at its old path, ``moved_module(__name__, "new.path")``,
   which makes the old name the new module itself (``import old`` and ``from old import x`` give
   the new module's objects).
+
+A method whose signature changed warns through :func:`warn_deprecated` where the old form is
+adapted (a contact law's ``joint_parameters(self, sim)``:
+:class:`siku_core.contact_law.ContactLaw`).
 """
 from __future__ import annotations
 
@@ -27,13 +31,18 @@ DEPRECATED_IN = "0.2.0"
 REMOVAL_NOT_BEFORE = "0.3.0"
 
 
-def warn_moved(old: str, new: str, stacklevel: int = 2) -> None:
-    """Warn that ``old`` (a dotted path) is deprecated and lives at ``new`` now; ``stacklevel``
+def warn_deprecated(what: str, instead: str, stacklevel: int = 2) -> None:
+    """Warn that ``what`` is deprecated and say what to write ``instead``; ``stacklevel``
     counts from the caller of this function, as in :func:`warnings.warn`."""
     warnings.warn(
-        f"{old} is deprecated: import it from its new home, {new} (the old path works, with "
-        f"this warning, from siku {DEPRECATED_IN} until {REMOVAL_NOT_BEFORE} at the earliest)",
+        f"{what} is deprecated: {instead} (deprecated in siku {DEPRECATED_IN}; it keeps "
+        f"working, with this warning, until {REMOVAL_NOT_BEFORE} at the earliest)",
         DeprecationWarning, stacklevel=stacklevel + 1)
+
+
+def warn_moved(old: str, new: str, stacklevel: int = 2) -> None:
+    """Warn that ``old`` (a dotted path) is deprecated and lives at ``new`` now."""
+    warn_deprecated(old, f"import it from its new home, {new}", stacklevel + 1)
 
 
 def moved_names(module: str, moves: Mapping[str, str]) -> Callable[[str], Any]:

@@ -371,3 +371,10 @@ KINDS: dict[str, type[Component]] = {
     c.kind: c for c in (Integrator, Field, ForcingSource, BroadPhase, ContactLaw, Writer,
                         ElementSource, Process, AttenuationLaw)
 }
+
+
+#: the base classes of the kinds a plugin provides (docs/reference/api.md)
+__all__ = [
+    "Component", "Integrator", "Field", "ForcingSource", "BroadPhase", "Writer", "Process",
+    "ElementSpec", "ElementSource", "AttenuationLaw", "KINDS",
+]

@@ -1,12 +1,13 @@
 """Every siku name the docs and the examples have ever told authors to import.
 
 Reads every revision of the pages under ``docs`` (the how-to guides among them) and of the files
-under ``examples`` (the example plugin among them) in the git history and collects the ``from siku_... import
-name`` and ``import siku_...`` statements they contain (in code blocks, in prose between
-backticks, across parenthesised continuation lines). Prints one line per import, sorted::
+under ``examples`` (the example plugin among them) in the git history and collects the
+``from siku_... import name`` and ``import siku_...`` statements they contain (in code blocks,
+in prose between backticks, across parenthesised continuation lines). Prints one line per
+import, sorted::
 
     siku_core.contacts J_AX
-    siku_core.testing.conformance -
+    siku_core -
 
 (``-``: the statement imports the module itself). The list is what the deprecation aliases must
 keep importable; tests/test_public_api.py holds its output (``HISTORY``) and checks that the list
