@@ -16,7 +16,8 @@ misbehaves; siku's own test suite skips every plugin installed before it started
 whatever a user has installed). A broken third-party plugin becomes a warning naming its
 package, and an error only when a scene asks for a name it would have provided. The same holds
 for a component that fails the checks made when it registers (its interface, its parameter
-declarations, a contact law's evaluators: :func:`check_component`) and for a name two packages
+declarations, a contact law's evaluators, the plugin API version it ``requires_api``:
+:func:`check_component`) and for a name two packages
 register: a warning, and an error only for a scene that uses that name. Modules registered
 explicitly (:func:`register_module`, ``make_plugin_manager(extra=...)``) and siku's own
 components are held to the same checks, but a fault is an error at once.
@@ -34,6 +35,7 @@ from typing import Any, Mapping
 
 import pluggy
 
+from .deprecation import warn_deprecated
 from .errors import PluginError
 from .interfaces import KINDS, Component
 from .params import Param
@@ -274,6 +276,13 @@ def check_component(kind: str, cls: Any, package: str) -> None:
                 f"{kind} '{cls.name}' from package '{package}' does not implement {meth}()"
             )
         got = [p for p in inspect.signature(fn).parameters if p != "self"]
+        if len(got) == len(expected) and got != list(expected) and all(
+                g == e or (g, e) == ("sim", "ctx") for g, e in zip(got, expected)):
+            # siku 0.1 named the run's context "sim": called positionally, it still works
+            warn_deprecated(f"{kind} '{cls.name}' from package '{package}': {meth}("
+                            f"{', '.join(got)})", f"write {meth}({', '.join(expected)}) (the "
+                            "parameter is the run's context, siku_core.context.Context)")
+            got = list(expected)
         if tuple(got) != tuple(expected):
             for i, (g, e) in enumerate(zip(got, expected)):
                 if g != e:

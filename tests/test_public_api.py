@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib
 import importlib.metadata as md
 import importlib.util
+import inspect
 import os
 import re
 import shutil
@@ -24,8 +25,9 @@ import pytest
 
 import siku_core
 from siku_core import PluginError, hookimpl
-from siku_core.interfaces import ForcingSource
+from siku_core.interfaces import ForcingSource, Process
 from siku_core.params import Param
+from siku_core.plugins import check_component
 from siku_core.simulation import Simulation
 from siku_core.testing import make_scene
 from siku_core.versions import PLUGIN_API_VERSION, api_mismatch
@@ -298,7 +300,7 @@ def test_the_plugin_api_version_is_major_minor_and_exported():
 
 NEEDS_2 = '''
 from siku_core import Param, hookimpl
-from siku_core.interfaces import ForcingSource
+from siku_core.interfaces import ForcingSource, Process
 
 
 class Future(ForcingSource):
@@ -350,3 +352,49 @@ def test_a_component_for_this_plugin_api_registers(siku_register):
     module.siku_register_forcing_sources.__name__ = "siku_register_forcing_sources"
     reg = siku_register(module)
     assert reg.get("forcing", "push_now") is Now
+
+
+def test_a_0_1_method_that_names_the_context_sim_registers_with_a_warning():
+    """siku 0.1's guides named the context ``sim``: ``apply(self, sim, dt)`` is called
+    positionally, so it is accepted, with a DeprecationWarning giving the reference form; any
+    other name is still refused."""
+    class Old(Process):
+        """Does nothing."""
+
+        name = "old_process"
+
+        def apply(self, sim, dt):
+            pass
+
+    with pytest.warns(DeprecationWarning, match=r"apply\(sim, dt\) is deprecated: write "
+                                                r"apply\(ctx, dt\)"):
+        check_component("process", Old, "old-ice")
+
+    class Wrong(Process):
+        """Does nothing."""
+
+        name = "wrong_process"
+
+        def apply(self, state, dt):
+            pass
+
+    with pytest.raises(PluginError, match="parameter 1 is 'state', expected 'ctx'"):
+        check_component("process", Wrong, "old-ice")
+
+
+def test_a_0_1_joint_parameters_with_sim_is_adapted_with_a_warning():
+    """A law defining joint_parameters(self, sim) (the 0.1 guides) is adapted to the reference
+    form joint_parameters(self), called with sim=None, warning when the class is defined."""
+    from siku_core.contact_law import ContactLaw
+
+    with pytest.warns(DeprecationWarning, match=r"Old.joint_parameters\(self, sim\) is "
+                                                r"deprecated: define joint_parameters\(self\)"):
+        class Old(ContactLaw):
+            name = "old_law"
+
+            def joint_parameters(self, sim):
+                assert sim is None
+                return [1.0, 2.0]
+
+    assert list(inspect.signature(Old.joint_parameters).parameters) == ["self"]
+    assert Old.joint_parameters(object.__new__(Old)) == [1.0, 2.0]
