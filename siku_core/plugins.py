@@ -17,8 +17,8 @@ whatever a user has installed). A broken third-party plugin becomes a warning na
 package, and an error only when a scene asks for a name it would have provided. The same holds
 for a component that fails the checks made when it registers (its interface, its parameter
 declarations, a contact law's evaluators, the plugin API version it ``requires_api``:
-:func:`check_component`) and for a name two packages
-register: a warning, and an error only for a scene that uses that name. Modules registered
+:func:`check_component`) and for a name two packages register: a warning, and an error only
+for a scene that uses that name. Modules registered
 explicitly (:func:`register_module`, ``make_plugin_manager(extra=...)``) and siku's own
 components are held to the same checks, but a fault is an error at once.
 """
