@@ -41,11 +41,14 @@ FROZEN = Path(__file__).resolve().parent / "data" / "frozen_plugins"
 #: (test_the_list_covers_every_import_in_the_history).
 HISTORY = """
 siku_core                             -                   -
+siku_core                             PLUGIN_API_VERSION  -
 siku_core                             Param               -
 siku_core                             Simulation          -
 siku_core                             hookimpl            -
 siku_core.contact_law                 BREAK_SHEAR         -
 siku_core.contact_law                 BREAK_TENSION       -
+siku_core.contact_law                 COLLISION_LAYOUT    -
+siku_core.contact_law                 ContactLaw          -
 siku_core.contact_law                 J_AX                -
 siku_core.contact_law                 J_AY                -
 siku_core.contact_law                 J_BX                -
@@ -58,11 +61,13 @@ siku_core.contact_law                 J_S1X               -
 siku_core.contact_law                 J_S1Y               -
 siku_core.contact_law                 J_S2X               -
 siku_core.contact_law                 J_S2Y               -
+siku_core.contact_law                 J_SIZE              -
 siku_core.contact_law                 J_VAX               -
 siku_core.contact_law                 J_VAY               -
 siku_core.contact_law                 J_VBX               -
 siku_core.contact_law                 J_VBY               -
 siku_core.contact_law                 J_W                 -
+siku_core.contact_law                 OUT_BREAK           -
 siku_core.contact_law                 ParameterRecord     -
 siku_core.contact_law                 check_contact_law   -
 siku_core.contacts                    BREAK_SHEAR         siku_core.contact_law
@@ -90,6 +95,8 @@ siku_core.geometry.quat               east_north_local    -
 siku_core.geometry.quat               latlon_of           -
 siku_core.ice                         ElementField        -
 siku_core.interfaces                  AttenuationLaw      -
+siku_core.interfaces                  ElementSource       -
+siku_core.interfaces                  ElementSpec         -
 siku_core.interfaces                  ForcingSource       -
 siku_core.interfaces                  Integrator          -
 siku_core.interfaces                  Process             -
