@@ -29,6 +29,9 @@ A mesh is built in four stages, each reproducible from its parameters alone:
    whose seed is on land, the report's rule), the rest that touch land are static ``coast``
    cells, cells whose seed lies inside a landfast contour are static ``landfast`` cells, the
    others are ``ice``.
+   With ``min_area_share > 0`` the seeds of free cells below that share of the median
+   free-cell area are then relaxed (:mod:`siku_io.mesh.relax`): static seeds and the mesh's
+   edge stay, and the cells around every move are classified again by these rules.
 4. **Cache.** ``Mesh.save`` / ``Mesh.load`` (``.npz``: CSR polygons of ``[lon, lat]`` vertices,
    kinds, the parameters and their SHA-256). :func:`load_or_build` reuses a cached file whose
    hash matches and rebuilds it otherwise.
