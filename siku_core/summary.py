@@ -1,12 +1,14 @@
 """The summary of a run, printed when ``siku run`` ends and by ``siku info FILE`` for any output:
-elements by kind, steps and model time, joints broken by mode, the lead fraction, wall time and
-where the output went. Plain numbers in, text out: the run loop and the file reader
+elements by kind, steps and model time, joints broken by mode, the lead fraction, the smallest
+free cell's share of the median area and what it costs in step (:mod:`siku_core.cells`), wall
+time and where the output went. Plain numbers in, text out: the run loop and the file reader
 (the ``siku info`` command) fill the same :class:`RunSummary`."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from typing import Any
 
+from .cells import small_cell_report
 from .state import FREE, STATIC, STEADY
 
 
@@ -23,6 +25,7 @@ class RunSummary:
     wall: float | None = None  # s
     output: str | None = None
     start: str | None = None  # ISO date of t = 0
+    areas: Any = None  # per element [m²]: the smallest free cells' share of the median
 
 
 def _duration(s: float) -> str:
@@ -64,6 +67,9 @@ def format_summary(r: RunSummary) -> str:
     if "mean_speed" in d:
         rows.append(("speed", f"mean {d['mean_speed']:.3g} m/s, largest "
                               f"{d.get('max_speed', float('nan')):.3g} m/s"))
+    small = small_cell_report(r.areas, flags) if r.areas is not None else None
+    if small is not None and small.n_free > 1:
+        rows.append(("cells", small.line(p5=False)))
     if r.wall is not None:
         rate = f" ({r.steps / r.wall:.4g} steps/s)" if r.wall > 0 and r.steps else ""
         rows.append(("wall time", f"{r.wall:.1f} s{rate}"))
@@ -82,4 +88,4 @@ def summary_of(sim: Any, wall: float | None = None, output: str | None = None) -
         n_steps=int(sim.n_steps), dt=float(sim.dt), time=float(sim.time),
         diagnostics=sim.diagnostics(),
         n_joints=None if sim.contacts is None else int(sim.contacts.n_joints),
-        wall=wall, output=output, start=start)
+        wall=wall, output=output, start=start, areas=sim.state.area)
