@@ -16,11 +16,13 @@ loop on one thread (``threads_for``), so that a run on all cores is never slower
 ``python -m bench.threads --defaults`` (``--scene default`` or ``--scene bonded:10000``,
 ``--rounds 5``, ``--steps 300``) measures the thread settings a user gets without choosing:
 each round runs the scene in a fresh process per configuration, one after the other, so each
-configuration sees the same load: ``1 thread`` (``NUMBA_NUM_THREADS=1``), ``defaults`` (all
-cores, siku's ``OMP_WAIT_POLICY=PASSIVE``: ``siku_core.thread_env``) and ``spinning`` (all
-cores, the variables removed before numba starts its threads: the OpenMP library's own
-default, what siku did before). It prints steps per second (median and every round, first
-steps taken untimed), with the load averages seen at the start of each round.
+configuration sees the same load: ``1 thread`` (``NUMBA_NUM_THREADS=1``), ``all threads``
+(all cores, idle threads spinning as OpenMP lets them by default: what ``siku run`` did
+before), ``siku run (chosen)`` (``Simulation.auto_threads``: one thread or all, timed as the
+run goes, ``siku_core.parallel.ThreadTuner``), ``PASSIVE`` (all cores, idle threads asleep)
+and ``workqueue`` (numba's own threading layer). It prints steps per second of one
+``Simulation.run`` (median and every round, after untimed steps that load the kernels), the
+steps taken on each thread count, and the load averages at the start of each round.
 
 ``python -m bench.threads --cold`` (``--scene``) builds the scene and takes its first step in
 a fresh process with empty numba and siku kernel caches (``NUMBA_CACHE_DIR``,
@@ -42,6 +44,7 @@ from pathlib import Path
 import numba
 
 from bench.scenes import text
+from siku_core import parallel
 from siku_core.scene import scene_from_text
 from siku_core.simulation import PHASES, Simulation
 
@@ -109,10 +112,14 @@ def table(results: list[dict], threads: list[int]) -> str:
     return "\n".join(lines)
 
 
-#: the configurations of ``--defaults``: environment changes of the child process
-CONFIGS = {"1 thread": {"NUMBA_NUM_THREADS": "1"}, "defaults": {}, "spinning": {"SPIN": "1"}}
+#: the configurations of ``--defaults``: environment of the child process (``AUTO``: the
+#: run chooses its threads as ``siku run`` does, ``Simulation.auto_threads``)
+CONFIGS = {"1 thread": {"NUMBA_NUM_THREADS": "1"}, "all threads": {},
+           "siku run (chosen)": {"AUTO": "1"}, "PASSIVE": {"OMP_WAIT_POLICY": "PASSIVE"},
+           "workqueue": {"NUMBA_THREADING_LAYER": "workqueue"}}
 #: variables a configuration starts without (the user's choices of thread waiting, threads)
-CLEARED = ("NUMBA_NUM_THREADS", "OMP_WAIT_POLICY", "KMP_BLOCKTIME", "GOMP_SPINCOUNT")
+CLEARED = ("NUMBA_NUM_THREADS", "OMP_WAIT_POLICY", "KMP_BLOCKTIME", "GOMP_SPINCOUNT",
+           "NUMBA_THREADING_LAYER")
 
 
 def scene_of(spec: str, steps: int):
@@ -126,19 +133,17 @@ def scene_of(spec: str, steps: int):
     return scene_from_text(text(kind, int(n or 10000), steps=steps), f"<bench {spec}>")
 
 
-def child(spec: str, steps: int, warm: int, spin: bool) -> dict:
-    """In a fresh process: ``steps`` steps of the scene after ``warm`` untimed ones."""
-    if spin:  # before numba loads its threading layer: the OpenMP library's own default
-        from siku_core.thread_env import QUIET
-
-        for k in QUIET:
-            os.environ.pop(k, None)
+def child(spec: str, steps: int, warm: int, auto: bool) -> dict:
+    """In a fresh process: ``steps`` steps of the scene (one :meth:`Simulation.run`, the
+    threads chosen as it runs when ``auto``) after ``warm`` untimed ones."""
     sim = Simulation(scene_of(spec, warm + steps + 2), out=False, progress=False)
     sim.advance(warm)
+    sim.auto_threads = auto
     t0 = time.perf_counter()
-    sim.advance(steps)
+    sim.run(steps)
     wall = time.perf_counter() - t0
-    return {"rate": steps / wall, "threads": numba.get_num_threads(),
+    tuned = dict(parallel.LAST_TUNED) if auto else {numba.get_num_threads(): steps}
+    return {"rate": steps / wall, "threads": numba.get_num_threads(), "tuned": tuned,
             "layer": numba.threading_layer(), "n": sim.state.n,
             "policy": os.environ.get("OMP_WAIT_POLICY")}
 
@@ -155,26 +160,30 @@ def defaults(spec: str, rounds: int, steps: int, warm: int) -> str:
     """``--defaults``: steps per second of each configuration of :data:`CONFIGS`, in turns."""
     base = {k: v for k, v in os.environ.items() if k not in CLEARED}
     rates: dict[str, list[float]] = {c: [] for c in CONFIGS}
+    used: dict[str, dict] = {c: {} for c in CONFIGS}  # steps per thread count
     info: dict[str, dict] = {}
     loads = []
     for _ in range(rounds):
         loads.append(os.getloadavg())
         for name, extra in CONFIGS.items():
-            env = {**base, **{k: v for k, v in extra.items() if k != "SPIN"}}
+            env = {**base, **{k: v for k, v in extra.items() if k != "AUTO"}}
             argv = ["--child", spec, "--steps", str(steps), "--warm", str(warm)]
-            got = _spawn(argv + (["--spin"] if "SPIN" in extra else []), env)
+            got = _spawn(argv + (["--auto"] if "AUTO" in extra else []), env)
             rates[name].append(got["rate"])
             info[name] = got
+            for t, k in got["tuned"].items():
+                used[name][t] = used[name].get(t, 0) + k
     one = statistics.median(rates["1 thread"])
     lines = [f"## python -m bench.threads --defaults --scene {spec} --rounds {rounds} "
              f"--steps {steps}\n",
              f"{info['defaults']['n']} elements; load averages (1, 5, 15 min) at each round: "
              + "; ".join(f"{a:.1f} {b:.1f} {c:.1f}" for a, b, c in loads) + "\n",
-             "| configuration | threads | OMP_WAIT_POLICY | steps/s (median) | / 1 thread | "
-             "every round |", "|---|---|---|---|---|---|"]
+             "| configuration | threads: steps | OMP_WAIT_POLICY | steps/s (median) | / 1 thread "
+             "| every round |", "|---|---|---|---|---|---|"]
     for name in CONFIGS:
         med = statistics.median(rates[name])
-        lines.append(f"| {name} | {info[name]['threads']} ({info[name]['layer']}) | "
+        on = ", ".join(f"{t}: {k}" for t, k in sorted(used[name].items()))
+        lines.append(f"| {name} | {on} ({info[name]['layer']}) | "
                      f"{info[name]['policy'] or 'unset'} | {med:.1f} | {med / one:.2f} | "
                      + ", ".join(f"{r:.1f}" for r in rates[name]) + " |")
     return "\n".join(lines)
@@ -224,11 +233,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--warm", type=int, default=20, help="untimed steps first")
     ap.add_argument("--child", help=argparse.SUPPRESS)
-    ap.add_argument("--spin", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--auto", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--cold-child", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.child:
-        print(json.dumps(child(a.child, a.steps or 300, a.warm, a.spin)))
+        print(json.dumps(child(a.child, a.steps or 300, a.warm, a.auto)))
         return
     if a.cold_child:
         print(json.dumps(cold_child(a.cold_child)))

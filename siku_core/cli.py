@@ -10,6 +10,7 @@ with status 2 and a one-line message (no traceback).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 import warnings
@@ -73,6 +74,7 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
         sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart,
                          overwrite=args.overwrite, force=args.force, extend=extend)
     first = sim.step_index
+    sim.auto_threads = auto_threads(args.threads)
     t0 = time.perf_counter()
     fitted = ("" if sim.dt == sim.dt_requested else
               f" ({sim.dt_requested:g} s in the scene, shortened so that outputs fall on steps)")
@@ -119,11 +121,20 @@ def _cmd_warm(args: argparse.Namespace) -> int:
         sim = Simulation(scene, out=False, progress=False)
         sim.run(steps=min(2, sim.n_steps))
     t2 = time.perf_counter()
+    compiled = (f"{clock.seconds:.1f} s compiling {plural(clock.count, 'kernel')} (the "
+                "others loaded from the caches)" if clock.count
+                else "kernels loaded from the caches")
     print(f"siku warm: {scene.cfg.title or path.name}: built {plural(sim.state.n, 'element')} "
-          f"and took {plural(sim.step_index, 'step')} in {t2 - t0:.1f} s, of which "
-          f"{clock.seconds:.1f} s compiling {plural(clock.count, 'kernel')} (the others "
-          "loaded from the caches)", file=sys.stderr)
+          f"and took {plural(sim.step_index, 'step')} in {t2 - t0:.1f} s: {compiled}",
+          file=sys.stderr)
     return 0
+
+
+def auto_threads(threads: int | None, environ=None) -> bool:
+    """Whether a run chooses its threads as it goes (one or all, ``Simulation.auto_threads``):
+    when neither ``--threads`` (``threads``) nor ``NUMBA_NUM_THREADS`` says how many."""
+    return threads is None and "NUMBA_NUM_THREADS" not in (os.environ if environ is None
+                                                            else environ)
 
 
 def plural(n: int, noun: str) -> str:
@@ -146,13 +157,19 @@ def profile_table(sim, wall: float) -> str:
     it out too), and per step and per element-step."""
     import numba
 
+    from . import parallel
+
     steps = max(sim.timed_steps, 1)
     n = max(sim.state.n, 1)
     rows = [(k, v) for k, v in sim.profile()]
     other = wall - sum(v for _, v in rows)
     rows.append(("other", max(other, 0.0)))
+    on = f"{numba.get_num_threads()} thread(s)"
+    if sim.auto_threads and parallel.LAST_TUNED:
+        on = ", ".join(f"{t} thread(s) for {k} steps"
+                       for t, k in sorted(parallel.LAST_TUNED.items())) + " (timed as it ran)"
     lines = [f"profile: {sim.timed_steps} steps of {sim.state.n} elements in {wall:.3g} s on "
-             f"{numba.get_num_threads()} thread(s): {n * steps / wall:.3g} element-steps/s",
+             f"{on}: {n * steps / wall:.3g} element-steps/s",
              f"  {'phase':<12} {'seconds':>9} {'share':>7} {'per step':>11} "
              f"{'per element-step':>17}"]
     for k, v in rows:
@@ -253,7 +270,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-plots", action="store_true", help="skip the pictures [output] asks for")
     r.add_argument("--profile", action="store_true",
                    help="print the time spent in each phase of the step")
-    r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
+    r.add_argument("--threads", type=int, help="numba threads (default: one or all cores, "
+                   "whichever runs the steps faster, timed as the run goes)")
     r.set_defaults(func=_cmd_run)
     w = sub.add_parser("warm", help="compile and cache the kernels (and mesh) a scene uses, "
                        "so that its first run starts at full speed (no argument: the default)")

@@ -46,14 +46,16 @@ class CompileClock(event.Listener):
 
     ``seconds``: wall seconds of compilation [s], a compilation that another one starts (the
     functions a kernel calls) counted once; ``count``: kernels compiled; ``kernels``: seconds
-    per kernel, its own (without the kernels it compiled on the way) [s]; ``current``: the
-    kernel compiling now (``None`` between compilations).
+    per kernel, its own (without the kernels it compiled on the way) [s]; ``signatures``:
+    compilations per kernel (one per argument types); ``current``: the kernel compiling now
+    (``None`` between compilations).
     """
 
     def __init__(self) -> None:
         self.seconds = 0.0
         self.count = 0
         self.kernels: dict[str, float] = {}
+        self.signatures: dict[str, int] = {}
         self._stack: list[list] = []  # [name, start, seconds of the compilations inside]
         self._lock = threading.Lock()
 
@@ -81,6 +83,7 @@ class CompileClock(event.Listener):
             took = time.perf_counter() - t0
             self.count += 1
             self.kernels[name] = self.kernels.get(name, 0.0) + took - inner
+            self.signatures[name] = self.signatures.get(name, 0) + 1
             if self._stack:
                 self._stack[-1][2] += took
             else:

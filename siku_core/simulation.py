@@ -119,9 +119,8 @@ class Simulation:
         self.context = Context(self)
         self.progress = cfg.run.progress if progress is None else progress
 
-        self.integrator: Integrator = self._component(
-            "integrator", cfg.integrator.name, cfg.integrator.params, "integrator"
-        )  # type: ignore[assignment]
+        self.integrator: Integrator = self._component(  # type: ignore[assignment]
+            "integrator", cfg.integrator.name, cfg.integrator.params, "integrator")
         self.forcing: list[ForcingSource] = [
             self._forcing_source(k, f) for k, f in enumerate(cfg.forcing)]
         #: the forcing sources' spin-ups (``[[forcing]] ramp``, siku_core.ramp)
@@ -168,6 +167,9 @@ class Simulation:
         self.timed_steps = 0
         #: seconds numba spent compiling kernels during :meth:`run` and :meth:`advance` [s]
         self.compile_seconds = 0.0
+        #: :meth:`run` chooses between one thread and those set, timing both as it steps
+        #: (:class:`~siku_core.parallel.ThreadTuner`; ``siku run`` without ``--threads``)
+        self.auto_threads = False
         if self.pm is not None:
             self.pm.hook.siku_ready(simulation=self)
 
@@ -266,8 +268,7 @@ class Simulation:
             msg = (
                 f"{self.scene.where('time')}: dt = {self.dt:g} s is above the safe step "
                 f"{safe:.4g} s{when} ({run.dt_safety:g} × critical {dt_c:.4g} s set by "
-                f"'{who}': {why})"
-            )
+                f"'{who}': {why})")
             if run.allow_unstable_dt:
                 warnings.warn(msg + "; continuing because [run] allow_unstable_dt = true",
                               stacklevel=2)
@@ -322,9 +323,8 @@ class Simulation:
             t2 = clock()
             self.timings["processes"] += t2 - t1
             t1 = t2
-        if self.step_index % self.scene.cfg.run.nan_check_every == 0 or (
-            self.step_index == self.n_steps
-        ):
+        if (self.step_index % self.scene.cfg.run.nan_check_every == 0
+                or self.step_index == self.n_steps):
             self.guard.check()
         self.timings["guard"] += clock() - t1
         self.timed_steps += 1
@@ -424,11 +424,12 @@ class Simulation:
         remaining = self.n_steps - self.step_index if steps is None else steps
         show = self.progress
         # the whole loop on the threads the scene's size warrants (set once, not per step)
-        with compile_time(self), parallel.threads_for(self.state.n):
-            self._loop(remaining, show)
+        with compile_time(self), parallel.threads_for(self.state.n), \
+                parallel.tuned(self.auto_threads, clock) as tune:
+            self._loop(remaining, show, tune)
         return self
 
-    def _loop(self, remaining: int, show: bool | None) -> None:
+    def _loop(self, remaining: int, show: bool | None, tune) -> None:
         """The steps of :meth:`run`, with their progress bar; closes the outputs at the end."""
         bar = None
         try:
@@ -442,14 +443,13 @@ class Simulation:
             if show is None or show:
                 from tqdm.auto import tqdm
 
-                bar = tqdm(
-                    total=remaining, unit="step", desc=self.scene.cfg.title or "siku",
-                    disable=show is False, delay=0.0 if show else 2.0, mininterval=0.5,
-                    leave=False,
-                )
+                bar = tqdm(total=remaining, unit="step", desc=self.scene.cfg.title or "siku",
+                           disable=show is False, delay=0.0 if show else 2.0, mininterval=0.5,
+                           leave=False)
             for _ in range(remaining):
-                self.step()
-                self._write()
+                with tune:
+                    self.step()
+                    self._write()
                 if bar is not None:
                     bar.update(1)
         finally:
