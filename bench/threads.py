@@ -171,12 +171,13 @@ def defaults(spec: str, rounds: int, steps: int, warm: int) -> str:
             got = _spawn(argv + (["--auto"] if "AUTO" in extra else []), env)
             rates[name].append(got["rate"])
             info[name] = got
+            print(json.dumps({"config": name, **got}), file=sys.stderr, flush=True)
             for t, k in got["tuned"].items():
                 used[name][t] = used[name].get(t, 0) + k
     one = statistics.median(rates["1 thread"])
     lines = [f"## python -m bench.threads --defaults --scene {spec} --rounds {rounds} "
              f"--steps {steps}\n",
-             f"{info['defaults']['n']} elements; load averages (1, 5, 15 min) at each round: "
+             f"{info['1 thread']['n']} elements; load averages (1, 5, 15 min) at each round: "
              + "; ".join(f"{a:.1f} {b:.1f} {c:.1f}" for a, b, c in loads) + "\n",
              "| configuration | threads: steps | OMP_WAIT_POLICY | steps/s (median) | / 1 thread "
              "| every round |", "|---|---|---|---|---|---|"]

@@ -1,7 +1,8 @@
 """What a run says while it works: the kernel compilation and the progress bar; the run's clock.
 
-The first run of a scene compiles the numba kernels it uses (2 to 4 minutes on a 2-core
-machine the first time after installing, more when the machine is busy; later runs load them
+The first run of a scene compiles the numba kernels it uses (about four minutes for the default
+scene on a 2-core machine the first time after installing, more when the machine is busy:
+``bench/RESULTS.md``, "The first compile"; later runs load them
 from the caches in a second or two: numba's cache beside the installed modules or in
 ``NUMBA_CACHE_DIR``, generated kernels in ``SIKU_KERNEL_CACHE``).
 
