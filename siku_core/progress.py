@@ -46,10 +46,11 @@ class CompileClock(event.Listener):
     or :func:`numba.core.event.register`).
 
     ``seconds``: wall seconds of compilation [s], a compilation that another one starts (the
-    functions a kernel calls) counted once; ``count``: kernels compiled; ``kernels``: seconds
-    per kernel, its own (without the kernels it compiled on the way) [s]; ``signatures``:
-    compilations per kernel (one per argument types); ``current``: the kernel compiling now
-    (``None`` between compilations).
+    functions a kernel calls) counted once; ``count``: kernels compiled (numba's own
+    implementations of the library functions a kernel calls counted in the kernel);
+    ``kernels``: seconds per kernel, its own (without the kernels it compiled on the way)
+    [s]; ``signatures``: compilations per kernel (one per argument types); ``current``: the
+    kernel compiling now (``None`` between compilations).
     """
 
     def __init__(self) -> None:
@@ -62,8 +63,8 @@ class CompileClock(event.Listener):
 
     @property
     def current(self) -> str | None:
-        stack = self._stack
-        return stack[-1][0] if stack else None
+        names = [e[0] for e in self._stack if not e[0].startswith("numba.")]
+        return names[-1] if names else None
 
     def now(self) -> float:
         """Seconds of compilation so far, the one under way included [s]."""
@@ -82,13 +83,15 @@ class CompileClock(event.Listener):
                 return
             name, t0, inner = self._stack.pop()
             took = time.perf_counter() - t0
+            if not self._stack:
+                self.seconds += took
+            if name.startswith("numba.") and self._stack:
+                return  # numba's own implementation of a library call: the caller's time
             self.count += 1
             self.kernels[name] = self.kernels.get(name, 0.0) + took - inner
             self.signatures[name] = self.signatures.get(name, 0) + 1
             if self._stack:
                 self._stack[-1][2] += took
-            else:
-                self.seconds += took
 
     def __enter__(self) -> CompileClock:
         event.register("numba:compile", self)
