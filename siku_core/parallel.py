@@ -161,7 +161,7 @@ class ThreadTuner:
     the engine's many short parallel loops need on an idle machine: with
     ``OMP_WAIT_POLICY=PASSIVE`` two threads lose 40 % of their speed there); on a machine
     busy with other work the spinning threads hold cores the run's own thread needs, and two
-    threads can run ten or more times slower than one (``bench/RESULTS.md``, "Threads on a
+    threads can run 5 to 15 times slower than one (``bench/RESULTS.md``, "Threads on a
     busy machine"). Which is faster depends on what else runs now, so the run measures it:
     it starts on one thread, after ``FIRST_TRIAL`` steps takes up to ``TRIAL_STEPS`` steps on
     the other count and keeps the faster (``WIN``), then tries again after waits that double
