@@ -251,7 +251,7 @@ def joint_table(path) -> tuple[np.ndarray, np.ndarray]:
             "states/history/contacts/intact" in f else 0
     scene = scene_from_text(text, f"{path}: its scene", Path(where) if where else None)
     sim = Simulation(scene, out=False, progress=False)
-    cm = sim.contacts
+    cm = sim.context.contacts
     n = cm.joint_slots if cm is not None else 0
     if n != nj:
         raise DataError(f"{path}: its scene builds {n} joints but the file records {nj}")
