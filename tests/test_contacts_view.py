@@ -162,6 +162,18 @@ def test_upper_packages_read_contacts_only_through_the_view():
     assert "cm" in scan.attrs  # ``self.cm = cm`` of the bending beams and the wave breaking
 
 
+def test_upper_packages_import_no_module_of_the_contact_model():
+    """Nor do they import the model's modules (``ContactModel``, its ``JointBook``)."""
+    model = {"siku_core.contact_model", "siku_core.contact_joints"}
+    bad = []
+    for path, text in upper_sources().items():
+        for node in ast.walk(ast.parse(text)):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            bad += [f"{path}:{node.lineno}: {n}" for n in names if n in model]
+    assert bad == []
+
+
 def test_the_scan_finds_every_way_past_the_view():
     """The scan is not vacuous: each way of reaching the model's internals in a module is
     found (through a name, an unpacked name, an attribute of another object, a helper's

@@ -2,7 +2,7 @@
 calipers, the distribution on logarithmic area bins and the power-law exponent of the areas.
 
 * **Floes**: the connected groups of elements over intact joints (the same rule as
-  ``siku_core.contact_joints.Joints.floe_labels``); an element without intact joints is a
+  ``ctx.contacts.floe_labels``); an element without intact joints is a
   floe of its own. Labels come from ``scipy.sparse.csgraph.connected_components`` on the joint
   table; the joint pairs of a run are rebuilt from the scene stored in its output file (they are
   fixed for a run, unless a process creates joints: then each snapshot's pairs are read from
