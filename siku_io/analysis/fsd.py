@@ -257,7 +257,7 @@ def joint_table(path) -> tuple[np.ndarray, np.ndarray]:
         raise DataError(f"{path}: its scene builds {n} joints but the file records {nj}")
     if n == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.asarray(cm.ji, np.int64), np.asarray(cm.jj, np.int64)
+    return np.array(cm.ji, np.int64), np.array(cm.jj, np.int64)  # (copies, writable)
 
 
 def output_floes(path, calipers: bool = True):
