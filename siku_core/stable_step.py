@@ -32,13 +32,16 @@ the state at rest, for the three degrees of freedom ``(x, y, theta)`` of every f
   own), damped with ``zeta_c``.
 
 The largest eigenvalues ``omega_max²`` of ``M^-1/2 K M^-1/2`` and ``gamma_max`` of ``M^-1/2 C
-M^-1/2`` (Lanczos, or dense for small systems) give ``dt_c`` by the formula above. Where ``K`` and
-``C`` share their modes (proportional damping, the joints alone) that is the exact limit of the
-linear system, and taking the two maxima separately can only lower it; where they do not, it is
-an estimate, checked against the exact spectral radius of the amplification matrix on small
-packs (``tests/contacts/test_stable_step.py``). The engine then applies ``[run] dt_safety``
-(default 0.5) for what the linearisation at rest leaves out: contact widths that grow with the
-overlap, the water drag's own limit (a separate component), damage.
+M^-1/2`` give ``dt_c`` by the formula above: dense for small systems; above :data:`DENSE_DOF`
+free DOF by :func:`top_eigenvalue`, a fixed number of Lanczos steps on the never-formed
+operators (``B^T diag(c) B``, six numbers per spring) capped by Gershgorin's bound, an
+estimate from above within :data:`LANCZOS_TOL`, in time and memory linear in the contacts.
+Where ``K`` and ``C`` share their modes (proportional damping, the joints alone) that is the
+exact limit of the linear system, and taking the two maxima separately can only lower it; where
+they do not, it is an estimate, checked against the exact spectral radius of the amplification
+matrix on small packs (``tests/contacts/test_stable_step.py``). The engine then applies ``[run]
+dt_safety`` (default 0.5) for what the linearisation at rest leaves out: contact widths that grow
+with the overlap, the water drag's own limit (a separate component), damage.
 
 Not covered, and said by the law: the ``sqrt_area`` collision law has no bounded stiffness
 (``dF/d(depth)`` grows without bound as the overlap vanishes); the estimate then takes the
@@ -78,13 +81,14 @@ class _Assembler:
     def __init__(self, n: int, free: np.ndarray):
         self.n = n
         self.free = free
+        self.itype = np.int32 if 3 * n < 2**31 else np.int64
         self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 
     def add_vectors(self, coef, entries: list[tuple[np.ndarray, int, np.ndarray]]):
         """Add ``coef[k] b_k b_k^T`` where ``b_k`` has value ``v[k]`` at DOF ``3 e[k] + d`` for
         every ``(e, d, v)`` of ``entries``; entries on walls are left out (fixed DOF)."""
         m = len(entries[0][0])
-        cols = np.empty((m, len(entries)), dtype=np.int64)
+        cols = np.empty((m, len(entries)), dtype=self.itype)
         vals = np.empty((m, len(entries)))
         for c, (e, d, v) in enumerate(entries):
             cols[:, c] = 3 * e + d
@@ -99,7 +103,7 @@ class _Assembler:
         n3 = 3 * self.n
         width = max((p[1].shape[1] for p in self.parts), default=1)
         m = sum(len(p[0]) for p in self.parts)
-        itype = np.int32 if n3 < 2**31 and m * width < 2**31 else np.int64
+        itype = self.itype if m * width < 2**31 else np.int64
         cols = np.zeros((m, width), dtype=itype)
         vals = np.zeros((m, width))
         coef = np.empty(m)
@@ -129,8 +133,10 @@ class _Assembler:
 
     def gram(self, scale: np.ndarray) -> "Gram":
         """The matrix scaled on both sides, ``S A S`` (``S = diag(scale)``), as a
-        :class:`Gram` operator (never formed)."""
-        return Gram(*self.factors(scale))
+        :class:`Gram` operator (never formed); the assembler's own copy is let go."""
+        op = Gram(*self.factors(scale))
+        self.parts = []
+        return op
 
 
 class Gram:
