@@ -268,12 +268,18 @@ def lanczos_steps(m: int, tol: float = LANCZOS_TOL, fail: float = LANCZOS_FAIL) 
     return max(1, min(m, math.ceil(k)))
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """``a · b`` without BLAS (whose threads, spinning on a vector this short, cost twenty
+    times the work on a busy machine)."""
+    return float(np.einsum("i,i->", a, b))
+
+
 def _lanczos(op: "Gram", steps: int, start: np.ndarray, ritz: np.ndarray | None = None):
     """``steps`` Lanczos steps on ``op`` from ``start`` (three vectors kept, no basis): the
     tridiagonal's diagonal and off-diagonal, and (``ritz`` given, coefficients over the basis)
     the vector ``sum_j ritz[j] q_j`` built as the same steps pass again. Stops early where the
     Krylov space closes (an invariant subspace: its Ritz values are exact)."""
-    q = start / np.linalg.norm(start)
+    q = start / math.sqrt(_dot(start, start))
     q_prev = np.zeros_like(q)
     beta = 0.0
     alpha: list[float] = []
@@ -283,11 +289,11 @@ def _lanczos(op: "Gram", steps: int, start: np.ndarray, ritz: np.ndarray | None 
         if x is not None:
             x += ritz[j] * q
         w = op.matvec(q)
-        a = float(q @ w)
+        a = _dot(q, w)
         w -= a * q + beta * q_prev
-        w -= float(q @ w) * q  # keeps the local orthogonality of q_j and q_j+1
+        w -= _dot(q, w) * q  # keeps the local orthogonality of q_j and q_j+1
         alpha.append(a)
-        beta = float(np.linalg.norm(w))
+        beta = math.sqrt(_dot(w, w))
         if j == steps - 1 or beta <= 1e-13 * max(abs(a), 1e-300):
             break
         betas.append(beta)
