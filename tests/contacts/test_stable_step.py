@@ -366,8 +366,9 @@ def test_the_sparse_estimate_lies_above_the_largest_eigenvalue_within_its_tolera
 
 @pytest.mark.parametrize("case", FAST)
 def test_the_sparse_path_gives_the_dense_step_within_its_tolerance(case, monkeypatch):
-    """The same pack (12 × 12 cells, 432 DOF) through either path: each eigenvalue at most ``1 / (1 - LANCZOS_TOL)``
-    above the dense one, so ``dt_c`` at most ``LANCZOS_TOL`` below it, never above."""
+    """The same pack (12 × 12 cells, 432 DOF) through either path: each eigenvalue at most
+    ``1 / (1 - LANCZOS_TOL)`` above the dense one, so ``dt_c`` at most ``LANCZOS_TOL`` below
+    it, never above."""
     sim = _probe(case, cells=(12, 12))
     rates = sim.contacts.law.stability_rates()
     dense, _, _ = critical_step(sim.contacts, rates)
