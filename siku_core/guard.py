@@ -216,8 +216,9 @@ class BreakRate:
             return
         sim = self.sim
         what = (f"{self._in_window} of {intact} intact joints ({share:.0%}) broke within "
-                f"{self.window} steps ({self.window * sim.dt:.3g} s, {CROSSINGS} elastic "
-                f"crossing times of an element), faster than cracks can run (above "
+                f"{self.window} steps ({self.window * sim.dt:.3g} s, "
+                f"{self.window * sim.dt / self.crossing:.2g} elastic crossing times of an "
+                f"element), faster than cracks can run (above "
                 f"{BREAK_SHARE:.0%}): the run is unstable")
         hint = (f"shorten dt (now {sim.dt:g} s; the estimated critical step is "
                 f"{sim.critical_dt:.4g} s)")
