@@ -174,12 +174,13 @@ class NetworkWatch:
 class BreakRate:
     """Stop (or warn on) a run in which more than :data:`BREAK_SHARE` of the intact joints
     break within :data:`CROSSINGS` elastic crossing times of an element (at least
-    :data:`MIN_WINDOW` steps), and more than one crack could break in that time.
+    :data:`MIN_WINDOW` steps), and more than one fracture could break in that time.
 
     The window is ``max(MIN_WINDOW, CROSSINGS L / (c dt))`` steps, ``L`` the median size
     ``sqrt(area)`` [m] of the free elements, ``c = sqrt(E / rho)`` [m/s] the fastest
-    elastic wave of their ice; one crack breaks at most ``JOINTS_PER_CROSSING (min(c dt / L,
-    1) W + 1)`` joints in ``W`` steps."""
+    elastic wave of their ice; one fracture breaks at most ``JOINTS_PER_CROSSING (sqrt(n) +
+    min(c dt / L, 1) W + 1)`` joints in ``W`` steps: a line across the pack of ``n`` free
+    elements at once, and a crack tip's run from it."""
 
     def __init__(self, sim: "Simulation", guard: Guard):
         self.sim = sim
@@ -194,8 +195,11 @@ class BreakRate:
         self.window = max(MIN_WINDOW, math.ceil(CROSSINGS * self.crossing / sim.dt)
                           if math.isfinite(self.crossing) else MIN_WINDOW)
         per_step = min(sim.dt / self.crossing, 1.0) if self.crossing > 0 else 1.0
-        #: the joints one crack can break within the window
-        self.one_crack = JOINTS_PER_CROSSING * (per_step * self.window + 1.0)
+        #: the joints one fracture can break within the window: a line across the pack at once
+        #: (a uniformly loaded section: the joints along a coast, a shear band) and its tip's
+        #: run
+        across = math.sqrt(max(int(free.sum()), 1))
+        self.one_crack = JOINTS_PER_CROSSING * (across + per_step * self.window + 1.0)
         self._breaks: deque[tuple[int, int]] = deque()  # (step, joints broken) in the window
         self._in_window = 0
         self._warned = False
