@@ -36,7 +36,9 @@ if TYPE_CHECKING:  # pragma: no cover
 
 #: quantities checked by the NaN guard, in the order their failure is reported
 GUARDED = ("F", "T", "V", "w", "q")
-MELT = int(BreakMode.MELT)
+#: break modes the contact law does not give (melting, waves, other components): not counted
+#: by the breaking-rate guard, which watches the contacts' own integration
+OUTSIDE = np.array([int(BreakMode.MELT), int(BreakMode.FLEXURE), int(BreakMode.EXTERNAL)])
 
 #: share of the joints (of those intact at the last stable-step check) that may break or
 #: freeze before the step is checked again. A joint changes the stiffness of its two elements
@@ -149,9 +151,10 @@ class NetworkWatch:
         broke = cm.n_broken_total - self._seen
         self._seen = cm.n_broken_total
         if self.rate is not None:
-            if broke:  # melting is no cracking: joints of elements melted in this step
-                broke -= int(np.count_nonzero((cm.break_mode == MELT)
-                                              & (cm.break_time == self.sim.time)))
+            if broke:  # the law's own breaks only: not melting, waves or other components
+                sim = self.sim
+                new = cm.break_time > sim.time - 1.5 * sim.dt  # (broke in this step)
+                broke -= int(np.count_nonzero(new & np.isin(cm.break_mode, OUTSIDE)))
             self.rate.record(broke)
         self._recheck()
 

@@ -140,3 +140,13 @@ def test_refreezing_where_the_step_is_no_longer_stable_is_refused_as_before_a_ru
                                              r"or froze .* lower dt") as err:
         sim.step()
     assert "\n" not in str(err.value)
+
+
+def test_joints_broken_from_outside_the_law_are_not_counted(critical):
+    """A component breaking every joint at once (``BreakMode.EXTERNAL``: a coupled model, a
+    wave field) is not the contacts' integration going unstable."""
+    sim = _sim(0.25 * critical)
+    cm = sim.contacts
+    cm.break_joints(np.arange(cm.n_joints), BreakMode.EXTERNAL, sim.time)
+    sim.step()
+    assert sim.step_index == 1 and cm.n_intact == 0
