@@ -58,7 +58,7 @@ JOINTS_PER_CROSSING = 2
 #: the joints of a pack (about 3 per element) then takes a crack started every 30 or so
 #: elements within seconds: the pack ground to floes of a few elements faster than any
 #: forcing loads it. The default scene breaks at most 27 joints (0.2 %) in its 72-step window
-#: at its step 0.75 s, and 26 in its 36-step window at 1.5 s (the first 14 h; all 24 h)
+#: at its step 0.75 s, and 26 in its 36-step window at 1.5 s (over 24 h)
 BREAK_SHARE = 0.1
 
 
