@@ -116,6 +116,9 @@ class Simulation:
         self.rng = np.random.default_rng(self.seed)
         self.state, categories = build_elements_and_categories(scene, self.registry)
         self.step_index = 0
+        #: the time origin ``(k0, t0)``: model time is ``t0 + (step_index - k0) * dt`` [s];
+        #: (0, 0.0) unless a restart changed the step (siku_core.restart.restore)
+        self.time_origin: tuple[int, float] = (0, 0.0)
         #: what components see of the run (siku_core.context): handed to their setup and hooks
         self.context = Context(self)
         self.progress = cfg.run.progress if progress is None else progress
@@ -276,8 +279,13 @@ class Simulation:
     # ------------------------------------------------------------------ physics
     @property
     def time(self) -> float:
-        """Model time since the start [s]."""
-        return self.step_index * self.dt
+        """Model time since the start [s]: ``t0 + (step_index - k0) * dt`` from the time
+        origin (:attr:`time_origin`; ``step_index * dt`` bit for bit when the step never
+        changed)."""
+        k0, t0 = self.time_origin
+        if k0 == 0 and t0 == 0.0:
+            return self.step_index * self.dt
+        return t0 + (self.step_index - k0) * self.dt
 
     @property
     def committing(self) -> bool:
