@@ -427,8 +427,17 @@ class Simulation:
         self.timings["output"] += time.perf_counter() - t0
 
     def run(self, steps: int | None = None) -> "Simulation":
-        """Run ``steps`` steps (default: to the end of the scene's time span)."""
-        remaining = self.n_steps - self.step_index if steps is None else steps
+        """Run ``steps`` steps (default: to the end of the scene's time span). More steps
+        than remain before the scene's end raise :class:`SceneError` saying how many remain
+        (nothing is run); a finished run is lengthened by a restart with ``extend``."""
+        left = self.n_steps - self.step_index
+        if steps is not None and steps > left:
+            raise SceneError(
+                f"{self.scene.label}: run(steps={steps}) goes past the scene's end: "
+                f"{left} of {self.n_steps} steps remain (t = {self.time:g} s, "
+                f"dt = {self.dt:g} s); "
+                "give steps <= the steps left, or lengthen the scene's time span")
+        remaining = left if steps is None else steps
         self.open_outputs()
         show = self.progress
         # the whole loop on the threads the scene's size warrants (set once, not per step)
