@@ -259,3 +259,37 @@ def check_initial_state(sim: "Simulation") -> None:
         raise SceneError(f"{src}: element {i} starts with a speed of {speed[i]:.3g} m/s, above "
                          f"[run] max_speed = {vmax:g} m/s; give a smaller velocity (or raise "
                          "max_speed)")
+
+
+def check_time_step(sim: "Simulation", after: str = "") -> None:
+    """Refuse (or warn on) a dt above ``dt_safety`` times the smallest component limit.
+
+    Every component may declare ``stability_limit(ctx) -> (dt_max [s], reason) | None``
+    (:meth:`~siku_core.interfaces.Component.stability_limit`; the default is no limit).
+    Checked before the run and again whenever a process has changed the ice or the joints
+    have changed (``after`` says what, siku_core.ice and :class:`Guard`). Sets
+    ``sim.critical_dt`` [s] and ``sim.critical_by`` (the component and its reason).
+    """
+    run = sim.scene.cfg.run
+    limits = []
+    for comp in [*sim.components(), *([sim.contacts] if sim.contacts else [])]:
+        lim = comp.stability_limit(sim.context)
+        if lim is not None:
+            limits.append((lim[0], comp.name, lim[1]))
+    if not limits:
+        sim.critical_dt = math.inf
+        return
+    dt_c, who, why = min(limits, key=lambda x: x[0])
+    sim.critical_dt, sim.critical_by = dt_c, (who, why)
+    safe = run.dt_safety * dt_c
+    if sim.dt > safe:
+        when = f" after {after} at t = {sim.time:g} s" if after else ""
+        msg = (
+            f"{sim.scene.where('time')}: dt = {sim.dt:g} s is above the safe step "
+            f"{safe:.4g} s{when} ({run.dt_safety:g} × critical {dt_c:.4g} s set by "
+            f"'{who}': {why})")
+        if run.allow_unstable_dt:
+            warnings.warn(msg + "; continuing because [run] allow_unstable_dt = true",
+                          stacklevel=3)
+        else:
+            raise StabilityError(msg + "; lower dt or set [run] allow_unstable_dt = true")

@@ -84,7 +84,8 @@ def _same(a: Path, b: Path) -> bool:
 def check_target(path: str | Path, *, what: str = "output file",
                  ours: Callable[[Path], bool] | None = None, overwrite: bool = False,
                  inputs: Iterable[tuple[str, Path]] = (), appending_to: Path | None = None,
-                 option: str = "--out") -> Path:
+                 option: str = "--out", overwrite_option: str = "--overwrite",
+                 follow_links: bool = True) -> Path:
     """May siku write ``path``? The one rule for every file siku writes; refused with a
     one-line :class:`DataError` naming the file and what to do:
 
@@ -95,10 +96,18 @@ def check_target(path: str | Path, *, what: str = "output file",
       writes inside its files, as siku's own ``what`` (without ``ours`` nothing is replaced);
     * a file another process holds (:func:`in_use`).
 
-    ``option`` names the setting that chose the path in the messages."""
+    ``option`` names the setting that chose the path in the messages, ``overwrite_option``
+    the one that allows replacing (the Python API's ``overwrite=True``); with
+    ``follow_links=False`` a symbolic link is not followed: it counts as the existing file
+    itself (replaced only with ``overwrite``, its target never written)."""
     path = Path(path)
     if "\x00" in str(path):
         raise DataError(f"{str(path)!r}: a file name cannot hold a NUL character")
+    if not follow_links and path.is_symlink():
+        if not overwrite:
+            raise DataError(f"{path}: exists (a symbolic link); choose another {option}, or "
+                            f"pass {overwrite_option} to replace the link (never its target)")
+        return path
     try:
         st = os.stat(path)
     except FileNotFoundError:
@@ -120,12 +129,13 @@ def check_target(path: str | Path, *, what: str = "output file",
     if appending_to is not None and _same(path, appending_to):
         pass
     elif not overwrite:
-        raise DataError(f"{path}: exists; choose another {option}, or pass --overwrite to "
-                        f"replace it (the old file stays whole until the new one is complete)")
+        raise DataError(f"{path}: exists; choose another {option}, or pass "
+                        f"{overwrite_option} to replace it (the old file stays whole until the "
+                        "new one is complete)")
     elif ours is None or not ours(path):
-        raise DataError(f"{path}: exists and is not {_a(what)} siku wrote; siku never replaces a "
-                        f"file it did not write (--overwrite replaces only its own {what}s): "
-                        f"move it away or choose another {option}")
+        raise DataError(f"{path}: exists and is not {_a(what)} siku wrote; siku never replaces "
+                        f"a file it did not write ({overwrite_option} replaces only its own "
+                        f"{what}s): move it away or choose another {option}")
     if in_use(path):
         raise DataError(f"{path}: is being written by another run (or held open by another "
                         f"program); wait for it to finish or choose another {option}")
@@ -172,6 +182,20 @@ def publish(partial: Path, target: Path, *, replace: bool) -> None:
         os.rename(partial, target)
         return
     os.unlink(partial)
+
+
+def write_text_file(path: Path, text: str, *, replace: bool) -> None:
+    """Write ``text`` (UTF-8) as ``path`` checked by :func:`check_target`: built beside it
+    (:func:`partial_path`) and put in place by :func:`publish`, so a link at ``path`` is
+    replaced, never followed, and a file that appeared meanwhile is not replaced unless
+    ``replace``."""
+    partial = partial_path(Path(path))
+    try:
+        partial.write_text(text, encoding="utf-8")
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
+    publish(partial, Path(path), replace=replace)
 
 
 def fsync_path(path: Path) -> None:

@@ -80,7 +80,8 @@ def restart(sim: "Simulation", path: Path, force: bool = False,
                 "s)\n")
         sim.scene = Scene(sim.scene.cfg, sim.scene.text.rstrip("\n") + "\n" + note,
                            sim.scene.path)
-    elif sim.step_index >= sim.n_steps and stored_steps > sim.n_steps:
+    elif (sim.step_index >= sim.n_steps and stored_steps > sim.n_steps
+          and sim.time_origin == (0, 0.0)):  # steps of another dt say nothing here
         # a run extended beyond its scene's end: go on to the end the file records
         sim.n_steps = stored_steps
         if cut_short:
@@ -107,9 +108,23 @@ def restore(sim: "Simulation", path: Path, data: dict[str, Any]) -> None:
                              "wrote the file")
         getattr(st, k)[...] = arr
     sim.step_index = int(data["step"])
+    set_time_origin(sim, data.get("time"))
     sim.restart_path = path
     sim.set_history_arrays(data.get("history", {}))
 
+
+
+def set_time_origin(sim: "Simulation", t: float | None) -> None:
+    """Continue the model time ``t`` [s] stored with the restart's snapshot. When the step
+    changed (``t`` is not ``step_index * dt``) the time origin becomes ``(step_index, t)`` and
+    the steps left are those of the scene's remaining time, so the time axis goes on from ``t``
+    and ends at the scene's end; with the same step nothing changes (bit for bit)."""
+    if t is None or t == sim.step_index * sim.dt:
+        return
+    t = float(t)
+    sim.time_origin = (sim.step_index, t)
+    left = sim.scene.cfg.time.total - t
+    sim.n_steps = sim.step_index + max(0, math.ceil(left / sim.dt - 1e-9))
 
 
 def keyed_components(sim: "Simulation") -> dict[str, Any]:

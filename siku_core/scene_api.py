@@ -35,6 +35,9 @@ _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
 def _key(k: str) -> str:
+    if not isinstance(k, str):
+        raise SceneError(f"scene keys are text: {k!r} ({type(k).__name__}) cannot be a key; "
+                         "give its name as a string")
     return k if _BARE.match(k) else json.dumps(k)
 
 
@@ -107,6 +110,16 @@ def _when(v: Any) -> Any:
     return v
 
 
+def _is_scene_file(path: Path) -> bool:
+    """Is ``path`` a scene file (UTF-8 TOML text), one :meth:`SceneBuilder.save` may replace
+    when told to?"""
+    try:
+        tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    return True
+
+
 class SceneBuilder:
     """A scene as Python data: ``data`` holds the tables of the TOML file (``{"time":
     {"duration": "2d"}, "forcing": [{"source": "air_drag"}], ...}``); the methods fill them.
@@ -140,6 +153,10 @@ class SceneBuilder:
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
             raise SceneError(f"{path}: scene file not found") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            why = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
+            raise SceneError(f"{path}: cannot read a scene file ({why}); give a TOML scene "
+                             "file") from None
         b = cls.from_toml(text, base_dir=path.parent, name=path.stem, label=str(path))
         return b
 
@@ -158,17 +175,30 @@ class SceneBuilder:
     def to_toml(self) -> str:
         return to_toml(self.data)
 
-    def save(self, path: str | Path) -> Path:
+    def save(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write the scene as a TOML file (validated first: a file that would not run is not
-        written)."""
+        written), under the rule of every file siku writes
+        (:func:`siku_core.outputs.check_target`): an existing ``path`` is refused unless
+        ``overwrite=True`` and it is a scene file (TOML text); a symbolic link is never
+        followed (``overwrite=True`` replaces the link, never its target); a FIFO, device or
+        folder is refused without being opened. The file is written beside ``path`` and put in
+        place in one rename. Refusals raise :class:`~siku_core.errors.DataError`."""
+        from .outputs import check_target, write_text_file
+
         self.validate()
-        path = Path(path)
-        path.write_text(self.to_toml(), encoding="utf-8")
+        path = check_target(path, what="scene file", ours=_is_scene_file, overwrite=overwrite,
+                            option="path", overwrite_option="overwrite=True",
+                            follow_links=False)
+        write_text_file(path, self.to_toml(), replace=overwrite)
         return path
 
     # ------------------------------------------------------------------ tables
     def set(self, key: str, value: Any) -> SceneBuilder:
-        """Set a dotted key (``"time.duration"``, ``"forcing.0.params.C"``) as ``--set`` does."""
+        """Set a dotted key (``"time.duration"``, ``"forcing.0.params.C"``) as ``--set`` does;
+        a key that names no place raises :class:`~siku_core.errors.SceneError` saying why."""
+        if not isinstance(key, str) or not all(key.split(".")):
+            raise SceneError(f"{self._label()}: cannot set {key!r}: give a dotted key such as "
+                             "'time.duration' or 'forcing.0.params.C'")
         parts = key.split(".")
         cur: Any = self.data
         for part in parts[:-1]:
@@ -179,6 +209,10 @@ class SceneBuilder:
             else:
                 raise SceneError(f"{self._label()}: cannot set '{key}': '{part}' is not a table")
         if isinstance(cur, list) and parts[-1].isdigit():
+            if int(parts[-1]) >= len(cur):
+                raise SceneError(f"{self._label()}: cannot set '{key}': the list holds "
+                                 f"{len(cur)} tables (indices 0 to {len(cur) - 1}); add one "
+                                 "with its method first")
             cur[int(parts[-1])] = value
         elif isinstance(cur, dict):
             cur[parts[-1]] = value
@@ -187,7 +221,24 @@ class SceneBuilder:
         return self
 
     def _table(self, name: str, kw: dict[str, Any]) -> SceneBuilder:
-        self.data.setdefault(name, {}).update({k: v for k, v in kw.items() if v is not None})
+        self._part(self.data, name, dict).update({k: v for k, v in kw.items() if v is not None})
+        return self
+
+    def _part(self, parent: dict[str, Any], name: str, kind: type) -> Any:
+        """``parent[name]``, made a ``kind`` (table or list of tables) when absent; another
+        type there raises :class:`~siku_core.errors.SceneError` naming the key."""
+        cur = parent.setdefault(name, kind())
+        if not isinstance(cur, kind):
+            want = "a table (dict)" if kind is dict else "a list of tables"
+            raise SceneError(f"{self._label()}: '{name}' holds {type(cur).__name__} "
+                             f"{cur!r:.40}, not {want}; set it to {want} or remove it")
+        return cur
+
+    def _append(self, table: str, name: str, entry: dict[str, Any]) -> SceneBuilder:
+        """Append ``entry`` to the list of tables ``[[table.name]]`` (``name`` empty: the
+        top-level ``[[table]]``)."""
+        parent = self._part(self.data, table, dict) if name else self.data
+        self._part(parent, name or table, list).append(entry)
         return self
 
     def time(self, **kw: Any) -> SceneBuilder:
@@ -202,14 +253,11 @@ class SceneBuilder:
 
     def polygon(self, vertices: Any, **kw: Any) -> SceneBuilder:
         """One ``[[elements.polygon]]``: ``vertices`` ``[[lon, lat], ...]`` in degrees."""
-        self.data.setdefault("elements", {}).setdefault("polygon", []).append(
-            {"vertices": vertices, **kw})
-        return self
+        return self._append("elements", "polygon", {"vertices": vertices, **kw})
 
     def pack(self, **kw: Any) -> SceneBuilder:
         """One ``[[elements.pack]]`` (``lon``, ``lat``, ``nx``, ``ny``, ...)."""
-        self.data.setdefault("elements", {}).setdefault("pack", []).append(dict(kw))
-        return self
+        return self._append("elements", "pack", dict(kw))
 
     def mesh(self, **kw: Any) -> SceneBuilder:
         """``[elements.mesh]``: Voronoi cells against a coastline (``lon``, ``lat``,
@@ -219,13 +267,11 @@ class SceneBuilder:
 
     def source(self, name: str, **kw: Any) -> SceneBuilder:
         """One ``[[elements.source]]`` (a registered element source, e.g. ``floe``)."""
-        self.data.setdefault("elements", {}).setdefault("source", []).append(
-            {"name": name, **kw})
-        return self
+        return self._append("elements", "source", {"name": name, **kw})
 
     def material(self, name: str, **kw: Any) -> SceneBuilder:
         """``[materials.NAME]``: ``density``, ``youngs_modulus``, ``poisson_ratio``."""
-        self.data.setdefault("materials", {}).setdefault(name, {}).update(kw)
+        self._part(self._part(self.data, "materials", dict), name, dict).update(kw)
         return self
 
     def forcing(self, source: str, *, field: Mapping[str, Any] | None = None,
@@ -242,8 +288,7 @@ class SceneBuilder:
             table["ramp"] = ramp
         if ramp_shape is not None:
             table["ramp_shape"] = ramp_shape
-        self.data.setdefault("forcing", []).append(table)
-        return self
+        return self._append("forcing", "", table)
 
     def process(self, name: str, *, every: str | float | None = None,
                 **params: Any) -> SceneBuilder:
@@ -253,8 +298,7 @@ class SceneBuilder:
             table["params"] = params
         if every is not None:
             table["every"] = every
-        self.data.setdefault("process", []).append(table)
-        return self
+        return self._append("process", "", table)
 
     def contact(self, law: str, **kw: Any) -> SceneBuilder:
         """``[contact]``: ``law`` and its ``params``, ``joints``, ``broad_phase``, ..."""

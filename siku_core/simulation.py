@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -23,9 +22,9 @@ from . import parallel
 from .diagnostics import element_diagnostics, held_forces
 from .context import Context
 from .elements import build_elements_and_categories
-from .guard import Guard, check_initial_state
+from .guard import Guard, check_initial_state, check_time_step
 from . import __version__
-from .errors import SceneError, StabilityError
+from .errors import SceneError
 from .ice import IceBook, apply_processes, process_schedule
 from .interfaces import Component, Field, ForcingSource, Integrator, Process, Writer
 from .limits import check_limits
@@ -114,6 +113,9 @@ class Simulation:
         self.rng = np.random.default_rng(self.seed)
         self.state, categories = build_elements_and_categories(scene, self.registry)
         self.step_index = 0
+        #: the time origin ``(k0, t0)``: model time is ``t0 + (step_index - k0) * dt`` [s];
+        #: (0, 0.0) unless a restart changed the step (siku_core.restart.restore)
+        self.time_origin: tuple[int, float] = (0, 0.0)
         #: what components see of the run (siku_core.context): handed to their setup and hooks
         self.context = Context(self)
         self.progress = cfg.run.progress if progress is None else progress
@@ -243,42 +245,20 @@ class Simulation:
         return out
 
     def check_time_step(self, after: str = "") -> None:
-        """Refuse (or warn on) a dt above ``dt_safety`` times the smallest component limit.
-
-        Every component may declare ``stability_limit(ctx) -> (dt_max [s], reason) | None``
-        (:meth:`~siku_core.interfaces.Component.stability_limit`; the default is no limit).
-        Checked before the run and again whenever a process has changed the ice or the joints
-        have changed (``after`` says what, siku_core.ice and siku_core.guard).
-        """
-        run = self.scene.cfg.run
-        limits = []
-        for comp in [*self.components(), *([self.contacts] if self.contacts else [])]:
-            lim = comp.stability_limit(self.context)
-            if lim is not None:
-                limits.append((lim[0], comp.name, lim[1]))
-        if not limits:
-            self.critical_dt = math.inf
-            return
-        dt_c, who, why = min(limits, key=lambda x: x[0])
-        self.critical_dt = dt_c
-        safe = run.dt_safety * dt_c
-        if self.dt > safe:
-            when = f" after {after} at t = {self.time:g} s" if after else ""
-            msg = (
-                f"{self.scene.where('time')}: dt = {self.dt:g} s is above the safe step "
-                f"{safe:.4g} s{when} ({run.dt_safety:g} × critical {dt_c:.4g} s set by "
-                f"'{who}': {why})")
-            if run.allow_unstable_dt:
-                warnings.warn(msg + "; continuing because [run] allow_unstable_dt = true",
-                              stacklevel=2)
-            else:
-                raise StabilityError(msg + "; lower dt or set [run] allow_unstable_dt = true")
+        """Refuse (or warn on) a dt above ``dt_safety`` times the smallest component limit
+        (:func:`siku_core.guard.check_time_step`); ``after`` says what changed."""
+        check_time_step(self, after)
 
     # ------------------------------------------------------------------ physics
     @property
     def time(self) -> float:
-        """Model time since the start [s]."""
-        return self.step_index * self.dt
+        """Model time since the start [s]: ``t0 + (step_index - k0) * dt`` from the time
+        origin (:attr:`time_origin`; ``step_index * dt`` bit for bit when the step never
+        changed)."""
+        k0, t0 = self.time_origin
+        if k0 == 0 and t0 == 0.0:
+            return self.step_index * self.dt
+        return t0 + (self.step_index - k0) * self.dt
 
     @property
     def committing(self) -> bool:
@@ -420,8 +400,17 @@ class Simulation:
         self.timings["output"] += clock() - t0
 
     def run(self, steps: int | None = None) -> "Simulation":
-        """Run ``steps`` steps (default: to the end of the scene's time span)."""
-        remaining = self.n_steps - self.step_index if steps is None else steps
+        """Run ``steps`` steps (default: to the end of the scene's time span). More steps
+        than remain before the scene's end raise :class:`SceneError` saying how many remain
+        (nothing is run); a finished run is lengthened by a restart with ``extend``."""
+        left = self.n_steps - self.step_index
+        if steps is not None and steps > left:
+            raise SceneError(
+                f"{self.scene.label}: run(steps={steps}) goes past the scene's end: "
+                f"{left} of {self.n_steps} steps remain (t = {self.time:g} s, "
+                f"dt = {self.dt:g} s); "
+                "give steps <= the steps left, or lengthen the scene's time span")
+        remaining = left if steps is None else steps
         show = self.progress
         # the whole loop on the threads the scene's size warrants (set once, not per step)
         with compile_time(self), parallel.threads_for(self.state.n), \

@@ -154,3 +154,27 @@ def test_cover_errors_name_the_table(tmp_path):
         build_elements(_scene(tmp_path, 'file = "c.nc"\nconcentration = "ice"'))
     with pytest.raises(SikuError, match=r"cover.*not found"):
         build_elements(_scene(tmp_path, 'file = "missing.nc"'))
+
+
+def test_a_missing_category_thickness_where_there_is_ice_is_refused(tmp_path):
+    """A NaN category thickness under a non-zero fraction is not 0 m of ice: refused in one
+    line naming the file, the variable, the cell and the category; a NaN thickness of a
+    category without ice (fraction 0) is no ice and accepted."""
+    path = tmp_path / "c.nc"
+    _write(path, categories=True)
+    ds = xr.load_dataset(path)
+    h = ds["hicen"].values.copy()
+    a = ds["aicen"].values.copy()
+    h[1] = np.nan  # the middle category's thickness missing everywhere
+    ds["hicen"].values = h
+    ds.to_netcdf(tmp_path / "bad.nc")
+    cover = 'concentration = "aicen"\nthickness = "hicen"\ncategory = "ncat"'
+    with pytest.raises(SikuError, match=r"bad\.nc: 'hicen' is missing .* ice cell \d+ .*"
+                                        r"category 1") as ei:
+        build_elements(_scene(tmp_path, 'file = "bad.nc"\n' + cover))
+    assert "\n" not in str(ei.value)
+    a[1] = 0.0  # no ice in that category: its missing thickness means nothing
+    ds["aicen"].values = a
+    ds.to_netcdf(tmp_path / "none.nc")
+    st = build_elements(_scene(tmp_path, 'file = "none.nc"\n' + cover))
+    assert np.all(np.isfinite(st.thickness)) and np.all(st.thickness > 0)

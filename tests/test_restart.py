@@ -185,3 +185,25 @@ def test_extend_needs_a_restart_file(tmp_path, monkeypatch, capsys):
     assert main(["run", scene_with(tmp_path / "s.toml"), "--extend", "1h"]) == 2
     assert "--extend continues a finished run: give the file with --restart" in \
         capsys.readouterr().err
+
+
+def test_restart_with_another_step_continues_the_model_time_to_the_scenes_end(tmp_path):
+    """A restart with a changed dt goes on from the stored time: the time axis rises
+    strictly, ends exactly at the scene's end, and the steps taken cover the time left."""
+    part = tmp_path / "part.h5"
+    Simulation(scene_with(tmp_path / "a.toml"), out=part, progress=False).run(steps=N)
+    t_cut = last_snapshot(part)["time"]
+    assert t_cut == N * DT
+    other = scene_with(tmp_path / "b.toml", dt=DT / 2)
+    with pytest.warns(UserWarning, match="restarting with a different scene"):
+        sim = Simulation(other, out=part, restart=part, progress=False, force=True)
+    assert sim.time == t_cut
+    first = sim.step_index
+    sim.run()
+    end = 2 * N * DT  # the scene's duration [s]
+    assert (sim.step_index - first) * sim.dt == end - t_cut
+    assert sim.time == end
+    with h5py.File(part, "r") as f:
+        t = f["states/time"][:]
+    assert np.all(np.diff(t) > 0), f"time axis goes back: {t.tolist()}"
+    assert t[-1] == end

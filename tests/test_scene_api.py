@@ -2,11 +2,13 @@
 both ways, and the default scene built in Python runs bit for bit as the shipped file."""
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
 from siku_core.cli import default_scene_path
-from siku_core.errors import SceneError, SikuError
+from siku_core.errors import DataError, SceneError, SikuError
 from siku_core.scene import load_scene, scene_from_text
 from siku_core.scene_api import SceneBuilder, to_toml
 from siku_core.simulation import Simulation
@@ -92,3 +94,82 @@ def test_toml_both_ways_and_save_writes_only_a_valid_scene(tmp_path):
     with pytest.raises(SceneError, match="dt"):
         one.save(tmp_path / "bad.toml")
     assert not (tmp_path / "bad.toml").exists()
+
+
+# ------------------------------------------------------------ the user's files and misuse
+def one_floe() -> SceneBuilder:
+    s = SceneBuilder("one floe", duration="10min", dt="1min")
+    s.polygon([[-150.0, 75.0], [-149.9, 75.0], [-149.9, 75.05], [-150.0, 75.05]])
+    return s.forcing("water_drag")
+
+
+def test_save_never_replaces_a_file_unless_told_and_never_through_a_link(tmp_path):
+    """save() follows the rule of every file siku writes (outputs.check_target)."""
+    mine = tmp_path / "mine.toml"
+    mine.write_text('title = "a scene of the user"\n', encoding="utf-8")
+    before = mine.read_bytes()
+    with pytest.raises(DataError, match=r"mine\.toml: exists.*overwrite=True"):
+        one_floe().save(mine)
+    assert mine.read_bytes() == before
+    link = tmp_path / "link.toml"
+    link.symlink_to(mine)
+    with pytest.raises(DataError, match=r"link\.toml: exists \(a symbolic link\)"):
+        one_floe().save(link)
+    assert mine.read_bytes() == before
+    one_floe().save(link, overwrite=True)  # the link is replaced, never its target
+    assert mine.read_bytes() == before and not link.is_symlink()
+    assert SceneBuilder.load(link).data == one_floe().data
+    dangling = tmp_path / "dangling.toml"
+    dangling.symlink_to(tmp_path / "elsewhere.toml")
+    with pytest.raises(DataError, match="symbolic link"):
+        one_floe().save(dangling)
+    assert not (tmp_path / "elsewhere.toml").exists()
+    data = tmp_path / "data.bin"
+    data.write_bytes(b"\xff\x00 not a scene")
+    with pytest.raises(DataError, match="not a scene file siku wrote"):
+        one_floe().save(data, overwrite=True)
+    assert data.read_bytes() == b"\xff\x00 not a scene"
+    one_floe().save(mine, overwrite=True)  # a scene file, replaced when told
+    assert SceneBuilder.load(mine).data == one_floe().data
+
+
+def test_save_refuses_a_fifo_without_opening_it(tmp_path):
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)  # opening it for writing would block for ever
+    for overwrite in (False, True):
+        with pytest.raises(DataError, match="not a regular file"):
+            one_floe().save(fifo, overwrite=overwrite)
+
+
+@pytest.mark.parametrize("misuse, expect", [
+    (lambda s: s.set("forcing.3", {}), r"cannot set 'forcing\.3': the list holds 1 tables"),
+    (lambda s: s.set(5, 1), r"cannot set 5: give a dotted key"),
+    (lambda s: s.set("time..dt", 1), r"cannot set 'time\.\.dt'"),
+    (lambda s: s.set("time", 5).time(dt=1), r"'time' holds int 5, not a table"),
+    (lambda s: s.set("forcing", {}).forcing("coriolis"), r"'forcing' holds dict .* list of tab"),
+    (lambda s: s.set("elements", []).pack(nx=1), r"'elements' holds list .* a table"),
+    (lambda s: s.set("run", {1: 2}).to_toml(), r"1 \(int\) cannot be a key"),
+])
+def test_builder_misuse_raises_a_siku_error_naming_the_key(misuse, expect):
+    with pytest.raises(SceneError, match=expect) as ei:
+        misuse(one_floe())
+    assert "\n" not in str(ei.value)
+
+
+def test_load_of_a_folder_or_binary_file_is_a_scene_error(tmp_path):
+    with pytest.raises(SceneError, match="cannot read a scene file"):
+        SceneBuilder.load(tmp_path)
+    (tmp_path / "x.h5").write_bytes(b"\x89HDF\r\n\x1a\n\xff\xfe")
+    with pytest.raises(SceneError, match="not UTF-8 text"):
+        SceneBuilder.load(tmp_path / "x.h5")
+
+
+def test_run_past_the_scenes_end_is_refused_saying_how_many_steps_remain():
+    sim = one_floe().simulation(out=False, progress=False)
+    sim.run(steps=4)
+    with pytest.raises(SceneError, match=r"run\(steps=7\) goes past the scene's end: 6 of 10 "
+                                         r"steps remain"):
+        sim.run(steps=7)
+    assert sim.step_index == 4
+    sim.run(steps=6)
+    assert sim.step_index == sim.n_steps == 10

@@ -22,6 +22,11 @@ concentration only selects the cells: an element's ice covers it whole (mass ``r
 element keeps its categories (``a_k``, ``h_k``: :mod:`siku_core.categories`), which processes
 change and outputs carry; fractions that sum above 1, or a negative fraction or thickness, are
 refused, naming the cell.
+
+Missing values (NaN, or the file's own ``_FillValue``/``missing_value``, which the reader turns
+into NaN) follow one rule: a missing concentration or category fraction is open water (no ice);
+a missing thickness where there is ice (the cell is kept, or the category's fraction is
+above 0) is refused in one line naming the file, the variable, the cell and the category.
 """
 from __future__ import annotations
 
@@ -38,7 +43,9 @@ from siku_forcing.cf import find_coordinate
 class Cover:
     """The cover at a set of points: concentration [1], thickness [m] (NaN where the file has
     no thickness variable), and with categories the distribution ``g (n, K)``, category
-    thicknesses ``h (n, K)`` and fractions ``a (n, K)`` (missing values: 0)."""
+    thicknesses ``h (n, K)`` and fractions ``a (n, K)``: a missing fraction is 0 (no ice of
+    that category, its thickness then 0 m); a missing thickness of a category with ice is NaN,
+    which the mesh source refuses."""
 
     concentration: np.ndarray
     thickness: np.ndarray
@@ -171,7 +178,9 @@ def read_cover(cfg, base_dir: Path, start, plon: np.ndarray, plat: np.ndarray,
         raise DataError(f"{where}: thickness categories need a thickness variable")
     total = a.sum(axis=0)
     g = np.divide(a, total, out=np.zeros_like(a), where=total > 0)
-    hk = np.where(np.isfinite(thick), thick, 0.0)
+    # a category's thickness counts only where it has ice: missing there stays NaN (refused
+    # by the mesh source, naming the cell and category); where a_k = 0 it is no ice: 0 m
+    hk = np.where(a > 0, thick, 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = category_mean(a.T, hk.T)
     return Cover(total, np.where(total > 0, mean, np.nan), g.T, hk.T, a.T)

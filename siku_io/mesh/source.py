@@ -54,6 +54,16 @@ class MeshSource(ElementSource):
                          mesh.seeds[:, 1], where)
         keep = ~ice | (cov.concentration >= mc.cover.threshold)
         thick = np.where(ice, cov.thickness, np.nan)
+        if cov.h is not None:  # a category with ice needs its thickness (icecover: one rule)
+            cells, cat = np.nonzero((keep & ice)[:, None] & np.isnan(cov.h))
+            if len(cells):
+                k = int(cells[0])
+                raise SceneError(
+                    f"{where}: {mc.cover.file}: '{mc.cover.thickness}' is missing (NaN or "
+                    f"fill value) at ice cell {k} (seed {mesh.seeds[k, 0]:.4f}, "
+                    f"{mesh.seeds[k, 1]:.4f}), category {int(cat[0])}, where "
+                    f"'{mc.cover.concentration}' has ice ({len(cells)} such values); give a "
+                    "thickness there, or a fraction of 0 for no ice")
         bad = np.flatnonzero(keep & ice & ~(thick > 0)) if mc.cover.thickness else []
         if len(bad):
             k = int(bad[0])

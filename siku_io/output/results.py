@@ -352,5 +352,5 @@ def restart_snapshot(path: Path, n: int, history: dict) -> dict[str, Any]:
                 raise DataError(f"{path}: restart holds history {key}/{name} of shape "
                                 f"{got}, the scene builds {np.shape(arr)}; restart with "
                                 "the scene that wrote the file")
-    return {k: last[k] for k in ("step", "q", "V", "w", "history", "record", "n_steps",
-                                 "extended_from")}
+    return {k: last[k] for k in ("step", "time", "q", "V", "w", "history", "record",
+                                 "n_steps", "extended_from")}
