@@ -28,6 +28,7 @@ from .contact_law import (
     parameter_vector,
 )
 from .contacts import collision_forces, gather_forces, joint_forces
+from .damping import mobility
 from .errors import SceneError
 from .geometry.clip import REL_TOL
 from .geometry.coherent import NO_HINT
@@ -120,6 +121,9 @@ class ContactModel(JointBook):
         self.n_overlap = 0
         self.n_broken_total = 0
         self.rejected: list[tuple[int, int]] = []
+        #: per element ``(n/m, n/I)``, the bound of the dampers (``siku_core.damping``);
+        #: ``None``: stale, computed at the next evaluation
+        self._dmob: np.ndarray | None = None
         self._build_joints()
 
     # ------------------------------------------------------------------ step
@@ -280,13 +284,16 @@ class ContactModel(JointBook):
         within = self._rotations(q)
         t1 = time.perf_counter()
         joints = self.n_joints and law.uses_joints
+        dmob = self.damping_mobility()
+        dt = self.time_step()
         if joints:
             broke = joint_forces(
                 self._jev, self._jpars, self.rm, V, w, st.thickness, self.E,
                 self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
                 self._jK, self._jmeff, self.intact, self.break_mode, self.hist, R,
-                self.time_step(), commit, self.joint_rows, self.joint_active,
+                dt, commit, self.joint_rows, self.joint_active,
                 chunks(self.n_joints), self._jscratch if self._joints_stale else None, self.arms,
+                dmob,
             )
             self._joints_stale = False
             if commit and broke:
@@ -303,7 +310,7 @@ class ContactModel(JointBook):
                 self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
                 self.chist if self.n_contact_hist else None, commit,
                 self.pair_capped if self.caps_kept else None,
-                self.clip_hint if len(self.clip_hint) else None,
+                self.clip_hint if len(self.clip_hint) else None, dmob, dt,
             )
             if commit:
                 self.n_overlap = n
@@ -327,6 +334,16 @@ class ContactModel(JointBook):
         tm["broad_phase"] += t3 - t2
         tm["collisions"] += t4 - t3
         tm["contact_sum"] += (t1 - t0) + (t5 - t4)
+
+    def damping_mobility(self) -> np.ndarray:
+        """Per element ``(n/m, n/I)`` that bounds every damper of the contact phase
+        (:func:`siku_core.damping.mobility`), kept until the joints or the ice change."""
+        if self._dmob is None:
+            st = self.state
+            ji, jj, live = ((self.ji, self.jj, self.intact) if self.n_joints and
+                            self.law.uses_joints else (self._no_elements,) * 3)
+            self._dmob = mobility(st.flags, st.m, st.I, st.vert_offsets, ji, jj, live, FREE)
+        return self._dmob
 
     def setup(self) -> None:
         """The law's parameter vectors, and its evaluators compiled once for the engine's
@@ -352,6 +369,7 @@ class ContactModel(JointBook):
         leave the candidate list. ``elements``: only these changed (``None``: all), ``flags``:
         a flag may have (:func:`~siku_core.ice_follow.follow_contacts`)."""
         st = self.state
+        self._dmob = None
         full = elements is None
         if full:
             elements = self._no_elements
@@ -417,8 +435,9 @@ class ContactModel(JointBook):
         :meth:`stiffness_bound` (undamped, element by element) and the stable step of the
         contacts' stiffness *and damping* at rest (:func:`siku_core.stable_step.critical_step`:
         joints, the collision of jointed pairs under ``jointed = "collide"``, free edges,
-        rotation, static and steady neighbours as walls; the explicit damping lowers the
-        step). ``None`` without a free element in contact."""
+        rotation, static and steady neighbours as walls). Explicit dampers lower the second;
+        a law's dampers bounded by the step (``bounded_damping``, :mod:`siku_core.damping`)
+        leave it near the undamped limit. ``None`` without a free element in contact."""
         from .stable_step import critical_step
 
         om, i = self.stiffness_bound()
@@ -428,11 +447,16 @@ class ContactModel(JointBook):
         dt_l, il, d = critical_step(self, rates)
         self.stable_step_details = {**d, "undamped_bound": 2.0 / om, "linear": dt_l}
         if dt_l < 2.0 / om:
+            damp = f"damping rate {d['gamma']:.4g} 1/s"
+            if "gamma_bounded" in d:
+                damp += (f" as written, {d['gamma_bounded']:.4g} 1/s bounded by the step at "
+                         f"2/omega")
             why = (f"stiffest mode at element {il} under law '{self.law.name}' (omega = "
-                   f"{d['omega']:.4g} rad/s with damping rate {d['gamma']:.4g} 1/s)")
+                   f"{d['omega']:.4g} rad/s, undamped limit {2.0 / d['omega']:.4g} s; {damp})")
             dt_c = dt_l
         else:
-            why = f"stiffest contact of element {i} under law '{self.law.name}'"
+            why = (f"stiffest contact of element {i} under law '{self.law.name}' (element by "
+                   f"element, undamped; the whole pack's estimate {dt_l:.4g} s)")
             dt_c = 2.0 / om
         if rates.get("unbounded"):
             warnings.warn(f"{self.where}: the stable-step estimate cannot be sure: "

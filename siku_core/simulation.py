@@ -259,6 +259,8 @@ class Simulation:
             return
         dt_c, who, why = min(limits, key=lambda x: x[0])
         self.critical_dt = dt_c
+        #: what set the critical step: the component's name and its reason
+        self.critical_by = (who, why)
         safe = run.dt_safety * dt_c
         if self.dt > safe:
             when = f" after {after} changed the ice at t = {self.time:g} s" if after else ""
