@@ -4,8 +4,6 @@
 """
 from __future__ import annotations
 
-__version__ = "0.1.0"
-
 from .errors import (  # noqa: E402
     DataError,
     GeometryError,
@@ -17,9 +15,11 @@ from .errors import (  # noqa: E402
 )
 from .params import Param  # noqa: E402
 from .plugins import hookimpl, hookspec  # noqa: E402
+from .versions import PLUGIN_API_VERSION, __version__  # noqa: E402
 
 __all__ = [
-    "__version__", "hookimpl", "hookspec", "Param", "Simulation", "load_scene",
+    "__version__", "PLUGIN_API_VERSION", "hookimpl", "hookspec", "Param", "Simulation",
+    "load_scene",
     "SikuError", "SceneError", "PluginError", "GeometryError", "StabilityError",
     "NonFiniteError", "DataError",
 ]

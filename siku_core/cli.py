@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 import warnings
@@ -55,6 +56,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
+    from .progress import CompileProgress
     from .scene import load_scene, refuse_unitless_durations
     from .simulation import Simulation
 
@@ -69,8 +71,11 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
             extend = parse_duration(args.extend)
         except ValueError as exc:
             raise SceneError(f"--extend {args.extend!r}: {exc}") from None
-    sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart,
-                     overwrite=args.overwrite, force=args.force, extend=extend)
+    with CompileProgress(enabled=progress is None):
+        sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart,
+                         overwrite=args.overwrite, force=args.force, extend=extend)
+    first = sim.step_index
+    sim.auto_threads = auto_threads(args.threads)
     t0 = time.perf_counter()
     fitted = ("" if sim.dt == sim.dt_requested else
               f" ({sim.dt_requested:g} s in the scene, shortened so that outputs fall on steps)")
@@ -88,9 +93,9 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
     print(f"done in {wall:.1f} s; output: {out}", file=sys.stderr)
     from .summary import format_summary, summary_of
 
-    print(format_summary(summary_of(sim, wall, out)), file=sys.stderr)
+    print(format_summary(summary_of(sim, wall, out, sim.step_index - first)), file=sys.stderr)
     if args.profile:
-        print(profile_table(sim, wall), file=sys.stderr)
+        print(profile_table(sim, wall - sim.compile_seconds), file=sys.stderr)
     if sim.output_path is not None and sim.step_index == sim.n_steps:
         from .plugins import get_plugin_manager
 
@@ -111,20 +116,31 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
 def _cmd_warm(args: argparse.Namespace) -> int:
     """Build a scene (its mesh cache included) and take two steps without output: every kernel
     the scene uses is compiled and cached, so that its first real run starts at full speed."""
+    from .progress import CompileProgress
     from .scene import load_scene
     from .simulation import Simulation
 
     path = Path(args.scene) if args.scene else default_scene_path()
     t0 = time.perf_counter()
     scene = load_scene(path)
-    sim = Simulation(scene, out=False, progress=False)
-    t1 = time.perf_counter()
-    sim.run(steps=min(2, sim.n_steps))
+    with CompileProgress() as clock:
+        sim = Simulation(scene, out=False, progress=False)
+        sim.run(steps=min(2, sim.n_steps))
     t2 = time.perf_counter()
+    compiled = (f"{clock.seconds:.1f} s compiling {plural(clock.count, 'kernel')} (the "
+                "others loaded from the caches)" if clock.count
+                else "kernels loaded from the caches")
     print(f"siku warm: {scene.cfg.title or path.name}: built {plural(sim.state.n, 'element')} "
-          f"in {t1 - t0:.1f} s, compiled or loaded its kernels in {t2 - t1:.1f} s",
+          f"and took {plural(sim.step_index, 'step')} in {t2 - t0:.1f} s: {compiled}",
           file=sys.stderr)
     return 0
+
+
+def auto_threads(threads: int | None, environ=None) -> bool:
+    """Whether a run chooses its threads as it goes (one or all, ``Simulation.auto_threads``):
+    when neither ``--threads`` (``threads``) nor ``NUMBA_NUM_THREADS`` says how many."""
+    return threads is None and "NUMBA_NUM_THREADS" not in (os.environ if environ is None
+                                                            else environ)
 
 
 def plural(n: int, noun: str) -> str:
@@ -143,24 +159,33 @@ def _set_threads(n: int) -> None:
 
 def profile_table(sim, wall: float) -> str:
     """The time of each phase of the step (``Simulation.timings``) as a table: seconds, share
-    of the run's wall time ``wall`` [s], and per step and per element-step."""
+    of the run's wall time ``wall`` [s] (without the compilation: ``Simulation.timings`` leave
+    it out too), and per step and per element-step."""
     import numba
+
+    from . import parallel
 
     steps = max(sim.timed_steps, 1)
     n = max(sim.state.n, 1)
     rows = [(k, v) for k, v in sim.profile()]
     other = wall - sum(v for _, v in rows)
     rows.append(("other", max(other, 0.0)))
+    on = f"{numba.get_num_threads()} thread(s)"
+    if sim.auto_threads and parallel.LAST_TUNED:
+        on = ", ".join(f"{t} thread(s) for {k} steps"
+                       for t, k in sorted(parallel.LAST_TUNED.items())) + " (timed as it ran)"
     lines = [f"profile: {sim.timed_steps} steps of {sim.state.n} elements in {wall:.3g} s on "
-             f"{numba.get_num_threads()} thread(s): {n * steps / wall:.3g} element-steps/s",
+             f"{on}: {n * steps / wall:.3g} element-steps/s",
              f"  {'phase':<12} {'seconds':>9} {'share':>7} {'per step':>11} "
              f"{'per element-step':>17}"]
     for k, v in rows:
         share = 100.0 * v / wall if wall > 0 else 0.0
         lines.append(f"  {k:<12} {v:9.3f} {share:6.1f}% {v / steps * 1e6:9.1f} us "
                      f"{v / steps / n * 1e9:14.1f} ns")
-    lines.append("  (other: the Python loop, progress bar, opening files and start-up of the "
-                 "compiled code of the step and the output)")
+    lines.append("  (other: the Python loop, progress bar, opening files and loading the "
+                 "compiled code of the step and the output from the caches"
+                 + (f"; compiling kernels, {sim.compile_seconds:.1f} s, left out)"
+                    if sim.compile_seconds >= 0.05 else ")"))
     return "\n".join(lines)
 
 
@@ -251,7 +276,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-plots", action="store_true", help="skip the pictures [output] asks for")
     r.add_argument("--profile", action="store_true",
                    help="print the time spent in each phase of the step")
-    r.add_argument("--threads", type=int, help="numba threads (default: all cores)")
+    r.add_argument("--threads", type=int, help="numba threads (default: one or all cores, "
+                   "whichever runs the steps faster, timed as the run goes)")
     r.set_defaults(func=_cmd_run)
     w = sub.add_parser("warm", help="compile and cache the kernels (and mesh) a scene uses, "
                        "so that its first run starts at full speed (no argument: the default)")

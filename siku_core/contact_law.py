@@ -36,6 +36,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .deprecation import warn_deprecated
 from .errors import PluginError
 from .interfaces import Component
 
@@ -231,6 +232,16 @@ class ContactLaw(Component):
     #: declares it again)
     bounded_damping: ClassVar[bool] = False
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """A law written for siku 0.1 defines ``collision_parameters(self, sim)`` or
+        ``joint_parameters(self, sim)``: it is adapted to the reference form (``sim`` is
+        ``None``), with a deprecation warning (:func:`_without_sim`)."""
+        super().__init_subclass__(**kwargs)
+        for method in ("collision_parameters", "joint_parameters"):
+            fn = cls.__dict__.get(method)
+            if inspect.isfunction(fn) and list(inspect.signature(fn).parameters)[1:] == ["sim"]:
+                setattr(cls, method, _without_sim(cls, method, fn))
+
     def parameter_values(self) -> Mapping[str, Any]:
         """The values the records are packed from: the law's parameters; a law whose
         evaluator takes a value derived from them (``tan(phi)`` of an angle) adds it here."""
@@ -280,6 +291,25 @@ class ContactLaw(Component):
                           "without bound as the overlap A vanishes; taken as K w"
                           if p.get("sqrt_area", False) else None),
         }
+
+
+def _without_sim(cls: type, method: str, fn: Any) -> Any:
+    """``method(self, sim)``, the form of siku 0.1, as ``method(self)``: called with ``sim =
+    None`` (a law that reads the simulation there must move that to ``setup(ctx)``); warns once,
+    when the class is defined (:func:`siku_core.deprecation.warn_deprecated`)."""
+    which = method.split("_")[0]
+    warn_deprecated(
+        f"{cls.__module__}.{cls.__qualname__}.{method}(self, sim)",
+        f"define {method}(self), which reads the parameters from self.p, or declare "
+        f"{which}_record (siku_core.contact_law.ParameterRecord) and no method; siku calls the "
+        "old form with sim=None", stacklevel=4)  # past ABCMeta.__new__ to the class statement
+
+    def adapted(self: Any) -> np.ndarray:
+        return fn(self, None)
+
+    adapted.__name__, adapted.__qualname__ = method, f"{cls.__qualname__}.{method}"
+    adapted.__doc__ = fn.__doc__
+    return adapted
 
 
 # ---------------------------------------------------------------------- checks
@@ -416,3 +446,17 @@ def parameter_vector(law: ContactLaw, which: str, package: str) -> np.ndarray:
             f"numbers; got {vec if vec is not None else ok!r}"
         )
     return vec
+
+
+#: the contract a contact law is written against (docs/reference/api.md)
+__all__ = [
+    "ContactLaw", "ParameterRecord", "BreakMode", "BREAK_MODES", "BREAK_STRAIN", "BREAK_TENSION",
+    "BREAK_SHEAR", "BREAK_COMPRESSION", "BREAK_EXTERNAL", "BREAK_FLEXURE", "BREAK_MELT",
+    "G_AREA", "G_CX", "G_CY", "G_NX", "G_NY", "G_WIDTH", "G_K", "G_MEFF", "G_VX", "G_VY",
+    "G_AREA_I", "G_AREA_J", "G_HI", "G_HJ", "G_SIZE",
+    "J_S1X", "J_S1Y", "J_S2X", "J_S2Y", "J_AX", "J_AY", "J_BX", "J_BY", "J_L0", "J_W", "J_K",
+    "J_MEFF", "J_VAX", "J_VAY", "J_VBX", "J_VBY", "J_HI", "J_HJ", "J_EI", "J_EJ", "J_NU", "J_DT",
+    "J_SIZE", "OUT_FX", "OUT_FY", "OUT_COUPLE", "OUT_BREAK", "OUT_SIZE",
+    "COLLISION_LAYOUT", "JOINT_LAYOUT", "OUT_LAYOUT", "layout_table", "EVALUATORS",
+    "check_contact_law",
+]

@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import contact_loops
+from .deprecation import moved_names
 from .geometry.face import edge_table
 from .kernel_cache import instantiate
 from .parallel import chunk_bounds, claim, tasks
@@ -178,3 +179,15 @@ def _gather_chunk(F, T, joff, jidx, jside, jout, joint_active, poff, pidx, pside
         F[e, 0] = fx
         F[e, 1] = fy
         T[e] = t
+
+
+#: names of the contact-law contract that this module held before siku 0.2.0: the geometry and
+#: result layouts, their tables and the break modes (:mod:`siku_core.contact_law` since; a
+#: deprecation alias each, :mod:`siku_core.deprecation`)
+MOVED_TO_CONTACT_LAW = (
+    "G_AREA G_CX G_CY G_NX G_NY G_WIDTH G_K G_MEFF G_VX G_VY G_AREA_I G_AREA_J G_SIZE "
+    "J_S1X J_S1Y J_S2X J_S2Y J_AX J_AY J_BX J_BY J_L0 J_W J_K J_MEFF J_VAX J_VAY J_VBX J_VBY "
+    "J_HI J_HJ J_EI J_EJ J_NU J_DT J_SIZE COLLISION_LAYOUT JOINT_LAYOUT OUT_LAYOUT layout_table "
+    "BREAK_STRAIN BREAK_TENSION BREAK_SHEAR BREAK_COMPRESSION BREAK_EXTERNAL BREAK_FLEXURE "
+    "BREAK_MODES").split()
+__getattr__ = moved_names(__name__, dict.fromkeys(MOVED_TO_CONTACT_LAW, "siku_core.contact_law"))

@@ -75,6 +75,10 @@ class Component(ABC):
     #: hands them out as ``ctx.fields[name]`` and every writer, the xarray engine, ``siku grid``
     #: and restarts carry them
     owned_fields: ClassVar[tuple["ElementField", ...]] = ()
+    #: the plugin API versions the component works with (``"1.x"``: any 1.*; ``"1.2"``: 1.2 or
+    #: a later 1.*; ``None``: any): one that this siku's ``siku_core.PLUGIN_API_VERSION`` does
+    #: not satisfy is refused when it registers (:func:`siku_core.versions.api_mismatch`)
+    requires_api: ClassVar[str | None] = None
 
     def __init__(self, params: Mapping[str, Any] | None = None):
         full = {k: p.default for k, p in self.params.items()}
@@ -367,3 +371,10 @@ KINDS: dict[str, type[Component]] = {
     c.kind: c for c in (Integrator, Field, ForcingSource, BroadPhase, ContactLaw, Writer,
                         ElementSource, Process, AttenuationLaw)
 }
+
+
+#: the base classes of the kinds a plugin provides (docs/reference/api.md)
+__all__ = [
+    "Component", "Integrator", "Field", "ForcingSource", "BroadPhase", "Writer", "Process",
+    "ElementSpec", "ElementSource", "AttenuationLaw", "KINDS",
+]

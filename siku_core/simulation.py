@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
-import time
 import warnings
 from pathlib import Path
 from typing import Any
@@ -35,7 +34,7 @@ from .outputs import check_output_path, extra_output_paths, input_paths
 from .params import validate_params
 from .plugins import Registry, get_plugin_manager, get_registry, package_of
 from .scene import Scene, load_scene
-from .progress import CompileNotice
+from .progress import CompileProgress, clock, compile_time
 from .ramp import ForcingRamps
 from .restart import history as history_of
 from .restart import restart, set_history
@@ -120,9 +119,8 @@ class Simulation:
         self.context = Context(self)
         self.progress = cfg.run.progress if progress is None else progress
 
-        self.integrator: Integrator = self._component(
-            "integrator", cfg.integrator.name, cfg.integrator.params, "integrator"
-        )  # type: ignore[assignment]
+        self.integrator: Integrator = self._component(  # type: ignore[assignment]
+            "integrator", cfg.integrator.name, cfg.integrator.params, "integrator")
         self.forcing: list[ForcingSource] = [
             self._forcing_source(k, f) for k, f in enumerate(cfg.forcing)]
         #: the forcing sources' spin-ups (``[[forcing]] ramp``, siku_core.ramp)
@@ -167,6 +165,11 @@ class Simulation:
         self._opened = False
         self._force_time = 0.0
         self.timed_steps = 0
+        #: seconds numba spent compiling kernels during :meth:`run` and :meth:`advance` [s]
+        self.compile_seconds = 0.0
+        #: :meth:`run` chooses between one thread and those set, timing both as it steps
+        #: (:class:`~siku_core.parallel.ThreadTuner`; ``siku run`` without ``--threads``)
+        self.auto_threads = False
         if self.pm is not None:
             self.pm.hook.siku_ready(simulation=self)
 
@@ -267,8 +270,7 @@ class Simulation:
             msg = (
                 f"{self.scene.where('time')}: dt = {self.dt:g} s is above the safe step "
                 f"{safe:.4g} s{when} ({run.dt_safety:g} × critical {dt_c:.4g} s set by "
-                f"'{who}': {why})"
-            )
+                f"'{who}': {why})")
             if run.allow_unstable_dt:
                 warnings.warn(msg + "; continuing because [run] allow_unstable_dt = true",
                               stacklevel=2)
@@ -292,42 +294,41 @@ class Simulation:
 
     def compute_forces(self, t: float, q, V, w, F, T) -> None:
         """Fill ``F`` [N] and ``T`` [N m] for the state ``q, V, w`` at time ``t`` [s]."""
-        t0 = time.perf_counter()
+        t0 = clock()
         F.fill(0.0)
         T.fill(0.0)
         self._ramps.add(self.forcing, t, q, V, w, F, T)
-        t1 = time.perf_counter()
+        t1 = clock()
         self.timings["forcing"] += t1 - t0
         if self.contacts is not None:
             self.contacts.add(t, q, V, w, F, T, self._commit)
         self._commit = False
-        self._force_time += time.perf_counter() - t0
+        self._force_time += clock() - t0
 
     def step(self) -> None:
         """Advance one time step and run the NaN guard on its schedule.
 
         Every phase's wall time accumulates in :attr:`timings` (seconds, keys :data:`PHASES`;
         ``integrator`` excludes the force evaluations it calls); ``siku run --profile`` prints
-        them. Measuring costs a few ``perf_counter`` calls per step.
+        them, compilation left out (:func:`siku_core.progress.clock`).
         """
-        t0 = time.perf_counter()
+        t0 = clock()
         self._commit = True
         self._force_time = 0.0
         with parallel.threads_for(self.state.n):
             self.integrator.step(self.state, self.time, self.dt, self.compute_forces)
         self.step_index += 1
-        t1 = time.perf_counter()
+        t1 = clock()
         self.timings["integrator"] += t1 - t0 - self._force_time
         if self.processes:
             apply_processes(self)
-            t2 = time.perf_counter()
+            t2 = clock()
             self.timings["processes"] += t2 - t1
             t1 = t2
-        if self.step_index % self.scene.cfg.run.nan_check_every == 0 or (
-            self.step_index == self.n_steps
-        ):
+        if (self.step_index % self.scene.cfg.run.nan_check_every == 0
+                or self.step_index == self.n_steps):
             self.guard.check()
-        self.timings["guard"] += time.perf_counter() - t1
+        self.timings["guard"] += clock() - t1
         self.timed_steps += 1
 
     def profile(self) -> list[tuple[str, float]]:
@@ -400,12 +401,12 @@ class Simulation:
     def _write(self, force: bool = False, diagnostics: bool = True) -> None:
         """Write what the schedules ask for at this step. A snapshot is the last good state:
         the guard checks it first (if it has not at this step), then it is remembered."""
-        t0 = time.perf_counter()
+        t0 = clock()
         k, last = self.step_index, self.n_steps
         snapshot = force or self.state_schedule.due(k, last)
         if snapshot and self.guard.checked_step != k:
             self.guard.check()
-            tg = time.perf_counter()
+            tg = clock()
             self.timings["guard"] += tg - t0  # the guard's time is the guard's, not output's
             t0 = tg
         if self.writers:
@@ -418,38 +419,39 @@ class Simulation:
                     w.write_state(self.context)
         if snapshot:
             self.guard.save()
-        self.timings["output"] += time.perf_counter() - t0
+        self.timings["output"] += clock() - t0
 
     def run(self, steps: int | None = None) -> "Simulation":
         """Run ``steps`` steps (default: to the end of the scene's time span)."""
         remaining = self.n_steps - self.step_index if steps is None else steps
-        self.open_outputs()
         show = self.progress
         # the whole loop on the threads the scene's size warrants (set once, not per step)
-        with parallel.threads_for(self.state.n):
-            self._loop(remaining, show)
+        with compile_time(self), parallel.threads_for(self.state.n), \
+                parallel.tuned(self.auto_threads, clock) as tune:
+            self._loop(remaining, show, tune)
         return self
 
-    def _loop(self, remaining: int, show: bool | None) -> None:
+    def _loop(self, remaining: int, show: bool | None, tune) -> None:
         """The steps of :meth:`run`, with their progress bar; closes the outputs at the end."""
         bar = None
         try:
-            if remaining > 0:  # the first step compiles the kernels: said, and kept off the bar
-                with CompileNotice(enabled=show is None or bool(show)):
+            # the first step compiles the kernels: shown, and kept off the bar
+            with CompileProgress(enabled=show is None or bool(show)):
+                self.open_outputs()
+                if remaining > 0:
                     self.step()
                     self._write()
-                remaining -= 1
+                    remaining -= 1
             if show is None or show:
                 from tqdm.auto import tqdm
 
-                bar = tqdm(
-                    total=remaining, unit="step", desc=self.scene.cfg.title or "siku",
-                    disable=show is False, delay=0.0 if show else 2.0, mininterval=0.5,
-                    leave=False,
-                )
+                bar = tqdm(total=remaining, unit="step", desc=self.scene.cfg.title or "siku",
+                           disable=show is False, delay=0.0 if show else 2.0, mininterval=0.5,
+                           leave=False)
             for _ in range(remaining):
-                self.step()
-                self._write()
+                with tune:
+                    self.step()
+                    self._write()
                 if bar is not None:
                     bar.update(1)
         finally:
@@ -461,7 +463,7 @@ class Simulation:
         """Take ``steps`` steps, writing on the schedules, and leave the outputs open (a
         coupled run advanced by another model; :meth:`close` ends it)."""
         self.open_outputs()
-        with parallel.threads_for(self.state.n):
+        with compile_time(self), parallel.threads_for(self.state.n):
             for _ in range(steps):
                 self.step()
                 self._write()

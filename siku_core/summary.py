@@ -1,12 +1,14 @@
 """The summary of a run, printed when ``siku run`` ends and by ``siku info FILE`` for any output:
-elements by kind, steps and model time, joints broken by mode, the lead fraction, wall time and
-where the output went. Plain numbers in, text out: the run loop and the file reader
+elements by kind, steps and model time, joints broken by mode, the lead fraction, the smallest
+free cell's share of the median area and what it costs in step (:mod:`siku_core.cells`), wall
+time and where the output went. Plain numbers in, text out: the run loop and the file reader
 (the ``siku info`` command) fill the same :class:`RunSummary`."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from typing import Any
 
+from .cells import small_cell_report
 from .state import FREE, STATIC, STEADY
 
 
@@ -23,6 +25,9 @@ class RunSummary:
     wall: float | None = None  # s
     output: str | None = None
     start: str | None = None  # ISO date of t = 0
+    areas: Any = None  # per element [m²]: the smallest free cells' share of the median
+    compile: float | None = None  # s of ``wall`` numba spent compiling kernels
+    run_steps: int | None = None  # steps taken in ``wall`` (default: ``steps``)
 
 
 def _duration(s: float) -> str:
@@ -33,6 +38,17 @@ def _duration(s: float) -> str:
     if s >= 60:
         return f"{s / 60:.4g} min"
     return f"{s:.4g} s"
+
+
+def _rate(r: RunSummary) -> str:
+    """`` (N steps/s)`` over the stepping time: the wall time less the compilation."""
+    steps = r.steps if r.run_steps is None else r.run_steps
+    compiling = r.compile or 0.0
+    stepping = r.wall - compiling if r.wall is not None else 0.0
+    rate = f"{steps / stepping:.4g} steps/s" if stepping > 0 and steps else ""
+    if compiling >= 0.05:
+        return f" (compiling kernels {compiling:.1f} s; {rate or 'no steps'} without it)"
+    return f" ({rate})" if rate else ""
 
 
 def format_summary(r: RunSummary) -> str:
@@ -64,17 +80,23 @@ def format_summary(r: RunSummary) -> str:
     if "mean_speed" in d:
         rows.append(("speed", f"mean {d['mean_speed']:.3g} m/s, largest "
                               f"{d.get('max_speed', float('nan')):.3g} m/s"))
+    small = small_cell_report(r.areas, flags) if r.areas is not None else None
+    if small is not None and small.n_free > 1:
+        rows.append(("cells", small.line(p5=False)))
     if r.wall is not None:
-        rate = f" ({r.steps / r.wall:.4g} steps/s)" if r.wall > 0 and r.steps else ""
-        rows.append(("wall time", f"{r.wall:.1f} s{rate}"))
+        rows.append(("wall time", f"{r.wall:.1f} s{_rate(r)}"))
     rows.append(("output", r.output or "none (out=False)"))
     width = max(len(k) for k, _ in rows)
     head = f"summary: {r.title}" if r.title else "summary"
     return "\n".join([head] + [f"  {k:<{width}}  {v}" for k, v in rows])
 
 
-def summary_of(sim: Any, wall: float | None = None, output: str | None = None) -> RunSummary:
-    """The summary of a :class:`~siku_core.simulation.Simulation` as it stands."""
+def summary_of(sim: Any, wall: float | None = None, output: str | None = None,
+               run_steps: int | None = None) -> RunSummary:
+    """The summary of a :class:`~siku_core.simulation.Simulation` as it stands; ``wall`` [s]:
+    the time of its :meth:`~siku_core.simulation.Simulation.run` (the compilation in it,
+    ``sim.compile_seconds``, is shown apart and left out of the rate); ``run_steps``: the
+    steps that run took (default: all the steps done)."""
     cfg = sim.scene.cfg
     start = cfg.time.start.isoformat() if getattr(cfg.time, "start", None) else None
     return RunSummary(
@@ -82,4 +104,6 @@ def summary_of(sim: Any, wall: float | None = None, output: str | None = None) -
         n_steps=int(sim.n_steps), dt=float(sim.dt), time=float(sim.time),
         diagnostics=sim.diagnostics(),
         n_joints=None if sim.contacts is None else int(sim.contacts.n_joints),
-        wall=wall, output=output, start=start)
+        wall=wall, output=output, start=start, areas=sim.state.area,
+        compile=float(getattr(sim, "compile_seconds", 0.0)) if wall is not None else None,
+        run_steps=run_steps)

@@ -4,6 +4,10 @@ from __future__ import annotations
 import numba
 import pytest
 
+#: plugin packages kept frozen as they were written, with their own suites, which
+#: tests/test_public_api.py runs against this tree in a separate process
+collect_ignore_glob = ["data/*"]
+
 
 @pytest.fixture(autouse=True)
 def _numba_threads():

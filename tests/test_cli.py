@@ -161,27 +161,3 @@ def test_warm_builds_a_scene_and_takes_two_steps_without_output(tmp_path, monkey
     err = capsys.readouterr().err
     assert "siku warm:" in err and "1 element " in err and "kernels" in err
     assert list(tmp_path.iterdir()) == [scene]  # nothing written
-
-
-def test_a_slow_first_step_is_announced_with_its_duration(monkeypatch):
-    """The compile notice appears only when the first step takes longer than NOTICE_AFTER."""
-    import io
-    import time as _time
-
-    from siku_core import progress
-
-    monkeypatch.setattr(progress, "NOTICE_AFTER", 0.05)
-    out = io.StringIO()
-    with progress.CompileNotice(stream=out) as n:
-        _time.sleep(0.3)
-    text = out.getvalue().splitlines()
-    assert text[0].startswith("compiling kernels") and n.printed
-    assert text[1].startswith("kernels compiled in ") and n.seconds >= 0.3
-    quiet = io.StringIO()
-    with progress.CompileNotice(stream=quiet):
-        pass
-    assert quiet.getvalue() == ""
-    off = io.StringIO()
-    with progress.CompileNotice(enabled=False, stream=off):
-        _time.sleep(0.1)
-    assert off.getvalue() == ""

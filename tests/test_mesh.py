@@ -439,7 +439,9 @@ velocity = [0.1, 0.0]
     assert "mesh built" in capsys.readouterr().err  # the first build says so
     mesh, built = mesh_for_scene(load_scene(path))
     assert not built and st.n == mesh.n
-    assert "mesh" not in capsys.readouterr().err  # read from the cache: nothing to say
+    err = capsys.readouterr().err  # read from the cache: said, with its smallest cells
+    assert "built" not in err and f"mesh of {mesh.n} cells read from {cache}" in err
+    assert "smallest free cell" in err
     assert np.all(st.flags == FREE) and np.all(st.thickness == 2.0)
     assert np.allclose(np.hypot(*st.V.T), 0.1)
     path.write_text(text.replace("40000.0", "50000.0"), encoding="utf-8")

@@ -155,6 +155,28 @@ def test_the_netcdf_writer_holds_the_run(outputs):
     assert complete_records(path) == h5.sizes["time"]
 
 
+def test_every_format_records_the_versions_of_siku_its_plugin_api_and_the_plugins(outputs):
+    """HDF5 root attributes, the NetCDF writer's and siku export's global attributes: siku's
+    version, the plugin API version (siku_core.PLUGIN_API_VERSION) and the plugins'."""
+    import json
+
+    import netCDF4
+
+    from siku_core import PLUGIN_API_VERSION, __version__
+
+    with h5py.File(outputs / "run.h5") as f:
+        assert f.attrs["siku_version"] == __version__
+        assert f.attrs["siku_plugin_api"] == PLUGIN_API_VERSION
+        assert f["plugins"].attrs["siku"] == __version__
+    out = outputs / "versions.nc"
+    assert main(["export", str(outputs / "run.h5"), "--to", "netcdf", "--out", str(out)]) == 0
+    for path in (outputs / "run_writer.nc", out):
+        with netCDF4.Dataset(path) as nc:
+            assert nc.getncattr("siku_siku_version") == __version__, path
+            assert nc.getncattr("siku_siku_plugin_api") == PLUGIN_API_VERSION, path
+            assert json.loads(nc.getncattr("siku_plugins"))["siku"] == __version__, path
+
+
 def test_siku_grid_writes_cf_netcdf(outputs, capsys):
     pytest.importorskip("compliance_checker")
     out = outputs / "run.grid.nc"

@@ -29,6 +29,9 @@ A mesh is built in four stages, each reproducible from its parameters alone:
    whose seed is on land, the report's rule), the rest that touch land are static ``coast``
    cells, cells whose seed lies inside a landfast contour are static ``landfast`` cells, the
    others are ``ice``.
+   With ``min_area_share > 0`` the seeds of free cells below that share of the median
+   free-cell area are then relaxed (:mod:`siku_io.mesh.relax`): static seeds and the mesh's
+   edge stay, and the cells around every move are classified again by these rules.
 4. **Cache.** ``Mesh.save`` / ``Mesh.load`` (``.npz``: CSR polygons of ``[lon, lat]`` vertices,
    kinds, the parameters and their SHA-256). :func:`load_or_build` reuses a cached file whose
    hash matches and rebuilds it otherwise.
@@ -41,6 +44,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -54,6 +58,7 @@ from .merge import MERGE_SHARE
 from .mesh_file import COAST, ICE, LANDFAST, Mesh
 from .params import MeshParams
 from .region import Region
+from .relax import OUTSIDE, REMOVED, relax_small_cells
 from .seeding import SpacingField, _guards, blue_noise
 from .sphere import _unit, chord_of
 from .voronoi import _csr_take, _next_index, voronoi_cells
@@ -156,13 +161,19 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
     t_points = time.perf_counter() - t1
     allp = np.vstack([pts, guards])
     t1 = time.perf_counter()
-    verts, offsets, index = voronoi_cells(allp, merge_chord=float(chord_of(MERGE_SHARE * r_min,
-                                                                           R)))
+    merge_chord = float(chord_of(MERGE_SHARE * r_min, R))
+    verts, offsets, index = voronoi_cells(allp, merge_chord=merge_chord)
     t_voronoi = time.perf_counter() - t1
     keep, sub_off, sub_idx = _cells_inside(region, pts, verts, offsets, index)
     t1 = time.perf_counter()
     kind, stay, removed = _cell_kinds(params, land, allp, pts, keep, verts, sub_off, sub_idx, R)
     t_land += time.perf_counter() - t1
+    relaxed = None
+    if params.min_area_share > 0:
+        t1 = time.perf_counter()
+        pts, keep, kind, stay, verts, sub_off, sub_idx, relaxed = _relax(
+            params, land, region, pts, guards, keep, kind, stay, merge_chord, r_max, R)
+        relaxed["seconds"] = time.perf_counter() - t1
     order = _row_order(region, pts[keep], stay, r_max, R)
     custom = land_fn is not None or land_grid is not None or spacing_fn is not None
     mesh = _assemble_mesh(params, custom, verts, pts[keep[order]], kind[order],
@@ -174,10 +185,49 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
         "r_min": r_min, "r_max": r_max,
         "land_window": list(land.shape) if land is not None else None,
         "land_source": land.name if land is not None else None,
+        "relaxed": relaxed,
         "seconds": {"total": time.perf_counter() - t0, "points": t_points,
                     "voronoi": t_voronoi, "land": t_land},
     }
     return mesh
+
+
+def _relax(params: MeshParams, land: LandGrid | None, region: Region, pts: np.ndarray,
+           guards: np.ndarray, keep: np.ndarray, kind: np.ndarray, stay: np.ndarray,
+           merge_chord: float, r_max: float, R: float):
+    """The cells after relaxing the seeds of the free cells below ``min_area_share`` of the
+    median area (:mod:`siku_io.mesh.relax`), the cells around each move classified again by
+    this module's rules: the seeds, the cells of the mesh (indices into the seeds), their kinds,
+    the Voronoi vertices and the cells' CSR lists, and what the relaxation did (a warning when
+    the share was not reached). ``r_max`` the largest spacing, ``R`` the radius [m]."""
+
+    def status_of(rows, allp, verts, offsets, index):
+        out = np.full(len(rows), OUTSIDE, dtype=np.int8)
+        ok = _inside(region, allp, rows, verts, offsets, index)
+        cells = rows[ok]
+        c_off, c_idx = _csr_take(offsets, index, cells)
+        k, s, _ = _cell_kinds(params, land, allp, allp, cells, verts, c_off, c_idx, R)
+        out[ok] = np.where(s, k, REMOVED)
+        return out
+
+    status = np.full(len(pts), OUTSIDE, dtype=np.int8)
+    status[keep] = np.where(stay, kind, REMOVED)
+    new, _, status, info = relax_small_cells(pts, guards, status, params.min_area_share,
+                                             merge_chord, status_of,
+                                             reach=float(chord_of(4.0 * r_max, R)))
+    keep = np.flatnonzero((status >= 0) & (status != REMOVED))
+    verts, offsets, index = voronoi_cells(np.vstack([new, guards]), merge_chord=merge_chord)
+    sub_off, sub_idx = _csr_take(offsets, index, keep)
+    info["share"] = float(params.min_area_share)
+    if not info["reached"]:
+        warnings.warn(
+            f"min_area_share = {params.min_area_share:g} not reached in {info['rounds']} "
+            f"rounds: {info['below']} free cells below it ({info['at_edge']} at the mesh's "
+            f"edge, whose seeds stay), the smallest {info['after']:.2f} x the median area "
+            f"(was {info['before']:.2f}; {info['moved']} seeds moved, {info['merged']} pairs "
+            "merged)", stacklevel=3)
+    return (new, keep, status[keep], np.ones(len(keep), dtype=bool), verts, sub_off, sub_idx,
+            info)
 
 
 def _spacing_range(params: MeshParams, spacing_fn: Callable | None,
@@ -234,16 +284,23 @@ def _cells_inside(region: Region, pts: np.ndarray, verts: np.ndarray, offsets: n
     """The boundary treatment: the cells of ``pts`` (seeds, not guards) entirely inside the
     region (seed, vertices and edge midpoints), as indices into ``pts`` and their CSR
     vertex lists."""
-    n_pts = len(pts)
-    cand = np.flatnonzero(region.contains_xyz(pts) & (np.diff(offsets)[:n_pts] >= 3))
+    keep = np.flatnonzero(_inside(region, pts, np.arange(len(pts)), verts, offsets, index))
+    sub_off, sub_idx = _csr_take(offsets, index, keep)
+    return keep, sub_off, sub_idx
+
+
+def _inside(region: Region, seeds: np.ndarray, rows: np.ndarray, verts: np.ndarray,
+            offsets: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """Which cells ``rows`` lie entirely inside the region: seed, vertices and edge
+    midpoints (the boundary treatment)."""
+    ok = region.contains_xyz(seeds[rows]) & (np.diff(offsets)[rows] >= 3)
+    cand = rows[ok]
     c_off, c_idx = _csr_take(offsets, index, cand)
     v = verts[c_idx]
     mid = _unit(v + v[_next_index(c_off)])
     inside = region.contains_xyz(v) & region.contains_xyz(mid)
-    ok = np.logical_and.reduceat(inside, c_off[:-1]) if len(cand) else np.zeros(0, bool)
-    keep = cand[ok]
-    sub_off, sub_idx = _csr_take(offsets, index, keep)
-    return keep, sub_off, sub_idx
+    ok[ok] = np.logical_and.reduceat(inside, c_off[:-1]) if len(cand) else np.zeros(0, bool)
+    return ok
 
 
 def _cell_kinds(params: MeshParams, land: LandGrid | None, allp: np.ndarray, pts: np.ndarray,

@@ -89,6 +89,7 @@ def mesh_for_scene(scene, mc=None, where: str | None = None) -> tuple[Mesh, bool
             coast_distance=mc.coast_distance,
             seed=cfg.run.seed if mc.seed is None else mc.seed, radius=cfg.planet.radius,
             land=mc.land, land_removal=mc.land_removal, landfast=landfast,
+            min_area_share=mc.min_area_share,
         )
         params.check()
         if not mc.cache:
@@ -119,4 +120,28 @@ def mesh_for_scene(scene, mc=None, where: str | None = None) -> tuple[Mesh, bool
         saved = f", saved to {path}" if path is not None else ""
         secs = (mesh.stats.get("seconds") or {}).get("total", float("nan"))
         print(f"{where}: mesh {how}: {mesh.n} cells in {secs:.1f} s{saved}", file=sys.stderr)
+    else:
+        print(f"{where}: mesh of {mesh.n} cells read from {path}", file=sys.stderr)
+    print(f"{where}: {small_cells(mesh)}", file=sys.stderr)
     return mesh, built
+
+
+def small_cells(mesh: Mesh) -> str:
+    """What the mesh's smallest free (ice) cells cost in step
+    (:func:`siku_core.cells.small_cell_report`), and what ``min_area_share`` did."""
+    import numpy as np
+
+    from siku_core.cells import small_cell_report
+    from siku_core.state import FREE, STATIC
+
+    from .mesh_file import ICE
+
+    r = small_cell_report(mesh.spherical_areas(), np.where(mesh.kind == ICE, FREE, STATIC))
+    text = "no free cells" if r is None else r.line()
+    x = mesh.stats.get("relaxed")
+    if x:
+        text += (f"; min_area_share {x['share']:g}: {x['moved']} seeds moved, {x['merged']} "
+                 f"pairs merged in {x['rounds']} rounds, smallest {x['before']:.2f} -> "
+                 f"{x['after']:.2f} x median"
+                 + ("" if x["reached"] else f" ({x['below']} cells below the share)"))
+    return text

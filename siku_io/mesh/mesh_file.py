@@ -12,7 +12,7 @@ import numpy as np
 from siku_core.geometry.sphere import lonlat_to_xyz
 
 from .sphere import DEFAULT_RADIUS, spherical_polygon_areas
-from .voronoi import _next_index
+from .voronoi import cell_pairs
 
 MESH_VERSION = 1
 FORMAT = "siku-mesh"
@@ -63,16 +63,7 @@ class Mesh:
 
     def neighbours(self) -> np.ndarray:
         """Pairs ``(i, j)``, ``i < j``, of cells sharing an edge (both its vertices)."""
-        nxt = _next_index(self.offsets)
-        a, b = self.vertex_id, self.vertex_id[nxt]
-        cell = np.repeat(np.arange(self.n), np.diff(self.offsets))
-        key = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
-        order = np.lexsort((key[:, 1], key[:, 0]))
-        k = key[order]
-        same = np.all(k[1:] == k[:-1], axis=1)
-        i = cell[order][:-1][same]
-        j = cell[order][1:][same]
-        return np.unique(np.sort(np.stack([i, j], axis=1), axis=1), axis=0)
+        return cell_pairs(self.offsets, self.vertex_id)
 
     # ------------------------------------------------------------------ file
     def save(self, path: str | Path) -> Path:

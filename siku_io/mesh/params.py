@@ -11,6 +11,7 @@ import numpy as np
 from .land import GLM, LAND_SOURCES, glm_version
 from .mesh_file import FORMAT, MESH_VERSION
 from .region import Region
+from .relax import MAX_SHARE
 from .sphere import DEFAULT_RADIUS
 
 
@@ -29,13 +30,15 @@ class MeshParams:
     land: str = GLM  # "global-land-mask", "gshhg" or "none"
     land_removal: str = "covered"  # or "seed"
     landfast: list | None = None  # list of polygons, each a list of [lon, lat]
+    min_area_share: float = 0.0  # [1] free cells kept above this share of the median area
+
 
     def canonical(self) -> dict:
         lf = None
         if self.landfast:
             lf = [[[float(a), float(b)] for a, b in np.asarray(poly, dtype=float)]
                   for poly in self.landfast]
-        return {
+        out = {
             "lon": [float(self.lon[0]), float(self.lon[1])],
             "lat": [float(self.lat[0]), float(self.lat[1])],
             "spacing": float(self.spacing),
@@ -47,6 +50,9 @@ class MeshParams:
             "land_removal": str(self.land_removal),
             "landfast": lf,
         }
+        if self.min_area_share:  # in the hash only when asked for: meshes built without it
+            out["min_area_share"] = float(self.min_area_share)  # keep their hash and cache
+        return out
 
     def identity(self) -> dict:
         return {"format": FORMAT, "version": MESH_VERSION, "params": self.canonical(),
@@ -93,5 +99,8 @@ class MeshParams:
         if self.land not in LAND_SOURCES:
             raise ValueError(f"land = {self.land!r}: one of "
                              + ", ".join(f"'{x}'" for x in LAND_SOURCES))
+        if not 0.0 <= self.min_area_share <= MAX_SHARE:
+            raise ValueError(f"min_area_share = {self.min_area_share:g}: between 0 (off) and "
+                             f"{MAX_SHARE:g}")
         if self.land_removal not in ("covered", "seed"):
             raise ValueError(f"land_removal = {self.land_removal!r}: one of 'covered', 'seed'")

@@ -47,6 +47,24 @@ def _next_index(offsets: np.ndarray) -> np.ndarray:
     return nxt
 
 
+def cell_pairs(offsets: np.ndarray, vertex_id: np.ndarray, edges: bool = False):
+    """Pairs ``(i, j)``, ``i < j``, of CSR cells sharing an edge (both its vertex ids); with
+    ``edges``, also the two vertex ids of each pair's edge (cells that share one edge only,
+    as Voronoi cells do)."""
+    nxt = _next_index(offsets)
+    a, b = vertex_id, vertex_id[nxt]
+    cell = np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
+    key = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+    order = np.lexsort((key[:, 1], key[:, 0]))
+    k = key[order]
+    same = np.all(k[1:] == k[:-1], axis=1)
+    i = cell[order][:-1][same]
+    j = cell[order][1:][same]
+    if edges:
+        return np.stack([np.minimum(i, j), np.maximum(i, j)], axis=1), k[:-1][same]
+    return np.unique(np.sort(np.stack([i, j], axis=1), axis=1), axis=0)
+
+
 def _csr_take(offsets: np.ndarray, index: np.ndarray, rows: np.ndarray):
     """Rows ``rows`` of a CSR array: ``(offsets, values)``."""
     rows = np.asarray(rows, dtype=np.int64)

@@ -3,11 +3,11 @@ restart.
 
 File layout (``layout`` = 2)::
 
-    /                  attrs: siku_version, layout, title, scene_file, scene_sha256, dt [s],
-                              start (ISO or ""), n_steps (steps the scene asks for), seed,
-                              n_elements, radius [m]; nothing about when or where it
-                              was written, so the same scene, seed and versions give the
-                              same file, byte for byte
+    /                  attrs: siku_version, siku_plugin_api, layout, title, scene_file,
+                              scene_sha256, dt [s], start (ISO or ""), n_steps (steps the
+                              scene asks for), seed, n_elements, radius [m]; nothing about
+                              when or where it was written, so the same scene, seed and
+                              versions give the same file, byte for byte
     /scene             the scene file text, verbatim (with --set and --extend overrides noted)
     /run_record        JSON: what the run depends on (effective scene, components with every
                        parameter, versions): a restart compares it with its own
@@ -55,7 +55,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from siku_core import DataError, Param, __version__, hookimpl
+from siku_core import PLUGIN_API_VERSION, DataError, Param, __version__, hookimpl
 from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Writer
 from siku_core.outputs import (
@@ -219,7 +219,7 @@ class HDF5Writer(Writer):
     def _layout(self, ctx) -> None:
         f = self.f
         st = ctx.state
-        f.attrs["siku_version"] = __version__
+        f.attrs["siku_version"], f.attrs["siku_plugin_api"] = __version__, PLUGIN_API_VERSION
         f.attrs["layout"] = LAYOUT
         f.attrs["title"] = ctx.scene.cfg.title
         f.attrs["scene_file"] = str(ctx.scene.path or "")

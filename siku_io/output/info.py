@@ -38,7 +38,8 @@ def summary_of_file(path: str | Path) -> RunSummary:
             steps=int(steps[-1]) if len(steps) else 0, n_steps=int(a.get("n_steps", 0)),
             dt=float(a.get("dt", float("nan"))),
             time=float(times[-1]) if len(times) else 0.0, diagnostics=diag, wall=wall,
-            output=str(path), start=str(a["start"]) if "start" in a else None)
+            output=str(path), start=str(a["start"]) if "start" in a else None,
+            areas=f["geometry/area"][:] if "geometry/area" in f else None)
 
 
 def _cmd_info(args) -> int:

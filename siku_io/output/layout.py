@@ -14,6 +14,8 @@ from siku_core.stress import STRESS_FIELDS
 #: root attributes of the file: name -> (units, meaning)
 ROOT_ATTRS: dict[str, tuple[str, str]] = {
     "siku_version": ("", "version of siku that wrote the file"),
+    "siku_plugin_api": ("", "plugin API version (major.minor) of that siku, "
+                        "siku_core.PLUGIN_API_VERSION"),
     "layout": ("1", "version of this file layout"),
     "title": ("", "the scene's title"),
     "scene_file": ("", "path of the scene file as given to the run"),

@@ -273,11 +273,11 @@ class NetCDFWriter(Writer):
     def _define_attributes(self, ctx, start: str) -> None:
         """The global attributes: the run's settings (``dt`` [s], ``radius`` [m], ...), the
         scene's text and the plugins' versions."""
-        from siku_core import __version__
+        from siku_core import PLUGIN_API_VERSION, __version__
 
         st = ctx.state
-        attrs = {"siku_version": __version__, "title": ctx.scene.cfg.title, "start": start,
-                 "dt": ctx.dt,
+        attrs = {"siku_version": __version__, "siku_plugin_api": PLUGIN_API_VERSION,
+                 "title": ctx.scene.cfg.title, "start": start, "dt": ctx.dt,
                  "dt_requested": ctx.dt_requested, "seed": ctx.seed,
                  "radius": ctx.radius, "n_elements": st.n,
                  "n_steps": ctx.n_steps}
