@@ -27,7 +27,7 @@ from .contact_law import (
     parameter_vector,
 )
 from .contacts import collision_forces, gather_forces, joint_forces
-from .damping import mobility
+from .damping import contact_mobility
 from .errors import SceneError
 from .geometry.clip import REL_TOL
 from .geometry.coherent import NO_HINT
@@ -336,13 +336,10 @@ class ContactModel(JointBook):
         tm["contact_sum"] += (t1 - t0) + (t5 - t4)
 
     def damping_mobility(self) -> np.ndarray:
-        """Per element ``(n/m, n/I)`` that bounds every damper of the contact phase
-        (:func:`siku_core.damping.mobility`), kept until the joints or the ice change."""
+        """Per element ``(n/m, n/I) / phi``, the bound of every damper
+        (:func:`siku_core.damping.contact_mobility`), kept until the joints or the ice change."""
         if self._dmob is None:
-            st = self.state
-            ji, jj, live = ((self.ji, self.jj, self.intact) if self.n_joints and
-                            self.law.uses_joints else (self._no_elements,) * 3)
-            self._dmob = mobility(st.flags, st.m, st.I, st.vert_offsets, ji, jj, live, FREE)
+            self._dmob = contact_mobility(self)
         return self._dmob
 
     def setup(self) -> None:
@@ -431,14 +428,11 @@ class ContactModel(JointBook):
         return gershgorin_bound(self)
 
     def stability_limit(self, ctx) -> tuple[float, str] | None:
-        """The smaller of two estimates of the contact phase's stable step: ``2 / omega`` of
-        :meth:`stiffness_bound` (undamped, element by element) and the stable step of the
-        contacts' stiffness *and damping* at rest (:func:`siku_core.stable_step.critical_step`:
-        joints, the collision of jointed pairs under ``jointed = "collide"``, free edges,
-        rotation, static and steady neighbours as walls). Explicit dampers lower the second;
-        a law's dampers bounded by the step (``bounded_damping``, :mod:`siku_core.damping`)
-        leave it near the undamped limit. ``None`` without a free element in contact."""
-        from .stable_step import critical_step
+        """The smaller of ``2 / omega`` of :meth:`stiffness_bound` (undamped, element by
+        element) and the stable step of the contacts' stiffness *and damping* at rest
+        (:func:`siku_core.stable_step.critical_step`; bounded dampers: ``siku_core.damping``).
+        ``None`` without a free element in contact."""
+        from .stable_step import critical_step, limit_and_reason
 
         om, i = self.stiffness_bound()
         if om <= 0:
@@ -446,18 +440,7 @@ class ContactModel(JointBook):
         rates = self.law.stability_rates()
         dt_l, il, d = critical_step(self, rates)
         self.stable_step_details = {**d, "undamped_bound": 2.0 / om, "linear": dt_l}
-        if dt_l < 2.0 / om:
-            damp = f"damping rate {d['gamma']:.4g} 1/s"
-            if "gamma_bounded" in d:
-                damp += (f" as written, {d['gamma_bounded']:.4g} 1/s bounded by the step at "
-                         f"2/omega")
-            why = (f"stiffest mode at element {il} under law '{self.law.name}' (omega = "
-                   f"{d['omega']:.4g} rad/s, undamped limit {2.0 / d['omega']:.4g} s; {damp})")
-            dt_c = dt_l
-        else:
-            why = (f"stiffest contact of element {i} under law '{self.law.name}' (element by "
-                   f"element, undamped; the whole pack's estimate {dt_l:.4g} s)")
-            dt_c = 2.0 / om
+        dt_c, why = limit_and_reason(self.law.name, self.stable_step_details, il, i)
         if rates.get("unbounded"):
             warnings.warn(f"{self.where}: the stable-step estimate cannot be sure: "
                           f"{rates['unbounded']}", stacklevel=2)

@@ -40,6 +40,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .state import FREE
+
 #: ``phi``: a damper may reach ``phi m_d / dt`` (``dt C' < phi M``, see the module)
 DAMPER_SHARE = 4.0
 
@@ -74,7 +76,7 @@ def critical_step(omega: float, gamma: float, bounded: bool = True) -> float:
     return max(explicit, math.sqrt(floor) / omega) if floor > 0.0 else explicit
 
 
-def mobility(flags, m, inertia, vert_offsets, ji, jj, intact, free_flag) -> np.ndarray:
+def mobility(flags, m, inertia, vert_offsets, ji, jj, intact, free_flag=FREE) -> np.ndarray:
     """Per element ``(n/m, n/I) / phi`` [1/kg, 1/(kg m²)] (zeros for an element that is not
     free; ``phi`` = :data:`DAMPER_SHARE`):
     ``n`` counts the dampers that can act on it, its intact joints plus one collision per edge
@@ -91,3 +93,13 @@ def mobility(flags, m, inertia, vert_offsets, ji, jj, intact, free_flag) -> np.n
     out[free, 0] = count[free] / (DAMPER_SHARE * m[free])
     out[free, 1] = count[free] / (DAMPER_SHARE * inertia[free])
     return out
+
+
+def contact_mobility(model) -> np.ndarray:
+    """:func:`mobility` of a :class:`~siku_core.contact_model.ContactModel`'s elements and
+    joints (no joints under a law without them)."""
+    st = model.state
+    none = np.zeros(0, dtype=np.int64)
+    ji, jj, live = ((model.ji, model.jj, model.intact) if model.n_joints and
+                    model.law.uses_joints else (none, none, none))
+    return mobility(st.flags, st.m, st.I, st.vert_offsets, ji, jj, live, FREE)

@@ -261,9 +261,7 @@ class Simulation:
             self.critical_dt = math.inf
             return
         dt_c, who, why = min(limits, key=lambda x: x[0])
-        self.critical_dt = dt_c
-        #: what set the critical step: the component's name and its reason
-        self.critical_by = (who, why)
+        self.critical_dt, self.critical_by = dt_c, (who, why)  # (what set it)
         safe = run.dt_safety * dt_c
         if self.dt > safe:
             when = f" after {after} changed the ice at t = {self.time:g} s" if after else ""

@@ -332,3 +332,19 @@ def gershgorin_bound(cm) -> tuple[float, int]:
     om2 = np.where(free, np.maximum(2 * ktr / st.m, 2 * krot / st.I), 0.0)
     i = int(np.argmax(om2))
     return math.sqrt(om2[i]), i
+
+
+def limit_and_reason(law: str, d: dict, il: int, i: int) -> tuple[float, str]:
+    """The contact phase's critical step [s] and what sets it, from the details ``d`` of
+    :func:`critical_step` (its element ``il``) and the element-wise undamped bound
+    ``d["undamped_bound"]`` (its element ``i``): the smaller of the two."""
+    if d["linear"] < d["undamped_bound"]:
+        damp = f"damping rate {d['gamma']:.4g} 1/s"
+        if "gamma_bounded" in d:
+            damp += f" as written, {d['gamma_bounded']:.4g} 1/s bounded by the step at 2/omega"
+        return d["linear"], (f"stiffest mode at element {il} under law '{law}' (omega = "
+                             f"{d['omega']:.4g} rad/s, undamped limit "
+                             f"{2.0 / d['omega']:.4g} s; {damp})")
+    return d["undamped_bound"], (f"stiffest contact of element {i} under law '{law}' (element "
+                                 f"by element, undamped; the whole pack's estimate "
+                                 f"{d['linear']:.4g} s)")
