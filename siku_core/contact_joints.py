@@ -241,7 +241,6 @@ class JointBook:
     def _joints_changed(self) -> None:
         """The candidate list follows a change of the joints: rebuilt at the next evaluation
         under ``jointed = "exclude"``, else its joint edges (``_faces``) are renewed."""
-        self._dmob = None
         if self.exclude_jointed:
             self._ref_centers = None
         elif len(self.pairs):
@@ -254,7 +253,6 @@ class JointBook:
 
     def _record_breaks(self, t: float) -> None:
         """Stamp joints that broke in this evaluation (state at model time ``t`` [s])."""
-        self._dmob = None  # the dampers' bound counts intact joints (siku_core.damping)
         new = np.flatnonzero(~self.intact & np.isnan(self.break_time))
         self.break_time[new] = t
         # a break without a mode: "strain"
@@ -313,7 +311,6 @@ class JointBook:
         self.break_mode[k] = 0
         self.break_time[k] = np.nan
         self.hist[k] = 0.0
-        self._dmob = None
         self.refresh_joint_constants()
         if self.exclude_jointed:
             self._ref_centers = None  # the refrozen pairs leave the candidate list
@@ -457,7 +454,6 @@ class JointBook:
             self.break_mode[:] = np.where(self.intact, 0, BREAK_STRAIN)
             self.break_time[:] = np.where(self.intact, np.nan, -np.inf)
         self._pending = []
-        self._dmob = None
         if self.exclude_jointed:  # the candidates follow the joints restored: rebuild them
             self._ref_centers = None
 

@@ -124,6 +124,7 @@ class ContactModel(JointBook):
         #: per element ``(n/m, n/I)``, the bound of the dampers (``siku_core.damping``);
         #: ``None``: stale, computed at the next evaluation
         self._dmob: np.ndarray | None = None
+        self._dmob_key: tuple | None = None
         self._build_joints()
 
     # ------------------------------------------------------------------ step
@@ -338,8 +339,9 @@ class ContactModel(JointBook):
     def damping_mobility(self) -> np.ndarray:
         """Per element ``(n/m, n/I) / phi``, the bound of every damper
         (:func:`siku_core.damping.contact_mobility`), kept until the joints or the ice change."""
-        if self._dmob is None:
-            self._dmob = contact_mobility(self)
+        key = (self.n_joints, hash(self.intact.tobytes())) if self.n_joints else None
+        if self._dmob is None or key != self._dmob_key:
+            self._dmob, self._dmob_key = contact_mobility(self), key
         return self._dmob
 
     def setup(self) -> None:

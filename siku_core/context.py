@@ -25,8 +25,9 @@ registry                  ``registry`` (look-ups by kind and name),
                           component, e.g. a field a source makes itself),
                           ``forcing_field(k)`` (the field the run built for
                           ``[[forcing]]`` table ``k``: an evolving sea is shared)
-joints and contacts       ``contacts``: the run's contact model or ``None`` (joint lines,
-                          floes, ``break_joints``)
+joints and contacts       ``contacts``: a read-only view of the run's contacts
+                          (:class:`~siku_core.contacts_view.ContactsView`: the joint and
+                          pair tables, ``break_joints``, ``create_joints``) or ``None``
 diagnostics and fields    ``diagnostics()``, ``element_fields()``, ``timings``
                           (seconds per phase, :data:`~siku_core.simulation.PHASES`),
                           ``fields`` (the declared per-element fields by name, arrays
@@ -52,6 +53,7 @@ if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
     from .categories import Categories
+    from .contacts_view import ContactsView
     from .interfaces import Component
     from .plugins import Registry
     from .scene import Scene
@@ -62,10 +64,11 @@ if TYPE_CHECKING:  # pragma: no cover
 class Context:
     """The run as a component sees it (see the module docstring for the members)."""
 
-    __slots__ = ("_sim",)
+    __slots__ = ("_sim", "_contacts")
 
     def __init__(self, sim: "Simulation"):
         self._sim = sim
+        self._contacts: "ContactsView | None" = None
 
     def __repr__(self) -> str:
         s = self._sim
@@ -158,10 +161,19 @@ class Context:
 
     # ------------------------------------------------------------------ joints and contacts
     @property
-    def contacts(self) -> Any:
-        """The run's contact model (joints, candidate pairs, the law), ``None`` without a
-        ``[contact]`` table."""
-        return self._sim.contacts
+    def contacts(self) -> "ContactsView | None":
+        """The run's contacts as a component sees them, ``None`` without a ``[contact]`` table:
+        a :class:`~siku_core.contacts_view.ContactsView` (read-only joint and pair tables, the
+        law's parameters, and the actions a component may take: break, refreeze and create
+        joints, keep the law's cap flags, take the breaks)."""
+        model = self._sim.contacts
+        if model is None:
+            return None
+        if self._contacts is None or not self._contacts.views(model):
+            from .contacts_view import ContactsView
+
+            self._contacts = ContactsView(model)
+        return self._contacts
 
     # ------------------------------------------------------------------ diagnostics, fields
     def diagnostics(self) -> dict[str, Any]:

@@ -1,4 +1,5 @@
-"""The run's NaN guard: a diverging run stops at the last good snapshot, never with bad data.
+"""The run's guards: a diverging or shattering run stops at the last good snapshot, never with
+bad data, and the stable step follows the contact network.
 
 :class:`Guard` checks the state on the scene's schedule (``[run] nan_check_every``) and before
 every snapshot: a non-finite force, torque, velocity, spin or orientation, or a speed above
@@ -6,23 +7,59 @@ every snapshot: a non-finite force, torque, velocity, spin or orientation, or a 
 snapshot (the last one written, or due to be written when the run writes nothing) and raises
 :class:`~siku_core.errors.NonFiniteError` naming the quantity, the element and the step.
 :func:`check_initial_state` refuses a run that starts from non-finite numbers.
+
+After every step :class:`NetworkWatch` (owned by the guard) follows the joints: once more than
+:data:`RECHECK_JOINTS` of them have broken or frozen since the last stable-step check, the
+engine checks the step again (:meth:`~siku_core.simulation.Simulation.check_time_step`, which
+refuses or warns as before the run); and :class:`BreakRate` stops a run whose joints break
+faster than cracks can run (a run gone unstable without blowing up: its speeds stay modest
+while the pack shatters), by the same path as the NaN guard but with a
+:class:`~siku_core.errors.StabilityError`, or warns, as ``[run] break_guard`` says.
 """
 from __future__ import annotations
 
+import math
+import warnings
+from collections import deque
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import parallel
+from .contact_law import BreakMode
 from .diagnostics import all_finite, fastest, state_sound
-from .errors import NonFiniteError, SceneError
-from .state import DYNAMIC
+from .errors import NonFiniteError, SceneError, StabilityError
+from .state import DYNAMIC, FREE
 
 if TYPE_CHECKING:  # pragma: no cover
     from .simulation import Simulation
 
 #: quantities checked by the NaN guard, in the order their failure is reported
 GUARDED = ("F", "T", "V", "w", "q")
+#: break modes the contact law does not give (melting, waves, other components): not counted
+#: by the breaking-rate guard, which watches the contacts' own integration
+OUTSIDE = np.array([int(BreakMode.MELT), int(BreakMode.FLEXURE), int(BreakMode.EXTERNAL)])
+
+#: share of the joints (of those intact at the last stable-step check) that may break or
+#: freeze before the step is checked again. A joint changes the stiffness of its two elements
+#: only, and the check costs time linear in the contacts (siku_core.stable_step), so the
+#: network is never more than this share away from the one the step was last checked on
+RECHECK_JOINTS = 0.01
+#: the window of the breaking-rate guard, in elastic crossing times ``L / c`` of an element
+#: (``L`` the median element size, ``c = sqrt(E / rho)``)
+CROSSINGS = 4
+#: the fewest steps in that window
+MIN_WINDOW = 10
+#: joints a crack breaks at most per element it crosses (along the edges of the cells)
+JOINTS_PER_CROSSING = 2
+#: share of the intact joints whose breaking within the window stops the run: a crack's tip
+#: runs at most at ``c`` (and in the model at most one element per step), so within the
+#: window one crack breaks at most ``JOINTS_PER_CROSSING (CROSSINGS + 1)`` joints; a tenth of
+#: the joints of a pack (about 3 per element) then takes a crack started every 30 or so
+#: elements within seconds: the pack ground to floes of a few elements faster than any
+#: forcing loads it. The default scene breaks at most 27 joints (0.2 %) in its 72-step window
+#: at its step 0.75 s, and 26 in its 36-step window at 1.5 s (over 24 h)
+BREAK_SHARE = 0.1
 
 
 class Guard:
@@ -32,7 +69,13 @@ class Guard:
         self.sim = sim
         #: the step the state was last checked at (``-1``: not yet)
         self.checked_step = -1
+        #: the joints' watch (stable-step rechecks and the breaking rate)
+        self.network = NetworkWatch(sim, self)
         self.save()
+
+    def after_step(self) -> None:
+        """What the guard checks after every step: the joints (:class:`NetworkWatch`)."""
+        self.network.after_step()
 
     def check(self) -> None:
         """Stop on a non-finite value or a speed above ``[run] max_speed`` (a diverging run)."""
@@ -49,10 +92,10 @@ class Guard:
             arr = getattr(st, name)
             if not all_finite(arr.reshape(-1)):
                 bad = np.argwhere(~np.isfinite(arr.reshape(st.n, -1)))[0]
-                self._fail(f"non-finite {name} of element {int(bad[0])}")
+                self.fail(f"non-finite {name} of element {int(bad[0])}")
         i, speed2 = fastest(st.V)
         if st.n and speed2 > vmax * vmax:
-            self._fail(
+            self.fail(
                 f"speed of element {i} is {np.sqrt(speed2):.3g} m/s, above [run] max_speed = "
                 f"{vmax:g} m/s: the run is diverging (is dt above the stable step?)"
             )
@@ -64,8 +107,9 @@ class Guard:
         self._good_hist = sim.history_arrays()
         self._good_step = sim.step_index
 
-    def _fail(self, what: str) -> None:
-        """Go back to the last good snapshot and raise, saying where the good state is kept."""
+    def fail(self, what: str, error: type = NonFiniteError, hint: str = "") -> None:
+        """Go back to the last good snapshot and raise ``error``, saying where the good state is
+        kept (``hint``: what to do, at the end of the line)."""
         sim = self.sim
         st = sim.state
         step = sim.step_index
@@ -80,7 +124,117 @@ class Guard:
                          f"(step {self._good_step}, t = {sim.time:g} s)")
             else:  # stopped before its first snapshot: the writer left nothing
                 saved = f"; nothing was written to {sim.output_path}"
-        raise NonFiniteError(f"{what} at step {step} (t = {step * sim.dt:g} s){saved}")
+        raise error(f"{what} at step {step} (t = {step * sim.dt:g} s){saved}"
+                    + (f"; {hint}" if hint else ""))
+
+
+class NetworkWatch:
+    """The joints after every step: the stable step rechecked as they change (one comparison
+    per joint, whoever broke or froze them), and the breaking rate (:class:`BreakRate`)."""
+
+    def __init__(self, sim: "Simulation", guard: Guard):
+        cm = sim.contacts
+        self.sim = sim
+        self.cm = cm if cm is not None and cm.law.uses_joints else None
+        if self.cm is None:
+            return
+        self._seen = cm.n_broken_total
+        self._checked = cm.intact.copy()
+        self._n_checked = int(self._checked.sum())
+        mode = sim.scene.cfg.run.break_guard
+        self.rate = BreakRate(sim, guard) if mode != "off" and cm.n_joints else None
+
+    def after_step(self) -> None:
+        cm = self.cm
+        if cm is None:
+            return
+        broke = cm.n_broken_total - self._seen
+        self._seen = cm.n_broken_total
+        if self.rate is not None:
+            if broke:  # the law's own breaks only: not melting, waves or other components
+                sim = self.sim
+                new = cm.break_time > sim.time - 1.5 * sim.dt  # (broke in this step)
+                broke -= int(np.count_nonzero(new & np.isin(cm.break_mode, OUTSIDE)))
+            self.rate.record(broke)
+        self._recheck()
+
+    def _recheck(self) -> None:
+        """Check the step again once more than :data:`RECHECK_JOINTS` of the joints changed."""
+        cm = self.cm
+        now, old = cm.intact, self._checked
+        changed = int(np.count_nonzero(now[:len(old)] != old)
+                      + np.count_nonzero(now[len(old):]))
+        if changed <= RECHECK_JOINTS * max(self._n_checked, 1):
+            return
+        before = self._n_checked
+        self._checked = now.copy()
+        self._n_checked = int(now.sum())
+        self.sim.check_time_step(
+            after=f"{changed} joint{'s' if changed > 1 else ''} broke or froze "
+                  f"({changed / max(before, 1):.1%} of the {before} intact at the last check)")
+
+
+class BreakRate:
+    """Stop (or warn on) a run in which more than :data:`BREAK_SHARE` of the intact joints
+    break within :data:`CROSSINGS` elastic crossing times of an element (at least
+    :data:`MIN_WINDOW` steps), and more than one fracture could break in that time.
+
+    The window is ``max(MIN_WINDOW, CROSSINGS L / (c dt))`` steps, ``L`` the median size
+    ``sqrt(area)`` [m] of the free elements, ``c = sqrt(E / rho)`` [m/s] the fastest
+    elastic wave of their ice; one fracture breaks at most ``JOINTS_PER_CROSSING (sqrt(n) +
+    min(c dt / L, 1) W + 1)`` joints in ``W`` steps: a line across the pack of ``n`` free
+    elements at once, and a crack tip's run from it."""
+
+    def __init__(self, sim: "Simulation", guard: Guard):
+        self.sim = sim
+        self.guard = guard
+        st, cm = sim.state, sim.contacts
+        free = st.flags == FREE
+        rho = st.m / (st.area * st.thickness)  # [kg/m³] (the ice's density)
+        c = float(np.sqrt(cm.E[free] / rho[free]).max()) if free.any() else 0.0
+        size = float(np.median(np.sqrt(st.area[free]))) if free.any() else 0.0
+        #: the elastic crossing time of an element [s]
+        self.crossing = size / c if c > 0 else math.inf
+        self.window = max(MIN_WINDOW, math.ceil(CROSSINGS * self.crossing / sim.dt)
+                          if math.isfinite(self.crossing) else MIN_WINDOW)
+        per_step = min(sim.dt / self.crossing, 1.0) if self.crossing > 0 else 1.0
+        #: the joints one fracture can break within the window: a line across the pack at once
+        #: (a uniformly loaded section: the joints along a coast, a shear band) and its tip's
+        #: run
+        across = math.sqrt(max(int(free.sum()), 1))
+        self.one_crack = JOINTS_PER_CROSSING * (across + per_step * self.window + 1.0)
+        self._breaks: deque[tuple[int, int]] = deque()  # (step, joints broken) in the window
+        self._in_window = 0
+        self._warned = False
+
+    def record(self, broke: int) -> None:
+        """Count the joints that broke in the step just taken and judge the window."""
+        step = self.sim.step_index
+        if broke:
+            self._breaks.append((step, broke))
+            self._in_window += broke
+        while self._breaks and self._breaks[0][0] <= step - self.window:
+            self._in_window -= self._breaks.popleft()[1]
+        if self._in_window <= self.one_crack or self._warned:
+            return
+        intact = self.sim.contacts.n_intact + self._in_window  # (at the window's start)
+        share = self._in_window / max(intact, 1)
+        if share <= BREAK_SHARE:
+            return
+        sim = self.sim
+        what = (f"{self._in_window} of {intact} intact joints ({share:.0%}) broke within "
+                f"{self.window} steps ({self.window * sim.dt:.3g} s, "
+                f"{self.window * sim.dt / self.crossing:.2g} elastic crossing times of an "
+                f"element), faster than cracks can run (above "
+                f"{BREAK_SHARE:.0%}): the run is unstable")
+        hint = (f"shorten dt (now {sim.dt:g} s; the estimated critical step is "
+                f"{sim.critical_dt:.4g} s)")
+        if sim.scene.cfg.run.break_guard == "warn":
+            self._warned = True
+            warnings.warn(f"{what} at step {sim.step_index} (t = {sim.time:g} s); {hint}; "
+                          "continuing because [run] break_guard = \"warn\"", stacklevel=2)
+            return
+        self.guard.fail(what, StabilityError, hint + " or set [run] break_guard = \"warn\"")
 
 
 def check_initial_state(sim: "Simulation") -> None:

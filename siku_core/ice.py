@@ -331,7 +331,7 @@ class IceBook:
         if sim.contacts is not None:
             sim.contacts.ice_changed(None if full else elements, flags)
         if check:
-            sim.check_time_step(after=who)
+            sim.check_time_step(after=f"{who} changed the ice")
             self._h_checked[:] = st.thickness
             self._v_checked[:] = ice_per_area(st.thickness, self.categories)
 

@@ -28,6 +28,7 @@ if TYPE_CHECKING:  # pragma: no cover
 RESTART_MAY_CHANGE = ("scene.time.duration", "scene.time.end", "scene.output", "scene.title",
                       "scene.run.progress", "scene.run.nan_check_every", "scene.run.max_speed",
                       "scene.run.dt_safety", "scene.run.allow_unstable_dt",
+                      "scene.run.break_guard",
                       "scene.elements.mesh.cache", "scene.elements.mesh.mesh_file")
 #: history arrays whose first axis (one entry per contact) changes length from snapshot to
 #: snapshot (``ContactModel.history`` under a law with ``contact_history_names``); a file

@@ -6,9 +6,8 @@ One step (``docs/explanation/design.md``)::
     (contacts: broad phase, narrow phase, contact laws -> add F, T per pair)
     integrator       -> moves free elements; static never, steady on rails
     processes        -> change the ice on their schedules (siku_core.ice)
-    NaN guard, diagnostics and writers on their schedules
-
-Restarting: siku_core.restart; NaN guard: siku_core.guard; components see siku_core.context.
+    guards (joints every step; NaN on a schedule), diagnostics and writers on schedules
+Restarting: siku_core.restart; guards: siku_core.guard; components see siku_core.context.
 """
 from __future__ import annotations
 
@@ -248,8 +247,8 @@ class Simulation:
 
         Every component may declare ``stability_limit(ctx) -> (dt_max [s], reason) | None``
         (:meth:`~siku_core.interfaces.Component.stability_limit`; the default is no limit).
-        Checked before the run and again whenever a process (``after`` names it) has changed
-        the ice.
+        Checked before the run and again whenever a process has changed the ice or the joints
+        have changed (``after`` says what, siku_core.ice and siku_core.guard).
         """
         run = self.scene.cfg.run
         limits = []
@@ -264,7 +263,7 @@ class Simulation:
         self.critical_dt, self.critical_by = dt_c, (who, why)  # (what set it)
         safe = run.dt_safety * dt_c
         if self.dt > safe:
-            when = f" after {after} changed the ice at t = {self.time:g} s" if after else ""
+            when = f" after {after} at t = {self.time:g} s" if after else ""
             msg = (
                 f"{self.scene.where('time')}: dt = {self.dt:g} s is above the safe step "
                 f"{safe:.4g} s{when} ({run.dt_safety:g} × critical {dt_c:.4g} s set by "
@@ -323,6 +322,7 @@ class Simulation:
             t2 = clock()
             self.timings["processes"] += t2 - t1
             t1 = t2
+        self.guard.after_step()  # the joints: the step rechecked, the breaking rate
         if (self.step_index % self.scene.cfg.run.nan_check_every == 0
                 or self.step_index == self.n_steps):
             self.guard.check()

@@ -33,15 +33,20 @@ the state at rest, for the three degrees of freedom ``(x, y, theta)`` of every f
   own), damped with ``zeta_c``.
 
 The largest eigenvalues ``omega_max²`` of ``M^-1/2 K M^-1/2`` and ``gamma_max`` of ``M^-1/2 C
-M^-1/2`` (Lanczos, or dense for small systems) give ``dt_c`` by the formula above; with bounded
-dampers, the larger of that and ``sqrt(4 - 2 g) / omega_max``, ``g = h gamma'_max(h)`` the rate
-of the dampers as they act at ``h = 2 / omega_max`` (:func:`critical_step`). Where ``K`` and
-``C`` share their modes (proportional damping, the joints alone) that is the exact limit of the
-linear system, and taking the two maxima separately can only lower it; where they do not, it is
-an estimate, checked against the exact spectral radius of the amplification matrix on small
-packs (``tests/contacts/test_stable_step.py``). The engine then applies ``[run] dt_safety``
-(default 0.5) for what the linearisation at rest leaves out: contact widths that grow with the
-overlap, the water drag's own limit (a separate component), damage.
+M^-1/2`` give ``dt_c`` by the formula above: dense for small systems; above :data:`DENSE_DOF`
+free DOF by :func:`top_eigenvalue`, a fixed number of Lanczos steps on the never-formed
+operators (``B^T diag(c) B``, six numbers per spring) capped by Gershgorin's bound, an
+estimate from above within :data:`LANCZOS_TOL`, in time and memory linear in the contacts.
+Where ``K`` and ``C`` share their modes (proportional damping, the joints alone) that is the
+exact limit of the linear system, and taking the two maxima separately can only lower it; where
+they do not, it is an estimate, checked against the exact spectral radius of the amplification
+matrix on small packs (``tests/contacts/test_stable_step.py``). The engine then applies ``[run]
+dt_safety`` (default 0.5) for what the linearisation at rest leaves out: contact widths that grow
+with the overlap, the water drag's own limit (a separate component), damage.
+
+With dampers bounded by the step (``bounded_damping``, :mod:`siku_core.damping`), the
+larger of that and ``sqrt(4 - 2 g) / omega_max``, ``g = h gamma'_max(h)`` the rate of the
+dampers as they act at ``h = 2 / omega_max`` (:func:`critical_step`).
 
 Not covered, and said by the law: the ``sqrt_area`` collision law has no bounded stiffness
 (``dF/d(depth)`` grows without bound as the overlap vanishes); the estimate then takes the
@@ -56,8 +61,14 @@ import numpy as np
 from .damping import critical_step as damped_step
 from .state import FREE
 
-#: systems with at most this many degrees of freedom are solved densely
+#: systems with at most this many free degrees of freedom are solved densely
 DENSE_DOF = 600
+#: relative tolerance of the sparse estimate of a largest eigenvalue (:func:`top_eigenvalue`):
+#: it lies in ``[lambda_max, lambda_max / (1 - LANCZOS_TOL)]``, so ``dt_c`` is at most about
+#: half of it below the exact limit
+LANCZOS_TOL = 0.01
+#: the probability at most that the sparse estimate falls below ``lambda_max``
+LANCZOS_FAIL = 1e-6
 #: Gauss points of a joint (z along the joint, from end a to end b)
 _GAUSS = (0.5 - 0.5 / math.sqrt(3.0), 0.5 + 0.5 / math.sqrt(3.0))
 
@@ -68,34 +79,89 @@ def _perp(p: np.ndarray) -> np.ndarray:
 
 
 class _Assembler:
-    """Triplets of a symmetric matrix over the 3 DOF per element; rows of walls are dropped."""
+    """A symmetric positive semi-definite matrix ``sum_k c_k b_k b_k^T`` over the 3 DOF per
+    element, kept as its vectors: ``B`` (one sparse row ``b_k`` per vector, entries on walls
+    dropped) and the coefficients ``c_k``. A vector of ``w`` entries costs ``w`` numbers here
+    against the ``w²`` triplets of its outer product (36 for a point of a joint)."""
 
     def __init__(self, n: int, free: np.ndarray):
         self.n = n
         self.free = free
-        self.rows: list[np.ndarray] = []
-        self.cols: list[np.ndarray] = []
-        self.vals: list[np.ndarray] = []
+        self.itype = np.int32 if 3 * n < 2**31 else np.int64
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 
-    def add_vectors(self, coef: np.ndarray, entries: list[tuple[np.ndarray, int, np.ndarray]]):
+    def add_vectors(self, coef, entries: list[tuple[np.ndarray, int, np.ndarray]]):
         """Add ``coef[k] b_k b_k^T`` where ``b_k`` has value ``v[k]`` at DOF ``3 e[k] + d`` for
         every ``(e, d, v)`` of ``entries``; entries on walls are left out (fixed DOF)."""
-        for (ea, da, va) in entries:
-            for (eb, db, vb) in entries:
-                keep = self.free[ea] & self.free[eb]
-                self.rows.append((3 * ea + da)[keep])
-                self.cols.append((3 * eb + db)[keep])
-                self.vals.append((coef * va * vb)[keep])
+        m = len(entries[0][0])
+        cols = np.empty((m, len(entries)), dtype=self.itype)
+        vals = np.empty((m, len(entries)))
+        for c, (e, d, v) in enumerate(entries):
+            cols[:, c] = 3 * e + d
+            vals[:, c] = np.where(self.free[e], v, 0.0)
+        self.parts.append((np.broadcast_to(np.asarray(coef, dtype=float), (m,)), cols, vals))
 
-    def matrix(self):
-        from scipy.sparse import coo_matrix
+    def factors(self, scale: np.ndarray | None = None):
+        """``(B, c)``: the vectors as a CSR matrix (one row each, ``3 n`` columns; column ``i``
+        times ``scale[i]`` if given) and their coefficients."""
+        from scipy.sparse import csr_matrix
 
         n3 = 3 * self.n
-        if not self.rows:
-            return coo_matrix((n3, n3)).tocsr()
-        return coo_matrix((np.concatenate(self.vals), (np.concatenate(self.rows),
-                                                        np.concatenate(self.cols))),
-                          shape=(n3, n3)).tocsr()
+        width = max((p[1].shape[1] for p in self.parts), default=1)
+        m = sum(len(p[0]) for p in self.parts)
+        itype = self.itype if m * width < 2**31 else np.int64
+        cols = np.zeros((m, width), dtype=itype)
+        vals = np.zeros((m, width))
+        coef = np.empty(m)
+        r = 0
+        for c, pc, pv in self.parts:
+            k, w = pc.shape
+            cols[r:r + k, :w] = pc
+            vals[r:r + k, :w] = pv
+            coef[r:r + k] = c
+            r += k
+        if scale is not None:
+            vals *= scale[cols]
+        B = csr_matrix((vals.ravel(), cols.ravel(), np.arange(0, m * width + 1, width,
+                                                                 dtype=itype)), shape=(m, n3))
+        return B, coef
+
+    def matrix(self):
+        """The matrix itself (scipy CSR, ``3 n`` square)."""
+        from scipy.sparse import csr_matrix, diags
+
+        if not self.parts:
+            return csr_matrix((3 * self.n, 3 * self.n))
+        B, c = self.factors()
+        A = (B.T @ diags(c) @ B).tocsr()
+        A.eliminate_zeros()
+        return A
+
+    def gram(self, scale: np.ndarray) -> "Gram":
+        """The matrix scaled on both sides, ``S A S`` (``S = diag(scale)``), as a
+        :class:`Gram` operator (never formed); the assembler's own copy is let go."""
+        op = Gram(*self.factors(scale))
+        self.parts = []
+        return op
+
+
+class Gram:
+    """``A = B^T diag(c) B`` (``c >= 0``) as an operator: ``A x`` in ``O(nnz(B))`` time and no
+    more memory than ``B``."""
+
+    def __init__(self, B, c: np.ndarray):
+        self.B = B
+        self.c = c
+        self.n = B.shape[1]
+
+    def matvec(self, x: np.ndarray) -> np.ndarray:
+        return self.B.T @ (self.c * (self.B @ x))
+
+    def gershgorin(self) -> np.ndarray:
+        """Row sums of ``|B|^T diag(c) |B|``, each at least that of ``|A|``: their largest
+        bounds the largest eigenvalue from above (Gershgorin)."""
+        absB = abs(self.B)
+        return absB.T @ (self.c * (absB @ np.ones(self.n)))
 
 
 def _point_entries(i, j, p_i, p_j, rot, d_i):
@@ -113,7 +179,8 @@ def _point_entries(i, j, p_i, p_j, rot, d_i):
     ]
 
 
-def contact_matrices(model, rates: dict, edges: bool = True, dt: float | None = None):
+def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = False,
+                     dt: float | None = None):
     """Stiffness and damping matrices (scipy CSR, ``3 n`` square, N/m, N m/rad, ...) of the
     contact phase of ``model`` (a :class:`~siku_core.contact_model.ContactModel`) at rest.
 
@@ -125,7 +192,8 @@ def contact_matrices(model, rates: dict, edges: bool = True, dt: float | None = 
     ``rates`` are the law's :meth:`~siku_core.contact_law.ContactLaw.stability_rates`. Joints
     that have broken count as free edges (their pair collides as independent elements);
     ``edges = False`` leaves the free edges' collision budget out (the contacts of the state at
-    rest alone)."""
+    rest alone); ``factored = True`` returns the two as their vectors and coefficients
+    (:class:`_Assembler`: ``factors``, ``gram``, ``matrix``), never formed."""
     st = model.state
     n = st.n
     free = st.flags == FREE
@@ -220,7 +288,82 @@ def contact_matrices(model, rates: dict, edges: bool = True, dt: float | None = 
         KA.add_vectors(kb, ent)
         CA.add_vectors(damper(2.0 * zc * np.sqrt(kb * st.m[el]), el, np.sum(mid**2, axis=1)),
                        ent)
-    return KA.matrix(), CA.matrix()
+    return (KA, CA) if factored else (KA.matrix(), CA.matrix())
+
+
+def lanczos_steps(m: int, tol: float = LANCZOS_TOL, fail: float = LANCZOS_FAIL) -> int:
+    """Lanczos steps that bring the largest Ritz value of an ``m``-square positive
+    semi-definite matrix within ``tol`` of its largest eigenvalue but with probability
+    ``fail`` at most, from a random start: Kuczyński & Woźniakowski (1992, SIAM J. Matrix Anal.
+    Appl. 13, 1094, Theorem 4.2), ``P(theta_k < (1 - tol) lambda_max) <= 1.648 sqrt(m)
+    exp(-sqrt(tol) (2 k - 1))``. About 100 for ``m = 10^5`` at the defaults."""
+    k = 0.5 * (1.0 + math.log(1.648 * math.sqrt(max(m, 1)) / fail) / math.sqrt(tol))
+    return max(1, min(m, math.ceil(k)))
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """``a · b`` without BLAS (whose threads, spinning on a vector this short, cost twenty
+    times the work on a busy machine)."""
+    return float(np.einsum("i,i->", a, b))
+
+
+def _lanczos(op: "Gram", steps: int, start: np.ndarray, ritz: np.ndarray | None = None):
+    """``steps`` Lanczos steps on ``op`` from ``start`` (three vectors kept, no basis): the
+    tridiagonal's diagonal and off-diagonal, and (``ritz`` given, coefficients over the basis)
+    the vector ``sum_j ritz[j] q_j`` built as the same steps pass again. Stops early where the
+    Krylov space closes (an invariant subspace: its Ritz values are exact)."""
+    q = start / math.sqrt(_dot(start, start))
+    q_prev = np.zeros_like(q)
+    beta = 0.0
+    alpha: list[float] = []
+    betas: list[float] = []
+    x = None if ritz is None else np.zeros_like(q)
+    for j in range(steps):
+        if x is not None:
+            x += ritz[j] * q
+        w = op.matvec(q)
+        a = _dot(q, w)
+        w -= a * q + beta * q_prev
+        w -= _dot(q, w) * q  # keeps the local orthogonality of q_j and q_j+1
+        alpha.append(a)
+        beta = math.sqrt(_dot(w, w))
+        if j == steps - 1 or beta <= 1e-13 * max(abs(a), 1e-300):
+            break
+        betas.append(beta)
+        q_prev, q = q, w / beta
+    return np.array(alpha), np.array(betas), x
+
+
+def top_eigenvalue(op: "Gram", tol: float = LANCZOS_TOL, fail: float = LANCZOS_FAIL,
+                   seed: int = 0) -> tuple[float, np.ndarray]:
+    """An upper estimate of the largest eigenvalue of the positive semi-definite ``op`` (a
+    :class:`Gram`) and its vector, in time and memory linear in its size.
+
+    :func:`lanczos_steps` steps from a random start (seeded: the same answer every time) give
+    the Ritz value ``theta <= lambda_max``; the answer is ``min(theta / (1 - tol), G)``, ``G``
+    Gershgorin's bound (:meth:`Gram.gershgorin`, never below ``lambda_max``). So it never
+    exceeds ``lambda_max / (1 - tol)``, and lies below ``lambda_max`` with probability ``fail``
+    at most (in exact arithmetic; rounding only clusters copies of converged Ritz values,
+    Paige 1976); ``G`` also answers where the iteration fails. The Ritz vector is rebuilt by
+    a second pass of the same steps instead of keeping the Krylov basis."""
+    from scipy.linalg import eigh_tridiagonal
+
+    rows = op.gershgorin()
+    bound = float(rows.max()) if op.n else 0.0
+    if not bound > 0.0:
+        return 0.0, np.zeros(op.n)
+    fallback = (rows == bound).astype(float)  # the DOF of Gershgorin's largest row
+    start = np.random.default_rng(seed).standard_normal(op.n)
+    alpha, beta, _ = _lanczos(op, lanczos_steps(op.n, tol, fail), start)
+    try:
+        vals, vecs = eigh_tridiagonal(alpha, beta)
+    except (ValueError, np.linalg.LinAlgError):
+        return bound, fallback
+    theta = float(vals[-1])
+    if not math.isfinite(theta) or theta / (1.0 - tol) >= bound:
+        return bound, fallback
+    _, _, vec = _lanczos(op, len(alpha), start, ritz=vecs[:, -1])
+    return max(theta, 0.0) / (1.0 - tol), vec
 
 
 def step_damper_array(c: np.ndarray, dtm: np.ndarray) -> np.ndarray:
@@ -229,44 +372,51 @@ def step_damper_array(c: np.ndarray, dtm: np.ndarray) -> np.ndarray:
 
 
 def _largest(A, dof: np.ndarray) -> tuple[float, np.ndarray]:
-    """Largest eigenvalue of the symmetric positive semi-definite ``A`` restricted to ``dof``,
-    and its eigenvector (zeros where ``A`` is empty)."""
+    """Largest eigenvalue of the symmetric positive semi-definite ``A`` (dense: its
+    restriction to ``dof``) and the square of its eigenvector over all DOF (zeros where ``A``
+    is empty). ``A`` is an :class:`_Assembler`'s :class:`Gram` operator, or for at most
+    :data:`DENSE_DOF` free DOF the matrix (solved densely)."""
+    share = np.zeros(A.shape[0] if not isinstance(A, Gram) else A.n)
+    if isinstance(A, Gram):
+        lam, vec = top_eigenvalue(A)
+        share[:] = vec * vec
+        return lam, share
     sub = A[dof][:, dof]
-    m = len(dof)
-    if m == 0 or sub.nnz == 0:
-        return 0.0, np.zeros(m)
-    if m <= DENSE_DOF:
-        vals, vecs = np.linalg.eigh(sub.toarray())
-        return float(max(vals[-1], 0.0)), vecs[:, -1]
-    from scipy.sparse.linalg import ArpackNoConvergence, eigsh
-
-    # Gershgorin's bound, a start vector and the fallback
-    gersh = float(np.max(np.asarray(abs(sub).sum(axis=1)).ravel()))
-    try:
-        vals, vecs = eigsh(sub, k=1, which="LA", tol=1e-6, maxiter=min(20 * m, 3000))
-        # Lanczos approaches the largest eigenvalue from below: add its tolerance
-        return float(vals[0]) * (1.0 + 1e-6), vecs[:, 0]
-    except ArpackNoConvergence:
-        return gersh, np.ones(m)
+    if len(dof) == 0 or sub.nnz == 0:
+        return 0.0, share
+    vals, vecs = np.linalg.eigh(sub.toarray())
+    share[dof] = vecs[:, -1] ** 2
+    return float(max(vals[-1], 0.0)), share
 
 
 def critical_step(model, rates: dict) -> tuple[float, int, dict]:
     """``(dt_c [s], element, details)`` of the contact phase of ``model``: the stable step of
     its linearisation at rest (module docstring), the element that moves most in the stiffest
-    mode, and ``details`` (``omega`` [rad/s], ``gamma`` [1/s], the mode's element)."""
+    mode, and ``details`` (``omega`` [rad/s], ``gamma`` [1/s], the mode's element).
+
+    Up to :data:`DENSE_DOF` free DOF the eigenvalues are exact (dense); above, the operators
+    are never formed and :func:`top_eigenvalue` estimates each from above within
+    :data:`LANCZOS_TOL` (``dt_c`` then within about half that below the exact one), in time and
+    memory linear in the number of contacts."""
     st = model.state
     free = st.flags == FREE
     if not free.any():
         return math.inf, -1, {"omega": 0.0, "gamma": 0.0}
-    K, C = contact_matrices(model, rates)
+    KA, CA = contact_matrices(model, rates, factored=True)
     mass = np.stack([st.m, st.m, st.I], axis=1).ravel()
     dof = np.flatnonzero(np.repeat(free, 3))
     s = 1.0 / np.sqrt(mass)
-    from scipy.sparse import diags
+    def largest(A):
+        """The largest eigenvalue of ``M^-1/2 A M^-1/2`` and its DOF shares."""
+        if len(dof) <= DENSE_DOF:
+            from scipy.sparse import diags
 
-    D = diags(s)
-    om2, vec = _largest(D @ K @ D, dof)
-    gam, cvec = _largest(D @ C @ D, dof)
+            D = diags(s)
+            return _largest(D @ A.matrix() @ D, dof)
+        return _largest(A.gram(s), dof)
+
+    om2, vec = largest(KA)
+    gam, cvec = largest(CA)
     if om2 <= 0.0 and gam <= 0.0:
         return math.inf, -1, {"omega": 0.0, "gamma": 0.0}
     bounded = bool(rates.get("bounded_damping", False))
@@ -278,7 +428,8 @@ def critical_step(model, rates: dict) -> tuple[float, int, dict]:
         # c' h = c h / (1 + c h / m_d) does); so at dt = sqrt(4 - 2 g) / omega <= h the
         # condition omega² dt² + 2 dt gamma'(dt) <= 4 holds
         h = 2.0 / math.sqrt(om2)
-        gb, bvec = _largest(D @ contact_matrices(model, rates, dt=h)[1] @ D, dof)
+        CB = contact_matrices(model, rates, factored=True, dt=h)[1]
+        gb, bvec = largest(CB)
         g = h * gb
         bounded_dt = math.sqrt(4.0 - 2.0 * g) / math.sqrt(om2) if g < 2.0 else 0.0
         details["gamma_bounded"] = gb
@@ -286,9 +437,7 @@ def critical_step(model, rates: dict) -> tuple[float, int, dict]:
             dt_c = bounded_dt
             gam, cvec = gb, bvec
     # the element of the stiffest mode (of the damping's, when the damping sets the step)
-    v = vec if om2 * dt_c * dt_c >= 2.0 * gam * dt_c else cvec
-    share = np.zeros(3 * st.n)
-    share[dof] = v * v
+    share = vec if om2 * dt_c * dt_c >= 2.0 * gam * dt_c else cvec
     elem = int(np.argmax(share.reshape(-1, 3).sum(axis=1)))
     return dt_c, elem, details
 

@@ -2,7 +2,7 @@
 ``breaking = true``).
 
 A floe here is a group of elements connected by intact joints (the engine's
-``ContactModel.floe_labels``). Its elements are rigid and move in the plane only; bending is not
+``ctx.contacts.floe_labels``). Its elements are rigid and move in the plane only; bending is not
 resolved by the dynamics, so the strain a joint would carry is estimated from the sea surface, as
 the smaller of the two limits of an elastic floe floating on a wave:
 
@@ -166,7 +166,7 @@ class FlexuralBreaking:
         # joint)
         ji, jj = cm.ji[joints], cm.jj[joints]
         h = 0.5 * (st.thickness[ji] + st.thickness[jj])
-        E = 0.5 * (cm.E[ji] + cm.E[jj])
+        E = 0.5 * (cm.youngs_modulus[ji] + cm.youngs_modulus[jj])
         out = eps_f.copy()
         hot = eps_f > self.eps_c
         if only is not None:

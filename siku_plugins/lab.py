@@ -200,13 +200,13 @@ max_speed = 1e6
 def affine_tensor(sim, shear_ratio: float | None = None) -> np.ndarray:
     """The affine stiffness tensor ``C_ijkl`` [Pa] (east, north) of the bond network
     (:func:`affine_moduli`)."""
-    cm = sim.contacts
+    cm = sim.context.contacts
     st = sim.state
     from siku_core.geometry.quat import centers
 
     c = centers(st.q) * sim.radius
     C = np.zeros((2, 2, 2, 2))
-    nu = cm.nu[cm.ji]
+    nu = cm.poisson_ratio[cm.ji]
     free = st.flags == 0
     use = free[cm.ji] | free[cm.jj]
     for k in np.flatnonzero(use):
@@ -217,7 +217,7 @@ def affine_tensor(sim, shear_ratio: float | None = None) -> np.ndarray:
         L = float(np.hypot(*dv))
         n = dv / L
         t = np.array([-n[1], n[0]])
-        kn = cm.jK[k] * cm.width[k]  # k_n A = K w [N/m]
+        kn = cm.joint_stiffness[k] * cm.width[k]  # k_n A = K w [N/m]
         ks = kn * (1.0 / (2.0 * (1.0 + nu[k])) if shear_ratio is None else shear_ratio)
         C += L * L * (kn * np.einsum("i,j,k,l->ijkl", n, n, n, n)
                       + ks * np.einsum("i,j,k,l->ijkl", t, n, t, n))
@@ -253,15 +253,15 @@ def affine_first_break(sim, sigma_crit: float, tau_crit: float, sign: float) -> 
     centres, so ``theta = 0``)."""
     from siku_core.geometry.quat import centers
 
-    cm = sim.contacts
+    cm = sim.context.contacts
     st = sim.state
     c = centers(st.q) * sim.radius
     d = c[cm.jj] - c[cm.ji]
     dv = np.stack([d[:, 1], d[:, 2]], axis=1)
     L = np.hypot(dv[:, 0], dv[:, 1])
     n = dv / L[:, None]
-    kn = cm.jK / np.minimum(st.thickness[cm.ji], st.thickness[cm.jj])  # [Pa/m]
-    ks = kn / (2.0 * (1.0 + cm.nu[cm.ji]))
+    kn = cm.joint_stiffness / np.minimum(st.thickness[cm.ji], st.thickness[cm.jj])  # [Pa/m]
+    ks = kn / (2.0 * (1.0 + cm.poisson_ratio[cm.ji]))
     C = affine_tensor(sim)
     C = 0.25 * (C + C.transpose(1, 0, 2, 3) + C.transpose(0, 1, 3, 2)
                 + C.transpose(1, 0, 3, 2))  # acting on a symmetric strain
@@ -360,11 +360,11 @@ def measure(sim, sigma_crit: float = math.nan, tau_crit: float = math.nan,
     test, width, D, speed = bp["test"], bp["width"], bp["element_size"], bp["speed"]
     st = sim.state
     thickness = float(np.mean(st.thickness))
-    cm = sim.contacts
+    cm = sim.context.contacts
     if E is None:
-        E = float(np.mean(cm.E))
+        E = float(np.mean(cm.youngs_modulus))
     if not sigma_crit == sigma_crit:  # NaN: the law's strength, if it declares one
-        sigma_crit = float(cm.law.p.get("sigma_crit", 0.0)) or 1e6
+        sigma_crit = float(cm.law_params.get("sigma_crit", 0.0)) or 1e6
     moving = st.flags == STEADY
     fixed = (st.flags != 0) & ~moving
     span = bp["length"] - 2 * D

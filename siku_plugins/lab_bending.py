@@ -148,7 +148,7 @@ def vertical_flexure(sigma_crit: float = 1e6, *, element_size: float = 1.0,
     f_break = load * sigma_crit / float(np.max(sig))
     # the first joints to break: load the beam just past f_break (1e-6: the joints whose
     # stress equals the largest to rounding) and let the law break them
-    cm = sim.contacts
+    cm = sim.context.contacts
     bm.break_overstressed(proc, u * (f_break / load) * (1 + 1e-6), sigma_crit, 0.0)
     gone = np.flatnonzero(~cm.intact)
     dist = np.abs(0.5 * (x[cm.ji[gone]] + x[cm.jj[gone]])) * a

@@ -1,7 +1,9 @@
 """The shipped default scene: Beaufort-Chukchi lead formation (report "Results", Fig. 11).
 
-Run end to end at reduced length (6 h of the 24 h scene: leads open within the first hours)
-through the command line, with its pictures, then the lead test on the same state.
+Run end to end at reduced length through the command line, with its pictures (20 min), and its
+first steps through the gridded wind. The lead tests (6 h of the 24 h scene: leads open within
+the first hours; 28 800 steps of 5 112 elements, minutes of run time) are long validation runs,
+marked ``slow`` (``python -m pytest -m slow``).
 """
 from __future__ import annotations
 
@@ -46,11 +48,11 @@ def lead_grid(radius):
 
 def test_default_scene_runs_from_the_command_line_with_pictures(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert main(["run", "--no-progress", "--set", "time.duration=2h"]) == 0
+    assert main(["run", "--no-progress", "--set", "time.duration=20min"]) == 0
     err = capsys.readouterr().err
     assert "Beaufort-Chukchi lead formation" in err
     with h5py.File(tmp_path / "siku_default.h5") as f:
-        assert "# time.duration = 2h" in f["scene"][()].decode()
+        assert "# time.duration = 20min" in f["scene"][()].decode()
         assert f["geometry/flags"][...].tolist().count(STATIC) > 0
         assert f["states/step"][-1] == f.attrs["n_steps"] > 0
         assert "damage" in f["states/fields"]
@@ -76,6 +78,18 @@ def test_the_shipped_default_scene_resolves_the_coast_with_thousands_of_elements
     assert np.sqrt(np.median(st.area[st.flags == FREE])) < 10e3
 
 
+def test_the_first_steps_read_the_wind_through_the_gridded_path():
+    """The first steps need only the two 6-hourly wind records bracketing the start (records
+    0 and 1 of 9): the gridded field reads lazily."""
+    sim = Simulation(load_scene(default_scene_path()), out=False, progress=False)
+    sim.advance(4)
+    field = sim.forcing[0].field
+    assert sim.forcing[0].name == "air_drag" and field.name == "gridded"
+    assert sorted(set(field.records_read)) == [0, 1]
+    sim.close()
+
+
+@pytest.mark.slow
 def test_the_default_scene_reads_its_wind_through_the_gridded_path(run6h):
     field = run6h.forcing[0].field
     assert run6h.forcing[0].name == "air_drag" and field.name == "gridded"
@@ -83,6 +97,7 @@ def test_the_default_scene_reads_its_wind_through_the_gridded_path(run6h):
     assert sorted(set(field.records_read)) == [0, 1]
 
 
+@pytest.mark.slow
 def test_a_lead_opens_within_the_first_hours(run6h):
     """A lead: broken joints whose two sides have pulled apart. Within 6 h at least 20 joints
     have broken and opened by more than 100 m (thirty times the elastic displacement at the
@@ -101,6 +116,7 @@ def test_a_lead_opens_within_the_first_hours(run6h):
     assert strain[c.intact].max() <= 3e-4
 
 
+@pytest.mark.slow
 def test_broken_joints_concentrate_at_the_coast_and_landfast_edge(run6h):
     """Leads start where the pack meets the fixed ice (promontories, the landfast edge): the
     broken joints lie much closer to static elements than the joints of the pack as a whole.
@@ -120,6 +136,7 @@ def test_broken_joints_concentrate_at_the_coast_and_landfast_edge(run6h):
     assert (dist[broken] < near).mean() > 2 * (dist[pack | broken] < near).mean()
 
 
+@pytest.mark.slow
 def test_lead_and_stress_diagnostics(run6h):
     """The diagnostics time series carries the lead area and fraction and joint stress
     extremes; the lead area equals the sum over open broken joints of opening × length."""
@@ -140,6 +157,7 @@ def test_lead_and_stress_diagnostics(run6h):
     assert d["joint_stress_min"] <= 0
 
 
+@pytest.mark.slow
 def test_the_leads_found_on_the_grid_start_at_the_coast(run6h):
     """Kulchitsky et al. (2017), Fig. 11: leads initiate along the shoreline and propagate into
     the pack. The broken joints on a polar stereographic grid of 10 km cells (about the element
@@ -220,6 +238,7 @@ def test_without_wind_the_default_scene_stays_still_for_an_hour():
     assert np.hypot(*st.V[free].T).max() < 1e-6
 
 
+@pytest.mark.slow
 def test_lead_length_grows_with_the_broken_joints(run6h):
     """Joints only break in the default scene (no process refreezes them), so the leads drawn
     from the broken joints lengthen or stay: from one hour to the next the total lead length

@@ -36,8 +36,11 @@ ROOT = Path(__file__).resolve().parents[1]
 STRENGTHS = [0.1e6, 0.5e6, 1.0e6, 2.0e6]
 
 
-@pytest.mark.parametrize("test", ["tension", "compression", "flexure"])
+@pytest.mark.parametrize("test", ["tension", pytest.param("compression", marks=pytest.mark.slow),
+                                  pytest.param("flexure", marks=pytest.mark.slow)])
 def test_macro_strength_is_linear_in_bond_strength(test):
+    """Four bond strengths per test: a study of a dozen virtual tests, so compression and
+    flexure are long validation runs (``-m slow``); tension stays in the default run."""
     tab = strength_table(test, STRENGTHS, element_size=1.0, seed=1,
                          length=18.0 if test != "flexure" else 24.0,
                          width=9.0 if test != "flexure" else 6.0)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numba
 import numpy as np
+import pytest
 
 from siku_core import parallel, progress
 from siku_core.summary import RunSummary, format_summary
@@ -135,6 +136,7 @@ def test_summary_rate_is_the_steps_over_the_time_not_compiling():
     assert f"({40 / 10.0:.4g} steps/s)" in resumed  # a restart's rate: the steps it took
 
 
+@pytest.mark.slow
 def test_cold_run_shows_the_compile_line_and_keeps_it_out_of_the_rate(tmp_path):
     """``siku run`` with empty numba and kernel caches: the compile line on screen, the
     compile time in the summary, the rate and ``--profile`` without it."""

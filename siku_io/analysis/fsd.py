@@ -2,7 +2,7 @@
 calipers, the distribution on logarithmic area bins and the power-law exponent of the areas.
 
 * **Floes**: the connected groups of elements over intact joints (the same rule as
-  ``siku_core.contact_joints.Joints.floe_labels``); an element without intact joints is a
+  ``ctx.contacts.floe_labels``); an element without intact joints is a
   floe of its own. Labels come from ``scipy.sparse.csgraph.connected_components`` on the joint
   table; the joint pairs of a run are rebuilt from the scene stored in its output file (they are
   fixed for a run, unless a process creates joints: then each snapshot's pairs are read from
@@ -251,13 +251,13 @@ def joint_table(path) -> tuple[np.ndarray, np.ndarray]:
             "states/history/contacts/intact" in f else 0
     scene = scene_from_text(text, f"{path}: its scene", Path(where) if where else None)
     sim = Simulation(scene, out=False, progress=False)
-    cm = sim.contacts
+    cm = sim.context.contacts
     n = cm.joint_slots if cm is not None else 0
     if n != nj:
         raise DataError(f"{path}: its scene builds {n} joints but the file records {nj}")
     if n == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.asarray(cm.ji, np.int64), np.asarray(cm.jj, np.int64)
+    return np.array(cm.ji, np.int64), np.array(cm.jj, np.int64)  # (copies, writable)
 
 
 def output_floes(path, calipers: bool = True):

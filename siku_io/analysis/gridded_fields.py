@@ -152,7 +152,7 @@ def snapshot_of(sim) -> Snapshot:
     if "stress_ee" in fields:
         stress = np.column_stack([fields[k] for k in ("stress_ee", "stress_nn", "stress_en")])
     broken = None
-    cm = sim.contacts
+    cm = sim.context.contacts
     if cm is not None and cm.n_joints:
         b = ~cm.intact
         broken = np.column_stack([cm.ji[b], cm.jj[b]])

@@ -67,8 +67,8 @@ class Beams:
         self.pj = -pj                             # the same direction, i to j, in j's axes
         self.L = self.ai + self.aj
         h = np.minimum(st.thickness[ji], st.thickness[jj])
-        E = 0.5 * (cm.E[ji] + cm.E[jj])
-        nu = 0.5 * (cm.nu[ji] + cm.nu[jj])
+        E = 0.5 * (cm.youngs_modulus[ji] + cm.youngs_modulus[jj])
+        nu = 0.5 * (cm.poisson_ratio[ji] + cm.poisson_ratio[jj])
         self.h = h
         self.D = E * h**3 / (12.0 * (1.0 - nu**2))
         self.w = cm.width

@@ -3,7 +3,7 @@
 A broken joint is *closed* while the two copies of each of its ends (one on each element) are
 within ``gap`` [m] of each other. A joint closed without a break for ``freeze_time`` [s]
 refreezes: it holds again from the next force evaluation, at rest where its two sides are
-(``ContactModel.refreeze_joints``), under the scene's contact law. New ice in a lead thickens as
+(``ctx.contacts.refreeze_joints``), under the scene's contact law. New ice in a lead thickens as
 the square root of time (Stefan's law), so the refrozen joint's tensile strength grows the same
 way until it reaches the intact ice's:
 
@@ -12,15 +12,15 @@ way until it reaches the intact ice's:
 ``tau`` [s] the time since it refroze (or was made by ``weld``, below). While ``tau <
 strength_time`` the process breaks a refrozen joint (mode ``tension``) whose normal traction
 (opening positive, force over joint length and the thinner side's thickness,
-``ContactModel.joint_tension``) exceeds ``sigma_r(tau)``; from then on only the contact law's
+``ctx.contacts.joint_tension``) exceeds ``sigma_r(tau)``; from then on only the contact law's
 own strength holds it. Checked every time the process runs, so its timing resolution is the
 process's ``every`` (one step by default).
 
 With ``weld = true`` floes that touch and stay together freeze into one as well: two elements
 without a joint between them (neither intact nor broken: a broken one is the refreezing's) that
 carried a contact force at every check for ``weld_time`` [s] are joined by a new joint
-(``ContactModel.create_joints``) under the scene's joint contact law, at rest where they are,
-along the line where their outlines cross (``contact_overlaps.contact_lines``), with the same
+(``ctx.contacts.create_joints``) under the scene's joint contact law, at rest where they are,
+along the line where their outlines cross (``ctx.contacts.contact_lines``), with the same
 strength growth as a refrozen joint. A pair that parts forgets its time. The run reserves
 ``weld_capacity`` new joints per element at set-up (none without ``weld``); a run that needs
 more stops in one line naming ``weld_capacity``, and one with more than ``weld_pairs`` touching
@@ -34,7 +34,6 @@ from typing import ClassVar
 import numpy as np
 
 from siku_core.contact_law import BreakMode
-from siku_core.contact_overlaps import contact_lines
 from siku_core.errors import SceneError
 from siku_core.interfaces import Process
 from siku_core.params import Param
@@ -77,7 +76,7 @@ class Refreeze(Process):
     def setup(self, ctx) -> None:
         self.ctx = ctx
         cm = ctx.contacts
-        if self.p["weld"] and (cm is None or not cm.law.uses_joints):
+        if self.p["weld"] and (cm is None or not cm.law_uses_joints):
             raise SceneError(f"{ctx.where(self.table)}: process 'refreeze' with weld = true "
                              "needs a contact law with joints (distributed_spring, "
                              "mohr_coulomb)")
@@ -153,7 +152,7 @@ class Refreeze(Process):
                     f"{ctx.where(self.table)}: process 'refreeze' needs more than the "
                     f"{self.joints_to_create(n)} new joints that weld_capacity = "
                     f"{self.p['weld_capacity']:g} per element reserves; raise weld_capacity")
-            new = cm.create_joints(cm.pairs[kd], contact_lines(cm, kd))
+            new = cm.create_joints(cm.pairs[kd], cm.contact_lines(kd))
             self.refrozen_at[new] = t
             self.welded_total += len(new)
         keep = ~due

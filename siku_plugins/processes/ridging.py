@@ -4,7 +4,7 @@ With the ``ridging`` contact law, two elements pressed together beyond the plast
 w`` (the law's module docstring) no longer push harder: they overlap further. This process turns
 that overlap into ridged ice. For every colliding pair whose normal force the law capped at the
 plastic limit in the last evaluation (the law says so: its collision evaluator writes the flag
-``out[3]``, which the contact model keeps per pair, ``ContactModel.keep_caps``), the growth
+``out[3]``, which the contact model keeps per pair, ``ctx.contacts.keep_caps``), the growth
 ``dA`` [m²] of its overlap area, clipped again in the state after the step, beyond the largest
 one already converted is ice of the thinner element (thickness ``h_t``) piled onto the thicker
 one (the carrier; on equal thickness, the second of the pair): the volume ``dV = dA h_t`` [m³]
@@ -64,7 +64,7 @@ def ridge_candidates(pairs, active, caps, flags, keys, count, poff, pidx, q, rm,
     ``known_at``, -1 for the others, found through the element-to-pair index ``poff, pidx``)
     and those without a melted element whose normal force the law capped at the plastic limit
     in the last evaluation (``caps[k] == 1``, kept by the contact model:
-    ``ContactModel.keep_caps``); their elements' rotation matrices ``rm`` from ``q``. ``mark``
+    ``ctx.contacts.keep_caps``); their elements' rotation matrices ``rm`` from ``q``. ``mark``
     (one per pair, -1) is scratch, left -1. Returns the number of candidates."""
     n = flags.shape[0]
     for r in range(count):
@@ -262,11 +262,11 @@ class Ridging(Process):
 
     def setup(self, ctx) -> None:
         cm = ctx.contacts
-        law = getattr(cm, "law", None)
-        if law is None or not all(k in law.p for k in LAW_KEYS):
+        law = cm.law_params if cm is not None else None
+        if law is None or not all(k in law for k in LAW_KEYS):
             raise SceneError(f"{ctx.where(self.table)}: process 'ridging' needs the contact law "
                              "'ridging' (its plastic limit); set [contact] law = \"ridging\"")
-        self.law = law.p
+        self.law = law
         st = ctx.state
         n = st.n * int(self.p["capacity"])
         #: pairs being converted: sorted keys (min * N + max) and the overlap area already
@@ -303,13 +303,13 @@ class Ridging(Process):
             self._cand = np.empty(size, dtype=np.int64)
             self._known_at = np.empty(size, dtype=np.int64)
         nc = ridge_candidates(cm.pairs, cm.pair_active, cm.pair_capped, st.flags, self.keys,
-                              self.count, cm.poff, cm.pidx, st.q, self._rm, self._mark,
-                              self._cand, self._known_at)
+                              self.count, cm.pair_offsets, cm.pair_index, st.q, self._rm,
+                              self._mark, self._cand, self._known_at)
         if nc:
             nch = chunks(nc)
             with alone(nch):
                 pair_geometry(self._rm, st.vert_offsets, st.verts, cm.pairs, self._cand, nc,
-                              float(cm.radius), self._nmax, self._geo, nch)
+                              float(ctx.radius), self._nmax, self._geo, nch)
         m = ridge_pairs(cm.pairs, cm.pair_capped, self._cand, self._known_at, nc, self._geo,
                         st.thickness, st.area, st.flags, self.raft_h, self.keys,
                         self.converted, self.count, *self._scratch,
