@@ -10,6 +10,7 @@ with status 2 and a one-line message (no traceback).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -81,6 +82,11 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
     print(f"siku {__version__}: {scene.cfg.title or path.name}: "
           f"{plural(sim.state.n, 'element')}, {plural(sim.n_steps - sim.step_index, 'step')} "
           f"of {sim.dt:.6g} s{fitted}", file=sys.stderr)
+    if math.isfinite(sim.critical_dt):
+        who, why = sim.critical_by
+        print(f"stable step: critical {sim.critical_dt:.4g} s, the step is "
+              f"{sim.dt / sim.critical_dt:.2f} of it (accepted up to "
+              f"{scene.cfg.run.dt_safety:g}); set by '{who}': {why}", file=sys.stderr)
     sim.run()
     wall = time.perf_counter() - t0
     out = shown(sim.output_path) if sim.output_path is not None else "none"

@@ -43,12 +43,12 @@ from .interfaces import Component
 # ---------------------------------------------------------------------- layouts
 # collision geometry ``g``
 (G_AREA, G_CX, G_CY, G_NX, G_NY, G_WIDTH, G_K, G_MEFF, G_VX, G_VY, G_AREA_I, G_AREA_J, G_HI,
- G_HJ) = range(14)
-G_SIZE = 14
+ G_HJ, G_DTM) = range(15)
+G_SIZE = 15
 # joint geometry ``g``
 (J_S1X, J_S1Y, J_S2X, J_S2Y, J_AX, J_AY, J_BX, J_BY, J_L0, J_W, J_K, J_MEFF, J_VAX, J_VAY,
- J_VBX, J_VBY, J_HI, J_HJ, J_EI, J_EJ, J_NU, J_DT) = range(22)
-J_SIZE = 22
+ J_VBX, J_VBY, J_HI, J_HJ, J_EI, J_EJ, J_NU, J_DT, J_DTM) = range(23)
+J_SIZE = 23
 # what an evaluator writes to ``out``
 OUT_FX, OUT_FY, OUT_COUPLE, OUT_BREAK = range(4)
 OUT_SIZE = 4
@@ -72,6 +72,8 @@ COLLISION_LAYOUT = (
     ("G_AREA_J", "m²", "area of `j`"),
     ("G_HI", "m", "thickness of `i`"),
     ("G_HJ", "m", "thickness of `j`"),
+    ("G_DTM", "s/kg", ("the step over the contact's damping mass, `dt / m_d` (0: no bound); a "
+                      "damper `c` acts as `step_damper(c, g[G_DTM])`")),
 )
 #: the joint geometry vector ``g``: ``(index constant, unit, meaning)`` per entry, in order
 JOINT_LAYOUT = (
@@ -97,6 +99,8 @@ JOINT_LAYOUT = (
     ("J_EJ", "Pa", "Young's modulus of `j`"),
     ("J_NU", "1", "Poisson's ratio (of `i`'s material)"),
     ("J_DT", "s", "time step"),
+    ("J_DTM", "s/kg", ("the step over the joint's damping mass, `dt / m_d` (0: no bound); a "
+                      "damper `c` acts as `step_damper(c, g[J_DTM])`")),
 )
 #: what an evaluator writes to ``out`` (zeroed by the engine before every call); the entries
 #: are ``OUT_FX``, ``OUT_FY``, ``OUT_COUPLE``, ``OUT_BREAK``
@@ -221,6 +225,12 @@ class ContactLaw(Component):
     joint_record: ClassVar[ParameterRecord | None] = None
     required: ClassVar[Mapping[str, tuple[str, ...]]] = {
         "collision_parameters": (), "joint_parameters": ()}
+    #: whether the law's dampers act through :func:`siku_core.damping.step_damper` with the
+    #: engine's ``g[J_DTM]`` / ``g[G_DTM]``: they cannot destabilise the step, and the
+    #: stable-step estimate counts them bounded (``False``: explicit dampers, which lower it).
+    #: Not inherited: read from the class's own namespace (a subclass with its own evaluator
+    #: declares it again)
+    bounded_damping: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """A law written for siku 0.1 defines ``collision_parameters(self, sim)`` or
@@ -260,7 +270,8 @@ class ContactLaw(Component):
         joint, or ``"own"``: a share of critical of the shear stiffness),
         ``collision_stiffness`` (the collision's normal stiffness per unit contact width
         relative to ``K``), ``collision_damping`` (its share of critical damping) and
-        ``unbounded`` (a reason the estimate cannot bound the law's stiffness, or ``None``).
+        ``unbounded`` (a reason the estimate cannot bound the law's stiffness, or ``None``) and
+        ``bounded_damping`` (the class attribute :attr:`bounded_damping`).
         The default reads the built-in laws' parameter names (``joint_damping_ratio``,
         ``damping_ratio``, ``sqrt_area``); a law that damps or stiffens otherwise
         overrides it, or the estimate misses its damping."""
@@ -273,6 +284,9 @@ class ContactLaw(Component):
             else 0.0,
             "collision_stiffness": 1.0,
             "collision_damping": float(p.get("damping_ratio", 0.0)),
+            # declared by the class itself: a subclass that brings its own evaluator says
+            # again whether its dampers are bounded
+            "bounded_damping": bool(type(self).__dict__.get("bounded_damping", False)),
             "unbounded": ("the sqrt_area collision stiffness K w sqrt(A_min / A) / 2 grows "
                           "without bound as the overlap A vanishes; taken as K w"
                           if p.get("sqrt_area", False) else None),

@@ -28,6 +28,7 @@ from siku_core.contact_frames import (
     relative_matrix,
     relative_velocity_m,
 )
+from siku_core.damping import damping_mobility
 from siku_core.contact_law import (
     G_AREA,
     G_AREA_I,
@@ -36,6 +37,7 @@ from siku_core.contact_law import (
     G_HJ,
     G_CX,
     G_CY,
+    G_DTM,
     G_K,
     G_MEFF,
     G_NX,
@@ -49,6 +51,7 @@ from siku_core.contact_law import (
     J_BX,
     J_BY,
     J_DT,
+    J_DTM,
     J_EI,
     J_EJ,
     J_HI,
@@ -135,7 +138,7 @@ BLK_SIZE = BLK_M + 9
 @njit(parallel=True, cache=CACHE)
 def _joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
                   jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, nt, fresh,
-                  ri, rj):
+                  ri, rj, dmob):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -149,22 +152,26 @@ def _joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, j
             lo, hi = chunk_bounds(c, nch, ji.shape[0])
             counts[c] = _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i,
                                      ends_j, L0, width, jK, jmeff, intact, break_mode, hist, R, dt,
-                                     commit, out, active, lo, hi, g, res, scratch, fresh, ri, rj)
+                                     commit, out, active, lo, hi, g, res, scratch, fresh, ri, rj,
+                                     dmob)
     return counts.sum()
 
 
 @njit(cache=CACHE, _nrt=NRT)
 def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff, intact,
                  break_mode, hist, R, dt, commit, out, active, lo, hi, g, res, scratch, fresh, ri,
-                 rj):
+                 rj, dmob):
     """Joints ``lo <= k < hi`` of :func:`~siku_core.contacts.joint_forces`; returns how many
     broke. ``g``, ``res``, ``scratch``: the task's buffers (geometry, result, history row).
     ``fresh`` (not empty): the joints' constants ``jK``, ``jmeff`` are first computed from it
-    (:func:`~siku_core.ice_follow.joints_from`, lever arms ``ri``, ``rj``)."""
+    (:func:`~siku_core.ice_follow.joints_from`, lever arms ``ri``, ``rj``). ``dmob`` (per
+    element ``n/m, n/I``; empty: the dampers unbounded): ``g[J_DTM]`` of each joint
+    (:mod:`siku_core.damping`)."""
     if fresh.shape[0]:
         joints_from(lo, hi, fresh, ji, jj, ri, rj, jK, jmeff)
     nh = hist.shape[1]
     inv_r = 1.0 / R
+    bounded = dmob.shape[0] > 0
     nb = 0
     for k in range(lo, hi):
         active[k] = 0
@@ -200,6 +207,14 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
         g[J_EJ] = E[j]
         g[J_NU] = nu[i]
         g[J_DT] = dt
+        if bounded:
+            # the largest lever arms of the joint's points: its ends, in each element's frame
+            ri2 = max(ax * ax + ay * ay, bx * bx + by * by)
+            rj2 = max(ends_j[k, 0, 0] ** 2 + ends_j[k, 0, 1] ** 2,
+                      ends_j[k, 1, 0] ** 2 + ends_j[k, 1, 1] ** 2)
+            g[J_DTM] = dt * damping_mobility(dmob, i, j, ri2, rj2)
+        else:
+            g[J_DTM] = 0.0
         res[0] = 0.0
         res[1] = 0.0
         res[2] = 0.0
@@ -226,7 +241,7 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
 @njit(parallel=True, cache=CACHE)
 def _collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                       nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges,
-                      chist, commit, caps, chint):
+                      chist, commit, caps, chint, dmob, dt):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -247,18 +262,19 @@ def _collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R
             counts[c] = _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets,
                                          verts, pairs, R, pretest, out, active, lo, hi, xy, tag,
                                          proj, g, res, margin, hint, drop, face, scale, blk,
-                                         edges, chist, commit, hrow, caps, chint)
+                                         edges, chist, commit, hrow, caps, chint, dmob, dt)
     return counts.sum()
 
 
 @njit(cache=CACHE, _nrt=NRT)
 def _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res, blk, nb,
-                     chist, commit, hrow, caps):
+                     chist, commit, hrow, caps, dmob, dt):
     """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
     ``blk``, ``BLK_*``) into ``out`` and ``on``; with ``CHIST``, pair ``k``'s history row
     ``chist[k]`` goes to the evaluator in ``hrow`` and back to ``chist[k]`` when ``commit``;
     ``caps[k]`` gets the evaluator's ``res[3]`` (1: the law capped the normal force) where
-    ``caps`` is not empty.
+    ``caps`` is not empty; ``g[G_DTM]`` from ``dmob`` and the step ``dt`` [s]
+    (:mod:`siku_core.damping`; 0 where ``dmob`` is empty).
     Apart from the geometry that finds them, a contact's evaluation is a chain of dependent
     square roots and divisions (lever arms, stiffness, damping); evaluated in a loop of their
     own, the chains of consecutive contacts overlap in the processor instead of waiting for the
@@ -291,6 +307,10 @@ def _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res
         g[G_AREA_J] = area[j]
         g[G_HI] = h[i]
         g[G_HJ] = h[j]
+        if dmob.shape[0]:
+            g[G_DTM] = dt * damping_mobility(dmob, i, j, cx * cx + cy * cy, xj * xj + yj * yj)
+        else:
+            g[G_DTM] = 0.0
         res[0] = 0.0
         res[1] = 0.0
         res[2] = 0.0
@@ -314,14 +334,15 @@ def _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res
 @njit(cache=CACHE, _nrt=NRT)
 def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      pretest, out, active, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
-                     scale, blk, edges, chist, commit, hrow, caps, chint):
+                     scale, blk, edges, chist, commit, hrow, caps, chint, dmob, dt):
     """Pairs ``lo <= k < hi`` of :func:`~siku_core.contacts.collision_forces`; returns how
     many overlap. ``xy``, ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers
     (clipping, partner vertices, geometry, result, a block of overlaps waiting for
     :func:`_collision_block`); ``chist``, ``commit``, ``hrow``: the per-contact history
     (``CHIST``), whether it changes, the task's row buffer; ``caps``: per pair, whether the
     law capped its normal force (empty: not kept); ``chint``: the pairs' crossing edges for
-    the coherent clip (``geometry.coherent``; empty: the clip in full). One compiled loop on
+    the coherent clip (``geometry.coherent``; empty: the clip in full); ``dmob``, ``dt``: the
+    dampers' bound (:func:`_collision_block`). One compiled loop on
     purpose: the geometry, the pretest and the block hand-off share the task's buffers, and a
     split would cost calls in the hot loop."""
     inv_r = 1.0 / R
@@ -403,11 +424,11 @@ def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
         nb += 1
         if nb == CBLOCK:
             _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res,
-                             blk, nb, chist, commit, hrow, caps)
+                             blk, nb, chist, commit, hrow, caps, dmob, dt)
             no += nb
             nb = 0
     if nb:
         _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res, blk,
-                         nb, chist, commit, hrow, caps)
+                         nb, chist, commit, hrow, caps, dmob, dt)
         no += nb
     return no

@@ -27,6 +27,7 @@ from .contact_law import (
     parameter_vector,
 )
 from .contacts import collision_forces, gather_forces, joint_forces
+from .damping import contact_mobility
 from .errors import SceneError
 from .geometry.clip import REL_TOL
 from .geometry.coherent import NO_HINT
@@ -120,6 +121,10 @@ class ContactModel(JointBook):
         self.n_overlap = 0
         self.n_broken_total = 0
         self.rejected: list[tuple[int, int]] = []
+        #: per element ``(n/m, n/I)``, the bound of the dampers (``siku_core.damping``);
+        #: ``None``: stale, computed at the next evaluation
+        self._dmob: np.ndarray | None = None
+        self._dmob_key: tuple | None = None
         self._build_joints()
 
     # ------------------------------------------------------------------ step
@@ -280,13 +285,16 @@ class ContactModel(JointBook):
         within = self._rotations(q)
         t1 = clock()
         joints = self.n_joints and law.uses_joints
+        dmob = self.damping_mobility()
+        dt = self.time_step()
         if joints:
             broke = joint_forces(
                 self._jev, self._jpars, self.rm, V, w, st.thickness, self.E,
                 self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
                 self._jK, self._jmeff, self.intact, self.break_mode, self.hist, R,
-                self.time_step(), commit, self.joint_rows, self.joint_active,
+                dt, commit, self.joint_rows, self.joint_active,
                 chunks(self.n_joints), self._jscratch if self._joints_stale else None, self.arms,
+                dmob,
             )
             self._joints_stale = False
             if commit and broke:
@@ -303,7 +311,7 @@ class ContactModel(JointBook):
                 self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
                 self.chist if self.n_contact_hist else None, commit,
                 self.pair_capped if self.caps_kept else None,
-                self.clip_hint if len(self.clip_hint) else None,
+                self.clip_hint if len(self.clip_hint) else None, dmob, dt,
             )
             if commit:
                 self.n_overlap = n
@@ -327,6 +335,14 @@ class ContactModel(JointBook):
         tm["broad_phase"] += t3 - t2
         tm["collisions"] += t4 - t3
         tm["contact_sum"] += (t1 - t0) + (t5 - t4)
+
+    def damping_mobility(self) -> np.ndarray:
+        """Per element ``(n/m, n/I) / phi``, the bound of every damper
+        (:func:`siku_core.damping.contact_mobility`), kept until the joints or the ice change."""
+        key = (self.n_joints, hash(self.intact.tobytes())) if self.n_joints else None
+        if self._dmob is None or key != self._dmob_key:
+            self._dmob, self._dmob_key = contact_mobility(self), key
+        return self._dmob
 
     def setup(self) -> None:
         """The law's parameter vectors, and its evaluators compiled once for the engine's
@@ -352,6 +368,7 @@ class ContactModel(JointBook):
         leave the candidate list. ``elements``: only these changed (``None``: all), ``flags``:
         a flag may have (:func:`~siku_core.ice_follow.follow_contacts`)."""
         st = self.state
+        self._dmob = None
         full = elements is None
         if full:
             elements = self._no_elements
@@ -413,13 +430,11 @@ class ContactModel(JointBook):
         return gershgorin_bound(self)
 
     def stability_limit(self, ctx) -> tuple[float, str] | None:
-        """The smaller of two estimates of the contact phase's stable step: ``2 / omega`` of
-        :meth:`stiffness_bound` (undamped, element by element) and the stable step of the
-        contacts' stiffness *and damping* at rest (:func:`siku_core.stable_step.critical_step`:
-        joints, the collision of jointed pairs under ``jointed = "collide"``, free edges,
-        rotation, static and steady neighbours as walls; the explicit damping lowers the
-        step). ``None`` without a free element in contact."""
-        from .stable_step import critical_step
+        """The smaller of ``2 / omega`` of :meth:`stiffness_bound` (undamped, element by
+        element) and the stable step of the contacts' stiffness *and damping* at rest
+        (:func:`siku_core.stable_step.critical_step`; bounded dampers: ``siku_core.damping``).
+        ``None`` without a free element in contact."""
+        from .stable_step import critical_step, limit_and_reason
 
         om, i = self.stiffness_bound()
         if om <= 0:
@@ -427,13 +442,7 @@ class ContactModel(JointBook):
         rates = self.law.stability_rates()
         dt_l, il, d = critical_step(self, rates)
         self.stable_step_details = {**d, "undamped_bound": 2.0 / om, "linear": dt_l}
-        if dt_l < 2.0 / om:
-            why = (f"stiffest mode at element {il} under law '{self.law.name}' (omega = "
-                   f"{d['omega']:.4g} rad/s with damping rate {d['gamma']:.4g} 1/s)")
-            dt_c = dt_l
-        else:
-            why = f"stiffest contact of element {i} under law '{self.law.name}'"
-            dt_c = 2.0 / om
+        dt_c, why = limit_and_reason(self.law.name, self.stable_step_details, il, i)
         if rates.get("unbounded"):
             warnings.warn(f"{self.where}: the stable-step estimate cannot be sure: "
                           f"{rates['unbounded']}", stacklevel=2)

@@ -34,29 +34,35 @@ from .parallel import chunk_bounds, claim, tasks
 
 def joint_forces(evaluate, pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
                  jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, fresh=None,
-                 arms=None):
+                 arms=None, dmob=None):
     """Evaluate every intact joint into ``out[k]`` (``ROW_*``) and ``active[k]``; returns the number
     that broke (only when ``commit``; their break mode, the evaluator's ``out[3]``, goes to
     ``break_mode[k]``). ``fresh`` (two values per element, ``h E`` [Pa m] and the inverse mass
     a joint counts [1/kg]; :func:`~siku_core.ice_follow.follow_contacts`) and ``arms`` (the
     lever arms ``ri, rj`` [m]): every joint's ``jK``, ``jmeff`` are first computed from them,
-    in the same parallel loop (after a process changed the ice)."""
+    in the same parallel loop (after a process changed the ice). ``dmob`` (per element ``n/m``
+    [1/kg], ``n/I`` [1/(kg m²)], ``n`` its contacts; ``None``: the dampers unbounded): the
+    bound of the dampers (:mod:`siku_core.damping`, ``g[J_DTM]``)."""
     loops = instantiate(contact_loops, evaluate)
     if fresh is None:
         fresh, arms = _NO_FRESH, (_NO_FRESH, _NO_FRESH)
+    if dmob is None:
+        dmob = _NO_DMOB
     return loops._joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
                                jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch,
-                               tasks(nch), fresh, *arms)
+                               tasks(nch), fresh, *arms, dmob)
 
 
 #: what the joint loop gets for ``fresh`` and the lever arms when its constants are current
 _NO_FRESH = np.zeros(0)
+#: ... and for ``dmob`` when the dampers are unbounded
+_NO_DMOB = np.zeros((0, 2))
 
 
 def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                      nmax, pretest, out, active, nch, margin=None, hint=None, drop=False, face=None,
                      scale=None, edges=None, chist=None, commit=False, caps=None,
-                     chint=None):
+                     chint=None, dmob=None, dt=0.0):
     """Clip every candidate pair (unless, with ``pretest``, the separating-axis test
     :func:`~siku_core.geometry.clip.separating_edge` finds an edge line that separates or touches
     them) and evaluate the overlapping ones into ``out[k]`` with ``active[k] = 1`` (``0`` for the
@@ -87,7 +93,8 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
     they held); ``chint`` (per pair, int32, updated;
     ``None``: off): the crossing edges each pair's overlap had last, from which the coherent
     clip (:func:`~siku_core.geometry.coherent.overlap_coherent`) computes it again (the same
-    results to round-off; where its check fails, the full clip bit for bit).
+    results to round-off; where its check fails, the full clip bit for bit); ``dmob`` (as
+    :func:`joint_forces`) and the step ``dt`` [s]: the bound of the dampers (``g[G_DTM]``).
     """
     if margin is None:
         margin = np.zeros(offsets.shape[0] - 1)
@@ -106,10 +113,13 @@ def collision_forces(evaluate, pars, rm, V, w, minv, h, E, area, offsets, verts,
         chist = _NO_HISTORY
     if chint is None:
         chint = _NO_HINTS
+    if dmob is None:
+        dmob = _NO_DMOB
     loops = instantiate(contact_loops, evaluate, history)
     return loops._collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                                    nmax, pretest, out, active, nch, tasks(nch), margin, hint, drop,
-                                   face, scale, edges, chist, bool(commit), caps, chint)
+                                   face, scale, edges, chist, bool(commit), caps, chint, dmob,
+                                   float(dt))
 
 
 #: what the collision loop gets for ``chist`` under a law without per-contact history (the

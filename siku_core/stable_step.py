@@ -8,8 +8,9 @@ frequency ``omega`` and damping rate ``gamma = 2 zeta omega`` when
 
 (the Jury conditions of the mode's 2×2 amplification matrix: trace ``2 - gamma dt - omega²
 dt²``, determinant ``1 - gamma dt``); without damping ``dt_c = 2 / omega``, with ``zeta = 1``
-``0.83 / omega``. The damping is explicit (it acts on the old velocity), so it *lowers* the
-stable step.
+``0.83 / omega``. An explicit damper (acting on the old velocity) *lowers* the stable step; the
+dampers of a law that bounds them by the step (``bounded_damping``, :mod:`siku_core.damping`)
+satisfy ``dt C' < M`` and leave it at least ``sqrt(2) / omega``, close to ``2 / omega``.
 
 :func:`contact_matrices` assembles the contact phase's stiffness ``K`` and damping ``C`` about
 the state at rest, for the three degrees of freedom ``(x, y, theta)`` of every free element
@@ -43,6 +44,10 @@ matrix on small packs (``tests/contacts/test_stable_step.py``). The engine then 
 dt_safety`` (default 0.5) for what the linearisation at rest leaves out: contact widths that grow
 with the overlap, the water drag's own limit (a separate component), damage.
 
+With dampers bounded by the step (``bounded_damping``, :mod:`siku_core.damping`), the
+larger of that and ``sqrt(4 - 2 g) / omega_max``, ``g = h gamma'_max(h)`` the rate of the
+dampers as they act at ``h = 2 / omega_max`` (:func:`critical_step`).
+
 Not covered, and said by the law: the ``sqrt_area`` collision law has no bounded stiffness
 (``dF/d(depth)`` grows without bound as the overlap vanishes); the estimate then takes the
 linear law's ``K w`` and the engine warns.
@@ -53,6 +58,7 @@ import math
 
 import numpy as np
 
+from .damping import critical_step as damped_step
 from .state import FREE
 
 #: systems with at most this many free degrees of freedom are solved densely
@@ -173,9 +179,15 @@ def _point_entries(i, j, p_i, p_j, rot, d_i):
     ]
 
 
-def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = False):
+def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = False,
+                     dt: float | None = None):
     """Stiffness and damping matrices (scipy CSR, ``3 n`` square, N/m, N m/rad, ...) of the
     contact phase of ``model`` (a :class:`~siku_core.contact_model.ContactModel`) at rest.
+
+    ``dt`` [s]: the dampers as they act in a step of ``dt`` where the law's are bounded
+    (``rates["bounded_damping"]``: each ``c`` becomes :func:`~siku_core.damping.step_damper`
+    of it, with the engine's ``1/m_d`` at the contact's lever arms); ``None``: as written
+    (explicit), the rates the estimate reads.
 
     ``rates`` are the law's :meth:`~siku_core.contact_law.ContactLaw.stability_rates`. Joints
     that have broken count as free edges (their pair collides as independent elements);
@@ -193,6 +205,18 @@ def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = Fa
     fc = float(rates.get("collision_stiffness", 1.0))
     collide = not model.exclude_jointed
     joints = model.n_joints and model.law.uses_joints
+    bound = dt is not None and bool(rates.get("bounded_damping", False))
+    dmob = model.damping_mobility()
+
+    def damper(c, e_i, r2_i, e_j=None, r2_j=None):
+        """``c`` as it acts in a step of ``dt`` (``siku_core.damping``)."""
+        if not bound:
+            return c
+        lam = dmob[e_i, 0] + r2_i * dmob[e_i, 1]
+        if e_j is not None:
+            lam = lam + dmob[e_j, 0] + r2_j * dmob[e_j, 1]
+        return step_damper_array(c, dt * lam)
+
     jointed_edges = np.zeros(n, dtype=np.int64)
     if joints:
         k = np.flatnonzero(model.intact)
@@ -205,11 +229,17 @@ def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = Fa
         ang = np.arctan2(ti[:, 1], ti[:, 0]) - np.arctan2(tj[:, 1], tj[:, 0])
         rot = (np.cos(ang), np.sin(ang))
         kj = fj * K * w
-        cj = 2.0 * zj * np.sqrt(kj * meff)
+        r2i = np.maximum(np.sum(ei[:, 0]**2, axis=1), np.sum(ei[:, 1]**2, axis=1))
+        r2j = np.maximum(np.sum(ej[:, 0]**2, axis=1), np.sum(ej[:, 1]**2, axis=1))
+        cj = damper(2.0 * zj * np.sqrt(kj * meff), ji, r2i, jj, r2j)
         shear = rates.get("joint_shear", 1.0)
         share = 1.0 / (2.0 * (1.0 + model.nu[ji])) if shear == "poisson" else float(shear)
-        cshare = (np.sqrt(share) if rates.get("joint_shear_damping", "normal") == "own"
-                  else 1.0) * np.ones(len(k))
+        if rates.get("joint_shear_damping", "normal") == "own":
+            # its own damper, bounded on its own (siku_core.damping), as a share of cj
+            craw = 2.0 * zj * np.sqrt(kj * meff)
+            cshare = damper(craw * np.sqrt(share), ji, r2i, jj, r2j) / np.maximum(cj, 1e-300)
+        else:
+            cshare = np.ones(len(k))
         tan = ti / np.maximum(w, 1e-300)[:, None]
         nrm = np.stack([tan[:, 1], -tan[:, 0]], axis=1)
         for z in _GAUSS:
@@ -220,10 +250,12 @@ def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = Fa
                 KA.add_vectors(0.5 * kj * sk, ent)
                 CA.add_vectors(0.5 * cj * sc, ent)
         if collide:
-            ent = _point_entries(ji, jj, ei[:, 0] + 0.5 * ti, ej[:, 0] + 0.5 * tj, rot, nrm)
+            mi, mj = ei[:, 0] + 0.5 * ti, ej[:, 0] + 0.5 * tj
+            ent = _point_entries(ji, jj, mi, mj, rot, nrm)
             kc = fc * K * w
             KA.add_vectors(kc, ent)
-            CA.add_vectors(2.0 * zc * np.sqrt(kc * meff), ent)
+            CA.add_vectors(damper(2.0 * zc * np.sqrt(kc * meff), ji, np.sum(mi**2, axis=1), jj,
+                                  np.sum(mj**2, axis=1)), ent)
         np.add.at(jointed_edges, ji, 1)
         np.add.at(jointed_edges, jj, 1)
     # free edges: a collision budget h E against a wall at the edge's middle, along its normal
@@ -254,7 +286,8 @@ def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = Fa
         ent = [(el, 0, nrm[:, 0]), (el, 1, nrm[:, 1]),
                (el, 2, np.sum(nrm * _perp(mid), axis=1))]
         KA.add_vectors(kb, ent)
-        CA.add_vectors(2.0 * zc * np.sqrt(kb * st.m[el]), ent)
+        CA.add_vectors(damper(2.0 * zc * np.sqrt(kb * st.m[el]), el, np.sum(mid**2, axis=1)),
+                       ent)
     return (KA, CA) if factored else (KA.matrix(), CA.matrix())
 
 
@@ -333,6 +366,11 @@ def top_eigenvalue(op: "Gram", tol: float = LANCZOS_TOL, fail: float = LANCZOS_F
     return max(theta, 0.0) / (1.0 - tol), vec
 
 
+def step_damper_array(c: np.ndarray, dtm: np.ndarray) -> np.ndarray:
+    """:func:`siku_core.damping.step_damper` on arrays."""
+    return np.where(c * dtm > 1.0, 1.0 / np.where(dtm > 0.0, dtm, 1.0), c)
+
+
 def _largest(A, dof: np.ndarray) -> tuple[float, np.ndarray]:
     """Largest eigenvalue of the symmetric positive semi-definite ``A`` (dense: its
     restriction to ``dof``) and the square of its eigenvector over all DOF (zeros where ``A``
@@ -368,22 +406,40 @@ def critical_step(model, rates: dict) -> tuple[float, int, dict]:
     mass = np.stack([st.m, st.m, st.I], axis=1).ravel()
     dof = np.flatnonzero(np.repeat(free, 3))
     s = 1.0 / np.sqrt(mass)
-    if len(dof) <= DENSE_DOF:
-        from scipy.sparse import diags
+    def largest(A):
+        """The largest eigenvalue of ``M^-1/2 A M^-1/2`` and its DOF shares."""
+        if len(dof) <= DENSE_DOF:
+            from scipy.sparse import diags
 
-        D = diags(s)
-        om2, vec = _largest(D @ KA.matrix() @ D, dof)
-        gam, cvec = _largest(D @ CA.matrix() @ D, dof)
-    else:
-        om2, vec = _largest(KA.gram(s), dof)
-        gam, cvec = _largest(CA.gram(s), dof)
+            D = diags(s)
+            return _largest(D @ A.matrix() @ D, dof)
+        return _largest(A.gram(s), dof)
+
+    om2, vec = largest(KA)
+    gam, cvec = largest(CA)
     if om2 <= 0.0 and gam <= 0.0:
         return math.inf, -1, {"omega": 0.0, "gamma": 0.0}
-    dt_c = 4.0 / (gam + math.sqrt(gam * gam + 4.0 * om2))
+    bounded = bool(rates.get("bounded_damping", False))
+    dt_c = damped_step(math.sqrt(om2), gam, bounded)
+    details = {"omega": math.sqrt(om2), "gamma": gam}
+    if bounded and om2 > 0.0:
+        # the dampers as they act at the undamped limit h = 2/omega: their largest rate
+        # gamma'(h) there gives g = h gamma'(h), which only grows with the step (each
+        # c' h = c h / (1 + c h / m_d) does); so at dt = sqrt(4 - 2 g) / omega <= h the
+        # condition omega² dt² + 2 dt gamma'(dt) <= 4 holds
+        h = 2.0 / math.sqrt(om2)
+        CB = contact_matrices(model, rates, factored=True, dt=h)[1]
+        gb, bvec = largest(CB)
+        g = h * gb
+        bounded_dt = math.sqrt(4.0 - 2.0 * g) / math.sqrt(om2) if g < 2.0 else 0.0
+        details["gamma_bounded"] = gb
+        if bounded_dt > dt_c:
+            dt_c = bounded_dt
+            gam, cvec = gb, bvec
     # the element of the stiffest mode (of the damping's, when the damping sets the step)
     share = vec if om2 * dt_c * dt_c >= 2.0 * gam * dt_c else cvec
     elem = int(np.argmax(share.reshape(-1, 3).sum(axis=1)))
-    return dt_c, elem, {"omega": math.sqrt(om2), "gamma": gam}
+    return dt_c, elem, details
 
 
 def gershgorin_bound(cm) -> tuple[float, int]:
@@ -425,3 +481,19 @@ def gershgorin_bound(cm) -> tuple[float, int]:
     om2 = np.where(free, np.maximum(2 * ktr / st.m, 2 * krot / st.I), 0.0)
     i = int(np.argmax(om2))
     return math.sqrt(om2[i]), i
+
+
+def limit_and_reason(law: str, d: dict, il: int, i: int) -> tuple[float, str]:
+    """The contact phase's critical step [s] and what sets it, from the details ``d`` of
+    :func:`critical_step` (its element ``il``) and the element-wise undamped bound
+    ``d["undamped_bound"]`` (its element ``i``): the smaller of the two."""
+    if d["linear"] < d["undamped_bound"]:
+        damp = f"damping rate {d['gamma']:.4g} 1/s"
+        if "gamma_bounded" in d:
+            damp += f" as written, {d['gamma_bounded']:.4g} 1/s bounded by the step at 2/omega"
+        return d["linear"], (f"stiffest mode at element {il} under law '{law}' (omega = "
+                             f"{d['omega']:.4g} rad/s, undamped limit "
+                             f"{2.0 / d['omega']:.4g} s; {damp})")
+    return d["undamped_bound"], (f"stiffest contact of element {i} under law '{law}' (element "
+                                 f"by element, undamped; the whole pack's estimate "
+                                 f"{d['linear']:.4g} s)")

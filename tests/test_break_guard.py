@@ -123,12 +123,17 @@ def test_the_step_is_checked_again_once_enough_joints_broke(critical, monkeypatc
 
 
 def test_refreezing_where_the_step_is_no_longer_stable_is_refused_as_before_a_run(critical):
-    """All joints broken, the pack's step is longer (twice as long: the element-wise bound,
-    which counts broken joints too, is then the lower one); a dt stable for it but not for the
-    joints is refused once they freeze again, in the words of
-    the check before a run. (Breaking them all at once is what the breaking-rate guard stops:
-    off here.)"""
-    sim = _sim(0.8 * critical, allow_unstable_dt=True, break_guard="off")
+    """All joints broken, the pack's step is longer (its free edges' collisions are softer than
+    its joints); a dt stable for it but not for the joints, halfway between the two safe steps,
+    is refused once they freeze again, in the words of the check before a run. (Breaking them
+    all at once is what the breaking-rate guard stops: off here.)"""
+    probe = _sim(0.25 * critical, allow_unstable_dt=True, break_guard="off")
+    probe.contacts.break_joints(np.arange(probe.contacts.n_joints), BreakMode.STRAIN, 0.0)
+    probe.step()
+    assert probe.critical_dt > 1.1 * critical
+    safe = probe.scene.cfg.run.dt_safety
+    sim = _sim(0.5 * safe * (critical + probe.critical_dt), allow_unstable_dt=True,
+               break_guard="off")
     cm = sim.contacts
     every = np.arange(cm.n_joints)
     cm.break_joints(every, BreakMode.STRAIN, sim.time)

@@ -23,6 +23,7 @@ from ..contact_law import (
     G_MEFF,
     G_NX,
     G_NY,
+    G_DTM,
     G_SIZE,
     G_VX,
     G_VY,
@@ -32,6 +33,7 @@ from ..contact_law import (
     J_BX,
     J_BY,
     J_DT,
+    J_DTM,
     J_EI,
     J_EJ,
     J_HI,
@@ -304,6 +306,9 @@ def random_collision_geometry(rng: np.random.Generator) -> np.ndarray:
     g[G_VX], g[G_VY] = rng.normal(0.0, 0.5, 2)
     g[G_AREA_I], g[G_AREA_J] = rng.uniform(1e4, 1e7, 2)
     g[G_HI], g[G_HJ] = rng.uniform(0.1, 5.0, 2)
+    # the step over the damping mass (siku_core.damping): none, or dt / (phi m_d) of a step of
+    # 1 ms to 10 s with m_d a share 1/100 to 1 of the reduced mass
+    g[G_DTM] = rng.choice([0.0, rng.uniform(1e-3, 10.0) * rng.uniform(1.0, 100.0) / g[G_MEFF]])
     return g
 
 
@@ -329,6 +334,7 @@ def random_joint_geometry(rng: np.random.Generator) -> np.ndarray:
     g[J_EI], g[J_EJ] = rng.uniform(0.25e9, 4e9, 2)
     g[J_NU] = rng.uniform(0.0, 0.45)
     g[J_DT] = rng.uniform(1e-3, 10.0)
+    g[J_DTM] = rng.choice([0.0, g[J_DT] * rng.uniform(1.0, 100.0) / g[J_MEFF]])
     return g
 
 

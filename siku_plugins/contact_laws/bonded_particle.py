@@ -7,6 +7,7 @@ import math
 from numba import njit
 
 from siku_core import Param
+from siku_core.damping import step_damper
 from siku_core.contact_law import (
     BREAK_SHEAR,
     BREAK_TENSION,
@@ -17,6 +18,7 @@ from siku_core.contact_law import (
     J_HI,
     J_HJ,
     J_K,
+    J_DTM,
     J_MEFF,
     J_NU,
     J_S1X,
@@ -121,8 +123,8 @@ def bonded_particle_evaluator(g, pars, hist, out):
     # k_n A = K w [N/m] (A = w h_b), k_s A = share K w, k_n I = K w³/12
     kna = g[J_K] * w if hb > 0.0 else 0.0
     c2 = 2.0 * pars[BP.joint_damping_ratio]
-    cn = c2 * math.sqrt(kna * g[J_MEFF])
-    cs = c2 * math.sqrt(share * kna * g[J_MEFF])
+    cn = step_damper(c2 * math.sqrt(kna * g[J_MEFF]), g[J_DTM])
+    cs = step_damper(c2 * math.sqrt(share * kna * g[J_MEFF]), g[J_DTM])
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
     vx = 0.5 * (vax + vbx)
     vy = 0.5 * (vay + vby)
@@ -168,6 +170,7 @@ class BondedParticle(Collision):
     stress ``k_s |d_s|`` exceeds ``tau_crit`` breaks for good; the pair then collides.
     """
 
+    bounded_damping = True  # (siku_core.damping)
     name = "bonded_particle"
     uses_joints = True
     history_names = ("max_sigma", "max_tau")

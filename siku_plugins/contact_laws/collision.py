@@ -8,11 +8,13 @@ import math
 from numba import njit
 
 from siku_core import Param
+from siku_core.damping import step_damper
 from siku_core.contact_law import (
     G_AREA,
     G_AREA_I,
     G_AREA_J,
     G_K,
+    G_DTM,
     G_MEFF,
     G_NX,
     G_NY,
@@ -54,7 +56,7 @@ def collision_force(g, sqrt_area, zeta, eta, mu, fmax, out):
     else:
         fel = K * A
         k = K * L
-    c = 2.0 * zeta * math.sqrt(k * g[G_MEFF])
+    c = step_damper(2.0 * zeta * math.sqrt(k * g[G_MEFF]), g[G_DTM])
     vn = vx * nx + vy * ny
     fn = fel - c * vn
     capped = fn >= fmax
@@ -92,6 +94,7 @@ def collision_evaluator(g, pars, out):
 class Collision(ContactLaw):
     """Independent elements: elastic repulsion by overlap area (eqs. 9–11), no joints."""
 
+    bounded_damping = True  # its dampers go through step_damper (siku_core.damping)
     name = "collision"
     params = {
         "sqrt_area": Param(False, "", "Matuttis-style force ~ sqrt(overlap area)", type=bool),

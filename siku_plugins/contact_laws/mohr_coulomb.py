@@ -7,6 +7,7 @@ import math
 from numba import njit
 
 from siku_core import Param
+from siku_core.damping import step_damper
 from siku_core.contact_law import (
     BREAK_COMPRESSION,
     BREAK_SHEAR,
@@ -21,6 +22,7 @@ from siku_core.contact_law import (
     J_HI,
     J_HJ,
     J_L0,
+    J_DTM,
     J_MEFF,
     J_NU,
     J_S1X,
@@ -203,7 +205,9 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
         out[OUT_BREAK] = mode  # the criterion of the segment whose failure broke the joint
         return
     # damping: share of critical for the normal stiffness (h E)_eff w / L0 on the reduced mass
-    c = 2.0 * pars[MC.joint_damping_ratio] * math.sqrt(h * EL * w * g[J_MEFF])
+    # (bounded by the step: siku_core.damping)
+    c = step_damper(2.0 * pars[MC.joint_damping_ratio] * math.sqrt(h * EL * w * g[J_MEFF]),
+                    g[J_DTM])
     if nfailed:
         c *= (nseg - nfailed) / nseg
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
@@ -219,6 +223,7 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
 class MohrCoulomb(Collision):
     """Modified Hopkins–Frankenstein / Wilchinsky–Feltham–Hopkins joints (eqs. 14–16, Table 1)."""
 
+    bounded_damping = True  # (siku_core.damping)
     name = "mohr_coulomb"
     uses_joints = True
     params = {

@@ -15,6 +15,7 @@ from siku_core.contact_law import (
     J_BY,
     J_K,
     J_L0,
+    J_DTM,
     J_MEFF,
     J_S1X,
     J_S1Y,
@@ -32,6 +33,8 @@ from siku_core.contact_law import (
     ParameterRecord,
 )
 
+from siku_core.damping import step_damper
+
 from .collision import Collision
 
 
@@ -48,7 +51,8 @@ def spring_evaluator(g, pars, hist, out):
     exceeds ``tensile_strain``; between ``damage_onset × tensile_strain`` and the threshold the
     stiffness falls linearly to zero (damage depends on the strain history only, never on dt).
     Damping: a share ``zeta`` of critical for ``K w`` on the reduced mass, applied to the
-    relative velocity distribution along the joint like the displacement.
+    relative velocity distribution along the joint like the displacement, bounded by the step
+    (:func:`~siku_core.damping.step_damper`).
     """
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
     strain = math.sqrt(max(s1x * s1x + s1y * s1y, s2x * s2x + s2y * s2y)) / g[J_L0]
@@ -65,7 +69,8 @@ def spring_evaluator(g, pars, hist, out):
     K = g[J_K] * (1.0 - dmg)
     w = g[J_W]
     wx, wy = g[J_BX] - g[J_AX], g[J_BY] - g[J_AY]
-    c = 2.0 * pars[SP.joint_damping_ratio] * math.sqrt(g[J_K] * w * g[J_MEFF])
+    c = step_damper(2.0 * pars[SP.joint_damping_ratio] * math.sqrt(g[J_K] * w * g[J_MEFF]),
+                    g[J_DTM])
     vax, vay, vbx, vby = g[J_VAX], g[J_VAY], g[J_VBX], g[J_VBY]
     # force on i pulls i's copy towards j's copy; j gets the opposite
     fx = K * w * 0.5 * (s1x + s2x) + c * 0.5 * (vax + vbx)
@@ -92,6 +97,7 @@ def spring_energy(g, pars, hist):
 class DistributedSpring(Collision):
     """Coalesced elements: a distributed spring along each frozen joint, brittle failure."""
 
+    bounded_damping = True  # (siku_core.damping)
     name = "distributed_spring"
     uses_joints = True
     history_names = ("max_strain",)

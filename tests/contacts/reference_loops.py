@@ -26,6 +26,7 @@ from siku_core.contact_law import (
     G_MEFF,
     G_NX,
     G_NY,
+    G_DTM,
     G_SIZE,
     G_VX,
     G_VY,
@@ -35,6 +36,7 @@ from siku_core.contact_law import (
     J_BX,
     J_BY,
     J_DT,
+    J_DTM,
     J_EI,
     J_EJ,
     J_HI,
@@ -174,6 +176,7 @@ def _joint_loop(pars, q, V, w, minv, h, E, nu, ji, jj, ends_i, ends_j, L0, width
         g[J_EJ] = E[j]
         g[J_NU] = nu[i]
         g[J_DT] = dt
+        g[J_DTM] = 0.0  # the dampers as written (the engine's bound cuts none in these cases)
         out[:] = 0.0
         if commit:
             evaluate(g, pars, hist[k], out)
@@ -258,6 +261,7 @@ def _collision_loop(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F
         g[G_AREA_J] = area[j]
         g[G_HI] = h[i]
         g[G_HJ] = h[j]
+        g[G_DTM] = 0.0
         out[:] = 0.0
         evaluate(g, pars, out)
         apply_pair(q, i, j, out[0], out[1], cx, cy, out[2], R, F, T)

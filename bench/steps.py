@@ -1,0 +1,229 @@
+"""The price of a step: the default scene's leads and cost against ``dt``.
+
+``python -m bench.steps`` runs the default scene (the same scene, mesh and physics as ``siku
+run``) for ``--hours`` of model time at each step of ``--dt``, the first being the reference,
+and compares every run's leads with the reference's:
+
+* ``first break`` [min]: the model time of the first joint to break, and its difference from
+  the reference's;
+* ``lead fraction`` (the run's ``lead_fraction`` diagnostic, lead area over free ice plus leads)
+  at every hour, relative to the reference's;
+* ``co-located`` [%]: the share of the run's broken joints whose midpoint lies within
+  ``--near`` (10 km) of a joint broken in the reference, and the share of the reference's
+  broken joints with a broken joint of the run that near;
+* cost: wall seconds of the steps (compilation excluded: a first short run compiles), steps,
+  and microseconds per step; one thread unless ``--threads`` is given.
+
+Each run's break times and positions are kept in ``--out`` (``steps_<dt>.npz``), so a later
+call with ``--reuse`` only runs the steps it has not. The table goes to stdout and, with
+``--table``, to a Markdown file; ``--figure`` draws cost and lead errors against the step.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.resources as ir
+import math
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+#: mean Earth radius the scene uses [m] (distances between break positions)
+EARTH_RADIUS = 6.371e6
+
+
+def _scene(dt: float, hours: float, extra: dict[str, str] | None = None):
+    from siku_core.scene import load_scene
+
+    path = ir.files("siku_core") / "data" / "default_scene.toml"
+    over = {"time.dt": f"{dt!r}s", "time.duration": f"{hours!r}h",
+            "run.allow_unstable_dt": "true", **(extra or {})}
+    return load_scene(str(path), over)
+
+
+def run(dt: float, hours: float, extra: dict[str, str] | None = None,
+        log=print) -> dict[str, np.ndarray]:
+    """Run the default scene at ``dt`` [s] for ``hours``; returns the joints' break times [s]
+    and midpoints (latitude, longitude [deg]), the lead fraction at every hour, the wall
+    seconds of every hour's steps and the critical step [s]."""
+    from siku_core.simulation import Simulation
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(_scene(dt, hours, extra), out=False, progress=False)
+    cm = sim.contacts
+    per_hour = int(round(3600.0 / dt))
+    pos = np.full((cm.n_joints, 2), np.nan)
+    lead, wall = [], []
+    t0 = time.perf_counter()
+    spent = 0.0
+    for h in range(int(round(hours))):
+        for _ in range(per_hour):
+            before = cm.intact.copy()
+            a = time.perf_counter()
+            sim.step()
+            spent += time.perf_counter() - a
+            new = np.flatnonzero(before & ~cm.intact)
+            if len(new):
+                pos[new] = cm.joint_midpoints(new)
+        d = sim.diagnostics()
+        lead.append(float(d.get("lead_fraction", math.nan)))
+        wall.append(spent)
+        log(f"  dt {dt:g} s: {h + 1} h, {int((~cm.intact).sum())} joints broken, lead "
+            f"fraction {100 * lead[-1]:.4g} %, {spent:.1f} s stepping "
+            f"({time.perf_counter() - t0:.0f} s)")
+    return {"break_time": cm.break_time.copy(), "pos": pos, "lead": np.array(lead),
+            "wall": np.array(wall), "dt": np.array(dt), "critical": np.array(sim.critical_dt),
+            "steps": np.array(sim.step_index)}
+
+
+def _warm(dt: float, extra: dict[str, str]) -> None:
+    """Compile every kernel of the scene (a few steps), so no run's time counts it."""
+    from siku_core.simulation import Simulation
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = Simulation(_scene(dt, 1.0, extra), out=False, progress=False)
+    for _ in range(3):
+        sim.step()
+
+
+def _xyz(latlon: np.ndarray) -> np.ndarray:
+    lat, lon = np.radians(latlon[:, 0]), np.radians(latlon[:, 1])
+    return np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], axis=1)
+
+
+def near_share(a: np.ndarray, b: np.ndarray, within: float) -> float:
+    """Share of the points ``a`` (latitude, longitude [deg]) within ``within`` [m] of a point
+    of ``b`` (great-circle chord; NaN without points)."""
+    if not len(a):
+        return math.nan
+    if not len(b):
+        return 0.0
+    from scipy.spatial import cKDTree
+
+    chord = 2.0 * math.sin(within / (2.0 * EARTH_RADIUS))
+    d, _ = cKDTree(_xyz(b)).query(_xyz(a), k=1)
+    return float(np.mean(d <= chord))
+
+
+def compare(ref: dict, other: dict, near: float = 10e3) -> dict[str, float]:
+    """The leads of run ``other`` against run ``ref`` (see the module)."""
+    hours = min(len(ref["lead"]), len(other["lead"]))
+    rb = np.isfinite(ref["break_time"]) & (ref["break_time"] >= 0)
+    ob = np.isfinite(other["break_time"]) & (other["break_time"] >= 0)
+    rpos, opos = ref["pos"][rb], other["pos"][ob]
+    out = {
+        "broken": int(ob.sum()), "broken_ref": int(rb.sum()),
+        "first_break_min": float(other["break_time"][ob].min() / 60) if ob.any() else math.nan,
+        "first_break_shift_min": (float((other["break_time"][ob].min()
+                                         - ref["break_time"][rb].min()) / 60)
+                                  if ob.any() and rb.any() else math.nan),
+        "near_of_run": near_share(opos, rpos, near),
+        "near_of_ref": near_share(rpos, opos, near),
+        "wall": float(other["wall"][hours - 1]), "steps": int(other["steps"]),
+    }
+    for h in sorted({min(2, hours), hours}):
+        out[f"lead_{h}h"] = float(other["lead"][h - 1])
+        out[f"lead_err_{h}h"] = float(other["lead"][h - 1] / ref["lead"][h - 1] - 1.0)
+    return out
+
+
+def table(rows: list[tuple[float, dict]], hours: int) -> str:
+    """The comparison as a Markdown table."""
+    marks = sorted({min(2, hours), hours})
+    head = ("| dt [s] | steps | wall [s] | µs/step | broken | first break [min] (shift) | "
+            + "".join(f"lead {h} h [%] (err) | " for h in marks) + "near ref [%] | ref near [%] |")
+    lines = [head, "|" + "---|" * (8 + len(marks))]
+    for dt, c in rows:
+        leads = "".join(f"{100 * c[f'lead_{h}h']:.4f} ({100 * c[f'lead_err_{h}h']:+.1f} %) | "
+                        for h in marks)
+        lines.append(
+            f"| {dt:g} | {c['steps']} | {c['wall']:.1f} | {1e6 * c['wall'] / c['steps']:.0f} | "
+            f"{c['broken']} | {c['first_break_min']:.1f} ({c['first_break_shift_min']:+.1f}) | "
+            f"{leads}{100 * c['near_of_run']:.1f} | {100 * c['near_of_ref']:.1f} |")
+    return "\n".join(lines)
+
+
+def figure(rows: list[tuple[float, dict]], hours: int, path: Path, ref: str = "") -> None:
+    """Cost and lead errors against the step."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dts = np.array([dt for dt, _ in rows])
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    ax1.plot(dts, [c["steps"] for _, c in rows], "o-")
+    ax1.set_xlabel("dt [s]")
+    ax1.set_ylabel(f"steps for {hours} h (the cost)")
+    ax1.set_xscale("log")
+    ax1.set_yscale("log")
+    ax1.grid(True, which="both", alpha=0.3)
+    h2 = min(2, hours)
+    ax2.plot(dts, [100 * abs(c[f"lead_err_{hours}h"]) for _, c in rows], "o-",
+             label=f"|lead fraction error| at {hours} h [%]")
+    if h2 != hours:
+        ax2.plot(dts, [100 * abs(c[f"lead_err_{h2}h"]) for _, c in rows], "s--",
+                 label=f"|lead fraction error| at {h2} h [%]")
+    ax2.plot(dts, [100 * (1 - c["near_of_run"]) for _, c in rows], "^-",
+             label="breaks farther than 10 km from a reference break [%]")
+    ax2.set_xlabel("dt [s]")
+    ax2.set_xscale("log")
+    ax2.set_yscale("symlog", linthresh=1.0)
+    ax2.grid(True, which="both", alpha=0.3)
+    ax2.legend(fontsize=8)
+    fig.suptitle(f"The default scene against its step (reference: {ref or 'the first dt'})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(prog="python -m bench.steps", description=__doc__.split("\n")[0])
+    ap.add_argument("--dt", type=float, nargs="+", default=[0.75, 1.5, 2.0, 2.5, 3.0, 4.0])
+    ap.add_argument("--hours", type=int, default=2)
+    ap.add_argument("--near", type=float, default=10e3, help="co-location distance [m]")
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=Path("bench_steps"))
+    ap.add_argument("--reuse", action="store_true", help="keep runs found in --out")
+    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="scene overrides for every run")
+    ap.add_argument("--reference", type=Path, help="a run's .npz (another tree's, say) to "
+                    "compare with instead of the first dt's")
+    ap.add_argument("--label", default="", help="what the reference is, for the figure")
+    ap.add_argument("--table", type=Path, help="write the table here (Markdown)")
+    ap.add_argument("--figure", type=Path, help="draw the figure here (PNG)")
+    a = ap.parse_args(argv)
+    import numba
+
+    numba.set_num_threads(a.threads)
+    extra = dict(s.split("=", 1) for s in a.set)
+    a.out.mkdir(parents=True, exist_ok=True)
+    if not (a.reuse and all((a.out / f"steps_{dt:g}_{a.hours}h.npz").exists() for dt in a.dt)):
+        _warm(a.dt[0], extra)
+    runs = {}
+    for dt in a.dt:
+        f = a.out / f"steps_{dt:g}_{a.hours}h.npz"
+        if a.reuse and f.exists():
+            runs[dt] = dict(np.load(f))
+            continue
+        runs[dt] = run(dt, a.hours, extra)
+        np.savez(f, **runs[dt])
+    ref = dict(np.load(a.reference)) if a.reference else runs[a.dt[0]]
+    rows = [(dt, compare(ref, runs[dt], a.near)) for dt in a.dt]
+    text = table(rows, a.hours)
+    crit = float(ref["critical"])
+    text += (f"\n\nReference {a.reference or ''} dt = {float(ref['dt']):g} s; critical step "
+             f"{crit:.4g} s; {a.hours} h of "
+             f"model time; {a.threads} thread(s); co-location within {a.near / 1e3:g} km.")
+    print(text)
+    if a.table:
+        a.table.write_text(text + "\n")
+    if a.figure:
+        figure(rows, a.hours, a.figure, f"{float(ref['dt']):g} s" + (f", {a.label}" if a.label
+                                                                     else ""))
+
+
+if __name__ == "__main__":
+    main()
