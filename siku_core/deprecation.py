@@ -34,10 +34,12 @@ REMOVAL_NOT_BEFORE = "0.3.0"
 def warn_deprecated(what: str, instead: str, stacklevel: int = 2) -> None:
     """Warn that ``what`` is deprecated and say what to write ``instead``; ``stacklevel``
     counts from the caller of this function, as in :func:`warnings.warn`."""
-    warnings.warn(
-        f"{what} is deprecated: {instead} (deprecated in siku {DEPRECATED_IN}; it keeps "
-        f"working, with this warning, until {REMOVAL_NOT_BEFORE} at the earliest)",
-        DeprecationWarning, stacklevel=stacklevel + 1)
+    warnings.warn(_message(what, instead), DeprecationWarning, stacklevel=stacklevel + 1)
+
+
+def _message(what: str, instead: str) -> str:
+    return (f"{what} is deprecated: {instead} (deprecated in siku {DEPRECATED_IN}; it keeps "
+            f"working, with this warning, until {REMOVAL_NOT_BEFORE} at the earliest)")
 
 
 def warn_moved(old: str, new: str, stacklevel: int = 2) -> None:
@@ -69,6 +71,20 @@ def moved_module(old: str, new: str) -> ModuleType:
     imports ``new``, warns that ``old`` is deprecated and puts the new module in its place in
     :data:`sys.modules`, so the import that ran the shim binds the new module itself."""
     module = importlib.import_module(new)
-    warn_moved(old, new, stacklevel=3)  # the shim, then (past the import machinery) its importer
+    # the importer: past the shim, the import machinery and any import hook's exec_module (a
+    # hook's frame is not one warnings skips, so a fixed stacklevel would name the hook)
+    frame = sys._getframe(1).f_back
+    while frame is not None and (frame.f_code.co_name == "exec_module" or (
+            "importlib" in frame.f_code.co_filename and "_bootstrap" in frame.f_code.co_filename)):
+        frame = frame.f_back
+    text = _message(old, f"import it from its new home, {new}")
+    if frame is None:
+        warnings.warn(text, DeprecationWarning, stacklevel=2)
+    else:
+        g = frame.f_globals
+        warnings.warn_explicit(text, DeprecationWarning, frame.f_code.co_filename,
+                               frame.f_lineno, module=g.get("__name__", "<string>"),
+                               registry=g.setdefault("__warningregistry__", {}),
+                               module_globals=g)
     sys.modules[old] = module
     return module

@@ -45,6 +45,7 @@ siku_core                             PLUGIN_API_VERSION  -
 siku_core                             Param               -
 siku_core                             Simulation          -
 siku_core                             hookimpl            -
+siku_core.cells                       small_cell_report   -
 siku_core.contact_law                 BREAK_SHEAR         -
 siku_core.contact_law                 BREAK_TENSION       -
 siku_core.contact_law                 COLLISION_LAYOUT    -
