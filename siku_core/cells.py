@@ -3,7 +3,7 @@
 The stable step of an element's elastic contact modes scales with its linear size (the
 frequency ``omega ~ sqrt(E / rho) / L``), so a free cell whose area is a share ``a`` of the
 median free cell's has about ``sqrt(a)`` of the median cell's stable step. The mesh builder
-(``siku_io.mesh``) prints this when it builds or reads a mesh, and the run summary
+prints this when it builds or reads a mesh, and the run summary
 (:mod:`siku_core.summary`) shows it for the run's elements. Plain numpy; imports nothing of
 the engine but the element flags.
 """

@@ -303,7 +303,7 @@ class RunCfg(_Strict):
     dt_safety: float = Field(0.5, gt=0, le=1)
     allow_unstable_dt: bool = False
     break_guard: Literal["stop", "warn", "off"] = Field(
-        "stop", description="what a run does whose joints break faster than cracks can run "
+        "warn", description="what a run does whose joints break faster than cracks can run "
         "(siku_core.guard.BreakRate)")
 
 

@@ -35,7 +35,7 @@ STEPS = 400
 def _sim(dt: float, cells: int = 6, **run) -> Simulation:
     pack = square_pack(10.0, 70.0, cells, cells, 2000.0)
     scene = contact_scene("distributed_spring", PARAMS, packs=[pack], dt=dt, steps=STEPS,
-                          size=2000.0, run={"max_speed": 1e30, **run})
+                          size=2000.0, run={"max_speed": 1e30, "break_guard": "stop", **run})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # (the dt check's warning under allow_unstable_dt)
         return Simulation(scene, out=False, progress=False)
