@@ -38,7 +38,7 @@ if TYPE_CHECKING:  # pragma: no cover
 GUARDED = ("F", "T", "V", "w", "q")
 #: break modes the contact law does not give (melting, waves, other components): not counted
 #: by the breaking-rate guard, which watches the contacts' own integration
-OUTSIDE = np.array([int(BreakMode.MELT), int(BreakMode.FLEXURE), int(BreakMode.EXTERNAL)])
+OUTSIDE_BREAKS = np.array([int(BreakMode.MELT), int(BreakMode.FLEXURE), int(BreakMode.EXTERNAL)])
 
 #: share of the joints (of those intact at the last stable-step check) that may break or
 #: freeze before the step is checked again. A joint changes the stiffness of its two elements
@@ -154,7 +154,7 @@ class NetworkWatch:
             if broke:  # the law's own breaks only: not melting, waves or other components
                 sim = self.sim
                 new = cm.break_time > sim.time - 1.5 * sim.dt  # (broke in this step)
-                broke -= int(np.count_nonzero(new & np.isin(cm.break_mode, OUTSIDE)))
+                broke -= int(np.count_nonzero(new & np.isin(cm.break_mode, OUTSIDE_BREAKS)))
             self.rate.record(broke)
         self._recheck()
 
