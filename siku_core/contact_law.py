@@ -38,7 +38,7 @@ import numpy as np
 
 from .deprecation import warn_deprecated
 from .errors import PluginError
-from .interfaces import Component
+from .component import Component
 
 # ---------------------------------------------------------------------- layouts
 # collision geometry ``g``
