@@ -109,6 +109,10 @@ class Floating(Process):
 
     name = "floating"
     owned_fields = FIELDS
+    #: its degrees of freedom and their rates, watched by the engine's guard
+    integrates: ClassVar[dict[str, str]] = {
+        "heave": "finite", "heave_rate": "speed", "roll": "finite", "roll_rate": "finite",
+        "pitch": "finite", "pitch_rate": "finite"}
     diagnostic_units: ClassVar[dict[str, str]] = {"wave_radiated_power": "W"}
     params: ClassVar[dict[str, Param]] = {
         "rho_water": Param(1026.0, "kg/m^3", "water density rho_w", min=1e-6),
