@@ -20,6 +20,9 @@ MAX_ELEMENTS = 10**8
 #: interpreter with the engine imported: 3.4 kB per element at 40 000 elements, 2.3 kB at
 #: 90 000 (a collision pack: 2.8 kB at 40 000); rounded up
 BYTES_PER_ELEMENT = 4096
+#: memory of one joint slot a process reserves [bytes]: the per-joint arrays
+#: (``siku_core.contact_joints``: indices, ends, rest state, history), rounded up
+BYTES_PER_JOINT = 512
 #: most pixels of the land raster a mesh builds (an eighth of the finest spacing per pixel)
 MAX_LAND_PIXELS = 4 * 10**8
 
@@ -30,6 +33,35 @@ def physical_memory() -> int:
         return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):
         return 0
+
+
+def check_count(where: str, key: str, value: float, unit_bytes: float, units: float = 1.0,
+                what: str = "") -> None:
+    """Refuse a count a user gives whose memory, ``value * units * unit_bytes`` [bytes], is
+    more than half this machine's (:class:`SceneError` naming the key and the most allowed;
+    ``what``: what one unit of the count holds, for the message). The other half is the run's
+    elements, contacts and the interpreter."""
+    ram = physical_memory()
+    if not ram or not math.isfinite(value):
+        return
+    most = ram / 2.0 / (unit_bytes * max(units, 1.0))
+    if value > most:
+        raise SceneError(
+            f"{where}: {key} = {value:g} needs {value * units * unit_bytes / 2**30:.3g} GiB"
+            f"{what}, more than half of this machine's {ram / 2**30:.3g} GiB; allowed: "
+            f"{key} at most {math.floor(most):.4g}")
+
+
+def check_work(where: str, key: str, value: float, per_step: float, steps: int) -> None:
+    """Refuse a count that makes a run take more than :data:`MAX_STEPS` steps of its own
+    (sub-steps: ``per_step`` of them in each of the run's ``steps``), naming the key."""
+    total = per_step * steps
+    if total > MAX_STEPS:
+        most = value * MAX_STEPS / total
+        raise SceneError(
+            f"{where}: {key} = {value:g} makes {per_step:.3g} sub-steps in each of the run's "
+            f"{steps} steps, {total:.3g} in all, above the limit of {MAX_STEPS:.0e}; allowed: "
+            f"{key} at most {most:.4g} for this scene (or a larger dt)")
 
 
 def _box_area(lon: list[float], lat: list[float], R: float) -> float:

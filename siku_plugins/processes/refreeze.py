@@ -36,6 +36,7 @@ import numpy as np
 from siku_core.contact_law import BreakMode
 from siku_core.errors import SceneError
 from siku_core.interfaces import Process
+from siku_core.limits import BYTES_PER_JOINT, check_count
 from siku_core.params import Param
 from siku_core.state import MELTED
 
@@ -71,6 +72,10 @@ class Refreeze(Process):
     }
 
     def joints_to_create(self, n_elements: int) -> int:
+        where = f"[{self.table}] process 'refreeze'" if self.table else "process 'refreeze'"
+        if self.p["weld"]:
+            check_count(where, "weld_capacity", self.p["weld_capacity"], BYTES_PER_JOINT,
+                        n_elements, " of joint slots")
         return math.ceil(self.p["weld_capacity"] * n_elements) if self.p["weld"] else 0
 
     def setup(self, ctx) -> None:
@@ -83,6 +88,8 @@ class Refreeze(Process):
         n = cm.joint_slots if cm is not None else 0
         #: with ``weld``: the touching pairs followed, as sorted keys (min * N + max) and the
         #: model time since which they touch [s]; -1 / NaN beyond ``self.count``
+        check_count(ctx.where(self.table), "weld_pairs", self.p["weld_pairs"], 16.0,
+                    ctx.state.n, " of pairs followed")
         m = ctx.state.n * int(self.p["weld_pairs"]) if self.p["weld"] else 0
         self.keys = np.full(m, -1, dtype=np.int64)
         self.since = np.full(m, np.nan)
