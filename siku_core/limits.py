@@ -95,6 +95,10 @@ def check_limits(scene, n_steps: int | None = None) -> None:
     for key, v in (("dt", t.dt), ("duration", t.total)):
         if not math.isfinite(v):
             raise SceneError(f"{scene.where('time')}: {key} = {v!r} s: give a finite duration")
+    if n_steps is None and t.total < t.dt * (1.0 - 1e-9):
+        raise SceneError(f"{scene.where('time')}: duration {t.total:g} s is shorter than one "
+                         f"step (dt = {t.dt:g} s); give a duration of at least dt, or a "
+                         "smaller dt")
     steps = n_steps if n_steps is not None else t.total / t.dt
     if steps > MAX_STEPS:
         raise SceneError(

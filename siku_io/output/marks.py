@@ -266,10 +266,11 @@ def kind_test(kind: str) -> Callable[[Path], bool]:
 
 
 def writable(path: str | Path, kind: str, *, overwrite: bool, what: str | None = None,
-             option: str = "--out", inputs=()) -> Path:
+             option: str = "--out", inputs=(), overwrite_option: str = "--overwrite") -> Path:
     """:func:`siku_core.outputs.check_target` for a file of ``kind``."""
     return check_target(path, what=what or f"{kind} file", ours=kind_test(kind),
-                        overwrite=overwrite, option=option, inputs=inputs)
+                        overwrite=overwrite, option=option, inputs=inputs,
+                        overwrite_option=overwrite_option)
 
 
 def write_whole(target: str | Path, write: Callable[[Path], object], what: str,
