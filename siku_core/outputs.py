@@ -324,8 +324,8 @@ def extra_output_paths(scene: Any, primary: Path | None, overwrite: bool, restar
         cont = restart and cls.appends
         if restart and not cont and p.exists() and not overwrite:
             raise DataError(f"{where}{p} exists and the '{x.writer}' writer cannot continue a "
-                            "file: give it a new file for the continuation (or --overwrite "
-                            "to replace it with the continuation alone)")
+                            "file: give it a new file for the continuation (its file = "
+                            "'...'); the old file keeps the rows before the restart")
         check_output_path(p, input_paths(scene), overwrite=overwrite,
                           appending_to=p if cont else None, ours=cls.owns)
         paths.append(p)

@@ -132,6 +132,8 @@ def set_time_origin(sim: "Simulation", t: float | None) -> None:
         return
     t = float(t)
     sim.time_origin = (sim.step_index, t)
+    sim.state_schedule = sim.state_schedule.from_origin(sim.step_index, t, sim.dt)
+    sim.diag_schedule = sim.diag_schedule.from_origin(sim.step_index, t, sim.dt)
     left = sim.scene.cfg.time.total - t
     sim.n_steps = sim.step_index + max(0, math.ceil(left / sim.dt - 1e-9))
 
