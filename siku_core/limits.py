@@ -35,6 +35,14 @@ def physical_memory() -> int:
         return 0
 
 
+def most_count(unit_bytes: float, units: float = 1.0) -> str:
+    """The largest count :func:`check_count` takes on this machine, for advice in messages:
+    ``" (at most N on this machine)"``, or ``""`` when the system does not say its memory."""
+    ram = physical_memory()
+    return (f" (at most {math.floor(ram / 2.0 / (unit_bytes * max(units, 1.0))):.4g} on this "
+            "machine)" if ram else "")
+
+
 def check_count(where: str, key: str, value: float, unit_bytes: float, units: float = 1.0,
                 what: str = "") -> None:
     """Refuse a count a user gives whose memory, ``value * units * unit_bytes`` [bytes], is
@@ -112,7 +120,8 @@ def check_limits(scene, n_steps: int | None = None) -> None:
         lon_w = math.radians(mc.lon[1] - mc.lon[0]) * R * math.cos(
             math.radians(min(80.0, max(abs(mc.lat[0]), abs(mc.lat[1]))))) + 2 * extra
         lat_w = math.radians(mc.lat[1] - mc.lat[0]) * R + 2 * extra
-        pixels = lon_w * lat_w / (fine / 8.0) ** 2
+        pixel = fine / 8.0  # (never pixel², which a tiny spacing makes 0)
+        pixels = (lon_w / pixel) * (lat_w / pixel)
         if pixels > MAX_LAND_PIXELS:
             raise SceneError(
                 f"{scene.where('elements.mesh')}: spacing {fine:g} m over this box needs a land "

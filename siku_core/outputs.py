@@ -22,6 +22,7 @@ or a folder given as a file.
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import fcntl
 import os
@@ -204,8 +205,12 @@ def write_text_file(path: Path, text: str, *, replace: bool) -> None:
     partial = partial_path(Path(path))
     try:
         partial.write_text(text, encoding="utf-8")
-    except BaseException:
-        partial.unlink(missing_ok=True)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):  # (a read-only file system: nothing to remove)
+            partial.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise DataError(f"{path}: cannot be written ({exc.strerror or exc}); nothing "
+                            "written: choose a folder siku may write") from None
         raise
     publish(partial, Path(path), replace=replace)
 

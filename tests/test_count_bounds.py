@@ -124,3 +124,33 @@ def test_a_scene_inside_the_bounds_still_builds(tmp_path):
     sim = Simulation(load_scene(flume_scene(tmp_path, {"cfl": 0.1})), out=False,
                      progress=False)
     assert sim.n_steps == 4
+
+
+@pytest.mark.parametrize("key, value, allowed", [
+    ("conductivity", 1e300, "[0.001, 10]"), ("latent_heat", 1.0, "[10000, 1e+06]"),
+    ("ocean_heat_flux", 1e300, "[-1e+07, 1e+07]"), ("snow_conductivity", 1e300, "[0.001, 10]"),
+    ("snow_thickness", 1e6, "[0, 10]"), ("new_ice_thickness", 1e6, "[0.001, 10]"),
+    ("open_water_transfer", 1e300, "[0, 1000]")])
+def test_absurd_thermodynamics_is_refused_at_load_naming_the_key(key, value, allowed):
+    """Refused when the scene is read, in one line naming the key and its range, not by the
+    engine's check on the thickness in the middle of the run."""
+    txt = scene_text([(0.0, 80.0), (0.2, 80.0)], dt=60.0, duration=600.0, thickness=0.5,
+                     extra=f'[[process]]\nname = "thermodynamics"\nparams = {{ {key} = '
+                           f'{value!r} }}\n')
+    with pytest.raises(SceneError, match=f"key '{key}'.*allowed: float in {re_escape(allowed)}"
+                       ) as ei:
+        Simulation(scene_from_text(txt, "<thermo>"), out=False, progress=False)
+    assert len(str(ei.value).splitlines()) == 1
+
+
+@pytest.mark.parametrize("spacing", [1e-300, 1e-200, 1e-9])
+def test_a_tiny_mesh_spacing_with_the_default_land_mask_is_refused_in_one_line(spacing):
+    """The land raster's size is counted without squaring the pixel (1e-300² is 0 in floating
+    point): a tiny spacing is refused naming the key, never a ZeroDivisionError."""
+    from siku_core.limits import check_limits
+
+    txt = ('[time]\ndt = "60s"\nduration = "10min"\n\n[elements.mesh]\nlon = [-10.0, -9.0]\n'
+           f'lat = [75.0, 75.5]\nspacing = {spacing!r}\n')
+    with pytest.raises(SceneError, match=f"spacing {spacing:g} m over this box needs a land "
+                                         "raster of .* pixels"):
+        check_limits(scene_from_text(txt, "<mesh>"))

@@ -36,7 +36,7 @@ import numpy as np
 from siku_core.contact_law import BreakMode
 from siku_core.errors import SceneError
 from siku_core.interfaces import Process
-from siku_core.limits import BYTES_PER_JOINT, check_count
+from siku_core.limits import BYTES_PER_JOINT, check_count, most_count
 from siku_core.params import Param
 from siku_core.state import MELTED
 
@@ -158,7 +158,8 @@ class Refreeze(Process):
                 raise SceneError(
                     f"{ctx.where(self.table)}: process 'refreeze' needs more than the "
                     f"{self.joints_to_create(n)} new joints that weld_capacity = "
-                    f"{self.p['weld_capacity']:g} per element reserves; raise weld_capacity")
+                    f"{self.p['weld_capacity']:g} per element reserves; raise weld_capacity"
+                    + most_count(BYTES_PER_JOINT, n))
             new = cm.create_joints(cm.pairs[kd], cm.contact_lines(kd))
             self.refrozen_at[new] = t
             self.welded_total += len(new)
@@ -166,7 +167,8 @@ class Refreeze(Process):
         m = int(keep.sum())
         if m > len(self.keys):
             raise SceneError(f"{ctx.where(self.table)}: process 'refreeze' follows more than "
-                             f"{len(self.keys)} touching pairs; raise weld_pairs")
+                             f"{len(self.keys)} touching pairs; raise weld_pairs"
+                             + most_count(16.0, ctx.state.n))
         order = np.argsort(keys[keep], kind="stable")
         self.keys[:m] = keys[keep][order]
         self.since[:m] = since[keep][order]
