@@ -14,6 +14,8 @@ import os
 
 #: environment variables by which MPI launchers tell a process how many ranks it runs with
 SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS", "PMIX_SIZE")
+#: ... and which of them it is
+RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "MPI_LOCALRANKID", "PMIX_RANK")
 
 
 def launched_ranks(environ=None) -> int:
@@ -27,4 +29,26 @@ def launched_ranks(environ=None) -> int:
     return 1
 
 
-__all__ = ["SIZE_VARIABLES", "launched_ranks"]
+def launched_rank(environ=None) -> int:
+    """This process's rank as its launcher set it (0 when not under ``mpiexec``)."""
+    env = os.environ if environ is None else environ
+    if launched_ranks(env) == 1:
+        return 0
+    for name in RANK_VARIABLES:
+        value = env.get(name, "")
+        if value.isdigit():
+            return int(value)
+    return 0
+
+
+def mpiexec() -> str | None:
+    """The ``mpiexec`` beside this Python (the ``mpich`` wheel's), else the one on ``PATH``."""
+    import shutil
+    import sys
+    from pathlib import Path
+
+    here = Path(sys.executable).parent / "mpiexec"
+    return str(here) if here.exists() else shutil.which("mpiexec")
+
+
+__all__ = ["RANK_VARIABLES", "SIZE_VARIABLES", "launched_rank", "launched_ranks", "mpiexec"]

@@ -65,7 +65,7 @@ class Comm:
 
     def abort(self, line: str, code: int = 2) -> None:
         """Print ``line`` on stderr and end every rank of the run (``MPI_Abort``)."""
-        print(line, file=sys.stderr, flush=True)
+        print(line, file=sys.__stderr__, flush=True)  # (not a rank's muted stderr)
         self.comm.Abort(code)
 
 

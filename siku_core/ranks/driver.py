@@ -336,10 +336,33 @@ class RankRun:
         k, last = sim.step_index, sim.n_steps
         if not (force or sim.state_schedule.due(k, last) or sim.diag_schedule.due(k, last)):
             return
+        self.gather_all()
+        if self.root:
+            sim._write(force=force, diagnostics=not force or sim.restarted_from is None)
+
+    def gather_all(self) -> None:
+        """The whole run's state, joints, contact fields and diagnostics on rank 0 now (as on
+        an output step; every rank calls it)."""
         recs = self.comm.gather(self._record(True))
         if self.root:
             self._apply(recs, True)
-            sim._write(force=force, diagnostics=not force or sim.restarted_from is None)
+
+    def joints_agree(self) -> bool:
+        """Whether every joint held on more than one rank has the same state on each
+        (intact, break mode and time, history): a joint across a boundary broke once, in the
+        same step on both sides. Every rank calls it; the answer is the same on each."""
+        lc = self.loc.contacts
+        mine = (self.jg, lc.intact, lc.break_mode, lc.break_time, lc.hist) if lc is not None \
+            else None
+        seen: dict[int, tuple] = {}
+        for got in self.comm.allgather(mine):
+            if got is None:
+                continue
+            for k, j in enumerate(got[0].tolist()):
+                row = (bool(got[1][k]), int(got[2][k]), got[3][k].tobytes(), got[4][k].tobytes())
+                if seen.setdefault(j, row) != row:
+                    return False
+        return True
 
     def run(self) -> "RankRun":
         """Run to the scene's end; a rank that raises ends the run on every rank
