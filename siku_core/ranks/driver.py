@@ -53,6 +53,8 @@ def refusals(sim, size: int) -> list[str]:
             why = getattr(comp, "ranks_refusal", "") or "it reads the contacts of every element"
         elif comp.owned_fields:
             why = "it owns per-element fields, which ranks do not carry yet"
+        elif comp.diagnostic_units:
+            why = "it reports diagnostics from its own step, which ranks do not gather yet"
         else:
             continue
         where = sim.scene.where(comp.table) if comp.table else comp.kind
