@@ -136,8 +136,6 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
 def _relaunch(ranks: int, argv: list[str]) -> int:
     """``siku run --ranks N``: this command again under the ``mpiexec`` of the ``mpich``
     wheel, on ``N`` ranks (the other options as given)."""
-    import subprocess
-
     from .ranks import launched_ranks, mpiexec
 
     if ranks < 1:
@@ -150,8 +148,9 @@ def _relaunch(ranks: int, argv: list[str]) -> int:
     exe = mpiexec()
     if exe is None:
         raise SikuError("--ranks needs mpiexec: pip install 'siku[mpi]'")
-    return subprocess.call([exe, "-n", str(ranks), sys.executable, "-m", "siku_core.cli",
-                            *argv])
+    from .ranks.launch import launch
+
+    return launch([exe, "-n", str(ranks), sys.executable, "-m", "siku_core.cli", *argv])
 
 
 def _cmd_warm(args: argparse.Namespace) -> int:

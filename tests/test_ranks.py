@@ -223,3 +223,58 @@ def test_three_ranks_same_bits(tmp_path):
     assert rc == 0, err
     for name in ("spring", "collision"):
         assert_same_bits(one_rank(name), np.load(tmp_path / f"{name}.npz"), name)
+
+
+@needs_mpi
+def test_a_rank_killed_ends_the_run_with_one_line(tmp_path):
+    """``kill -9`` of rank 1 mid-run: every rank ends within seconds, one line names the rank
+    and the cause, the output keeps its snapshots and a restart of it runs on one rank."""
+    import time
+
+    import h5py
+
+    from siku_core.cli import main
+    from siku_core.testing.ranks_cases import spring_text
+
+    (tmp_path / "s.toml").write_text(spring_text(6000).replace(
+        "[run]", "[output]\nevery = 2.0\n\n[run]"), encoding="utf-8")
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    env = {**_env(), "SIKU_RANK_PIDS": str(pids)}
+    p = subprocess.Popen([sys.executable, "-m", "siku_core.cli", "run", "s.toml", "--out",
+                          "k.h5", "--no-progress", "--no-plots", "--ranks", "2"], cwd=tmp_path,
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        end = time.monotonic() + TIMEOUT
+        rank1 = None
+        while time.monotonic() < end and p.poll() is None:
+            ranks = {f.read_text(): int(f.name) for f in pids.iterdir() if f.name.isdigit()}
+            if "1" in ranks and (tmp_path / "k.h5").exists():
+                rank1 = ranks["1"]
+                break
+            time.sleep(0.2)
+        assert rank1 is not None, p.communicate()[1]
+        time.sleep(2.0)  # mid-run: some snapshots written
+        os.kill(rank1, 9)
+        t0 = time.monotonic()
+        out, err = p.communicate(timeout=60)
+        assert time.monotonic() - t0 < 30
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode != 0
+    lines = [ln for ln in err.splitlines() if ln.startswith("siku: error:")]
+    assert lines == ["siku: error: rank 1 ended (Killed (signal 9)); the run stopped on every "
+                     "rank"], err + out
+    assert "BAD TERMINATION" not in out
+    with h5py.File(tmp_path / "k.h5", "r", swmr=True) as f:
+        assert len(f["states/step"]) >= 1
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        assert main(["run", "s.toml", "--restart", "k.h5", "--no-progress",
+                     "--no-plots"]) == 0
+    finally:
+        os.chdir(cwd)
+    with h5py.File(tmp_path / "k.h5", "r") as f:
+        assert int(f["states/step"][-1]) == 6000

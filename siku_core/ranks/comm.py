@@ -38,6 +38,9 @@ class Comm:
         self.size = self.comm.Get_size()
         #: bytes this rank sent in exchanges (ghost updates), for ``bench.ranks``
         self.sent_bytes = 0
+        from .launch import note_pid
+
+        note_pid(self.rank)
 
     def allgather(self, obj: Any) -> list[Any]:
         return self.comm.allgather(obj)
@@ -65,7 +68,10 @@ class Comm:
 
     def abort(self, line: str, code: int = 2) -> None:
         """Print ``line`` on stderr and end every rank of the run (``MPI_Abort``)."""
+        from .launch import note_abort
+
         print(line, file=sys.__stderr__, flush=True)  # (not a rank's muted stderr)
+        note_abort()
         self.comm.Abort(code)
 
 

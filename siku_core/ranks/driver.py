@@ -43,6 +43,9 @@ from .local import JOINT_STATE, local_engine
 
 #: re-split the elements when the slowest rank's work exceeds the mean by this share
 MARGIN = 0.2
+#: ... measured over at least this much work per rank since the last split [s] (a shorter
+#: window measures noise)
+MIN_WORK = 1.0
 
 
 def refusals(sim, size: int) -> list[str]:
@@ -95,9 +98,10 @@ class RankRun:
             raise SceneError(f"{sim.scene.label}: rank {odd} was given a different scene or "
                              "plugin versions than rank 0; every rank must run the same")
         self.cuts: Cuts | None = None
-        self.work = 0.0  # this rank's measured step time since the redistribution [s]
+        self.work = 0.0  # this rank's measured step time since the last split [s]
         self.exchange_time = 0.0  # [s] in ghost exchanges and the per-step allgather
         self.redistributions = 0
+        self.splits = 0
         self.migrated = 0
         self.owner = np.zeros(sim.state.n, dtype=np.int64)
         self._redistribute(resplit=True)
@@ -112,6 +116,8 @@ class RankRun:
         else:
             if resplit or self.cuts is None:
                 self.cuts = bisect(c, self._weights(), self.size)
+                self.work = 0.0
+                self.splits += 1
             owner = self.cuts.assign(c)
         self.migrated += int(np.count_nonzero(owner != self.owner))
         self.owner = owner
@@ -139,7 +145,6 @@ class RankRun:
         self.ref = c[self.ids[self.own_rows]]
         self.skin = gc.skin if gc is not None else np.inf
         self.since = sim.step_index
-        self.work = 0.0
         self.redistributions += 1
 
     def _ghost_dmob_from_run(self) -> np.ndarray:
@@ -158,7 +163,7 @@ class RankRun:
         gc = sim.contacts
         if gc is not None and gc.n_joints:
             w += np.bincount(gc.ji, minlength=n) + np.bincount(gc.jj, minlength=n)
-        work = self.comm.allgather(self.work) if self.redistributions else None
+        work = self.comm.allgather(self.work) if self.splits else None
         if work is not None and sum(work) > 0:
             share = np.bincount(self.owner, weights=w, minlength=self.size)
             rate = np.array(work) / np.maximum(share, 1e-300)
@@ -261,8 +266,9 @@ class RankRun:
             sim.guard.check()  # raises on every rank alike
         if sim.step_index < sim.n_steps and (any(m for m, _, _ in news) or due):
             self._sync_all()
-            work = self.comm.allgather(self.work)
-            self._redistribute(resplit=imbalance(np.array(work)) > MARGIN)
+            work = np.array(self.comm.allgather(self.work))
+            self._redistribute(resplit=bool(work.min() >= MIN_WORK
+                                            and imbalance(work) > MARGIN))
 
     def _exchange(self) -> None:
         """Owners' new states (and damper bounds) to the ranks holding them as ghosts."""
