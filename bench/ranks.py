@@ -61,7 +61,9 @@ def worker(n: int, warm: int, steps: int) -> None:
         t0 = time.perf_counter()
         sim.run(steps)
         wall = time.perf_counter() - t0
-        out = {"mode": "1 rank x 2 threads", "n": sim.state.n, "steps_per_s": steps / wall,
+        import numba
+
+        out = {"mode": f"1 rank x {numba.get_num_threads()} threads", "n": sim.state.n, "steps_per_s": steps / wall,
                "rss_mb_per_rank": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     print(json.dumps(out), flush=True)
 

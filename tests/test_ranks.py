@@ -101,7 +101,8 @@ def test_two_ranks_same_bits(two_ranks, name):
 @needs_mpi
 def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
     """``siku run --ranks 2`` writes the file one rank writes, byte for byte; a restart
-    from it continues on one rank exactly as from the one-rank file."""
+    from it continues on one rank exactly as from the one-rank file, and a restart on two
+    ranks writes the same file again."""
     from siku_core.cli import main
     from siku_core.testing.ranks_cases import spring_text
 
@@ -121,6 +122,10 @@ def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
         for f in ("one", "two"):
             assert main([*base, "--restart", f"{f}.h5", "--extend", "20s",
                          "--out", f"{f}_more.h5"]) == 0
+        p = subprocess.run([sys.executable, "-m", "siku_core.cli", *base, "--restart",
+                            "one.h5", "--extend", "20s", "--out", "ranks_more.h5", "--ranks",
+                            "2"], env=_env(), capture_output=True, text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
     finally:
         os.chdir(cwd)
     import h5py
@@ -129,6 +134,7 @@ def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
         assert len(f["breaks/joint"]) >= 2  # the file holds breaks found on ranks
     a = (tmp_path / "one_more.h5").read_bytes()
     assert a == (tmp_path / "two_more.h5").read_bytes()
+    assert a == (tmp_path / "ranks_more.h5").read_bytes()  # and a restart on two ranks
 
 
 # ---------------------------------------------------------------------- faults, refusals
