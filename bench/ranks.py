@@ -63,8 +63,9 @@ def worker(n: int, warm: int, steps: int) -> None:
         wall = time.perf_counter() - t0
         import numba
 
-        out = {"mode": f"1 rank x {numba.get_num_threads()} threads", "n": sim.state.n, "steps_per_s": steps / wall,
-               "rss_mb_per_rank": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        out = {"mode": f"1 rank x {numba.get_num_threads()} threads", "n": sim.state.n,
+               "steps_per_s": steps / wall, "rss_mb_per_rank": rss}
     print(json.dumps(out), flush=True)
 
 

@@ -284,3 +284,19 @@ def test_a_rank_killed_ends_the_run_with_one_line(tmp_path):
         os.chdir(cwd)
     with h5py.File(tmp_path / "k.h5", "r") as f:
         assert int(f["states/step"][-1]) == 6000
+
+
+def test_conformance_catches_a_source_that_reads_other_elements(monkeypatch):
+    """The forcing conformance check for ranks fails a source whose force on an element
+    depends on the others (here: the mean velocity of all), and passes it otherwise."""
+    from siku_core.testing import conformance
+
+    case = next(c for c in conformance.forcing_cases(sources=("coriolis",)))
+    conformance.check_forcing_on_ranks(case)
+    cls = type(conformance.build_forcing(case)[1])
+
+    def add(self, t, q, V, w, F, T):
+        F[:, 0] += 1e3 * (1.0 + V[:, 0].mean() + len(V))
+    monkeypatch.setattr(cls, "add", add)
+    with pytest.raises(AssertionError, match="must act on each element by itself"):
+        conformance.check_forcing_on_ranks(case)
