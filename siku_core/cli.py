@@ -10,6 +10,7 @@ with status 2 and a one-line message (no traceback).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import sys
@@ -85,7 +86,7 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
         if comm.rank:
             out, progress = False, False
             sys.stderr = open(os.devnull, "w")  # rank 0 speaks for the run
-    with CompileProgress(enabled=progress is None):
+    with CompileProgress(enabled=progress is None), _together(comm):
         sim = Simulation(scene, out=out, progress=progress, restart=args.restart,
                          overwrite=args.overwrite, force=args.force, extend=extend)
     first = sim.step_index
@@ -131,6 +132,26 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
         for f in [f for files in drawn for f in files or ()]:
             print(f"picture: {shown(f)}", file=sys.stderr)
     return 0
+
+
+@contextlib.contextmanager
+def _together(comm):
+    """On ranks (``comm``), a block that fails on one rank fails on all, after it ended on
+    each: the first failing rank's message is the run's (no rank waits for one that left)."""
+    if comm is None:
+        yield
+        return
+    failed = None
+    try:
+        yield
+    except Exception as exc:  # noqa: BLE001 - told to every rank, then raised here
+        failed = exc
+    said = comm.allgather(None if failed is None else " | ".join(str(failed).splitlines()))
+    if failed is not None:
+        raise failed
+    bad = next(((r, m) for r, m in enumerate(said) if m is not None), None)
+    if bad is not None:
+        raise SikuError(f"rank {bad[0]}: {bad[1]}")
 
 
 def _relaunch(ranks: int, argv: list[str]) -> int:

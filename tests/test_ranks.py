@@ -33,7 +33,7 @@ needs_mpi = pytest.mark.skipif(not HAVE_MPI, reason="mpi4py and mpiexec not inst
 ROOT = Path(__file__).resolve().parents[1]
 #: a deadlock becomes a failure after this many seconds [s]
 TIMEOUT = 240
-CASES = ("spring", "mohr", "collision", "migrate")
+CASES = ("spring", "mohr", "collision", "migrate", "rebalance")
 
 
 def _env() -> dict[str, str]:
@@ -94,8 +94,12 @@ def test_two_ranks_same_bits(two_ranks, name):
         assert int(many["ranks_shared_joints"]) >= 2
         assert int(one["n_broken_total"]) >= 2
         assert int(np.count_nonzero(~one["joint_intact"])) == int(one["n_broken_total"])
-    if name == "collision":
+    if name in ("collision", "rebalance"):
         assert int(one["diag_contacts_overlapping"]) > 0
+    if name == "migrate":  # each of the 10 elements changed rank at steps 60, 120, ... 540
+        assert int(many["ranks_migrated"]) >= 9 * 10
+    if name == "rebalance":  # split again as the measured work varied
+        assert int(many["ranks_splits"]) >= 3
 
 
 @needs_mpi
@@ -300,3 +304,17 @@ def test_conformance_catches_a_source_that_reads_other_elements(monkeypatch):
     monkeypatch.setattr(cls, "add", add)
     with pytest.raises(AssertionError, match="must act on each element by itself"):
         conformance.check_forcing_on_ranks(case)
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_default_scene_for_an_hour_same_file_on_two_ranks(tmp_path):
+    """The shipped default scene (mesh, drags, Coriolis, distributed_spring) for 1 h of model
+    time: ``--ranks 2`` writes the one-rank file byte for byte."""
+    base = [sys.executable, "-m", "siku_core.cli", "run", "--set", "time.duration=1h",
+            "--no-progress", "--no-plots", "--out"]
+    for out, extra in (("one.h5", []), ("two.h5", ["--ranks", "2"])):
+        p = subprocess.run([*base, out, *extra], cwd=tmp_path, env=_env(),
+                           capture_output=True, text=True, timeout=1800)
+        assert p.returncode == 0, p.stderr
+    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()

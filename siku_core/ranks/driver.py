@@ -12,10 +12,10 @@ its elements and ghosts (:mod:`.local`). A step:
 3. one ``allgather`` of a few numbers: how far elements moved since the redistribution, the
    joints that broke (of which the rank owns the first element) and whether the state is
    sound; every rank applies the breaks to the run's joint table, and runs the joints' guard;
-4. if an element moved half the skin (the engine's own rule for its candidate list), or the
-   scene's ``every`` steps passed, a redistribution (re-split when the slowest rank's
-   measured work exceeds the mean by :data:`MARGIN`; elements whose centre left their
-   subdomain change owner either way);
+4. if an element moved half the skin (the engine's own rule for its candidate list), or
+   ``every`` steps passed, a redistribution: elements whose centre left their subdomain
+   change owner; and whenever the slowest rank's measured work (at least :data:`MIN_WORK`)
+   exceeds the mean by :data:`MARGIN`, the elements are split again;
 5. on output steps the ranks' elements, joints and contact fields are gathered on rank 0 in
    global order, and the run's writers write them: the same files as one rank's.
 
@@ -78,17 +78,21 @@ class RankRun:
 
     ``every``: redistribute at least every ``every`` steps (``None``: only when elements
     moved half the skin); ``owner``: a function ``(step, centres) -> rank per element`` that
-    replaces the bisection (tests move elements between ranks with it).
+    replaces the bisection (tests move elements between ranks with it); ``margin``,
+    ``min_work`` [s]: split again when the slowest rank's work exceeds the mean by ``margin``,
+    measured over at least ``min_work`` per rank.
     """
 
     def __init__(self, sim, comm: Comm | None = None, every: int | None = None,
-                 owner: Callable[[int, np.ndarray], np.ndarray] | None = None):
+                 owner: Callable[[int, np.ndarray], np.ndarray] | None = None,
+                 margin: float = MARGIN, min_work: float = MIN_WORK):
         self.sim = sim
         self.comm = comm or Comm()
         self.rank, self.size = self.comm.rank, self.comm.size
         self.root = self.rank == 0
         self.every = every
         self.owner_fn = owner
+        self.margin, self.min_work = margin, min_work
         bad = refusals(sim, self.size)
         if bad:
             raise SceneError(bad[0])
@@ -257,18 +261,19 @@ class RankRun:
         sound = self._sound()
         due = self.every is not None and sim.step_index - self.since >= self.every
         t2 = clock()
-        news = self.comm.allgather((moved, sound, breaks))
+        news = self.comm.allgather((moved, sound, breaks, self.work))
         self.exchange_time += clock() - t2 + (t2 - t1)
-        self._take_breaks([b for _, _, b in news if b is not None])
+        self._take_breaks([b for _, _, b, _ in news if b is not None])
         sim.guard.after_step()  # the joints' guard, on the run's joint table (every rank)
-        if not all(s for _, s, _ in news):
+        if not all(s for _, s, _, _ in news):
             self._sync_all()
             sim.guard.check()  # raises on every rank alike
-        if sim.step_index < sim.n_steps and (any(m for m, _, _ in news) or due):
+        work = np.array([w for _, _, _, w in news])
+        resplit = (self.owner_fn is None and bool(work.min() >= self.min_work)
+                   and imbalance(work) > self.margin)
+        if sim.step_index < sim.n_steps and (any(m for m, _, _, _ in news) or due or resplit):
             self._sync_all()
-            work = np.array(self.comm.allgather(self.work))
-            self._redistribute(resplit=bool(work.min() >= MIN_WORK
-                                            and imbalance(work) > MARGIN))
+            self._redistribute(resplit=resplit)
 
     def _exchange(self) -> None:
         """Owners' new states (and damper bounds) to the ranks holding them as ghosts."""
@@ -306,7 +311,8 @@ class RankRun:
     def _sound(self) -> bool:
         sim = self.sim
         k = sim.step_index
-        if not (k % sim.scene.cfg.run.nan_check_every == 0 or k == sim.n_steps):
+        if not (k % sim.scene.cfg.run.nan_check_every == 0 or k == sim.n_steps
+                or sim.state_schedule.due(k, sim.n_steps)):  # (rank 0 checks a snapshot)
             return True
         ls = self.loc.state
         own = self.own_rows

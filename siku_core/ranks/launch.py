@@ -53,6 +53,7 @@ def launch(cmd: list[str]) -> int:
                     why = m.group(1) or why or f"exit code {m.group(2)}"
                 continue
             sys.stdout.write(line)
+        p.stdout.close()
         rc = p.wait()
         if pid is not None and not (Path(folder) / "aborted").exists():
             f = Path(folder) / pid

@@ -6,7 +6,8 @@ element state, the joint table and the diagnostics and per-element fields of the
 run. Cases (:data:`CASES`): ``spring`` (a bonded pack whose joints break, the ranks' boundary
 across the joints that break), ``mohr`` (the pack with ``mohr_coulomb``), ``collision`` (a
 jittered pack without joints pushed by a moving edge), ``migrate`` (the spring pack with every
-element moving to the other rank and back every 60 steps), ``raise`` (rank 1's integrator
+element moving to the other rank and back every 60 steps), ``rebalance`` (the collision pack
+split again whenever the ranks' measured work differs at all), ``raise`` (rank 1's integrator
 raises at step 10: the run ends on every rank with one line).
 """
 from __future__ import annotations
@@ -57,6 +58,7 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "mohr": (spring_text(1000, "mohr_coulomb", {}), {}),
     "collision": (collision_text(), {}),
     "migrate": (spring_text(600), {"owner": _swapping, "every": 30}),
+    "rebalance": (collision_text(), {"margin": 0.0, "min_work": 0.001}),
     "raise": (spring_text(100), {}),
 }
 
@@ -90,6 +92,8 @@ def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
     out = record(sim)
     out["ranks_joints_agree"] = np.array(agree)
     out["ranks_shared_joints"] = np.array(_shared(run))
+    out["ranks_splits"] = np.array(run.splits)
+    out["ranks_migrated"] = np.array(run.migrated)
     return out
 
 
