@@ -105,8 +105,9 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
     if comm is not None:
         from .ranks.driver import RankRun
 
+        on_ranks = RankRun(sim, comm)  # (refuses what cannot run on ranks)
         print(f"on {ranks} MPI ranks", file=sys.stderr)
-        RankRun(sim, comm).run()
+        on_ranks.run()
     else:
         sim.run()
     wall = time.perf_counter() - t0

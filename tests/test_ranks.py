@@ -154,7 +154,7 @@ def test_a_rank_raising_ends_the_run_with_one_line(tmp_path):
 
 
 @needs_mpi
-def test_ranks_given_different_scenes_are_refused(tmp_path):
+def test_ranks_given_different_scenes_or_a_process_are_refused(tmp_path):
     from siku_core.testing.ranks_cases import spring_text
 
     (tmp_path / "a.toml").write_text(spring_text(50), encoding="utf-8")
@@ -171,6 +171,15 @@ def test_ranks_given_different_scenes_are_refused(tmp_path):
     lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
     assert len(lines) == 1 and "rank 1 was given a different scene" in lines[0], p.stderr
     assert not (tmp_path / "x.h5").exists()
+    # a process cannot run on ranks: refused in one line naming it and the ranks
+    (tmp_path / "c.toml").write_text(spring_text(50) + '\n[[process]]\nname = '
+                                     '"thermodynamics"\n', encoding="utf-8")
+    p = subprocess.run([*run, "y.h5", "c.toml", "--ranks", "2"], cwd=tmp_path, env=_env(),
+                       capture_output=True, text=True, timeout=120)
+    lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
+    assert p.returncode == 2 and len(lines) == 1, p.stderr
+    assert "process 'thermodynamics' cannot run on 2 ranks" in lines[0]
+    assert not (tmp_path / "y.h5").exists()
 
 
 def test_components_that_cannot_run_on_ranks_are_named():

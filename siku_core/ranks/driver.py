@@ -137,6 +137,8 @@ class RankRun:
         self.send, recv = exchange_plan(owner, held, self.rank)
         self.send_rows = [np.searchsorted(self.ids, s) for s in self.send]
         self.recv_rows = [np.searchsorted(self.ids, r) for r in recv]
+        #: where each rank's ghosts sit among this rank's ghosts (for their damper bounds)
+        self.recv_ghosts = [np.searchsorted(self.ghost_rows, r) for r in self.recv_rows]
         self.loc, self.jg = local_engine(sim, self.ids, self.ghost_rows)
         lc = self.loc.contacts
         # joints reported here: those whose first element this rank owns
@@ -290,7 +292,6 @@ class RankRun:
                 rec["dmob"] = dmob[rows]
             out.append(rec)
         got = self.comm.alltoall(out)
-        gpos = {int(g): k for k, g in enumerate(self.ghost_rows)} if lc is not None else {}
         for s, rows in enumerate(self.recv_rows):
             rec = got[s]
             if rec is None or not len(rows):
@@ -298,7 +299,7 @@ class RankRun:
             for k in ("q", "V", "w"):
                 getattr(ls, k)[rows] = rec[k]
             if lc is not None and "dmob" in rec:
-                lc.ghost_dmob[[gpos[int(r)] for r in rows]] = rec["dmob"]
+                lc.ghost_dmob[self.recv_ghosts[s]] = rec["dmob"]
 
     def _moved(self) -> bool:
         """Whether an owned element moved half the skin since the redistribution."""
