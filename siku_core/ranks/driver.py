@@ -6,7 +6,9 @@ rank holds the whole current state; the elements are split among the ranks
 (:mod:`.decompose`), each rank finds its ghosts (:mod:`.ghosts`) and builds its engine over
 its elements and ghosts (:mod:`.local`). A step:
 
-1. each rank steps its engine (forcing, contacts, integrator) over its elements and ghosts;
+1. each rank steps its engine (forcing, contacts, integrator) over its elements and ghosts
+   (an integrator that evaluates forces more than once a step gets the ghosts' stage states
+   from their owners before each later evaluation);
 2. owners send their elements' new state and damper bound to the ranks that hold them as
    ghosts (one ``alltoall``);
 3. one ``allgather`` of a few numbers: how far elements moved since the redistribution, the
@@ -245,8 +247,17 @@ class RankRun:
         loc.step_index = sim.step_index
         loc._commit = True
         loc._force_time = 0.0
+        evaluations = [0]
+
+        def forces(t, q, V, w, F, T):
+            # a later evaluation of the step (a multi-stage integrator): the ghosts' stage
+            # states and bounds from their owners first (the first's are current)
+            if evaluations[0]:
+                self._exchange(q, V, w)
+            evaluations[0] += 1
+            loc.compute_forces(t, q, V, w, F, T)
         with parallel.threads_for(loc.state.n):
-            loc.integrator.step(loc.state, sim.time, sim.dt, loc.compute_forces)
+            loc.integrator.step(loc.state, sim.time, sim.dt, forces)
         t1 = clock()
         self.work += t1 - t0
         sim.step_index += 1
@@ -277,9 +288,11 @@ class RankRun:
             self._sync_all()
             self._redistribute(resplit=resplit)
 
-    def _exchange(self) -> None:
-        """Owners' new states (and damper bounds) to the ranks holding them as ghosts."""
+    def _exchange(self, *arrays: np.ndarray) -> None:
+        """Owners' new states (and damper bounds) to the ranks holding them as ghosts: of the
+        state, or of the arrays ``q, V, w`` an integrator evaluates forces at."""
         ls, lc = self.loc.state, self.loc.contacts
+        q, V, w = arrays or (ls.q, ls.V, ls.w)
         dmob = lc.own_mobility() if lc is not None and len(self.ghost_rows) + sum(
             len(s) for s in self.send) else None
         out = []
@@ -287,7 +300,7 @@ class RankRun:
             if s == self.rank or not len(rows):
                 out.append(None)
                 continue
-            rec = {k: getattr(ls, k)[rows] for k in ("q", "V", "w")}
+            rec = {"q": q[rows], "V": V[rows], "w": w[rows]}
             if dmob is not None:
                 rec["dmob"] = dmob[rows]
             out.append(rec)
@@ -296,8 +309,7 @@ class RankRun:
             rec = got[s]
             if rec is None or not len(rows):
                 continue
-            for k in ("q", "V", "w"):
-                getattr(ls, k)[rows] = rec[k]
+            q[rows], V[rows], w[rows] = rec["q"], rec["V"], rec["w"]
             if lc is not None and "dmob" in rec:
                 lc.ghost_dmob[self.recv_ghosts[s]] = rec["dmob"]
 

@@ -7,8 +7,9 @@ run. Cases (:data:`CASES`): ``spring`` (a bonded pack whose joints break, the ra
 across the joints that break), ``mohr`` (the pack with ``mohr_coulomb``), ``collision`` (a
 jittered pack without joints pushed by a moving edge), ``migrate`` (the spring pack with every
 element moving to the other rank and back every 60 steps), ``rebalance`` (the collision pack
-split again whenever the ranks' measured work differs at all), ``raise`` (rank 1's integrator
-raises at step 10: the run ends on every rank with one line).
+split again whenever the ranks' measured work differs at all), ``rk4`` (on three ranks, the
+spring pack under an integrator that evaluates forces four times a step), ``raise`` (rank
+1's integrator raises at step 10: the run ends on every rank with one line).
 """
 from __future__ import annotations
 
@@ -47,6 +48,12 @@ def _last_column(step: int, c: np.ndarray) -> np.ndarray:
     return (np.arange(len(c)) >= 8).astype(np.int64)
 
 
+def _three_columns(step: int, c: np.ndarray) -> np.ndarray:
+    """On three ranks: elements 0-5, 6-7 and 8-9 of the spring pack (the breaking joints
+    between the last two parts, beyond what rank 0 holds)."""
+    return np.minimum(np.arange(len(c)) // 2 - 2, 2).clip(0)
+
+
 def _swapping(step: int, c: np.ndarray) -> np.ndarray:
     """Elements alternate between the ranks by index; every 60 steps each changes rank."""
     return (np.arange(len(c)) + step // 60) % 2
@@ -59,6 +66,7 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "collision": (collision_text(), {}),
     "migrate": (spring_text(600), {"owner": _swapping, "every": 30}),
     "rebalance": (collision_text(), {"margin": 0.0, "min_work": 0.001}),
+    "rk4": (spring_text(3000).replace('"siku2"', '"rk4"'), {"owner": _three_columns}),
     "raise": (spring_text(100), {}),
 }
 
