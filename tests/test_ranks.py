@@ -331,3 +331,23 @@ def test_default_scene_for_an_hour_same_file_on_two_ranks(tmp_path):
                            capture_output=True, text=True, timeout=1800)
         assert p.returncode == 0, p.stderr
     assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_restart_on_three_ranks_writes_the_one_rank_file(tmp_path):
+    """A file written on two ranks, continued on three, equals it continued on one."""
+    from siku_core.testing.ranks_cases import spring_text
+
+    (tmp_path / "scene.toml").write_text(spring_text(1500).replace(
+        "[run]", '[output]\nevery = 2.0\n\n[run]'), encoding="utf-8")
+    base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",
+            "--no-plots"]
+    for extra in (["--out", "two.h5", "--ranks", "2"],
+                  ["--restart", "two.h5", "--extend", "30s", "--out", "on1.h5"],
+                  ["--restart", "two.h5", "--extend", "30s", "--out", "on3.h5", "--ranks",
+                   "3"]):
+        p = subprocess.run([*base, *extra], cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    assert (tmp_path / "on1.h5").read_bytes() == (tmp_path / "on3.h5").read_bytes()
