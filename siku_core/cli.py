@@ -80,8 +80,11 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
     comm = None
     out = args.out
     if ranks > 1:  # under mpiexec: rank 0 writes, every rank steps (siku_core.ranks)
+        from .ranks import launched_rank
         from .ranks.comm import Comm
 
+        if launched_rank():
+            sys.stderr = open(os.devnull, "w")  # rank 0 speaks for the run
         comm = Comm()
         if comm.rank:
             out, progress = False, False
