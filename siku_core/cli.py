@@ -94,6 +94,10 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
                          overwrite=args.overwrite, force=args.force, extend=extend)
     first = sim.step_index
     sim.auto_threads = auto_threads(args.threads)
+    if args.profile:
+        from .phase_log import PhaseLog
+
+        sim.phase_log = PhaseLog(sim)
     t0 = time.perf_counter()
     fitted = ("" if sim.dt == sim.dt_requested else
               f" ({sim.dt_requested:g} s in the scene, shortened so that outputs fall on steps)")
@@ -120,7 +124,11 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
 
     print(format_summary(summary_of(sim, wall, out, sim.step_index - first)), file=sys.stderr)
     if args.profile:
+        from .simulation import PHASES
+
+        sim.phase_log.finish(sim)
         print(profile_table(sim, wall - sim.compile_seconds), file=sys.stderr)
+        print(sim.phase_log.table(sim.state.n, PHASES), file=sys.stderr)
     if sim.output_path is not None and sim.step_index == sim.n_steps:
         from .plugins import get_plugin_manager
 
@@ -340,7 +348,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override a scene key, e.g. --set time.duration=6h (repeatable)")
     r.add_argument("--no-plots", action="store_true", help="skip the pictures [output] asks for")
     r.add_argument("--profile", action="store_true",
-                   help="print the time spent in each phase of the step")
+                   help="print the time spent in each phase of the step, in all and "
+                   "hour by hour of model time")
     r.add_argument("--threads", type=int, help="numba threads (default: one or all cores, "
                    "whichever runs the steps faster, timed as the run goes)")
     r.add_argument("--ranks", type=int, help="run on this many MPI ranks (started with "
