@@ -267,7 +267,7 @@ RGPS_LINE = ("beta(1) about 0.1-0.2 (daily to 3-day, 10-1000 km; Marsan et al. 2
 
 def _axial_spread(deg: np.ndarray) -> float:
     """Circular standard deviation [deg] of axial angles (period 180 deg)."""
-    z = np.abs(np.mean(np.exp(2j * np.radians(deg))))
+    z = min(float(np.abs(np.mean(np.exp(2j * np.radians(deg))))), 1.0)
     return float(np.degrees(np.sqrt(-2.0 * np.log(max(z, 1e-12))) / 2.0))
 
 
