@@ -150,3 +150,12 @@ def test_a_multiplicative_cascade_is_recovered_within_its_sampling_error():
     # convex, and far from the crack's q - 1
     a, b_, c = structure_fit([1, 2, 3], [got[1], got[2], got[3]])
     assert a > 0 and got[3] < 2.0 - 0.5
+
+
+def test_the_picture_of_beta_q_and_the_distribution(tmp_path):
+    from siku_io.analysis.sirex import plot_sirex
+
+    T = 3600.0
+    s = sirex(crack_positions(0.01 * H / T, T), T, [H * 2**k for k in range(1, 6)])
+    plot_sirex(s, tmp_path / "sirex.png")
+    assert (tmp_path / "sirex.png").stat().st_size > 10_000

@@ -82,7 +82,13 @@ def _cmd_deformation(args) -> int:
         from siku_io.output.results import damaged
 
         with damaged(args.output):
-            print(output_sirex(args.output, scales, steps, args.min_cover).table())
+            stats = output_sirex(args.output, scales, steps, args.min_cover)
+        print(stats.table())
+        if args.plot:
+            from siku_io.analysis.sirex import plot_sirex
+
+            plot_sirex(stats, args.plot)
+            print(f"{args.plot}: beta(q) and the rate distribution")
         return 0
     print(output_statistics(args.output, scales, steps, args.min_cover).table())
     return 0
@@ -128,6 +134,8 @@ def siku_register_commands(subparsers):
                    help="the RGPS method (Lagrangian cells of the element centres, "
                    "coarse-grained): moments q = 0.5-3 and beta(q), the rate distribution's "
                    "tail, linear kinematic features, beside the RGPS values")
+    d.add_argument("--plot", help="with --sirex: draw beta(q) and the rate distribution into "
+                   "this image file (PNG)")
     d.set_defaults(func=_cmd_deformation)
 
 

@@ -268,7 +268,7 @@ RGPS_LINE = ("beta(1) about 0.1-0.2 (daily to 3-day, 10-1000 km; Marsan et al. 2
 def _axial_spread(deg: np.ndarray) -> float:
     """Circular standard deviation [deg] of axial angles (period 180 deg)."""
     z = min(float(np.abs(np.mean(np.exp(2j * np.radians(deg))))), 1.0)
-    return float(np.degrees(np.sqrt(-2.0 * np.log(max(z, 1e-12))) / 2.0))
+    return abs(float(np.degrees(np.sqrt(-2.0 * np.log(max(z, 1e-12))) / 2.0)))
 
 
 def sirex(positions, dt: float, scales, steps=(1,), coverage: float = 0.5,
@@ -360,3 +360,43 @@ def output_sirex(path, scales, steps=(1,), coverage: float = 0.5, **kw) -> Sirex
     pos = [plane_positions(lon[k][free], lat[k][free], lon0, lat0, R) for k in range(len(lon))]
     kw.setdefault("min_scale", element)
     return sirex(pos, float(dts[0]), scales, steps, coverage, **kw)
+
+
+def plot_sirex(stats: SirexStats, target, label: str = "siku") -> None:
+    """``beta(q)`` with its quadratic fit beside ``q - 1`` (isolated cracks) and 0
+    (homogeneous strain), and the log-spaced density of the cell rates [1/day] with the
+    0.01 /day threshold, side by side, saved to ``target`` (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+    q = np.array(list(stats.beta_q))
+    b = np.array([stats.beta_q[k] for k in q])
+    e = np.array([1.96 * stats.beta_q_se[k] for k in q])
+    a1.errorbar(q, b, yerr=e, fmt="o", label=f"{label} (95 %)")
+    qq = np.linspace(0.0, q.max(), 50)
+    a1.plot(qq, stats.a * qq**2 + stats.b * qq + stats.c, "-",
+            label=f"fit a = {stats.a:.2f}, b = {stats.b:.2f}, c = {stats.c:.2f}")
+    a1.plot(qq, qq - 1.0, "k:", label="q - 1 (isolated straight cracks)")
+    a1.axhline(0.0, color="0.6", lw=0.8)
+    a1.set_xlabel("moment q")
+    a1.set_ylabel("beta(q)")
+    a1.set_title(f"spatial scaling over {stats.scales[0] / 1e3:g}-{stats.scales[-1] / 1e3:g} km")
+    a1.legend(fontsize=8)
+    dens, edges = stats.histogram()
+    if len(dens):
+        mid = np.sqrt(edges[:-1] * edges[1:])
+        ok = dens > 0
+        a2.loglog(mid[ok], dens[ok], "o-", label=f"{label}: {stats.tail:.1%} above 0.01 /day")
+    a2.axvline(0.01, color="k", ls=":", label="0.01 /day")
+    a2.set_xlabel("total deformation rate of a cell [1/day]")
+    a2.set_ylabel("probability density [day]")
+    a2.set_title(f"cells of {stats.cell_size / 1e3:.0f} km, T = {stats.times[0] / 3600:g} h")
+    a2.legend(fontsize=8)
+    fig.tight_layout()
+    from siku_io.plot.mapdeco import save_png
+
+    save_png(fig, target, dpi=110)
+    plt.close(fig)
