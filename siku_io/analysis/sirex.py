@@ -226,7 +226,9 @@ class SirexStats:
         r = self.rates[self.rates > 0] * DAY
         if not len(r):
             return np.zeros(0), np.zeros(0)
-        edges = np.logspace(np.log10(r.min()), np.log10(r.max()), bins + 1)
+        lo, hi = r.min(), r.max()
+        hi = hi if hi > lo * (1 + 1e-9) else lo * 10.0  # one value: a decade above it
+        edges = np.logspace(np.log10(lo), np.log10(hi), bins + 1)
         return np.histogram(r, edges, density=True)[0], edges
 
     def table(self) -> str:
