@@ -43,7 +43,7 @@ def test_a_joints_factor_is_its_pairs_whatever_the_order():
     assert not np.array_equal(weibull_factors(ji, jj, 3.0, seed=3), f)
 
 
-def _strain_test(factor_log: float, strain: float) -> bool:
+def _strain_test(factor_log: float | None, strain: float) -> bool:
     """Whether a joint of length 1 m stretched uniformly by ``strain`` breaks."""
     from siku_core.contact_law import J_DTM, J_K, J_L0, J_MEFF, J_S1X, J_S2X, J_SIZE, J_W
     from siku_plugins.contact_laws.spring import SPRING_RECORD, spring_evaluator
@@ -53,7 +53,7 @@ def _strain_test(factor_log: float, strain: float) -> bool:
     g[J_S1X] = g[J_S2X] = strain
     pars = SPRING_RECORD.pack({"tensile_strain": 1e-4, "joint_damping_ratio": 0.1,
                                "damage_onset": 1.0})
-    hist = np.array([0.0, factor_log])
+    hist = np.array([0.0, factor_log]) if factor_log is not None else np.zeros(1)
     out = np.zeros(4)
     spring_evaluator(g, pars, hist, out)
     return out[3] != 0
@@ -63,6 +63,8 @@ def test_a_joint_breaks_at_its_own_strength():
     assert not _strain_test(0.0, 0.99e-4) and _strain_test(0.0, 1.01e-4)
     assert not _strain_test(math.log(2.0), 1.99e-4) and _strain_test(math.log(2.0), 2.01e-4)
     assert _strain_test(math.log(0.5), 0.51e-4)
+    # a law wrapping the evaluator with one history column has the law's strength
+    assert not _strain_test(None, 0.99e-4) and _strain_test(None, 1.01e-4)
 
 
 def _scene(law: str):

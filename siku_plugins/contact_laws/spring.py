@@ -44,6 +44,13 @@ SP = SPRING_RECORD.index
 
 
 @njit(cache=True)
+def _factor(hist):
+    """The joint's strength factor ``exp(hist[1])``; 1 for a history row of one column (a law
+    that wraps this evaluator with ``history_names = ("max_strain",)``)."""
+    return math.exp(hist[1]) if hist.shape[0] > 1 else 1.0
+
+
+@njit(cache=True)
 def spring_evaluator(g, pars, hist, out):
     """Eqs. 12–13 (corrected): force ``K w (s1 + s2)/2``, couple ``K w (w × (s2 - s1))/12``.
 
@@ -60,7 +67,7 @@ def spring_evaluator(g, pars, hist, out):
     strain = math.sqrt(max(s1x * s1x + s1y * s1y, s2x * s2x + s2y * s2y)) / g[J_L0]
     if strain > hist[0]:
         hist[0] = strain
-    eps_t = pars[SP.tensile_strain] * math.exp(hist[1])
+    eps_t = pars[SP.tensile_strain] * _factor(hist)
     if hist[0] > eps_t:
         out[OUT_BREAK] = BREAK_STRAIN
         return
@@ -88,7 +95,7 @@ def spring_energy(g, pars, hist):
     """Elastic energy [J] of a distributed-spring joint: ``K_d w (|s1|² + |s2|² + s1·s2)/6``,
     the integral of ``K_d |d(z)|² / 2`` along the joint (``d`` linear from ``s1`` to ``s2``),
     ``K_d = K (1 - damage)`` with the damage of ``hist``."""
-    eps_t = pars[SP.tensile_strain] * math.exp(hist[1])
+    eps_t = pars[SP.tensile_strain] * _factor(hist)
     onset = pars[SP.damage_onset] * eps_t
     dmg = (hist[0] - onset) / (eps_t - onset) if hist[0] > onset and eps_t > onset else 0.0
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
