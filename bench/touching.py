@@ -73,7 +73,8 @@ def v6(nx: int, ny: int) -> list[str]:
     return rows
 
 
-#: the default scene's time step [s], and the smaller step of the baseline run
+#: the step of this study [s] (the default scene's when it was made), and the smaller step of
+#: the baseline run
 DT_DEFAULT = 1.75
 DT_BASELINE = 1.5
 

@@ -10,6 +10,7 @@ with status 2 and a one-line message (no traceback).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import sys
@@ -43,6 +44,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if not sep or not key.strip():
             raise SceneError(f"--set {item!r}: write KEY=VALUE, e.g. --set time.duration=6h")
         overrides[key.strip()] = value.strip()
+    if args.ranks is not None:
+        return _relaunch(args.ranks, args.argv)
     if args.threads is not None:
         import numba
 
@@ -71,11 +74,30 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
             extend = parse_duration(args.extend)
         except ValueError as exc:
             raise SceneError(f"--extend {args.extend!r}: {exc}") from None
-    with CompileProgress(enabled=progress is None):
-        sim = Simulation(scene, out=args.out, progress=progress, restart=args.restart,
+    from .ranks import launched_ranks
+
+    ranks = launched_ranks()
+    comm = None
+    out = args.out
+    if ranks > 1:  # under mpiexec: rank 0 writes, every rank steps (siku_core.ranks)
+        from .ranks import launched_rank
+        from .ranks.comm import Comm
+
+        if launched_rank():
+            sys.stderr = open(os.devnull, "w")  # rank 0 speaks for the run
+        comm = Comm()
+        if comm.rank:
+            out, progress = False, False
+            sys.stderr = open(os.devnull, "w")  # rank 0 speaks for the run
+    with CompileProgress(enabled=progress is None), _together(comm):
+        sim = Simulation(scene, out=out, progress=progress, restart=args.restart,
                          overwrite=args.overwrite, force=args.force, extend=extend)
     first = sim.step_index
     sim.auto_threads = auto_threads(args.threads)
+    if args.profile:
+        from .phase_log import PhaseLog
+
+        sim.phase_log = PhaseLog(sim)
     t0 = time.perf_counter()
     fitted = ("" if sim.dt == sim.dt_requested else
               f" ({sim.dt_requested:g} s in the scene, shortened so that outputs fall on steps)")
@@ -88,7 +110,14 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
               f"{sim.dt / sim.critical_dt:.2f} of it (accepted up to "
               f"{scene.cfg.run.dt_safety:g}); set by '{who}': {why}", file=sys.stderr)
     try:
-        sim.run()
+        if comm is not None:
+            from .ranks.driver import RankRun
+
+            on_ranks = RankRun(sim, comm)  # (refuses what cannot run on ranks)
+            print(f"on {ranks} MPI ranks", file=sys.stderr)
+            on_ranks.run()
+        else:
+            sim.run()
     except KeyboardInterrupt:
         out = sim.output_path
         if out is not None and out.exists():
@@ -104,7 +133,11 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
 
     print(format_summary(summary_of(sim, wall, out, sim.step_index - first)), file=sys.stderr)
     if args.profile:
+        from .simulation import PHASES
+
+        sim.phase_log.finish(sim)
         print(profile_table(sim, wall - sim.compile_seconds), file=sys.stderr)
+        print(sim.phase_log.table(sim.state.n, PHASES), file=sys.stderr)
     if sim.output_path is not None and sim.step_index == sim.n_steps:
         from .plugins import get_plugin_manager
 
@@ -120,6 +153,46 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
         for f in [f for files in drawn for f in files or ()]:
             print(f"picture: {shown(f)}", file=sys.stderr)
     return 0
+
+
+@contextlib.contextmanager
+def _together(comm):
+    """On ranks (``comm``), a block that fails on one rank fails on all, after it ended on
+    each: the first failing rank's message is the run's (no rank waits for one that left)."""
+    if comm is None:
+        yield
+        return
+    failed = None
+    try:
+        yield
+    except Exception as exc:  # noqa: BLE001 - told to every rank, then raised here
+        failed = exc
+    said = comm.allgather(None if failed is None else " | ".join(str(failed).splitlines()))
+    if failed is not None:
+        raise failed
+    bad = next(((r, m) for r, m in enumerate(said) if m is not None), None)
+    if bad is not None:
+        raise SikuError(f"rank {bad[0]}: {bad[1]}")
+
+
+def _relaunch(ranks: int, argv: list[str]) -> int:
+    """``siku run --ranks N``: this command again under the ``mpiexec`` of the ``mpich``
+    wheel, on ``N`` ranks (the other options as given)."""
+    from .ranks import launched_ranks, mpiexec
+
+    if ranks < 1:
+        raise SikuError(f"--ranks {ranks}: give 1 or more")
+    argv = list(argv)
+    at = next(k for k, a in enumerate(argv) if a == "--ranks" or a.startswith("--ranks="))
+    del argv[at:at + (1 if "=" in argv[at] else 2)]
+    if ranks == 1 or launched_ranks() > 1:
+        return main(argv)
+    exe = mpiexec()
+    if exe is None:
+        raise SikuError("--ranks needs mpiexec: pip install 'siku[mpi]'")
+    from .ranks.launch import launch
+
+    return launch([exe, "-n", str(ranks), sys.executable, "-m", "siku_core.cli", *argv])
 
 
 def _cmd_warm(args: argparse.Namespace) -> int:
@@ -284,9 +357,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override a scene key, e.g. --set time.duration=6h (repeatable)")
     r.add_argument("--no-plots", action="store_true", help="skip the pictures [output] asks for")
     r.add_argument("--profile", action="store_true",
-                   help="print the time spent in each phase of the step")
+                   help="print the time spent in each phase of the step, in all and "
+                   "hour by hour of model time")
     r.add_argument("--threads", type=int, help="numba threads (default: one or all cores, "
                    "whichever runs the steps faster, timed as the run goes)")
+    r.add_argument("--ranks", type=int, help="run on this many MPI ranks (started with "
+                   "mpiexec; needs siku[mpi]); same results as one")
     r.set_defaults(func=_cmd_run)
     w = sub.add_parser("warm", help="compile and cache the kernels (and mesh) a scene uses, "
                        "so that its first run starts at full speed (no argument: the default)")
@@ -341,6 +417,7 @@ def main(argv: list[str] | None = None) -> int:
                 return 2
             except SystemExit as exc:  # --help, --version
                 return int(exc.code or 0)
+            args.argv = argv
             return args.func(args)
     except SikuError as exc:
         msg = " | ".join(str(exc).splitlines())

@@ -54,6 +54,15 @@ class Component(ABC):
     #: max_speed``). A value outside stops the run at the last good snapshot like a diverging
     #: velocity (:class:`siku_core.guard.Guard`): it is never written as a valid state
     integrates: ClassVar[Mapping[str, str]] = {}
+    #: whether the component runs on MPI ranks (``siku_core.ranks``): each rank calls it on
+    #: the elements it holds (its own and their ghosts), in ascending element index, with the
+    #: ghosts' state current at every step. True for what acts on each element by itself
+    #: (forcing sources, integrators, writers, which see the gathered run); a component that
+    #: reads the contacts or the elements of the whole run sets it False (an instance may, in
+    #: its ``setup``), and a scene using it on more than one rank is refused before the first
+    #: step, in one line naming the component (``ranks_refusal`` may say why)
+    runs_on_ranks: ClassVar[bool] = True
+    ranks_refusal: ClassVar[str] = ""
 
     def __init__(self, params: Mapping[str, Any] | None = None):
         full = {k: p.default for k, p in self.params.items()}

@@ -40,6 +40,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .errors import PluginError
+
 if TYPE_CHECKING:  # pragma: no cover
     from .contact_law import BreakMode
     from .contact_model import ContactModel
@@ -181,6 +183,17 @@ class ContactsView:
         """Per joint: the law's history row ``(n_joints, H)``, columns
         :attr:`joint_history_names` (units as the law declares them)."""
         return _read_only(self._model.hist)
+
+    def set_joint_history(self, name: str, values) -> None:
+        """Set the column ``name`` (one of :attr:`joint_history_names`) of every joint's
+        history row to ``values`` (one per joint): a process giving the joints their own
+        properties at set-up (``joint_strength``: each joint's log strength factor)."""
+        names = self.joint_history_names
+        if name not in names:
+            raise PluginError(f"contact law '{self._model.law.name}' has no joint history "
+                              f"column {name!r} (it has {', '.join(names) or 'none'})")
+        n = self._model.n_joints
+        self._model.hist[:n, names.index(name)] = np.asarray(values, float)
 
     @property
     def joint_stiffness(self) -> np.ndarray:

@@ -206,6 +206,9 @@ class Process(Component):
     """
 
     kind = "process"
+    #: processes change the ice (thickness, joints, fields) that ranks do not carry yet
+    runs_on_ranks = False
+    ranks_refusal = "it changes the ice, which ranks do not carry yet"
     required = {"apply": ("ctx", "dt")}
     #: quantities the process conserves (checked by the conformance suite)
     conserves: ClassVar[tuple[str, ...]] = ()

@@ -22,6 +22,7 @@ from typing import Any
 
 import numba
 from numba import njit, types
+from numba.np.ufunc import parallel as _numba_parallel
 from numba.core import cgutils
 from numba.extending import intrinsic
 
@@ -42,6 +43,19 @@ GRIDDED_DRAG_NS = 60.0
 
 def threads() -> int:
     """The numba threads loops may use now."""
+    return _numba_threads()
+
+
+def _numba_threads() -> int:
+    """``numba.get_num_threads()``, read without its lock once numba has started its threads
+    (a step asks a dozen times; the lock costs about 3 us a call, a tenth of a millisecond a
+    step of the default scene): numba's own reading of the calling thread's count, where the
+    numba version has it."""
+    if _numba_parallel._is_initialized:
+        read = getattr(_numba_parallel, "_get_num_threads", None)
+        n = read() if callable(read) else 0
+        if n > 0:
+            return n
     return numba.get_num_threads()
 
 
@@ -54,7 +68,7 @@ def threads_for(n: int) -> Iterator[int]:
     region of one chunk still wakes the other threads; with one thread set none is woken, so
     a small run on all cores costs what it costs on one (``bench/threads.py``).
     """
-    before = numba.get_num_threads()
+    before = _numba_threads()
     if before > 1 and n < PARALLEL_MIN:
         numba.set_num_threads(1)
         try:
@@ -70,7 +84,7 @@ def alone(nch: int) -> Iterator[None]:
     """Run the enclosed call of a loop cut into ``nch`` chunks on the calling thread alone when
     ``nch`` is 1: a parallel region of one chunk would still wake the other threads and wait
     for them (tens of microseconds each time, more than a light loop of a few thousand items)."""
-    before = numba.get_num_threads() if nch <= 1 else 1
+    before = _numba_threads() if nch <= 1 else 1
     if before <= 1:
         yield
         return
@@ -245,7 +259,7 @@ def tuned(enabled: bool, clock: Callable[[], float]) -> Iterator[Any]:
     """A :class:`ThreadTuner` between one thread and the threads set now when ``enabled`` and
     more than one is set, else a context that does nothing (``with tuner:`` around each step
     either way); the threads set are restored at exit."""
-    before = numba.get_num_threads()
+    before = _numba_threads()
     if not enabled or before <= 1:
         yield nullcontext()
         return

@@ -171,6 +171,8 @@ class Simulation:
         #: :meth:`run` chooses between one thread and those set, timing both as it steps
         #: (:class:`~siku_core.parallel.ThreadTuner`; ``siku run`` without ``--threads``)
         self.auto_threads = False
+        #: a :class:`~siku_core.phase_log.PhaseLog` reading the phases by hour (``--profile``)
+        self.phase_log = None
         if self.pm is not None:
             self.pm.hook.siku_ready(simulation=self)
 
@@ -289,6 +291,8 @@ class Simulation:
         ``integrator`` excludes the force evaluations it calls); ``siku run --profile`` prints
         them, compilation left out (:func:`siku_core.progress.clock`).
         """
+        if self.phase_log is not None:
+            self.phase_log.before_step(self)
         t0 = clock()
         self._commit = True
         self._force_time = 0.0

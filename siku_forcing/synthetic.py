@@ -27,17 +27,48 @@ DEFAULT_ANTICYCLONE = {"kind": "anticyclone", "lat": 77.0, "lon": -165.0, "vmax"
 DEFAULT_START = _dt.datetime(2001, 4, 6)
 
 
-def write_ncep_pair(out_dir: str | Path, params: dict, start: _dt.datetime, hours: float,
-                    step_hours: float = 6.0, radius: float = 6_371_000.0,
+def _systems(params: dict | list[dict], radius: float) -> list:
+    """``(field, t0 [h] or None, life [h] or None)`` of each pressure system of ``params``."""
+    out = []
+    for p in params if isinstance(params, list) else [params]:
+        p = dict(p)
+        t0, life = p.pop("t0_hours", None), p.pop("life_hours", None)
+        field = Cyclone({**{k: q.default for k, q in Cyclone.params.items()}, **p})
+        field.radius = radius
+        out.append((field, t0, life))
+    return out
+
+
+def _sample(systems, t_hours: float, lat, lon):
+    """The summed wind [m/s] of ``systems`` at ``t_hours`` after the start: a system with a
+    life (``t0_hours``, ``life_hours``) is born at ``t0``, moves from its place then, and
+    blows with the weight ``sin²(pi (t - t0) / life)`` during its life, 0 outside it."""
+    u = np.zeros(lat.shape)
+    v = np.zeros(lat.shape)
+    for field, t0, life in systems:
+        if t0 is None:
+            w, ts = 1.0, t_hours
+        else:
+            tau = (t_hours - t0) / life
+            w, ts = (math.sin(math.pi * tau) ** 2 if 0.0 < tau < 1.0 else 0.0), t_hours - t0
+        if w > 0.0:
+            uu, vv = field.sample(max(ts, 0.0) * 3600.0, lat, lon)
+            u += w * uu
+            v += w * vv
+    return u, v
+
+
+def write_ncep_pair(out_dir: str | Path, params: dict | list[dict], start: _dt.datetime,
+                    hours: float, step_hours: float = 6.0, radius: float = 6_371_000.0,
                     stem: str = "anticyclone") -> tuple[Path, Path]:
-    """Write ``uwnd.STEM.nc`` and ``vwnd.STEM.nc`` sampling a :class:`Cyclone` field.
+    """Write ``uwnd.STEM.nc`` and ``vwnd.STEM.nc`` sampling a :class:`Cyclone` field, or the
+    sum of several (a list; each may have ``t0_hours`` and ``life_hours``: :func:`_sample`).
 
     Records every ``step_hours`` from ``start`` to ``start + hours`` (inclusive).
     """
     import xarray as xr
 
-    field = Cyclone({**{k: p.default for k, p in Cyclone.params.items()}, **params})
-    field.radius = radius
+    systems = _systems(params, radius)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     n = int(math.floor(hours / step_hours + 1e-9)) + 1
@@ -46,7 +77,7 @@ def write_ncep_pair(out_dir: str | Path, params: dict, start: _dt.datetime, hour
     u = np.empty((n, len(NCEP_LAT), len(NCEP_LON)))
     v = np.empty_like(u)
     for k in range(n):
-        uu, vv = field.sample(k * step_hours * 3600.0, LAT.ravel(), LON.ravel())
+        uu, vv = _sample(systems, k * step_hours, LAT.ravel(), LON.ravel())
         u[k] = uu.reshape(LAT.shape)
         v[k] = vv.reshape(LAT.shape)
     coords = {

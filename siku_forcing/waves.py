@@ -446,7 +446,8 @@ class Waves(ForcingSource):
         self.g = float(self.field.p["g"])
         self.free = self.st.flags == FREE
         self.breaker = None
-        if p["breaking"]:
+        if p["breaking"]:  # the floes' labels come from the contacts of every element
+            self.runs_on_ranks = False
             from .wave_breaking import FlexuralBreaking
 
             self.breaker = FlexuralBreaking(ctx, self.field, p["critical_strain"],

@@ -459,9 +459,11 @@ def _cmd_lab(args) -> int:
         if test == "flexure":     # and out of the plane: siku_plugins.lab_bending
             from .lab_bending import vertical_flexure
 
+            h = min(1.0, args.element_size)  # finer: thinner (else they capsize, lab.md §2.1)
             for s in strengths:
                 print("\n".join(vertical_flexure(s, element_size=args.element_size,
-                                                  length=args.length or 30.0).rows()))
+                                                  length=args.length or 30.0,
+                                                  thickness=h).rows()))
     out = Path(args.out_dir or ".") / f"siku_lab_{args.test}.png"
     out.parent.mkdir(parents=True, exist_ok=True)
     print(f"picture: {plot_curves(tables, out)}", file=sys.stderr)

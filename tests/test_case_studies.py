@@ -40,6 +40,8 @@ def test_six_case_scenes_with_the_report_dates_and_the_default_pack():
         params = cfg.forcing[0].field.params
         assert params["u_file"] == f"ncep/{u.name}" and params["v_file"] == f"ncep/{v.name}"
         assert u.name == f"uwnd.sig995.{c['start'].year}.nc"
+        # the wind spins up as the default scene's does (no impulsive start at the coast)
+        assert cfg.forcing[0].ramp == load_scene(default_scene_path()).cfg.forcing[0].ramp
         mesh = cfg.elements.mesh
         for key in ("lon", "lat", "spacing", "coast_spacing", "land", "landfast", "seed"):
             assert getattr(mesh, key) == getattr(default, key), (case, key)

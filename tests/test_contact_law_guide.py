@@ -108,3 +108,17 @@ def test_the_guides_law_passes_the_conformance_suite(law_from_the_guide):
     check_contact_law(law_from_the_guide)
     check_contact_law(law_from_the_guide, {"stiffness_scale": 2.0, "friction": 0.3,
                                            "joint_damping_ratio": 0.5})
+
+
+def test_the_break_mode_tables_list_every_mode_of_the_code():
+    """The guide's table and the output reference's list of `/breaks/mode` name every
+    `BreakMode` with its value (flexure and melt were once missing)."""
+    from siku_core.contact_law import BreakMode
+
+    output = (Path(__file__).resolve().parents[1] / "docs" / "reference" / "output.md").read_text(
+        encoding="utf-8")
+    modes = re.search(r"`/breaks/mode` \(([^)]*)\)", " ".join(output.split())).group(1)
+    for mode in BreakMode:
+        if mode:
+            assert f"| `BREAK_{mode.name}` | {int(mode)} |" in guide(), mode.name
+        assert f"{int(mode)} {mode.name.lower()}" in modes, mode.name

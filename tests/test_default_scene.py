@@ -226,7 +226,7 @@ def test_without_wind_the_default_scene_stays_still_for_an_hour():
     """No wind (``C = 0``), still water: nothing drives the pack, so no joint may break and no
     element may move faster than round-off. With explicit dampers (critical step 1.66 s) this
     run broke 17 joints in 30 minutes at 1.75 s; with dampers bounded by the step (critical
-    3.52 s) the shipped 1.75 s keeps every joint and no element faster than 2.5e-10 m/s."""
+    3.52 s) the shipped step keeps every joint and no element faster than 2.5e-10 m/s."""
     sim = Simulation(load_scene(default_scene_path(), {"time.duration": "1h",
                                                        "forcing.0.params.C": "0"}),
                      out=False, progress=False)

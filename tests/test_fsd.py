@@ -298,3 +298,39 @@ def test_siku_grid_without_the_runs_joints_grids_the_rest(broken_pack, monkeypat
     assert "no floe sizes on the grid" in capsys.readouterr().err
     with pytest.raises(DataError, match="38"):
         grid_output(broken_pack[0], cfg.model_copy(update={"fields": ["floe_area_mean"]}))
+
+
+def test_floes_held_by_a_static_element_are_not_free_floes():
+    from siku_io.analysis.fsd import free_floes
+
+    # five elements in three floes; element 3 is a static coast cell, 4 steady
+    label = np.array([0, 0, 1, 1, 2])
+    assert free_floes(label, 3, [0, 0, 0, 1, 0]).tolist() == [True, False, True]
+    assert free_floes(label, 3, [0, 0, 0, 0, 2]).tolist() == [True, True, False]
+
+
+def test_the_distribution_of_an_output_is_of_its_free_floes(broken_pack):
+    from siku_io.analysis.fsd import output_distribution
+
+    path = broken_pack[0]
+    fl = output_floes(path)
+    assert all(f.free.all() for f in fl)  # the pack has no static element
+    ds = output_distribution(path, min_tail=2)
+    assert ds.attrs["floes"] == "free floes only"
+    assert (ds["n_floes"].values == 4).all()
+
+
+def test_no_power_law_is_fitted_to_a_tail_within_too_few_bins():
+    from siku_io.analysis.fsd import MIN_BINS
+
+    # 40 distinct areas within 10 % of each other: a maximum-likelihood exponent exists but the
+    # tail lies in one or two of the 5-per-decade bins (each 58 % wide)
+    x = 1e6 * (1 + 0.1 * np.linspace(0, 1, 40) ** 2)
+    assert np.isfinite(power_law(x).alpha)
+    ds = distribution([x], [0.0])
+    assert np.count_nonzero(ds["count"].values[0]) < MIN_BINS
+    assert np.isnan(ds["alpha"].values[0])
+    # the same law over three decades is fitted
+    rng = np.random.default_rng(5)
+    ds = distribution([sample_power_law(2.0, 1e6, 400, rng)], [0.0])
+    assert np.isfinite(ds["alpha"].values[0])

@@ -48,3 +48,26 @@ def test_siku_lab_flexure_prints_the_vertical_test(monkeypatch, capsys, tmp_path
     assert out.count("vertical three-point bending") == 2
     hi = 0.5 * 30 / 29           # sigma_crit L / (L - a), default span 30 m, 1 m elements
     assert f"macro strength {hi:.4f} MPa (beam theory 0.5000–{hi:.4f})" in out
+
+
+def test_siku_lab_flexure_with_half_metre_elements_bends_a_thinner_beam(monkeypatch, capsys,
+                                                                        tmp_path):
+    """``--element-size 0.5`` (offered in lab.md): 0.5 m elements 1 m thick would capsize
+    alone, so the vertical beam is 0.5 m thick; beam theory bounds its strength by
+    ``sigma_crit L / (L - a)`` and its modulus is ``E / (1 - nu²)`` whatever the thickness."""
+    import siku_plugins.lab_report as rep
+    from siku_core.cli import main
+
+    class Table:
+        def rows(self):
+            return ["in-plane"]
+
+    monkeypatch.setattr(rep, "strength_table", lambda *a, **k: Table())
+    monkeypatch.setattr(rep, "plot_curves", lambda tables, out: out)
+    assert main(["lab", "flexure", "--strength", "1", "--element-size", "0.5", "--out-dir",
+                 str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "0.5 m thick, elements 0.5 m" in out
+    hi = 30 / 29.5
+    assert f"macro strength {hi:.4f} MPa (beam theory 1.0000–{hi:.4f})" in out
+    assert "modulus 1.0989 GPa" in out

@@ -49,6 +49,34 @@ def test_run_profile_prints_the_phases(tmp_path, monkeypatch, capsys):
     for phase in ("forcing", "joints", "broad_phase", "collisions", "contact_sum",
                   "integrator", "guard", "output", "other"):
         assert f"\n  {phase} " in err, phase
+    by_hour = err.split("profile by hour of model time")[1].splitlines()
+    assert by_hour[2].split()[:2] == ["0-0.0111", "20"]  # 20 steps of 2 s, under one hour
+
+
+def test_phase_log_splits_the_timings_by_window_of_model_time():
+    from siku_core.phase_log import PhaseLog
+    from siku_core.scene import scene_from_text
+
+    sim = Simulation(scene_from_text(scene_text()), out=False, progress=False)
+    sim.phase_log = PhaseLog(sim, every=10.0)  # 20 steps of 2 s: four windows of five steps
+    sim.run()
+    log = sim.phase_log
+    assert len(log.windows) == 3  # the fourth closes after the run (its last output)
+    log.finish(sim)
+    log.finish(sim)  # nothing under way: no fifth window
+    assert [(w.start, w.end, w.steps) for w in log.windows] == [
+        (10.0 * k, 10.0 * (k + 1), 5) for k in range(4)]
+    for phase in PHASES:  # the windows add up to the run's timers
+        assert sum(w.phases[phase] for w in log.windows) == pytest.approx(
+            sim.timings[phase], rel=1e-9, abs=1e-12), phase
+    for w in log.windows:
+        assert w.wall >= sum(w.phases.values()) - 1e-9
+        assert w.contacts["pairs"] == len(sim.contacts.pairs)
+    assert log.windows[-1].contacts["n_broken_total"] == sim.contacts.n_broken_total
+    table = log.table(sim.state.n, PHASES).splitlines()
+    assert len(table) == 2 + 4 and table[2].split()[:2] == ["0-0.00278", "5"]
+    with pytest.raises(ValueError):
+        PhaseLog(sim, every=0.0)
 
 
 def test_threads_out_of_range_is_a_one_line_error(tmp_path, monkeypatch, capsys):

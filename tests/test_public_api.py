@@ -116,6 +116,8 @@ siku_core.state                       STATIC              -
 siku_core.testing                     conformance         -
 siku_core.testing                     make_scene          -
 siku_core.testing.contact_conformance check_contact_law   -
+siku_core.testing.contact_conformance collision_geometry   -
+siku_core.testing.contact_conformance contact_history_row   -
 siku_core.testing.process_checks      check_process       -
 siku_forcing.spectral_transport       steady_ratio        -
 siku_forcing.synthetic                write_ncep_pair     -

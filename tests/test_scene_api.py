@@ -19,7 +19,7 @@ SHORT = "2min"
 def default_scene_in_python() -> SceneBuilder:
     """The shipped default scene (siku_core/data/default_scene.toml), written in Python."""
     s = SceneBuilder("Beaufort-Chukchi lead formation", start="2001-04-06T00:00:00Z",
-                     duration="24h", dt=1.75, base_dir=default_scene_path().parent,
+                     duration="24h", dt=1.5, base_dir=default_scene_path().parent,
                      name="default_scene")
     s.material("ice", youngs_modulus=0.5e9)
     s.elements(thickness=1.5)

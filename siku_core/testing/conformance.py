@@ -9,7 +9,10 @@ Every registered forcing source (each drag paired with every registered field) m
 3. only add: ``F`` and ``T`` are accumulators, so calling ``add`` twice doubles its contribution
    and ``q, V, w`` are left untouched (:func:`check_forcing_only_adds`);
 4. where the source provides a pure-Python reference ``py_add`` (same signature as ``add``),
-   agree with it (:func:`check_forcing_matches_python`).
+   agree with it (:func:`check_forcing_matches_python`);
+5. unless it declares ``runs_on_ranks = False``, give a subset of the elements, set up on
+   that subset as an MPI rank sets it up, their forces bit for bit
+   (:func:`check_forcing_on_ranks`).
 
 Every registered field must return finite ``(u, v)`` of the right shape, poles and antimeridian
 included (:func:`check_field_finite`).
@@ -274,6 +277,33 @@ def check_forcing_matches_python(
             )
 
 
+def check_forcing_on_ranks(case: ForcingCase, registry: Registry | None = None) -> None:
+    """A source that runs on ranks (``runs_on_ranks``) gives every other element, set up
+    over those elements alone (``siku_core.ranks.local``), the force and torque it gives them
+    among all, bit for bit."""
+    from ..ranks.local import local_engine
+
+    sim, src = build_forcing(case, registry)
+    if not getattr(src, "runs_on_ranks", True):
+        return
+    st = sim.state
+    ids = np.arange(1, st.n, 2)
+    loc, _ = local_engine(sim, ids, np.zeros(0, dtype=np.int64))
+    part = loc.forcing[0]
+    ls = loc.state
+    for t in CONFORMANCE_TIMES:
+        F, T = _add(src, sim, t)
+        Fs, Ts = _add(part, loc, t, state=(ls.q.copy(), ls.V.copy(), ls.w.copy()))
+        for name, a, b in (("F", F[ids], Fs), ("T", T[ids], Ts)):
+            bad = ~(a == b).reshape(len(ids), -1).all(axis=1)
+            i = int(np.argmax(bad))
+            assert not bad.any(), (
+                f"{case.id}: {name} {b[i]} on {_where(sim, int(ids[i]))} when set up over a "
+                f"subset of the elements, {a[i]} among all, at t = {t:g} s: a source that "
+                "runs on ranks must act on each element by itself (or set runs_on_ranks = "
+                "False)")
+
+
 def field_cases(
     registry: Registry | None = None, fields: Iterable[str] | None = None,
     field_params: Mapping[str, Mapping[str, Any]] | None = None,
@@ -373,6 +403,9 @@ class TestForcingSourceConformance:
     def test_compiled_matches_python_reference(self, forcing_case: ForcingCase) -> None:
         check_forcing_matches_python(forcing_case)
 
+    def test_same_on_a_subset_of_elements(self, forcing_case: ForcingCase) -> None:
+        check_forcing_on_ranks(forcing_case)
+
     def test_field_finite_at_poles_and_antimeridian(self, field_case: tuple) -> None:
         check_field_finite(field_case[0], field_case[1])
 
@@ -380,6 +413,7 @@ class TestForcingSourceConformance:
 __all__ = [
     "CONFORMANCE_ELEMENTS", "CONFORMANCE_TIMES", "ForcingCase", "TestForcingSourceConformance",
     "ZeroField", "build_forcing", "check_field_finite", "check_forcing_finite",
-    "check_forcing_matches_python", "check_forcing_only_adds", "check_forcing_zero_field",
+    "check_forcing_matches_python", "check_forcing_on_ranks", "check_forcing_only_adds",
+    "check_forcing_zero_field",
     "field_cases", "forcing_cases",
 ]

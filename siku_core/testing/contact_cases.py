@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 
 from ..contact_law import (
+    COLLISION_LAYOUT,
+    JOINT_LAYOUT,
     G_AREA,
     G_AREA_I,
     G_AREA_J,
@@ -291,6 +293,50 @@ def _assert_pair_balanced(sim: Any, q: np.ndarray, F: np.ndarray, T: np.ndarray,
     )
 
 
+
+
+def _named_vector(layout: tuple, prefix: str, what: str, values: Mapping[str, float]
+                  ) -> np.ndarray:
+    names = [name[len(prefix):].lower() for name, _, _ in layout]
+    unknown = sorted(set(values) - set(names))
+    if unknown:
+        raise TypeError(f"{what}: unknown entr{'ies' if len(unknown) > 1 else 'y'} "
+                        f"{', '.join(unknown)}; the entries are {', '.join(names)}")
+    g = np.zeros(len(layout))
+    for k, name in enumerate(names):
+        if name in values:
+            g[k] = float(values[name])
+    return g
+
+
+def collision_geometry(**values: float) -> np.ndarray:
+    """A collision geometry vector (layout ``G_*`` of :mod:`siku_core.contact_law`) from named
+    entries, the others 0, for a pure-Python test of a collision evaluator. The names are the
+    layout's constants without ``G_``, in lower case, in the layout's units: ``area`` [m²],
+    ``cx``, ``cy`` [m], ``nx``, ``ny`` [1], ``width`` [m], ``k`` [Pa], ``meff`` [kg], ``vx``,
+    ``vy`` [m/s], ``area_i``, ``area_j`` [m²], ``hi``, ``hj`` [m], ``dtm`` [s/kg]; an unknown
+    name raises ``TypeError`` listing them. E.g. 1 ha of overlap along +x, 100 m wide::
+
+        g = collision_geometry(area=1e4, nx=1.0, width=100.0, k=5e8, meff=1e6)
+    """
+    return _named_vector(COLLISION_LAYOUT, "G_", "collision_geometry", values)
+
+
+def joint_geometry(**values: float) -> np.ndarray:
+    """A joint geometry vector (layout ``J_*``) from named entries, the others 0: the names
+    are the layout's constants without ``J_`` in lower case (``s1x``, ``s1y``, ``s2x``,
+    ``s2y``, ``ax``, ``ay``, ``bx``, ``by``, ``l0``, ``w`` [m], ``k`` [Pa], ``meff`` [kg],
+    ``vax``, ``vay``, ``vbx``, ``vby`` [m/s], ``hi``, ``hj`` [m], ``ei``, ``ej`` [Pa], ``nu``
+    [1], ``dt`` [s], ``dtm`` [s/kg]); see :func:`collision_geometry`."""
+    return _named_vector(JOINT_LAYOUT, "J_", "joint_geometry", values)
+
+
+def contact_history_row(law: Any) -> tuple[np.ndarray, ...]:
+    """``(hist,)``, a zero row of the law's ``contact_history_names`` columns, to pass to its
+    collision evaluator ``(g, pars, hist, out)``; ``()`` for a law without them
+    (``(g, pars, out)``)."""
+    n = len(getattr(law, "contact_history_names", ()))
+    return (np.zeros(n),) if n else ()
 
 
 def random_collision_geometry(rng: np.random.Generator) -> np.ndarray:

@@ -25,7 +25,12 @@ Every contact law (a :class:`~siku_core.interfaces.ContactLaw`) must:
 7. change its history only as it declares (:func:`check_history`): only its
    ``history_names`` columns, and with ``history_update = "state"`` (the default: maxima,
    failure flags, damage) evaluating the same geometry again changes nothing; with ``"rate"``
-   (history integrated over the time step) nothing changes again at ``dt = 0``.
+   (history integrated over the time step) nothing changes again at ``dt = 0``; a law with
+   per-contact history (``contact_history_names``) has its collision evaluator called with
+   the contact's row, ``(g, pars, hist, out)``, in every check, and writes no column past them;
+8. keep everything a run needs in its history (:func:`check_restart`): a run stopped at a
+   snapshot and continued from the file equals the run that never stopped, bit for bit, for
+   an overlapping pair (the contact rows) and a jointed pair (the joints' rows).
 
 An evaluator that raises (a 0/0, a domain error) or returns non-finite numbers is reported as a
 finding of the check that met it, with the geometry. Every message starts with the law's name
@@ -41,13 +46,16 @@ and the check's, e.g. ``anti_spring: passivity: ...``.
     def test_my_law_conforms():
         check_contact_law(MyLaw, params={"stiffness": 2.0})
 
-The geometry vectors follow the layouts ``G_*`` / ``J_*`` of :mod:`siku_core.contact_law`; the
-scene helpers (:func:`contact_scene_text`, :func:`square_pack`, :func:`rotate_about`, ...) are
-shared with siku's own contact tests.
+The geometry vectors follow the layouts ``G_*`` / ``J_*`` of :mod:`siku_core.contact_law`;
+:func:`collision_geometry` and :func:`joint_geometry` build one from named entries for a
+pure-Python test of an evaluator, :func:`contact_history_row` the row a law with per-contact
+history takes. The scene helpers (:func:`contact_scene_text`, :func:`square_pack`,
+:func:`rotate_about`, ...) are shared with siku's own contact tests.
 
 The suite is split by concern: :mod:`~siku_core.testing.contact_cases` (scenes, scene
-helpers, geometry vectors), :mod:`~siku_core.testing.contact_force_checks` (checks 1-4) and
-:mod:`~siku_core.testing.contact_energy_checks` (checks 5-7); this module gathers them.
+helpers, geometry vectors), :mod:`~siku_core.testing.contact_force_checks` (checks 1-4),
+:mod:`~siku_core.testing.contact_energy_checks` (checks 5-7) and
+:mod:`~siku_core.testing.contact_restart_checks` (check 8); this module gathers them.
 Importing this module loads numba and siku's engine
 modules, but neither h5py, netCDF4, xarray nor any plugin.
 """
@@ -58,13 +66,16 @@ from typing import Any
 
 from .contact_cases import (  # noqa: F401 - the suite's names, read from here
     axis_angle,
+    collision_geometry,
     contact_forces,
+    contact_history_row,
     contact_scene,
     contact_scene_text,
     degenerate_collision_geometries,
     degenerate_joint_geometries,
     global_forces,
     global_torques,
+    joint_geometry,
     law_registry,
     law_simulation,
     pull_apart,
@@ -84,27 +95,32 @@ from .contact_force_checks import (  # noqa: F401 - the suite's names, read from
     check_newton_third_law,
     check_zero_force_when_apart,
 )
+from .contact_restart_checks import check_restart  # noqa: F401 - the suite's names
 from .scenes import square  # noqa: F401 - the suite's names, read from here
 
 
 def check_contact_law(law_cls: type, params: Mapping[str, Any] | None = None) -> None:
     """Run every contact-law conformance check on ``law_cls`` (registered or not) with the
-    given parameters (defaults otherwise)."""
-    check_newton_third_law(law_cls, params)
-    check_zero_force_when_apart(law_cls, params)
+    given parameters (defaults otherwise). The checks that call the evaluators alone come
+    first: a law they fail is reported before the engine's contact loops are compiled for its
+    evaluators (a minute or more of compiling for a new collision evaluator)."""
     check_history(law_cls, params)
     check_compiled_matches_python(law_cls, params)
+    check_newton_third_law(law_cls, params)
+    check_zero_force_when_apart(law_cls, params)
     check_degenerate_finite(law_cls, params)
     check_passivity(law_cls, params)
     check_energy(law_cls, params)
+    check_restart(law_cls, params)
 
 
 __all__ = [
     "axis_angle", "check_compiled_matches_python", "check_contact_law",
     "check_degenerate_finite", "check_energy", "check_history", "check_newton_third_law",
-    "check_passivity", "check_zero_force_when_apart",
-    "contact_forces", "contact_scene", "contact_scene_text", "degenerate_collision_geometries",
-    "degenerate_joint_geometries", "global_forces", "global_torques", "law_registry",
+    "check_passivity", "check_restart", "check_zero_force_when_apart", "collision_geometry",
+    "contact_forces", "contact_history_row", "contact_scene", "contact_scene_text",
+    "degenerate_collision_geometries", "degenerate_joint_geometries", "global_forces",
+    "global_torques", "joint_geometry", "law_registry",
     "law_simulation", "pull_apart", "random_collision_geometry", "random_joint_geometry",
     "rotate_about", "square", "square_pack",
 ]

@@ -36,6 +36,7 @@ from .contact_cases import (
     contact_forces,
     global_torques,
     law_simulation,
+    random_collision_geometry,
     random_joint_geometry,
     rotate_about,
 )
@@ -238,6 +239,28 @@ def check_energy(law_cls: type, params: Mapping[str, Any] | None = None, n: int 
     assert tested, f"{law_cls.name}: {check}: every test joint broke at strains below 1e-5"
 
 
+def _check_contact_history(law_cls: type, law: Any, n: int, seed: int) -> None:
+    """A law with ``contact_history_names``: its collision evaluator writes no column past
+    them and leaves its row finite."""
+    nch = len(getattr(law, "contact_history_names", ()))
+    if not nch:
+        return
+    coll = law_cls.collision_evaluator
+    cpars = np.ascontiguousarray(law.collision_parameters(), dtype=float)
+    rng = np.random.default_rng(seed)
+    guard = 1234.5678
+    for _ in range(n):
+        g = random_collision_geometry(rng)
+        hist = np.full(nch + 2, guard)
+        hist[:nch] = 0.0
+        for _rep in range(2):
+            _call(law_cls, "history", "collision", coll, g.copy(), cpars, hist, np.zeros(4))
+            assert np.all(hist[nch:] == guard) and np.isfinite(hist[:nch]).all(), (
+                f"{law_cls.name}: history: the collision evaluator wrote contact history "
+                f"{hist.tolist()}: columns past its {nch} contact_history_names "
+                f"{tuple(law.contact_history_names)} or non-finite values (g = {g.tolist()})")
+
+
 def check_history(law_cls: type, params: Mapping[str, Any] | None = None, n: int = 100,
                   seed: int = 2) -> None:
     """On ``n`` random joints: the joint evaluator writes no history column beyond its
@@ -245,10 +268,11 @@ def check_history(law_cls: type, params: Mapping[str, Any] | None = None, n: int
     geometry a second time (at ``dt = 0`` for ``history_update = "rate"``) leaves the history
     as the first evaluation left it."""
     check = "history"
-    if not law_cls.uses_joints:
-        return
     sim = law_simulation(law_cls, params, **_separated_kwargs())
     law = sim.contacts.law
+    _check_contact_history(law_cls, law, n, seed)
+    if not law_cls.uses_joints:
+        return
     joint = law_cls.joint_evaluator
     jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
     nh = len(law.history_names)

@@ -29,6 +29,7 @@ from .contact_cases import (
     _separated_kwargs,
     _touching_squares,
     contact_forces,
+    contact_history_row,
     degenerate_collision_geometries,
     degenerate_joint_geometries,
     law_simulation,
@@ -88,6 +89,10 @@ def _close(a: np.ndarray, b: np.ndarray, rtol: float) -> bool:
     return bool(np.allclose(a, b, rtol=rtol, atol=rtol * scale))
 
 
+def _rows(h: tuple) -> str:
+    return f", contact history {h[0].tolist()}" if h else ""
+
+
 def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | None = None,
                                   n: int = 200, seed: int = 0, rtol: float = 1e-12) -> None:
     """Each compiled evaluator equals ``evaluator.py_func`` on ``n`` random geometry vectors:
@@ -101,15 +106,17 @@ def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | Non
     cpars = np.ascontiguousarray(law.collision_parameters(), dtype=float)
     for k in range(n):
         g = random_collision_geometry(rng)
-        oc, op = np.zeros(4), np.zeros(4)
-        _call(law_cls, "compiled == python", "collision", coll, g.copy(), cpars, oc)
-        _call(law_cls, "compiled == python", "collision (py_func)", coll.py_func, g.copy(),
-              cpars, op)
-        assert _close(oc, op, rtol), (
-            f"{law_cls.name}: compiled == python: compiled collision evaluator {oc.tolist()} "
-            "!= py_func "
-            f"{op.tolist()} for g = {g.tolist()}"
-        )
+        hc, hp = contact_history_row(law), contact_history_row(law)  # () or (zero row,)
+        for rep in range(2 if hc else 1):  # twice on the row the first evaluation left
+            oc, op = np.zeros(4), np.zeros(4)
+            _call(law_cls, "compiled == python", "collision", coll, g.copy(), cpars, *hc, oc)
+            _call(law_cls, "compiled == python", "collision (py_func)", coll.py_func,
+                  g.copy(), cpars, *hp, op)
+            assert _close(oc, op, rtol) and all(_close(a, b, rtol) for a, b in zip(hc, hp)), (
+                f"{law_cls.name}: compiled == python: compiled collision evaluator "
+                f"{oc.tolist()}{_rows(hc)} != py_func {op.tolist()}{_rows(hp)} "
+                f"(evaluation {rep + 1}) for g = {g.tolist()}"
+            )
     if joint is None:
         return
     jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
@@ -143,10 +150,11 @@ def check_degenerate_finite(law_cls: type, params: Mapping[str, Any] | None = No
     cpars = np.ascontiguousarray(law.collision_parameters(), dtype=float)
     check = "degenerate geometry"
     for name, g in degenerate_collision_geometries():
-        out = np.zeros(4)
-        _call(law_cls, check, "collision", coll, g, cpars, out, case=name)
-        assert np.isfinite(out).all(), (
-            f"{law_cls.name}: {check}: collision evaluator, {name}: out = {out.tolist()}")
+        out, hist = np.zeros(4), contact_history_row(law)
+        _call(law_cls, check, "collision", coll, g, cpars, *hist, out, case=name)
+        assert np.isfinite(out).all() and all(np.isfinite(h).all() for h in hist), (
+            f"{law_cls.name}: {check}: collision evaluator, {name}: out = {out.tolist()}"
+            f"{_rows(hist)}")
     if joint is not None:
         jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
         nh = max(len(law.history_names), 1)

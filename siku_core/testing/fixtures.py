@@ -10,6 +10,14 @@ every test suite in an environment where siku is installed has these fixtures:
 ``siku_simulation_factory``
     ``factory(scene=None, **scene_kwargs) -> Simulation`` with ``out=False, progress=False``;
     ``scene`` may be a Scene, a path, TOML text, or ``None`` to build one from ``scene_kwargs``.
+``siku_module_simulation_factory``
+    the same factory at module scope, so that a long run is shared by the tests of a module::
+
+        @pytest.fixture(scope="module")
+        def drifted(siku_module_simulation_factory):
+            return siku_module_simulation_factory(elements=[(-150.0, 75.0)], duration=6 * 3600,
+                                                  dt=600.0).run()
+
 ``siku_register``
     ``register(module)``: registers a plugin module (as an installed package would) for the
     duration of the test; the registry is rebuilt without it afterwards.
@@ -35,15 +43,13 @@ from .dists import write_dist_info
 from .scenes import scene_text
 
 
-@pytest.fixture
-def siku_scene_factory(tmp_path: Path) -> Callable[..., Any]:
-    """Build small scenes (square elements, given forcing) from Python."""
+def _scene_factory(folder: Callable[[], Path]) -> Callable[..., Any]:
     from ..scene import load_scene, scene_from_text
 
     def factory(*args: Any, file: bool | str = False, **kwargs: Any):
         text = scene_text(*args, **kwargs)
         if file:
-            path = tmp_path / (file if isinstance(file, str) else "scene.toml")
+            path = folder() / (file if isinstance(file, str) else "scene.toml")
             path.write_text(text, encoding="utf-8")
             return load_scene(path)
         return scene_from_text(text, "<test scene>")
@@ -51,16 +57,14 @@ def siku_scene_factory(tmp_path: Path) -> Callable[..., Any]:
     return factory
 
 
-@pytest.fixture
-def siku_simulation_factory(siku_scene_factory: Callable[..., Any]) -> Callable[..., Any]:
-    """Build a :class:`~siku_core.simulation.Simulation` that writes nothing and shows no bar."""
+def _simulation_factory(scenes: Callable[..., Any]) -> Callable[..., Any]:
     from ..scene import Scene, load_scene, scene_from_text
     from ..simulation import Simulation
 
     def factory(scene: Any = None, **kwargs: Any):
         sim_kw = {k: kwargs.pop(k) for k in ("restart", "registry") if k in kwargs}
         if scene is None:
-            scene = siku_scene_factory(**kwargs)
+            scene = scenes(**kwargs)
         elif isinstance(scene, str) and "\n" in scene:
             scene = scene_from_text(scene, "<test scene>")
         elif not isinstance(scene, Scene):
@@ -68,6 +72,33 @@ def siku_simulation_factory(siku_scene_factory: Callable[..., Any]) -> Callable[
         return Simulation(scene, out=False, progress=False, **sim_kw)
 
     return factory
+
+
+@pytest.fixture
+def siku_scene_factory(tmp_path: Path) -> Callable[..., Any]:
+    """Build small scenes (square elements, given forcing) from Python."""
+    return _scene_factory(lambda: tmp_path)
+
+
+@pytest.fixture
+def siku_simulation_factory(siku_scene_factory: Callable[..., Any]) -> Callable[..., Any]:
+    """Build a :class:`~siku_core.simulation.Simulation` that writes nothing and shows no bar."""
+    return _simulation_factory(siku_scene_factory)
+
+
+@pytest.fixture(scope="module")
+def siku_module_simulation_factory(tmp_path_factory: pytest.TempPathFactory
+                                   ) -> Callable[..., Any]:
+    """:func:`siku_simulation_factory` for a module-scoped fixture: one run shared by every test
+    of a module (scenes written with ``file=...`` go to a folder of the module)."""
+    folder: list[Path] = []
+
+    def where() -> Path:
+        if not folder:
+            folder.append(tmp_path_factory.mktemp("siku_module"))
+        return folder[0]
+
+    return _simulation_factory(_scene_factory(where))
 
 
 @pytest.fixture

@@ -67,6 +67,8 @@ def _cmd_grid(args) -> int:
 def _cmd_deformation(args) -> int:
     from siku_io.analysis.deformation_stats import output_statistics
 
+    if args.scales is None:
+        args.scales = "10,20,40,80,160,320,640" if args.sirex else "10,20,40,80"
     try:
         scales = [float(v) * 1e3 for v in args.scales.split(",")]
         steps = [int(v) for v in args.steps.split(",")]
@@ -75,6 +77,19 @@ def _cmd_deformation(args) -> int:
 
         raise DataError(f"siku deformation: --scales {args.scales!r} / --steps {args.steps!r}: "
                         "give comma-separated numbers (km; whole snapshot intervals)") from None
+    if args.sirex:
+        from siku_io.analysis.sirex import output_sirex
+        from siku_io.output.results import damaged
+
+        with damaged(args.output):
+            stats = output_sirex(args.output, scales, steps, args.min_cover)
+        print(stats.table())
+        if args.plot:
+            from siku_io.analysis.sirex import plot_sirex
+
+            plot_sirex(stats, args.plot)
+            print(f"{args.plot}: beta(q) and the rate distribution")
+        return 0
     print(output_statistics(args.output, scales, steps, args.min_cover).table())
     return 0
 
@@ -108,12 +123,19 @@ def siku_register_commands(subparsers):
         "deformation", help="deformation statistics of an output file: total deformation rate "
         "coarse-grained over length and time scales, scaling exponents, rate distribution")
     d.add_argument("output", help="HDF5 output file of a run")
-    d.add_argument("--scales", default="10,20,40,80", help="length scales [km], comma-separated "
-                   "(the spatial fit range)")
+    d.add_argument("--scales", help="length scales [km], comma-separated (the spatial fit "
+                   "range; default 10,20,40,80, with --sirex 10,20,...,640)")
     d.add_argument("--steps", default="1", help="time scales in snapshot intervals, "
                    "comma-separated (the temporal fit range)")
     d.add_argument("--min-cover", type=float, default=0.5,
-                   help="least share of a box the hull of its elements must cover")
+                   help="least share of a box the hull of its elements (with --sirex: its "
+                   "cells) must cover")
+    d.add_argument("--sirex", action="store_true",
+                   help="the RGPS method (Lagrangian cells of the element centres, "
+                   "coarse-grained): moments q = 0.5-3 and beta(q), the rate distribution's "
+                   "tail, linear kinematic features, beside the RGPS values")
+    d.add_argument("--plot", help="with --sirex: draw beta(q) and the rate distribution into "
+                   "this image file (PNG)")
     d.set_defaults(func=_cmd_deformation)
 
 

@@ -8,6 +8,9 @@ calipers, the distribution on logarithmic area bins and the power-law exponent o
   fixed for a run, unless a process creates joints: then each snapshot's pairs are read from
   ``/states/history/contacts/pairs``), their intact flags at each snapshot are read from the
   contact model's history (``/states/history/contacts/intact``).
+* **Free floes**: a floe holding a static or steady element (a coast cell, landfast ice) is
+  not a floe of the drifting ice; the distribution and its power law are those of the free
+  floes unless asked for all (``siku fsd --all-elements``).
 * **Area** of a floe ``A = Σ a_e`` [m²], the sum of its elements' areas.
 * **Mean caliper** ``d = P_hull / π`` [m]: the mean over directions of the floe's width, which
   by Cauchy's formula is the perimeter of its convex hull over π (a disc of diameter ``D`` gives
@@ -33,6 +36,8 @@ from siku_core import DataError
 
 #: fewest floes in the tail for a power-law fit
 MIN_TAIL = 10
+#: fewest non-empty area bins the tail must span for a power-law fit
+MIN_BINS = 3
 
 
 # ------------------------------------------------------------------------------- floes
@@ -47,6 +52,13 @@ def floe_labels(n: int, ji, jj, intact) -> tuple[int, np.ndarray]:
     g = coo_matrix((np.ones(len(ji)), (ji, jj)), shape=(n, n))
     count, label = connected_components(g, directed=False)
     return int(count), label.astype(np.int64)
+
+
+def free_floes(label, count: int, flags) -> np.ndarray:
+    """Per floe: whether every element of it is free (``flags == FREE``; a floe holding a
+    static or steady element is held to the coast)."""
+    held = np.bincount(label, (np.asarray(flags) != 0).astype(float), count)
+    return held == 0
 
 
 def floe_areas(label, count: int, area) -> np.ndarray:
@@ -168,7 +180,8 @@ def distribution(areas_per_time: list[np.ndarray], times, edges=None, per_decade
                  min_tail: int = MIN_TAIL, calipers_per_time=None):
     """The floe size distribution as an ``xarray.Dataset``: per ``time`` the number of floes,
     the count and density of floe areas on logarithmic bins (dimension ``area_bin``) and the
-    fitted power law (``alpha``, ``alpha_se``, ``area_min``, ``n_tail``, ``ks``)."""
+    fitted power law (``alpha``, ``alpha_se``, ``area_min``, ``n_tail``, ``ks``), NaN where
+    fewer than ``min_tail`` floes or ``MIN_BINS`` non-empty bins would carry it."""
     import xarray as xr
 
     allv = np.concatenate([a[a > 0] for a in areas_per_time]) if areas_per_time else np.ones(1)
@@ -180,7 +193,12 @@ def distribution(areas_per_time: list[np.ndarray], times, edges=None, per_decade
     fits = []
     for t, a in enumerate(areas_per_time):
         count[t] = np.histogram(a, edges)[0]
-        fits.append(power_law(a, min_tail))
+        fit = power_law(a, min_tail)
+        if np.isfinite(fit.alpha) and np.count_nonzero(
+                np.histogram(a[a >= fit.xmin], edges)[0]) < MIN_BINS:
+            # a tail within one or two bins: no exponent can be told from it
+            fit = PowerLaw(np.nan, np.nan, np.nan, fit.n_tail, np.nan)
+        fits.append(fit)
     nfl = np.array([len(a) for a in areas_per_time], float)
     width = np.diff(edges)
     pdf = count / np.where(nfl > 0, nfl, 1.0)[:, None] / width[None, :]
@@ -225,13 +243,14 @@ def distribution(areas_per_time: list[np.ndarray], times, edges=None, per_decade
 # ---------------------------------------------------------------------------- from files
 @dataclass
 class Floes:
-    """The floes of one snapshot: ``label`` per element, ``area`` [m²] and ``caliper`` [m]
-    per floe, at model ``time`` [s]."""
+    """The floes of one snapshot: ``label`` per element, ``area`` [m²], ``caliper`` [m] and
+    ``free`` (no static or steady element) per floe, at model ``time`` [s]."""
 
     time: float
     label: np.ndarray
     area: np.ndarray
     caliper: np.ndarray
+    free: np.ndarray
 
 
 def joint_table(path) -> tuple[np.ndarray, np.ndarray]:
@@ -269,6 +288,7 @@ def output_floes(path, calipers: bool = True):
         n_t = len(f["states/step"])
         times = f["states/time"][:n_t]
         area = f["geometry/area"][()]
+        flags = f["geometry/flags"][()] if "geometry/flags" in f else np.zeros(len(area))
         radius = float(f.attrs["radius"])
         off = f["geometry/vert_offsets"][()]
         key = "states/history/contacts/intact"
@@ -287,7 +307,8 @@ def output_floes(path, calipers: bool = True):
         if calipers:
             lon, lat = _node_lonlat(q[t], off, verts, radius)
             cal = mean_calipers(label, count, lon, lat, off, radius)
-        out.append(Floes(float(times[t]), label, floe_areas(label, count, area), cal))
+        out.append(Floes(float(times[t]), label, floe_areas(label, count, area), cal,
+                         free_floes(label, count, flags)))
     return out
 
 
@@ -299,11 +320,16 @@ def _node_lonlat(q, off, verts, radius):
     return ll[:, 0], ll[:, 1]
 
 
-def output_distribution(path, per_decade: int = 5, min_tail: int = MIN_TAIL):
-    """The floe size distribution dataset (:func:`distribution`) of an output file."""
+def output_distribution(path, per_decade: int = 5, min_tail: int = MIN_TAIL,
+                        free_only: bool = True):
+    """The floe size distribution dataset (:func:`distribution`) of an output file: of its free
+    floes (``free_only``) or of all."""
     fl = output_floes(path)
-    ds = distribution([f.area for f in fl], [f.time for f in fl], per_decade=per_decade,
-                      min_tail=min_tail, calipers_per_time=[f.caliper for f in fl])
+    keep = [f.free if free_only else np.ones(len(f.area), bool) for f in fl]
+    ds = distribution([f.area[k] for f, k in zip(fl, keep)], [f.time for f in fl],
+                      per_decade=per_decade, min_tail=min_tail,
+                      calipers_per_time=[f.caliper[k] for f, k in zip(fl, keep)])
+    ds.attrs["floes"] = "free floes only" if free_only else "all floes, coast cells included"
     ds.attrs["source"] = f"siku fsd {path}"
     return ds
 

@@ -100,7 +100,7 @@ def _cmd_fsd(args) -> int:
     cfg = _grid(args) if args.grid else None  # refused before the work
     with damaged(args.output):
         ds = output_distribution(args.output, per_decade=args.per_decade,
-                                 min_tail=args.min_tail)
+                                 min_tail=args.min_tail, free_only=not args.all_elements)
     out = Path(args.out) if args.out else Path(args.output).with_suffix(".fsd.nc")
     _write(ds, out, args.overwrite, Path(args.output))
     print(f"{'time [s]':>12} {'floes':>7} {'alpha':>7} {'se':>6} {'A_min [m2]':>11} "
@@ -112,7 +112,13 @@ def _cmd_fsd(args) -> int:
             f"{'-':>7} {'-':>6}"
         print(f"{v['time']:12g} {int(v['n_floes']):7d} {alpha} {v['area_min']:11.4g} "
               f"{int(v['n_tail']):5d}")
-    print(f"{out}: floe size distribution of {ds.sizes['time']} snapshots")
+    if not np.all(np.isfinite(ds["alpha"].values)):
+        from siku_io.analysis.fsd import MIN_BINS
+
+        print(f"no power law ('-'): fewer than {args.min_tail} floes above a cut-off, or a "
+              f"tail within fewer than {MIN_BINS} area bins")
+    print(f"{out}: floe size distribution of {ds.sizes['time']} snapshots "
+          f"({ds.attrs['floes']})")
     if args.plot:
         plot_fsd(ds, args.plot)
         print(f"{args.plot}: floe size distribution plot")
@@ -136,6 +142,9 @@ def siku_register_commands(subparsers):
     p.add_argument("--per-decade", type=int, default=5, help="area bins per decade")
     p.add_argument("--min-tail", type=int, default=10,
                    help="fewest floes above the power law's lower cut-off")
+    p.add_argument("--all-elements", action="store_true",
+                   help="count floes held by static or steady elements (coast cells) too; by "
+                   "default only the free floes")
     p.add_argument("--out", help="NetCDF file (default: OUTPUT.fsd.nc beside the output)")
     p.add_argument("--plot", help="also draw the distribution into this image file (PNG)")
     p.add_argument("--grid", help="also write the floe sizes per cell of the scene's "

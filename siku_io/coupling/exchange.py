@@ -171,6 +171,9 @@ class Exchange(ForcingSource):
     slope of the sea surface, water drag, a force per area and wind drag; set by a coupled
     model through the BMI (``siku_io.coupling.bmi``), zero otherwise."""
 
+    runs_on_ranks = False
+    ranks_refusal = "its coupled model exchanges fields with one process"
+
     name = "exchange"
     #: read besides the parameters (the conformance suite cannot build the source without it)
     scene_tables = ("coupling.grid",)

@@ -44,12 +44,21 @@ SP = SPRING_RECORD.index
 
 
 @njit(cache=True)
+def _factor(hist):
+    """The joint's strength factor ``exp(hist[1])``; 1 for a history row of one column (a law
+    that wraps this evaluator with ``history_names = ("max_strain",)``)."""
+    return math.exp(hist[1]) if hist.shape[0] > 1 else 1.0
+
+
+@njit(cache=True)
 def spring_evaluator(g, pars, hist, out):
     """Eqs. 12–13 (corrected): force ``K w (s1 + s2)/2``, couple ``K w (w × (s2 - s1))/12``.
 
     ``hist[0]`` is the largest strain ``max(|s1|, |s2|)/L0`` reached. The joint breaks when it
-    exceeds ``tensile_strain``; between ``damage_onset × tensile_strain`` and the threshold the
-    stiffness falls linearly to zero (damage depends on the strain history only, never on dt).
+    exceeds its strength ``tensile_strain × exp(hist[1])`` (``hist[1]`` the joint's log
+    strength factor, 0 unless a process such as ``joint_strength`` sets it); between
+    ``damage_onset ×`` that strength and the strength the stiffness falls linearly to zero
+    (damage depends on the strain history only, never on dt).
     Damping: a share ``zeta`` of critical for ``K w`` on the reduced mass, applied to the
     relative velocity distribution along the joint like the displacement, bounded by the step
     (:func:`~siku_core.damping.step_damper`).
@@ -58,7 +67,7 @@ def spring_evaluator(g, pars, hist, out):
     strain = math.sqrt(max(s1x * s1x + s1y * s1y, s2x * s2x + s2y * s2y)) / g[J_L0]
     if strain > hist[0]:
         hist[0] = strain
-    eps_t = pars[SP.tensile_strain]
+    eps_t = pars[SP.tensile_strain] * _factor(hist)
     if hist[0] > eps_t:
         out[OUT_BREAK] = BREAK_STRAIN
         return
@@ -86,7 +95,7 @@ def spring_energy(g, pars, hist):
     """Elastic energy [J] of a distributed-spring joint: ``K_d w (|s1|² + |s2|² + s1·s2)/6``,
     the integral of ``K_d |d(z)|² / 2`` along the joint (``d`` linear from ``s1`` to ``s2``),
     ``K_d = K (1 - damage)`` with the damage of ``hist``."""
-    eps_t = pars[SP.tensile_strain]
+    eps_t = pars[SP.tensile_strain] * _factor(hist)
     onset = pars[SP.damage_onset] * eps_t
     dmg = (hist[0] - onset) / (eps_t - onset) if hist[0] > onset and eps_t > onset else 0.0
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
@@ -100,7 +109,8 @@ class DistributedSpring(Collision):
     bounded_damping = True  # (siku_core.damping)
     name = "distributed_spring"
     uses_joints = True
-    history_names = ("max_strain",)
+    #: the largest strain reached, and the joint's log strength factor (``joint_strength``)
+    history_names = ("max_strain", "log_strength")
     params = {
         **Collision.params,
         "tensile_strain": Param(2e-4, "1", "joint breaks above this strain max|s|/L0", min=0),

@@ -48,16 +48,16 @@ class AntiJoint(DistributedSpring):
 
 @njit(cache=True)
 def counting_spring(g, pars, hist, out):
-    """The distributed spring, counting its calls in ``hist[1]``."""
+    """The distributed spring, counting its calls in ``hist[2]``."""
     spring_evaluator(g, pars, hist, out)
-    hist[1] += 1.0
+    hist[2] += 1.0
 
 
 class CallCounter(DistributedSpring):
     """Fault: a history column that counts evaluations."""
 
     name = "call_counter_test"
-    history_names = ("max_strain", "calls")
+    history_names = ("max_strain", "log_strength", "calls")
     joint_evaluator = counting_spring
 
 
@@ -91,9 +91,9 @@ class WrongEnergy(DistributedSpring):
 
 @njit(cache=True)
 def overflowing_spring(g, pars, hist, out):
-    """The distributed spring, writing a column past its one history name."""
+    """The distributed spring, writing a column past its two history names."""
     spring_evaluator(g, pars, hist, out)
-    hist[1] = 1.0
+    hist[2] = 1.0
 
 
 class Overflow(DistributedSpring):
@@ -114,7 +114,7 @@ FAULTY = {
                                      "evaluator raised ZeroDivisionError"),
     "wrong_energy": (WrongEnergy, "wrong_energy_test: energy: force on j"),
     "overflow": (Overflow, "overflow_test: history: the joint evaluator wrote history "
-                           "column(s) [1] beyond its 1 history_names"),
+                           "column(s) [2] beyond its 2 history_names"),
 }
 
 __all__ = ["FAULTY", "np"]

@@ -96,3 +96,22 @@ def test_brittle_bonds_break_in_tension_when_the_stress_reaches_the_strength(
     assert set(cm.break_mode) == {BREAK_TENSION}
     expected = 2.0 * h * sigma_t / (K * v)
     assert np.all(np.abs(cm.break_time - expected) <= sim.dt), (cm.break_time, expected)
+
+
+@pytest.fixture(scope="module")
+def tilted(siku_module_simulation_factory):
+    """Ice on a sea surface tilted east for 6 h, run once for every test of the module."""
+    return siku_module_simulation_factory(
+        elements=[(-150.0, 75.0)], integrator="euler", dt=600.0, duration=6 * 3600.0,
+        forcing=[{"source": "sea_surface_tilt", "params": {"slope_east": 2e-6, "g": 9.81}}],
+    ).run()
+
+
+def test_the_shared_run_reached_its_end(tilted):
+    assert tilted.step_index == 36 and tilted.time == 6 * 3600.0
+
+
+def test_the_shared_run_sped_up_at_g_times_the_slope(tilted):
+    """|V| = g s t: the force keeps its size along the path (the local east turns under the
+    floe by d tan(lat) / R = 3e-3 rad over its 4.5 km, a 4e-6 change of the force's share)."""
+    assert np.hypot(*tilted.state.V[0]) == pytest.approx(9.81 * 2e-6 * 6 * 3600.0, rel=1e-5)

@@ -1,0 +1,40 @@
+"""Sphinx configuration of siku's documentation site.
+
+Sphinx with MyST: the pages are the Markdown files of this folder as they read on the
+repository (MyST renders them unchanged), autodoc and napoleon render the public docstrings
+(numpy style, units in brackets) into the API reference, and the small extension
+``_ext/siku_docs.py`` keeps the Markdown pages valid for both readers (HTML anchors of the
+references page as targets, links that leave docs/ to the repository). Build:
+
+    python -m sphinx -W -b html docs docs/_build/html
+    python -m sphinx -W -b linkcheck docs docs/_build/linkcheck
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE / "_ext"))
+sys.path.insert(0, str(HERE.parent))
+
+project = "siku"
+author = "The siku developers"
+copyright = "the siku developers, GPL-3.0-or-later"
+extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "siku_docs"]
+source_suffix = {".md": "markdown"}
+root_doc = "index"
+exclude_patterns = ["_build", "_ext", "gallery/make_gallery.py"]
+myst_enable_extensions = ["colon_fence"]
+myst_heading_anchors = 3
+# the generated table page of bench.accuracy (explanation/speed_accuracy_table.md) starts at H3
+suppress_warnings = ["myst.header"]
+autodoc_member_order = "bysource"
+autodoc_typehints = "description"
+napoleon_numpy_docstring = True
+html_theme = "alabaster"
+# linkcheck: the pages' links within the site and to the repository; the outside world is not
+# reached from a build
+linkcheck_ignore = [r"https?://.*"]
+#: where links that leave docs/ point (the repository's files)
+siku_repository = "https://github.com/siku-model/siku/blob/main/"

@@ -1,0 +1,430 @@
+"""The run of one scene on many ranks, bit for bit the run on one.
+
+Every rank builds the run (:class:`~siku_core.simulation.Simulation`, the *run* here: the
+scene, its elements, joints and components, as one rank would). At a *redistribution* every
+rank holds the whole current state; the elements are split among the ranks
+(:mod:`.decompose`), each rank finds its ghosts (:mod:`.ghosts`) and builds its engine over
+its elements and ghosts (:mod:`.local`). A step:
+
+1. each rank steps its engine (forcing, contacts, integrator) over its elements and ghosts
+   (an integrator that evaluates forces more than once a step gets the ghosts' stage states
+   from their owners before each later evaluation);
+2. owners send their elements' new state and damper bound to the ranks that hold them as
+   ghosts (one ``alltoall``);
+3. one ``allgather`` of a few numbers: how far elements moved since the redistribution, the
+   joints that broke (of which the rank owns the first element) and whether the state is
+   sound; every rank applies the breaks to the run's joint table, and runs the joints' guard;
+4. if an element moved half the skin (the engine's own rule for its candidate list), or
+   ``every`` steps passed, a redistribution: elements whose centre left their subdomain
+   change owner; and whenever the slowest rank's measured work (at least :data:`MIN_WORK`)
+   exceeds the mean by :data:`MARGIN`, the elements are split again;
+5. on output steps the ranks' elements, joints and contact fields are gathered on rank 0 in
+   global order, and the run's writers write them: the same files as one rank's.
+
+A joint between elements of two ranks is evaluated on both, from the same inputs (the owners'
+states and damper bounds, its own state carried since the last redistribution): it breaks in
+the same step on both, and the rank owning its first element reports the break.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any, Callable
+
+import numpy as np
+
+from .. import parallel
+from ..errors import SceneError
+from ..geometry.quat import centers
+from ..guard import RECHECK_JOINTS
+from ..progress import clock
+from .comm import Comm
+from .decompose import Cuts, bisect, imbalance
+from .ghosts import exchange_plan, local_sets, reach_pairs
+from .local import JOINT_STATE, local_engine
+
+#: re-split the elements when the slowest rank's work exceeds the mean by this share
+MARGIN = 0.2
+#: ... measured over at least this much work per rank since the last split [s] (a shorter
+#: window measures noise)
+MIN_WORK = 1.0
+
+
+def refusals(sim, size: int) -> list[str]:
+    """One line per component of ``sim`` that cannot run on ``size`` ranks (empty: all can)."""
+    out = []
+    for comp in sim.components():
+        if not getattr(comp, "runs_on_ranks", True):
+            why = getattr(comp, "ranks_refusal", "") or "it reads the contacts of every element"
+        elif comp.owned_fields:
+            why = "it owns per-element fields, which ranks do not carry yet"
+        elif comp.diagnostic_units:
+            why = "it reports diagnostics from its own step, which ranks do not gather yet"
+        else:
+            continue
+        where = sim.scene.where(comp.table) if comp.table else comp.kind
+        out.append(f"{where}: {comp.kind} '{comp.name}' cannot run on {size} ranks ({why}); "
+                   "run it on one rank")
+    return out
+
+
+def run_digest(sim) -> str:
+    """A hash of what the run's results depend on (the effective scene, the components'
+    parameters and the versions of their packages): ranks that disagree are refused."""
+    text = json.dumps(sim.run_record(), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+class RankRun:
+    """Run the built simulation ``sim`` on the ranks of ``comm``.
+
+    ``every``: redistribute at least every ``every`` steps (``None``: only when elements
+    moved half the skin); ``owner``: a function ``(step, centres) -> rank per element`` that
+    replaces the bisection (tests move elements between ranks with it); ``margin``,
+    ``min_work`` [s]: split again when the slowest rank's work exceeds the mean by ``margin``,
+    measured over at least ``min_work`` per rank.
+    """
+
+    def __init__(self, sim, comm: Comm | None = None, every: int | None = None,
+                 owner: Callable[[int, np.ndarray], np.ndarray] | None = None,
+                 margin: float = MARGIN, min_work: float = MIN_WORK):
+        self.sim = sim
+        self.comm = comm or Comm()
+        self.rank, self.size = self.comm.rank, self.comm.size
+        self.root = self.rank == 0
+        self.every = every
+        self.owner_fn = owner
+        self.margin, self.min_work = margin, min_work
+        bad = refusals(sim, self.size)
+        if bad:
+            raise SceneError(bad[0])
+        digests = self.comm.allgather(run_digest(sim))
+        if len(set(digests)) > 1:
+            odd = next(r for r, d in enumerate(digests) if d != digests[0])
+            raise SceneError(f"{sim.scene.label}: rank {odd} was given a different scene or "
+                             "plugin versions than rank 0; every rank must run the same")
+        self.cuts: Cuts | None = None
+        self.work = 0.0  # this rank's measured step time since the last split [s]
+        self.exchange_time = 0.0  # [s] in ghost exchanges and the per-step allgather
+        self.redistributions = 0
+        self.splits = 0
+        self.migrated = 0
+        self.owner = np.zeros(sim.state.n, dtype=np.int64)
+        self._redistribute(resplit=True)
+
+    # ------------------------------------------------------------------ distribution
+    def _redistribute(self, resplit: bool) -> None:
+        sim = self.sim
+        st = sim.state
+        c = centers(st.q)
+        if self.owner_fn is not None:
+            owner = np.asarray(self.owner_fn(sim.step_index, c), dtype=np.int64)
+        else:
+            if resplit or self.cuts is None:
+                self.cuts = bisect(c, self._weights(), self.size)
+                self.work = 0.0
+                self.splits += 1
+            owner = self.cuts.assign(c)
+        self.migrated += int(np.count_nonzero(owner != self.owner))
+        self.owner = owner
+        gc = sim.contacts
+        links = []
+        if gc is not None:
+            links = [reach_pairs(gc, c), np.stack([gc.ji, gc.jj], axis=1)]
+        held = local_sets(owner, self.size, links)
+        self.ids = held[self.rank]
+        self.mine = owner[self.ids] == self.rank  # local rows owned here
+        self.own_rows = np.flatnonzero(self.mine)
+        self.ghost_rows = np.flatnonzero(~self.mine)
+        self.send, recv = exchange_plan(owner, held, self.rank)
+        self.send_rows = [np.searchsorted(self.ids, s) for s in self.send]
+        self.recv_rows = [np.searchsorted(self.ids, r) for r in recv]
+        #: where each rank's ghosts sit among this rank's ghosts (for their damper bounds)
+        self.recv_ghosts = [np.searchsorted(self.ghost_rows, r) for r in self.recv_rows]
+        self.loc, self.jg = local_engine(sim, self.ids, self.ghost_rows)
+        lc = self.loc.contacts
+        # joints reported here: those whose first element this rank owns
+        self.j_mine = (owner[sim.contacts.ji[self.jg]] == self.rank if gc is not None
+                       else np.zeros(0, bool))
+        self._prev_intact = lc.intact.copy() if lc is not None else None
+        if lc is not None:
+            lc.ghost_dmob = self._ghost_dmob_from_run()
+            lc.n_broken_total = 0
+        self.ref = c[self.ids[self.own_rows]]
+        self.skin = gc.skin if gc is not None else np.inf
+        self.since = sim.step_index
+        self.redistributions += 1
+
+    def _ghost_dmob_from_run(self) -> np.ndarray:
+        """The ghosts' damper bounds from the run's joint table (current at a redistribution)."""
+        from ..damping import contact_mobility
+
+        full = contact_mobility(self.sim.contacts)
+        return full[self.ids[self.ghost_rows]]
+
+    def _weights(self) -> np.ndarray:
+        """Per element cost for the bisection: one plus its joints and candidate pairs,
+        scaled per rank by the work measured since the last split (``None`` before)."""
+        sim = self.sim
+        n = sim.state.n
+        w = np.ones(n)
+        gc = sim.contacts
+        if gc is not None and gc.n_joints:
+            w += np.bincount(gc.ji, minlength=n) + np.bincount(gc.jj, minlength=n)
+        work = self.comm.allgather(self.work) if self.splits else None
+        if work is not None and sum(work) > 0:
+            share = np.bincount(self.owner, weights=w, minlength=self.size)
+            rate = np.array(work) / np.maximum(share, 1e-300)
+            w = w * np.where(rate[self.owner] > 0, rate[self.owner] / max(rate.mean(), 1e-300),
+                             1.0)
+        return w
+
+    # ------------------------------------------------------------------ records
+    def _record(self, fields: bool) -> dict[str, Any]:
+        """This rank's owned elements, its joints and (``fields``) contact fields: a record
+        the run takes (:meth:`_apply`)."""
+        ls, lc = self.loc.state, self.loc.contacts
+        own = self.own_rows
+        rec: dict[str, Any] = {"ids": self.ids[own]}
+        for k in ("q", "V", "w", "F", "T"):
+            rec[k] = getattr(ls, k)[own]
+        if lc is not None:
+            jm = self.j_mine
+            rec["jg"] = self.jg[jm]
+            for k in JOINT_STATE:
+                rec[k] = getattr(lc, k)[jm]
+            if fields:
+                rec["fields"] = {k: v[own] for k, v in lc.element_fields().items()}
+                ok = lc.pair_active == 1 if len(lc.pair_active) == len(lc.pairs) else None
+                if ok is not None and len(lc.pairs):
+                    first = self.ids[np.minimum(lc.pairs[:, 0], lc.pairs[:, 1])]
+                    rec["overlap"] = int(np.count_nonzero(ok & (self.owner[first] == self.rank)))
+                else:
+                    rec["overlap"] = 0
+            if lc.n_contact_hist:
+                keys, rows = lc._chist_pending or lc._contact_rows()
+                n = ls.n
+                a, b = self.ids[keys // n], self.ids[keys % n]
+                keep = self.owner[a] == self.rank
+                rec["chist"] = (a[keep], b[keep], rows[keep])
+        return rec
+
+    def _apply(self, recs: list[dict[str, Any]], fields: bool) -> None:
+        """Put the ranks' records into the run (its state, joint table, contact fields)."""
+        sim = self.sim
+        st, gc = sim.state, sim.contacts
+        for rec in recs:
+            ids = rec["ids"]
+            for k in ("q", "V", "w", "F", "T"):
+                getattr(st, k)[ids] = rec[k]
+            if gc is not None:
+                for k in JOINT_STATE:
+                    getattr(gc, k)[rec["jg"]] = rec[k]
+        if gc is None:
+            return
+        if fields:
+            got: dict[str, np.ndarray] = {}
+            for rec in recs:
+                for k, v in rec["fields"].items():
+                    got.setdefault(k, np.zeros(st.n, dtype=v.dtype))[rec["ids"]] = v
+            gc.element_fields = lambda: dict(got)  # (this step's, from the ranks)
+            gc.n_overlap = sum(rec["overlap"] for rec in recs)
+        if gc.n_contact_hist:
+            a = np.concatenate([r["chist"][0] for r in recs])
+            b = np.concatenate([r["chist"][1] for r in recs])
+            rows = np.concatenate([r["chist"][2] for r in recs]).reshape(-1, gc.n_contact_hist)
+            gc._chist_pending = (gc._keys(a, b), rows)
+
+    def _sync_all(self) -> None:
+        """Every rank's run holds the whole current state (before a redistribution)."""
+        self._apply(self.comm.allgather(self._record(False)), False)
+
+    # ------------------------------------------------------------------ step
+    def step(self) -> None:
+        sim, loc = self.sim, self.loc
+        lc = loc.contacts
+        t0 = clock()
+        loc.step_index = sim.step_index
+        loc._commit = True
+        loc._force_time = 0.0
+        evaluations = [0]
+
+        def forces(t, q, V, w, F, T):
+            # a later evaluation of the step (a multi-stage integrator): the ghosts' stage
+            # states and bounds from their owners first (the first's are current)
+            if evaluations[0]:
+                self._exchange(q, V, w)
+            evaluations[0] += 1
+            loc.compute_forces(t, q, V, w, F, T)
+        with parallel.threads_for(loc.state.n):
+            loc.integrator.step(loc.state, sim.time, sim.dt, forces)
+        t1 = clock()
+        self.work += t1 - t0
+        sim.step_index += 1
+        self._exchange()
+        breaks = None
+        if lc is not None:
+            lc._pending = []
+            new = self._prev_intact & ~lc.intact
+            self._prev_intact = lc.intact.copy()
+            mine = new & self.j_mine
+            if mine.any():
+                breaks = (self.jg[mine], lc.break_mode[mine], lc.break_time[mine])
+        moved = self._moved()
+        sound = self._sound()
+        due = self.every is not None and sim.step_index - self.since >= self.every
+        t2 = clock()
+        news = self.comm.allgather((moved, sound, breaks, self.work))
+        self.exchange_time += clock() - t2 + (t2 - t1)
+        self._take_breaks([b for _, _, b, _ in news if b is not None])
+        sim.guard.after_step()  # the joints' guard, on the run's joint table (every rank)
+        if not all(s for _, s, _, _ in news):
+            self._sync_all()
+            sim.guard.check()  # raises on every rank alike
+        work = np.array([w for _, _, _, w in news])
+        resplit = (self.owner_fn is None and bool(work.min() >= self.min_work)
+                   and imbalance(work) > self.margin)
+        if sim.step_index < sim.n_steps and (any(m for m, _, _, _ in news) or due or resplit):
+            self._sync_all()
+            self._redistribute(resplit=resplit)
+
+    def _exchange(self, *arrays: np.ndarray) -> None:
+        """Owners' new states (and damper bounds) to the ranks holding them as ghosts: of the
+        state, or of the arrays ``q, V, w`` an integrator evaluates forces at."""
+        ls, lc = self.loc.state, self.loc.contacts
+        q, V, w = arrays or (ls.q, ls.V, ls.w)
+        dmob = lc.own_mobility() if lc is not None and len(self.ghost_rows) + sum(
+            len(s) for s in self.send) else None
+        out = []
+        for s, rows in enumerate(self.send_rows):
+            if s == self.rank or not len(rows):
+                out.append(None)
+                continue
+            rec = {"q": q[rows], "V": V[rows], "w": w[rows]}
+            if dmob is not None:
+                rec["dmob"] = dmob[rows]
+            out.append(rec)
+        got = self.comm.alltoall(out)
+        for s, rows in enumerate(self.recv_rows):
+            rec = got[s]
+            if rec is None or not len(rows):
+                continue
+            q[rows], V[rows], w[rows] = rec["q"], rec["V"], rec["w"]
+            if lc is not None and "dmob" in rec:
+                lc.ghost_dmob[self.recv_ghosts[s]] = rec["dmob"]
+
+    def _moved(self) -> bool:
+        """Whether an owned element moved half the skin since the redistribution."""
+        if not np.isfinite(self.skin) or not len(self.own_rows):
+            return False
+        c = centers(self.loc.state.q[self.own_rows])
+        d2 = np.einsum("ij,ij->i", c - self.ref, c - self.ref)
+        return bool(d2.max() > (0.5 * self.skin) ** 2)
+
+    def _sound(self) -> bool:
+        sim = self.sim
+        k = sim.step_index
+        if not (k % sim.scene.cfg.run.nan_check_every == 0 or k == sim.n_steps
+                or sim.state_schedule.due(k, sim.n_steps)):  # (rank 0 checks a snapshot)
+            return True
+        ls = self.loc.state
+        own = self.own_rows
+        vmax = sim.scene.cfg.run.max_speed
+        arrs = [getattr(ls, a)[own] for a in ("F", "T", "V", "w", "q")]
+        if not all(np.isfinite(a).all() for a in arrs):
+            return False
+        v2 = arrs[2][:, 0] ** 2 + arrs[2][:, 1] ** 2
+        return not (len(v2) and v2.max() > vmax * vmax)
+
+    def _take_breaks(self, parts: list[tuple]) -> None:
+        """Apply the ranks' reported breaks to the run's joint table, in joint order."""
+        gc = self.sim.contacts
+        if not parts or gc is None:
+            return
+        j = np.concatenate([p[0] for p in parts])
+        order = np.argsort(j, kind="stable")
+        j = j[order]
+        gc.intact[j] = False
+        gc.break_mode[j] = np.concatenate([p[1] for p in parts])[order]
+        gc.break_time[j] = np.concatenate([p[2] for p in parts])[order]
+        gc.n_broken_total += len(j)
+        if self.root:
+            gc._pending.extend(j.tolist())
+        nw = self.sim.guard.network
+        if nw.cm is not None:  # the joints' guard rechecks the step on the run's state
+            old = nw._checked
+            changed = int(np.count_nonzero(gc.intact[:len(old)] != old))
+            if changed > RECHECK_JOINTS * max(nw._n_checked, 1):
+                self._sync_all()
+
+    # ------------------------------------------------------------------ running
+    def _write(self, force: bool = False) -> None:
+        sim = self.sim
+        k, last = sim.step_index, sim.n_steps
+        if not (force or sim.state_schedule.due(k, last) or sim.diag_schedule.due(k, last)):
+            return
+        self.gather_all()
+        if self.root:
+            sim._write(force=force, diagnostics=not force or sim.restarted_from is None)
+
+    def gather_all(self) -> None:
+        """The whole run's state, joints, contact fields and diagnostics on rank 0 now (as on
+        an output step; every rank calls it)."""
+        recs = self.comm.gather(self._record(True))
+        if self.root:
+            self._apply(recs, True)
+
+    def joints_agree(self) -> bool:
+        """Whether every joint held on more than one rank has the same state on each
+        (intact, break mode and time, history): a joint across a boundary broke once, in the
+        same step on both sides. Every rank calls it; the answer is the same on each."""
+        lc = self.loc.contacts
+        mine = (self.jg, lc.intact, lc.break_mode, lc.break_time, lc.hist) if lc is not None \
+            else None
+        seen: dict[int, tuple] = {}
+        for got in self.comm.allgather(mine):
+            if got is None:
+                continue
+            for k, j in enumerate(got[0].tolist()):
+                row = (bool(got[1][k]), int(got[2][k]), got[3][k].tobytes(), got[4][k].tobytes())
+                if seen.setdefault(j, row) != row:
+                    return False
+        return True
+
+    def run(self) -> "RankRun":
+        """Run to the scene's end; a rank that raises ends the run on every rank
+        (:meth:`Comm.abort`, one line naming the rank and the cause)."""
+        sim = self.sim
+        try:
+            if self.root:
+                sim.open_outputs()
+            while sim.step_index < sim.n_steps:
+                self.step()
+                self._write()
+        except (KeyboardInterrupt, SystemExit):
+            raise
+        except Exception as exc:
+            from ..errors import NonFiniteError, StabilityError
+
+            if isinstance(exc, (NonFiniteError, StabilityError)):
+                raise  # decided on every rank alike: each ends by itself
+            msg = " | ".join(str(exc).splitlines()) or type(exc).__name__
+            self.comm.abort(f"siku: error: rank {self.rank}: {type(exc).__name__}: {msg}")
+        finally:
+            if self.root:
+                sim.close()
+        return self
+
+    def report(self) -> dict[str, float]:
+        """Timings of this rank: step work and exchange [s], bytes sent."""
+        return {"work": self.work, "exchange": self.exchange_time,
+                "sent_bytes": float(self.comm.sent_bytes), "held": float(len(self.ids)),
+                "owned": float(len(self.own_rows))}
+
+
+def run_on_ranks(sim, **kwargs: Any) -> RankRun:
+    """Run ``sim`` on the ranks it was launched among (``mpiexec -n N``)."""
+    return RankRun(sim, **kwargs).run()
+
+
+__all__ = ["MARGIN", "RankRun", "refusals", "run_digest", "run_on_ranks"]

@@ -1,0 +1,119 @@
+"""A rank's engine: the run's components over the elements it holds (owned and ghosts).
+
+Local arrays keep the elements in ascending global index, and the joints in the order of the
+run's joint table, so every element's contacts come in the same order as on one rank: the
+engine sums an element's forcing, then its joints by ascending joint index, then its candidate
+pairs by ascending pair key (``siku_core.contacts.gather_forces``), and restricting those lists
+to a subset of elements keeps their order. An owned element has all its contacts here (its
+partners are ghosts, ``siku_core.ranks.ghosts``), so its force is the one-rank force bit for
+bit.
+
+What is not a function of the local elements alone is taken from the run: the skin (a mean
+over every element), the joints' rest lengths and state, and the dampers' bound of a ghost
+(its count of intact joints, ``siku_core.damping.mobility``), which its owner sends every step.
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import fields
+from typing import Any
+
+import numpy as np
+
+from ..contact_model import ContactModel
+from ..context import Context
+from ..damping import contact_mobility
+from ..state import ElementState
+
+#: the joint arrays a rank's engine takes from the run's joint table (the rest it derives)
+JOINT_STATE = ("L0", "width", "intact", "break_mode", "break_time", "hist")
+
+
+def sub_state(st: ElementState, ids: np.ndarray) -> ElementState:
+    """The elements ``ids`` (ascending) of ``st``, with their polygons (copies)."""
+    counts = np.diff(st.vert_offsets)[ids]
+    off = np.zeros(len(ids) + 1, dtype=st.vert_offsets.dtype)
+    np.cumsum(counts, out=off[1:])
+    rows = np.repeat(st.vert_offsets[ids], counts) + (np.arange(off[-1]) - np.repeat(off[:-1],
+                                                                                     counts))
+    parts: dict[str, Any] = {}
+    for f in fields(st):
+        if f.name == "vert_offsets":
+            parts[f.name] = off
+        elif f.name == "verts":
+            parts[f.name] = st.verts[rows]
+        else:
+            parts[f.name] = np.array(getattr(st, f.name)[ids])
+    return ElementState(**parts)
+
+
+class RankContacts(ContactModel):
+    """The contact model of a rank: its joints given (a subset of the run's, in the run's
+    order), the run's skin, and the ghosts' damper bounds set from outside."""
+
+    def __init__(self, *args, joints: dict[str, np.ndarray], skin: float, nmax: int,
+                 ghost_rows: np.ndarray, **kwargs):
+        self._given = joints
+        super().__init__(*args, **kwargs)
+        self.skin = skin
+        self.radii = self.state.radius / self.radius + 0.5 * skin
+        self.nmax = nmax
+        #: local rows of the ghosts, and their ``(n/m, n/I) / phi`` from their owners
+        self.ghost_rows = ghost_rows
+        self.ghost_dmob = np.zeros((len(ghost_rows), 2))
+
+    def _build_joints(self) -> None:
+        g = self._given
+        nh = len(self.law.history_names)
+        self._set_joints(g["pairs"], g["ends_i"], g["ends_j"], nh)
+        for name in JOINT_STATE:
+            getattr(self, name)[...] = g[name]
+
+    def damping_mobility(self) -> np.ndarray:
+        d = super().damping_mobility()
+        if len(self.ghost_rows):
+            d[self.ghost_rows] = self.ghost_dmob
+        return d
+
+    def own_mobility(self) -> np.ndarray:
+        """``(n/m, n/I) / phi`` of every local element from the local joints (exact for an
+        owned element: all its joints are here)."""
+        return contact_mobility(self)
+
+
+def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np.ndarray]:
+    """A shallow copy of the run ``glob`` (a ``Simulation``) whose state, contacts, forcing
+    sources and integrator hold the elements ``ids`` (ascending global indices);
+    ``ghost_rows`` are the local rows of ghosts. Returns it and the run's indices of its
+    joints."""
+    loc = copy.copy(glob)
+    loc.state = sub_state(glob.state, ids)
+    loc.context = Context(loc)
+    loc.writers = []
+    loc.processes = []
+    loc.pm = None
+    loc.forcing = [copy.copy(f) for f in glob.forcing]
+    loc.integrator = copy.copy(glob.integrator)
+    jg = np.zeros(0, dtype=np.int64)
+    gc = glob.contacts
+    if gc is not None:
+        held = np.zeros(glob.state.n, dtype=bool)
+        held[ids] = True
+        jg = np.flatnonzero(held[gc.ji] & held[gc.jj])
+        at = np.searchsorted(ids, np.stack([gc.ji[jg], gc.jj[jg]], axis=1))
+        joints = {"pairs": at.astype(np.int64), "ends_i": gc.ends_i[jg], "ends_j": gc.ends_j[jg],
+                  **{k: getattr(gc, k)[jg] for k in JOINT_STATE}}
+        scene = glob.scene
+        loc.contacts = RankContacts(
+            scene.cfg.contact, loc.state, glob.radius, list(scene.cfg.materials.values()),
+            law=gc.law, broad=gc.broad, time_step=lambda: glob.dt,
+            where=scene.where("contact"), label=scene.label, timings=glob.timings,
+            joints=joints, skin=gc.skin, nmax=gc.nmax, ghost_rows=ghost_rows)
+        loc.contacts.n_broken_total = 0
+        loc.contacts.setup()
+    for comp in [*loc.forcing, loc.integrator]:
+        comp.setup(loc.context)
+    return loc, jg
+
+
+__all__ = ["JOINT_STATE", "RankContacts", "local_engine", "sub_state"]

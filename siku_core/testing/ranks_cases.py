@@ -1,0 +1,146 @@
+"""Small scenes run on MPI ranks and on one, for the checks that both give the same bits.
+
+``python -m siku_core.testing.ranks_cases DIR CASE...`` runs each case to its end (under
+``mpiexec -n N`` on N ranks, else on one) and writes ``DIR/CASE.npz`` from rank 0: the final
+element state, the joint table and the diagnostics and per-element fields of the gathered
+run. Cases (:data:`CASES`): ``spring`` (a bonded pack whose joints break, the ranks' boundary
+across the joints that break), ``mohr`` (the pack with ``mohr_coulomb``), ``collision`` (a
+jittered pack without joints pushed by a moving edge), ``migrate`` (the spring pack with every
+element moving to the other rank and back every 60 steps), ``rebalance`` (the collision pack
+split again whenever the ranks' measured work differs at all), ``rk4`` (on three ranks, the
+spring pack under an integrator that evaluates forces four times a step), ``raise`` (rank
+1's integrator raises at step 10: the run ends on every rank with one line).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..scene import scene_from_text
+from .contact_cases import contact_scene_text, square_pack
+
+SPRING = {"tensile_strain": 2e-4, "damage_onset": 0.3}
+
+
+def spring_text(steps: int = 3000, law: str = "distributed_spring",
+                params: dict | None = None) -> str:
+    """The 5 × 2 bonded pack between a static and a steady edge whose joints break (dt 0.1 s;
+    two of its joints, between the last two columns, break within 3000 steps)."""
+    pack = square_pack(30.0, 72.0, 5, 2, 2000.0, jitter=0.2, seed=7, left="static",
+                       right="steady", right_velocity=[0.004, 0.0012])
+    return contact_scene_text(law, SPRING if params is None else params, packs=[pack],
+                              dt=0.1, steps=steps, run={"progress": False})
+
+
+def collision_text(steps: int = 400) -> str:
+    """A 5 × 3 jittered pack without joints, its right edge pushed in at 0.05 m/s."""
+    pack = square_pack(30.0, 72.0, 5, 3, 2000.0, jitter=0.3, seed=3, left="static",
+                       right="steady", right_velocity=[-0.05, 0.0])
+    return contact_scene_text("collision", None, packs=[pack], joints="none", dt=0.1,
+                              steps=steps, run={"progress": False})
+
+
+def _last_column(step: int, c: np.ndarray) -> np.ndarray:
+    """Rank 1 owns the last column of the spring pack (elements 8 and 9), rank 0 the rest."""
+    return (np.arange(len(c)) >= 8).astype(np.int64)
+
+
+def _three_columns(step: int, c: np.ndarray) -> np.ndarray:
+    """On three ranks: elements 0-5, 6-7 and 8-9 of the spring pack (the breaking joints
+    between the last two parts, beyond what rank 0 holds)."""
+    return np.minimum(np.arange(len(c)) // 2 - 2, 2).clip(0)
+
+
+def _swapping(step: int, c: np.ndarray) -> np.ndarray:
+    """Elements alternate between the ranks by index; every 60 steps each changes rank."""
+    return (np.arange(len(c)) + step // 60) % 2
+
+
+#: name -> (scene text, options of the ranks driver)
+CASES: dict[str, tuple[str, dict[str, Any]]] = {
+    "spring": (spring_text(), {"owner": _last_column}),
+    "mohr": (spring_text(1000, "mohr_coulomb", {}), {}),
+    "collision": (collision_text(), {}),
+    "migrate": (spring_text(600), {"owner": _swapping, "every": 30}),
+    "rebalance": (collision_text(), {"margin": 0.0, "min_work": 0.001}),
+    "rk4": (spring_text(3000).replace('"siku2"', '"rk4"'), {"owner": _three_columns}),
+    "raise": (spring_text(100), {}),
+}
+
+
+def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
+    """Run case ``name`` (on the launched ranks if ``ranks``); its record on rank 0."""
+    from ..simulation import Simulation
+
+    text, opts = CASES[name]
+    sim = Simulation(scene_from_text(text, f"<ranks case {name}>"), out=False,
+                     progress=False)
+    if not ranks:
+        sim.run()
+        return record(sim)
+    from ..ranks.driver import RankRun
+
+    run = RankRun(sim, **opts)
+    if name == "raise" and run.rank == 1:
+        step = type(sim.integrator).step
+
+        def failing(self, state, t, dt, forces):
+            if t >= 10 * dt:
+                raise RuntimeError("integrator failed on purpose")
+            return step(self, state, t, dt, forces)
+        type(sim.integrator).step = failing  # type: ignore[method-assign]
+    run.run()
+    run.gather_all()
+    agree = run.joints_agree()
+    if not run.root:
+        return None
+    out = record(sim)
+    out["ranks_joints_agree"] = np.array(agree)
+    out["ranks_shared_joints"] = np.array(_shared(run))
+    out["ranks_splits"] = np.array(run.splits)
+    out["ranks_migrated"] = np.array(run.migrated)
+    return out
+
+
+def _shared(run) -> int:
+    """How many joints rank 0 holds with an element owned elsewhere."""
+    cm = run.sim.contacts
+    if cm is None:
+        return 0
+    own = run.owner
+    return int(np.count_nonzero(own[cm.ji[run.jg]] != own[cm.jj[run.jg]]))
+
+
+def record(sim) -> dict[str, np.ndarray]:
+    """What the comparison checks: state, joints, diagnostics, per-element fields."""
+    st = sim.state
+    out = {k: np.array(getattr(st, k)) for k in ("q", "V", "w", "F", "T")}
+    cm = sim.contacts
+    if cm is not None:
+        for k in ("intact", "hist", "break_mode", "break_time"):
+            out[f"joint_{k}"] = np.array(getattr(cm, k))
+        out["n_broken_total"] = np.array(cm.n_broken_total)
+    for k, v in sim.diagnostics().items():
+        out[f"diag_{k}"] = np.asarray(v)
+    for k, v in sim.element_fields().items():
+        out[f"field_{k}"] = np.asarray(v)
+    return out
+
+
+def main(argv: list[str]) -> int:
+    from ..ranks import launched_ranks
+
+    out = Path(argv[0])
+    ranks = launched_ranks() > 1
+    for name in argv[1:]:
+        rec = run_case(name, ranks)
+        if rec is not None:
+            np.savez(out / f"{name}.npz", **rec)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main(sys.argv[1:]))

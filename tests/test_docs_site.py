@@ -1,0 +1,38 @@
+"""The documentation site builds from the pages and the docstrings with warnings as errors
+(a missing target, a broken cross-reference or a docstring autodoc cannot render fails), and
+its internal links check (the README's command)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+pytest.importorskip("sphinx")
+pytest.importorskip("myst_parser")
+
+
+def _sphinx(builder: str, out: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-E",
+                           "-b", builder, "-d", str(out / ".doctrees"), str(ROOT / "docs"),
+                           str(out / builder)], capture_output=True, text=True, timeout=600)
+
+
+def test_the_site_builds_with_warnings_as_errors_and_its_links_resolve(tmp_path):
+    r = _sphinx("html", tmp_path)
+    assert r.returncode == 0, r.stderr[-4000:]
+    html = tmp_path / "html"
+    for page in ("index", "quickstart", "howto/plugins", "reference/scene",
+                 "reference/references", "explanation/design"):
+        assert (html / f"{page}.html").exists(), page
+    api = (html / "reference" / "python_api.html").read_text(encoding="utf-8")
+    for name in ("Simulation", "ContactLaw", "check_contact_law", "collision_geometry"):
+        assert name in api, name
+    # the references page's HTML anchors are targets of the site
+    assert 'id="kulchitsky-et-al-2017"' in (html / "reference" / "references.html").read_text(
+        encoding="utf-8")
+    r = _sphinx("linkcheck", tmp_path)
+    assert r.returncode == 0, r.stderr[-4000:]
+    assert "broken" not in (tmp_path / "linkcheck" / "output.txt").read_text(encoding="utf-8")

@@ -1,0 +1,353 @@
+"""One scene on MPI ranks gives the bits of one rank (docs/explanation/scaling_out.md).
+
+The runs on ranks are real ``mpiexec -n N`` processes (the ``mpich`` wheel's launcher), each
+under a timeout that turns a deadlock into a failure; the run on one rank is the plain
+``Simulation`` in this process. Cases (``siku_core.testing.ranks_cases``): a bonded pack whose
+joints break with the ranks' boundary across the breaking joints, the pack with
+``mohr_coulomb``, a collision pack, elements moving to the other rank and back; ``siku run
+--ranks 2`` writes the same output file byte for byte, and a restart from it runs on one rank;
+a rank raising ends the run with one line; a different scene on one rank is refused.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from siku_core.ranks import launched_rank, launched_ranks, mpiexec
+from siku_core.ranks.decompose import bisect, imbalance
+from siku_core.ranks.ghosts import exchange_plan, local_sets
+
+try:
+    import mpi4py  # noqa: F401
+    HAVE_MPI = mpiexec() is not None
+except ImportError:
+    HAVE_MPI = False
+
+needs_mpi = pytest.mark.skipif(not HAVE_MPI, reason="mpi4py and mpiexec not installed "
+                               "(pip install 'siku[mpi]')")
+ROOT = Path(__file__).resolve().parents[1]
+#: a deadlock becomes a failure after this many seconds [s]
+TIMEOUT = 240
+CASES = ("spring", "mohr", "collision", "migrate", "rebalance")
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    env.setdefault("NUMBA_NUM_THREADS", "1")
+    for k in ("PMI_SIZE", "PMI_RANK", "OMPI_COMM_WORLD_SIZE", "PMIX_SIZE"):
+        env.pop(k, None)
+    return env
+
+
+def mpirun(n: int, args: list[str], cwd: Path, timeout: int = TIMEOUT):
+    """``mpiexec -n n python ARGS`` in ``cwd``: (exit status, stderr); a hang fails."""
+    cmd = [mpiexec(), "-n", str(n), sys.executable, *args]
+    try:
+        p = subprocess.run(cmd, cwd=cwd, env=_env(), capture_output=True, text=True,
+                           timeout=timeout)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"{' '.join(cmd)} did not finish in {timeout} s (a deadlock?)")
+    return p.returncode, p.stderr
+
+
+def one_rank(name: str) -> dict[str, np.ndarray]:
+    from siku_core.testing.ranks_cases import run_case
+
+    return run_case(name, ranks=False)
+
+
+def assert_same_bits(one: dict, many, name: str) -> None:
+    keys = [k for k in one if not k.startswith("ranks_")]
+    assert sorted(keys) == sorted(k for k in many.files if not k.startswith("ranks_")), name
+    differ = [k for k in keys if np.asarray(one[k]).tobytes() != many[k].tobytes()
+              or np.asarray(one[k]).dtype != many[k].dtype]
+    assert not differ, f"{name}: differ on ranks: {differ}"
+
+
+@pytest.fixture(scope="module")
+def two_ranks(tmp_path_factory):
+    if not HAVE_MPI:
+        pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
+    d = tmp_path_factory.mktemp("ranks2")
+    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *CASES], d)
+    assert rc == 0, err
+    return d
+
+
+# ---------------------------------------------------------------------- the same bits
+@needs_mpi
+@pytest.mark.parametrize("name", CASES)
+def test_two_ranks_same_bits(two_ranks, name):
+    """Final state, joints, diagnostics and per-element fields equal one rank's bit for
+    bit; every joint held by both ranks is in the same state on both."""
+    many = np.load(two_ranks / f"{name}.npz")
+    one = one_rank(name)
+    assert_same_bits(one, many, name)
+    assert bool(many["ranks_joints_agree"])
+    if name == "spring":  # the breaking joints cross the ranks' boundary, and do break
+        assert int(many["ranks_shared_joints"]) >= 2
+        assert int(one["n_broken_total"]) >= 2
+        assert int(np.count_nonzero(~one["joint_intact"])) == int(one["n_broken_total"])
+    if name in ("collision", "rebalance"):
+        assert int(one["diag_contacts_overlapping"]) > 0
+    if name == "migrate":  # each of the 10 elements changed rank at steps 60, 120, ... 540
+        assert int(many["ranks_migrated"]) >= 9 * 10
+    if name == "rebalance":  # split again as the measured work varied
+        assert int(many["ranks_splits"]) >= 3
+
+
+@needs_mpi
+def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
+    """``siku run --ranks 2`` writes the file one rank writes, byte for byte; a restart
+    from it continues on one rank exactly as from the one-rank file, and a restart on two
+    ranks writes the same file again."""
+    from siku_core.cli import main
+    from siku_core.testing.ranks_cases import spring_text
+
+    (tmp_path / "scene.toml").write_text(spring_text(3000).replace(
+        "[run]", '[output]\nevery = 2.0\ndiagnostics_every = 0.7\n\n[run]'), encoding="utf-8")
+    base = ["run", "scene.toml", "--no-progress", "--no-plots"]
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        assert main([*base, "--out", "one.h5"]) == 0
+        p = subprocess.run([sys.executable, "-m", "siku_core.cli", *base, "--out", "two.h5",
+                            "--ranks", "2"], env=_env(), capture_output=True, text=True,
+                           timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+        assert "on 2 MPI ranks" in p.stderr
+        assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+        for f in ("one", "two"):
+            assert main([*base, "--restart", f"{f}.h5", "--extend", "20s",
+                         "--out", f"{f}_more.h5"]) == 0
+        p = subprocess.run([sys.executable, "-m", "siku_core.cli", *base, "--restart",
+                            "one.h5", "--extend", "20s", "--out", "ranks_more.h5", "--ranks",
+                            "2"], env=_env(), capture_output=True, text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    finally:
+        os.chdir(cwd)
+    import h5py
+
+    with h5py.File(tmp_path / "one.h5") as f:
+        assert len(f["breaks/joint"]) >= 2  # the file holds breaks found on ranks
+    a = (tmp_path / "one_more.h5").read_bytes()
+    assert a == (tmp_path / "two_more.h5").read_bytes()
+    assert a == (tmp_path / "ranks_more.h5").read_bytes()  # and a restart on two ranks
+
+
+# ---------------------------------------------------------------------- faults, refusals
+@needs_mpi
+def test_a_rank_raising_ends_the_run_with_one_line(tmp_path):
+    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), "raise"],
+                     tmp_path, timeout=120)
+    assert rc != 0
+    lines = [ln for ln in err.splitlines() if ln.startswith("siku: error:")]
+    assert lines == ["siku: error: rank 1: RuntimeError: integrator failed on purpose"], err
+    assert "Traceback" not in err
+    assert not (tmp_path / "raise.npz").exists()
+
+
+@needs_mpi
+def test_ranks_given_different_scenes_or_a_process_are_refused(tmp_path):
+    from siku_core.testing.ranks_cases import spring_text
+
+    (tmp_path / "a.toml").write_text(spring_text(50), encoding="utf-8")
+    (tmp_path / "b.toml").write_text(spring_text(50).replace("tensile_strain = 0.0002",
+                                                             "tensile_strain = 0.0003"),
+                                     encoding="utf-8")
+    run = [sys.executable, "-m", "siku_core.cli", "run", "--no-progress", "--no-plots",
+           "--out"]
+    cmd = [mpiexec(), "-n", "1", *run, "x.h5", "a.toml", ":", "-n", "1", *run, "x.h5",
+           "b.toml"]
+    p = subprocess.run(cmd, cwd=tmp_path, env=_env(), capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 2, p.stderr
+    lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
+    assert len(lines) == 1 and "rank 1 was given a different scene" in lines[0], p.stderr
+    assert not (tmp_path / "x.h5").exists()
+    # a process cannot run on ranks: refused in one line naming it and the ranks
+    (tmp_path / "c.toml").write_text(spring_text(50) + '\n[[process]]\nname = '
+                                     '"thermodynamics"\n', encoding="utf-8")
+    p = subprocess.run([*run, "y.h5", "c.toml", "--ranks", "2"], cwd=tmp_path, env=_env(),
+                       capture_output=True, text=True, timeout=120)
+    lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
+    assert p.returncode == 2 and len(lines) == 1, p.stderr
+    assert "process 'thermodynamics' cannot run on 2 ranks" in lines[0]
+    assert not (tmp_path / "y.h5").exists()
+
+
+def test_components_that_cannot_run_on_ranks_are_named():
+    """A scene with a process is refused on ranks in one line naming it and the ranks;
+    forcing, integrator and contact law are not."""
+    from siku_core.ranks.driver import refusals
+    from siku_core.scene import scene_from_text
+    from siku_core.simulation import Simulation
+    from siku_core.testing.ranks_cases import spring_text
+
+    plain = Simulation(scene_from_text(spring_text(10), "<a>"), out=False)
+    assert refusals(plain, 2) == []
+    text = spring_text(10) + '\n[[process]]\nname = "thermodynamics"\n'
+    sim = Simulation(scene_from_text(text, "<b>"), out=False)
+    got = refusals(sim, 3)
+    assert len(got) == 1 and "process 'thermodynamics' cannot run on 3 ranks" in got[0]
+
+
+# ---------------------------------------------------------------------- the parts
+def test_bisection_balances_weights_and_is_deterministic():
+    rng = np.random.default_rng(4)
+    c = rng.normal(size=(1000, 3))
+    c /= np.linalg.norm(c, axis=1)[:, None]
+    w = rng.uniform(1.0, 3.0, 1000)
+    for k in (2, 3, 4, 7):
+        owner = bisect(c, w, k).assign(c)
+        assert np.array_equal(owner, bisect(c, w, k).assign(c))
+        load = np.bincount(owner, weights=w, minlength=k)
+        # each cut is off its share by at most one element's weight per level
+        levels = int(np.ceil(np.log2(k)))
+        assert imbalance(load) <= levels * w.max() * k / w.sum() + 1e-12
+    assert imbalance(np.array([1.0, 1.0])) == 0.0
+
+
+def test_ghosts_hold_every_partner_and_the_plan_is_symmetric():
+    owner = np.array([0, 0, 1, 1, 2])
+    pairs = np.array([[0, 2], [1, 4], [3, 4]])
+    held = local_sets(owner, 3, [pairs])
+    assert [h.tolist() for h in held] == [[0, 1, 2, 4], [0, 2, 3, 4], [1, 3, 4]]
+    plans = [exchange_plan(owner, held, r) for r in range(3)]
+    for r in range(3):
+        for s in range(3):
+            assert np.array_equal(plans[r][0][s], plans[s][1][r])  # sent = received
+
+
+def test_launch_is_read_from_the_environment_only():
+    assert launched_ranks({}) == 1 and launched_rank({}) == 0
+    assert launched_ranks({"PMI_SIZE": "4", "PMI_RANK": "3"}) == 4
+    assert launched_rank({"PMI_SIZE": "4", "PMI_RANK": "3"}) == 3
+    code = ("import sys, siku_core.simulation, siku_core.cli; "
+            "sys.exit('mpi4py' in sys.modules)")
+    assert subprocess.run([sys.executable, "-c", code], env=_env(), timeout=120).returncode == 0
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_three_ranks_same_bits(tmp_path):
+    """Three ranks: the spring pack and the collision pack, and the spring pack under RK4
+    with the breaking joints between ranks 1 and 2, beyond rank 0's ghosts (a later force
+    evaluation of the step needs the ghosts' stage states and damper bounds)."""
+    names = ("spring", "collision", "rk4")
+    rc, err = mpirun(3, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), *names],
+                     tmp_path)
+    assert rc == 0, err
+    for name in names:
+        assert_same_bits(one_rank(name), np.load(tmp_path / f"{name}.npz"), name)
+
+
+@needs_mpi
+def test_a_rank_killed_ends_the_run_with_one_line(tmp_path):
+    """``kill -9`` of rank 1 mid-run: every rank ends within seconds, one line names the rank
+    and the cause, the output keeps its snapshots and a restart of it runs on one rank."""
+    import time
+
+    import h5py
+
+    from siku_core.cli import main
+    from siku_core.testing.ranks_cases import spring_text
+
+    (tmp_path / "s.toml").write_text(spring_text(6000).replace(
+        "[run]", "[output]\nevery = 2.0\n\n[run]"), encoding="utf-8")
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    env = {**_env(), "SIKU_RANK_PIDS": str(pids)}
+    p = subprocess.Popen([sys.executable, "-m", "siku_core.cli", "run", "s.toml", "--out",
+                          "k.h5", "--no-progress", "--no-plots", "--ranks", "2"], cwd=tmp_path,
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        end = time.monotonic() + TIMEOUT
+        rank1 = None
+        while time.monotonic() < end and p.poll() is None:
+            ranks = {f.read_text(): int(f.name) for f in pids.iterdir() if f.name.isdigit()}
+            if "1" in ranks and (tmp_path / "k.h5").exists():
+                rank1 = ranks["1"]
+                break
+            time.sleep(0.2)
+        assert rank1 is not None, p.communicate()[1]
+        time.sleep(2.0)  # mid-run: some snapshots written
+        os.kill(rank1, 9)
+        t0 = time.monotonic()
+        out, err = p.communicate(timeout=60)
+        assert time.monotonic() - t0 < 30
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode != 0
+    lines = [ln for ln in err.splitlines() if ln.startswith("siku: error:")]
+    assert lines == ["siku: error: rank 1 ended (Killed (signal 9)); the run stopped on every "
+                     "rank"], err + out
+    assert "BAD TERMINATION" not in out
+    with h5py.File(tmp_path / "k.h5", "r", swmr=True) as f:
+        assert len(f["states/step"]) >= 1
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        assert main(["run", "s.toml", "--restart", "k.h5", "--no-progress",
+                     "--no-plots"]) == 0
+    finally:
+        os.chdir(cwd)
+    with h5py.File(tmp_path / "k.h5", "r") as f:
+        assert int(f["states/step"][-1]) == 6000
+
+
+def test_conformance_catches_a_source_that_reads_other_elements(monkeypatch):
+    """The forcing conformance check for ranks fails a source whose force on an element
+    depends on the others (here: the mean velocity of all), and passes it otherwise."""
+    from siku_core.testing import conformance
+
+    case = next(c for c in conformance.forcing_cases(sources=("coriolis",)))
+    conformance.check_forcing_on_ranks(case)
+    cls = type(conformance.build_forcing(case)[1])
+
+    def add(self, t, q, V, w, F, T):
+        F[:, 0] += 1e3 * (1.0 + V[:, 0].mean() + len(V))
+    monkeypatch.setattr(cls, "add", add)
+    with pytest.raises(AssertionError, match="must act on each element by itself"):
+        conformance.check_forcing_on_ranks(case)
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_default_scene_for_an_hour_same_file_on_two_ranks(tmp_path):
+    """The shipped default scene (mesh, drags, Coriolis, distributed_spring) for 1 h of model
+    time: ``--ranks 2`` writes the one-rank file byte for byte."""
+    base = [sys.executable, "-m", "siku_core.cli", "run", "--set", "time.duration=1h",
+            "--no-progress", "--no-plots", "--out"]
+    for out, extra in (("one.h5", []), ("two.h5", ["--ranks", "2"])):
+        p = subprocess.run([*base, out, *extra], cwd=tmp_path, env=_env(),
+                           capture_output=True, text=True, timeout=1800)
+        assert p.returncode == 0, p.stderr
+    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_restart_on_three_ranks_writes_the_one_rank_file(tmp_path):
+    """A file written on two ranks, continued on three, equals it continued on one."""
+    from siku_core.testing.ranks_cases import spring_text
+
+    (tmp_path / "scene.toml").write_text(spring_text(1500).replace(
+        "[run]", '[output]\nevery = 2.0\n\n[run]'), encoding="utf-8")
+    base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",
+            "--no-plots"]
+    for extra in (["--out", "two.h5", "--ranks", "2"],
+                  ["--restart", "two.h5", "--extend", "30s", "--out", "on1.h5"],
+                  ["--restart", "two.h5", "--extend", "30s", "--out", "on3.h5", "--ranks",
+                   "3"]):
+        p = subprocess.run([*base, *extra], cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    assert (tmp_path / "on1.h5").read_bytes() == (tmp_path / "on3.h5").read_bytes()
