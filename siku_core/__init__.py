@@ -7,6 +7,7 @@ from __future__ import annotations
 from .errors import (  # noqa: E402
     DataError,
     GeometryError,
+    InputError,
     NonFiniteError,
     PluginError,
     SceneError,
@@ -21,7 +22,7 @@ __all__ = [
     "__version__", "PLUGIN_API_VERSION", "hookimpl", "hookspec", "Param", "Simulation",
     "load_scene",
     "SikuError", "SceneError", "PluginError", "GeometryError", "StabilityError",
-    "NonFiniteError", "DataError",
+    "NonFiniteError", "DataError", "InputError",
 ]
 
 

@@ -109,14 +109,23 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
         print(f"stable step: critical {sim.critical_dt:.4g} s, the step is "
               f"{sim.dt / sim.critical_dt:.2f} of it (accepted up to "
               f"{scene.cfg.run.dt_safety:g}); set by '{who}': {why}", file=sys.stderr)
-    if comm is not None:
-        from .ranks.driver import RankRun
+    try:
+        if comm is not None:
+            from .ranks.driver import RankRun
 
-        on_ranks = RankRun(sim, comm)  # (refuses what cannot run on ranks)
-        print(f"on {ranks} MPI ranks", file=sys.stderr)
-        on_ranks.run()
-    else:
-        sim.run()
+            on_ranks = RankRun(sim, comm)  # (refuses what cannot run on ranks)
+            print(f"on {ranks} MPI ranks", file=sys.stderr)
+            on_ranks.run()
+        else:
+            sim.run()
+    except KeyboardInterrupt:
+        out = sim.output_path
+        if out is not None and out.exists():
+            print(f"siku: interrupted at step {sim.step_index}; {shown(out)} holds the run to "
+                  f"its last snapshot: continue it with `siku run {shown(path)} --restart "
+                  f"{shown(out)}`", file=sys.stderr)
+            return 130
+        raise
     wall = time.perf_counter() - t0
     out = shown(sim.output_path) if sim.output_path is not None else "none"
     print(f"done in {wall:.1f} s; output: {out}", file=sys.stderr)

@@ -48,6 +48,12 @@ class Component(ABC):
     #: a later 1.*; ``None``: any): one that this siku's ``siku_core.PLUGIN_API_VERSION`` does
     #: not satisfy is refused when it registers (:func:`siku_core.versions.api_mismatch`)
     requires_api: ClassVar[str | None] = None
+    #: the per-element fields of :attr:`owned_fields` this component integrates in time (its
+    #: degrees of freedom and their rates), each with the bound the engine's guard holds it
+    #: to: ``"finite"`` (a number), or ``"speed"`` (a number of m/s at most ``[run]
+    #: max_speed``). A value outside stops the run at the last good snapshot like a diverging
+    #: velocity (:class:`siku_core.guard.Guard`): it is never written as a valid state
+    integrates: ClassVar[Mapping[str, str]] = {}
     #: whether the component runs on MPI ranks (``siku_core.ranks``): each rank calls it on
     #: the elements it holds (its own and their ghosts), in ascending element index, with the
     #: ghosts' state current at every step. True for what acts on each element by itself

@@ -34,6 +34,12 @@ class DataError(SikuError):
     """A data file (forcing, mesh, restart) is missing, corrupt or does not cover the run."""
 
 
+class InputError(SikuError, ValueError):
+    """A value handed to siku through its Python interfaces (the BMI, the scene API) that the
+    model cannot mean: a wrong shape or type, a non-finite or unphysical number, an index off
+    the grid. Also a :class:`ValueError`, as callers of those interfaces expect."""
+
+
 def shown(path) -> str:
     """How messages name a file: relative to the working directory when it lies inside it
     (``run.h5``, ``scenes/a.toml``), else absolute; the same file is always named the same

@@ -28,7 +28,7 @@ import numpy as np
 from . import parallel
 from .contact_law import BreakMode
 from .diagnostics import all_finite, fastest, state_sound
-from .errors import NonFiniteError, SceneError, StabilityError
+from .errors import NonFiniteError, PluginError, SceneError, StabilityError
 from .state import DYNAMIC, FREE
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -36,6 +36,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 #: quantities checked by the NaN guard, in the order their failure is reported
 GUARDED = ("F", "T", "V", "w", "q")
+#: the bounds a component may declare on a field it integrates (``Component.integrates``)
+BOUNDS = ("finite", "speed")
 #: break modes the contact law does not give (melting, waves, other components): not counted
 #: by the breaking-rate guard, which watches the contacts' own integration
 OUTSIDE_BREAKS = np.array([int(BreakMode.MELT), int(BreakMode.FLEXURE), int(BreakMode.EXTERNAL)])
@@ -69,6 +71,8 @@ class Guard:
         self.sim = sim
         #: the step the state was last checked at (``-1``: not yet)
         self.checked_step = -1
+        #: the fields the components integrate: ``[(owner, name, array, bound)]``
+        self.integrated = integrated_fields(sim)
         #: the joints' watch (stable-step rechecks and the breaking rate)
         self.network = NetworkWatch(sim, self)
         self.save()
@@ -87,6 +91,7 @@ class Guard:
         with parallel.alone(nch):
             sound = state_sound(st.F, st.T, st.V, st.w, st.q, vmax * vmax, nch)
         if sound:
+            self.check_integrated()
             return
         for name in GUARDED:
             arr = getattr(st, name)
@@ -99,6 +104,23 @@ class Guard:
                 f"speed of element {i} is {np.sqrt(speed2):.3g} m/s, above [run] max_speed = "
                 f"{vmax:g} m/s: the run is diverging (is dt above the stable step?)"
             )
+
+        self.check_integrated()
+
+    def check_integrated(self) -> None:
+        """Stop on a field a component integrates (``Component.integrates``) out of its bound:
+        a non-finite value, or a rate above ``[run] max_speed``."""
+        vmax = self.sim.scene.cfg.run.max_speed
+        for owner, name, arr, bound in self.integrated:
+            if not all_finite(arr):
+                i = int(np.argmax(~np.isfinite(arr)))
+                self.fail(f"non-finite {name} of element {i} ({owner})")
+            if bound == "speed" and arr.size:
+                i = int(np.argmax(np.abs(arr)))
+                if abs(arr[i]) > vmax:
+                    self.fail(f"{name} of element {i} is {arr[i]:.3g} m/s ({owner}), above "
+                              f"[run] max_speed = {vmax:g} m/s: the run is diverging (is dt "
+                              "or the component's sub-step above its stable step?)")
 
     def save(self) -> None:
         """Remember the current state and history as the last good snapshot."""
@@ -126,6 +148,25 @@ class Guard:
                 saved = f"; nothing was written to {sim.output_path}"
         raise error(f"{what} at step {step} (t = {step * sim.dt:g} s){saved}"
                     + (f"; {hint}" if hint else ""))
+
+
+def integrated_fields(sim: "Simulation") -> list[tuple[str, str, np.ndarray, str]]:
+    """``[(owner, field, values, bound)]`` of every field a component declares it integrates
+    (``Component.integrates``); a declaration of a field it does not own, or of an unknown
+    bound, is a :class:`~siku_core.errors.PluginError`."""
+    out = []
+    thick = ("engine", "thickness", sim.state.thickness, "finite")
+    if sim.processes:  # the processes integrate the thickness
+        out.append(thick)
+    for comp in sim.components():
+        owner = f"{comp.kind} '{comp.name}'"
+        owned = {f.name for f in comp.owned_fields}
+        for name, bound in dict(getattr(comp, "integrates", {}) or {}).items():
+            if name not in owned or bound not in BOUNDS:
+                raise PluginError(f"{owner}: integrates {name!r} as {bound!r}; it must name a "
+                                  f"field of its owned_fields and one of {', '.join(BOUNDS)}")
+            out.append((owner, name, sim.ice.values[name].reshape(-1), bound))
+    return out
 
 
 class NetworkWatch:

@@ -20,6 +20,9 @@ MAX_ELEMENTS = 10**8
 #: interpreter with the engine imported: 3.4 kB per element at 40 000 elements, 2.3 kB at
 #: 90 000 (a collision pack: 2.8 kB at 40 000); rounded up
 BYTES_PER_ELEMENT = 4096
+#: memory of one joint slot a process reserves [bytes]: the per-joint arrays
+#: (``siku_core.contact_joints``: indices, ends, rest state, history), rounded up
+BYTES_PER_JOINT = 512
 #: most pixels of the land raster a mesh builds (an eighth of the finest spacing per pixel)
 MAX_LAND_PIXELS = 4 * 10**8
 
@@ -30,6 +33,43 @@ def physical_memory() -> int:
         return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):
         return 0
+
+
+def most_count(unit_bytes: float, units: float = 1.0) -> str:
+    """The largest count :func:`check_count` takes on this machine, for advice in messages:
+    ``" (at most N on this machine)"``, or ``""`` when the system does not say its memory."""
+    ram = physical_memory()
+    return (f" (at most {math.floor(ram / 2.0 / (unit_bytes * max(units, 1.0))):.4g} on this "
+            "machine)" if ram else "")
+
+
+def check_count(where: str, key: str, value: float, unit_bytes: float, units: float = 1.0,
+                what: str = "") -> None:
+    """Refuse a count a user gives whose memory, ``value * units * unit_bytes`` [bytes], is
+    more than half this machine's (:class:`SceneError` naming the key and the most allowed;
+    ``what``: what one unit of the count holds, for the message). The other half is the run's
+    elements, contacts and the interpreter."""
+    ram = physical_memory()
+    if not ram or not math.isfinite(value):
+        return
+    most = ram / 2.0 / (unit_bytes * max(units, 1.0))
+    if value > most:
+        raise SceneError(
+            f"{where}: {key} = {value:g} needs {value * units * unit_bytes / 2**30:.3g} GiB"
+            f"{what}, more than half of this machine's {ram / 2**30:.3g} GiB; allowed: "
+            f"{key} at most {math.floor(most):.4g}")
+
+
+def check_work(where: str, key: str, value: float, per_step: float, steps: int) -> None:
+    """Refuse a count that makes a run take more than :data:`MAX_STEPS` steps of its own
+    (sub-steps: ``per_step`` of them in each of the run's ``steps``), naming the key."""
+    total = per_step * steps
+    if total > MAX_STEPS:
+        most = value * MAX_STEPS / total
+        raise SceneError(
+            f"{where}: {key} = {value:g} makes {per_step:.3g} sub-steps in each of the run's "
+            f"{steps} steps, {total:.3g} in all, above the limit of {MAX_STEPS:.0e}; allowed: "
+            f"{key} at most {most:.4g} for this scene (or a larger dt)")
 
 
 def _box_area(lon: list[float], lat: list[float], R: float) -> float:
@@ -63,6 +103,10 @@ def check_limits(scene, n_steps: int | None = None) -> None:
     for key, v in (("dt", t.dt), ("duration", t.total)):
         if not math.isfinite(v):
             raise SceneError(f"{scene.where('time')}: {key} = {v!r} s: give a finite duration")
+    if n_steps is None and t.total < t.dt * (1.0 - 1e-9):
+        raise SceneError(f"{scene.where('time')}: duration {t.total:g} s is shorter than one "
+                         f"step (dt = {t.dt:g} s); give a duration of at least dt, or a "
+                         "smaller dt")
     steps = n_steps if n_steps is not None else t.total / t.dt
     if steps > MAX_STEPS:
         raise SceneError(
@@ -76,7 +120,8 @@ def check_limits(scene, n_steps: int | None = None) -> None:
         lon_w = math.radians(mc.lon[1] - mc.lon[0]) * R * math.cos(
             math.radians(min(80.0, max(abs(mc.lat[0]), abs(mc.lat[1]))))) + 2 * extra
         lat_w = math.radians(mc.lat[1] - mc.lat[0]) * R + 2 * extra
-        pixels = lon_w * lat_w / (fine / 8.0) ** 2
+        pixel = fine / 8.0  # (never pixel², which a tiny spacing makes 0)
+        pixels = (lon_w / pixel) * (lat_w / pixel)
         if pixels > MAX_LAND_PIXELS:
             raise SceneError(
                 f"{scene.where('elements.mesh')}: spacing {fine:g} m over this box needs a land "

@@ -22,9 +22,11 @@ or a folder given as a file.
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import fcntl
 import os
+import shlex
 import stat
 from pathlib import Path
 from typing import Any, Callable, Iterable
@@ -85,7 +87,7 @@ def check_target(path: str | Path, *, what: str = "output file",
                  ours: Callable[[Path], bool] | None = None, overwrite: bool = False,
                  inputs: Iterable[tuple[str, Path]] = (), appending_to: Path | None = None,
                  option: str = "--out", overwrite_option: str = "--overwrite",
-                 follow_links: bool = True) -> Path:
+                 follow_links: bool = True, continue_option: str = "") -> Path:
     """May siku write ``path``? The one rule for every file siku writes; refused with a
     one-line :class:`DataError` naming the file and what to do:
 
@@ -98,6 +100,9 @@ def check_target(path: str | Path, *, what: str = "output file",
 
     ``option`` names the setting that chose the path in the messages, ``overwrite_option``
     the one that allows replacing (the Python API's ``overwrite=True``); with
+    ``overwrite_option=""``: the command replaces its own files without being asked (no
+    option to name); ``continue_option`` (e.g. ``--restart``) is advised for an existing file
+    of siku's own; with
     ``follow_links=False`` a symbolic link is not followed: it counts as the existing file
     itself (replaced only with ``overwrite``, its target never written)."""
     path = Path(path)
@@ -129,13 +134,19 @@ def check_target(path: str | Path, *, what: str = "output file",
     if appending_to is not None and _same(path, appending_to):
         pass
     elif not overwrite:
+        again = ""
+        if continue_option and ours is not None and ours(path):
+            again = (f"; it is {_a(what)} siku wrote: continue it with {continue_option} "
+                     f"{shlex.quote(str(path))}")
         raise DataError(f"{path}: exists; choose another {option}, or pass "
                         f"{overwrite_option} to replace it (the old file stays whole until the "
-                        "new one is complete)")
+                        f"new one is complete){again}")
     elif ours is None or not ours(path):
+        only = (f"{overwrite_option} replaces only its own {what}s" if overwrite_option else
+                f"it replaces only its own {what}s")
         raise DataError(f"{path}: exists and is not {_a(what)} siku wrote; siku never replaces "
-                        f"a file it did not write ({overwrite_option} replaces only its own "
-                        f"{what}s): move it away or choose another {option}")
+                        f"a file it did not write ({only}): move it away or choose another "
+                        f"{option}")
     if in_use(path):
         raise DataError(f"{path}: is being written by another run (or held open by another "
                         f"program); wait for it to finish or choose another {option}")
@@ -148,11 +159,13 @@ def _a(noun: str) -> str:
 
 def check_output_path(path: Path, inputs: list[tuple[str, Path]], *, overwrite: bool,
                       appending_to: Path | None = None,
-                      ours: Callable[[Path], bool] | None = None) -> None:
+                      ours: Callable[[Path], bool] | None = None,
+                      continue_option: str = "--restart") -> None:
     """The run's output path under :func:`check_target`: ``ours`` is the writer's
-    :meth:`~siku_core.interfaces.Writer.owns`."""
+    :meth:`~siku_core.interfaces.Writer.owns`; an existing output of the writer is refused
+    with the advice to continue it (``continue_option``, e.g. ``--restart``)."""
     check_target(path, what="output file", ours=ours, overwrite=overwrite, inputs=inputs,
-                 appending_to=appending_to)
+                 appending_to=appending_to, continue_option=continue_option)
 
 
 def partial_path(target: Path) -> Path:
@@ -192,8 +205,12 @@ def write_text_file(path: Path, text: str, *, replace: bool) -> None:
     partial = partial_path(Path(path))
     try:
         partial.write_text(text, encoding="utf-8")
-    except BaseException:
-        partial.unlink(missing_ok=True)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):  # (a read-only file system: nothing to remove)
+            partial.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise DataError(f"{path}: cannot be written ({exc.strerror or exc}); nothing "
+                            "written: choose a folder siku may write") from None
         raise
     publish(partial, Path(path), replace=replace)
 
@@ -312,8 +329,8 @@ def extra_output_paths(scene: Any, primary: Path | None, overwrite: bool, restar
         cont = restart and cls.appends
         if restart and not cont and p.exists() and not overwrite:
             raise DataError(f"{where}{p} exists and the '{x.writer}' writer cannot continue a "
-                            "file: give it a new file for the continuation (or --overwrite "
-                            "to replace it with the continuation alone)")
+                            "file: give it a new file for the continuation (its file = "
+                            "'...'); the old file keeps the rows before the restart")
         check_output_path(p, input_paths(scene), overwrite=overwrite,
                           appending_to=p if cont else None, ours=cls.owns)
         paths.append(p)

@@ -50,10 +50,14 @@ def restart(sim: "Simulation", path: Path, force: bool = False,
     restore(sim, path, data)
     sim.restarted_from = data["step"]
     record = data.get("record")
+    #: whether the scene gives the run another duration or end than the file's run had
+    retimed = False
     if record is not None:
         stored = json.loads(json.dumps(record, default=str))
         mine = json.loads(json.dumps(sim.run_record(), default=str))
         diffs = restart_differences(stored, mine, RESTART_MAY_CHANGE)
+        retimed = any(d.startswith(("scene.time.duration", "scene.time.end"))
+                      for d in restart_differences(stored, mine))
         if diffs and not force:
             more = f" and {len(diffs) - 4} more" if len(diffs) > 4 else ""
             raise SceneError(
@@ -80,6 +84,11 @@ def restart(sim: "Simulation", path: Path, force: bool = False,
                 "s)\n")
         sim.scene = Scene(sim.scene.cfg, sim.scene.text.rstrip("\n") + "\n" + note,
                            sim.scene.path)
+    elif retimed and sim.step_index >= sim.n_steps:  # a new duration: the scene's end rules
+        raise SceneError(
+            f"{path}: the scene's duration {sim.scene.cfg.time.total:g} s ends before the "
+            f"file's last snapshot (step {sim.step_index}, t = {sim.time:g} s); give a "
+            "duration past it, or lengthen the run with --extend DURATION")
     elif (sim.step_index >= sim.n_steps and stored_steps > sim.n_steps
           and sim.time_origin == (0, 0.0)):  # steps of another dt say nothing here
         # a run extended beyond its scene's end: go on to the end the file records
@@ -123,6 +132,8 @@ def set_time_origin(sim: "Simulation", t: float | None) -> None:
         return
     t = float(t)
     sim.time_origin = (sim.step_index, t)
+    sim.state_schedule = sim.state_schedule.from_origin(sim.step_index, t, sim.dt)
+    sim.diag_schedule = sim.diag_schedule.from_origin(sim.step_index, t, sim.dt)
     left = sim.scene.cfg.time.total - t
     sim.n_steps = sim.step_index + max(0, math.ceil(left / sim.dt - 1e-9))
 

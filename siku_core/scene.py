@@ -26,7 +26,7 @@ from pydantic import (
 
 from .errors import SceneError
 from .params import format_validation_error
-from .scene_messages import explain_validation_error, is_duration
+from .scene_messages import explain_validation_error, is_duration, read_input_text
 from .units import parse_duration
 
 Duration = Annotated[float, BeforeValidator(parse_duration), Field(gt=0)]
@@ -461,20 +461,6 @@ def scene_from_text(
     except ValidationError as exc:
         raise SceneError(explain_validation_error(exc, label, SceneCfg)) from None
     return Scene(cfg, text, path)
-
-
-def read_input_text(path: str | Path, what: str = "scene file") -> str:
-    """The UTF-8 text of an input file; a missing or unreadable one is a :class:`SceneError`
-    naming it (``what``: how messages call it)."""
-    from .errors import shown
-
-    p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"{shown(p)}: {what} not found")
-    try:
-        return p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{p}: cannot read {what}: {exc}") from None
 
 
 def load_scene(path: str | Path, overrides: dict[str, str] | None = None) -> Scene:

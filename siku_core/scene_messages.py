@@ -9,10 +9,12 @@ from __future__ import annotations
 import re
 import types
 import typing
+from pathlib import Path
 from typing import Annotated, Any
 
 from pydantic import BaseModel, ValidationError
 
+from .errors import SceneError
 from .units import parse_duration
 
 
@@ -156,3 +158,37 @@ def explain_validation_error(err: ValidationError, where: str, model: type[BaseM
             else:
                 lines.append(f"{where}: [{path}] {msg}")
     return "\n".join(lines)
+
+
+#: the first bytes of the data files a scene is not: HDF5 and NetCDF (classic or 64-bit)
+DATA_MAGIC = ((b"\x89HDF\r\n\x1a\n", "an HDF5 file"), (b"CDF\x01", "a NetCDF file"),
+              (b"CDF\x02", "a NetCDF file"), (b"PK\x03\x04", "a zip archive"))
+
+
+def data_file_kind(path: Path) -> str:
+    """What data file ``path`` is by its first bytes (``""``: none of :data:`DATA_MAGIC`)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except OSError:
+        return ""
+    return next((kind for magic, kind in DATA_MAGIC if head.startswith(magic)), "")
+
+
+def read_input_text(path: str | Path, what: str = "scene file") -> str:
+    """The UTF-8 text of an input file; a missing or unreadable one is a :class:`SceneError`
+    naming it (``what``: how messages call it)."""
+    from .errors import shown
+
+    p = Path(path)
+    if not p.is_file():
+        raise SceneError(f"{shown(p)}: {what} not found")
+    kind = data_file_kind(p)
+    if kind:
+        raise SceneError(f"{shown(p)}: is {kind} (a siku output?), not a {what}: read it with "
+                         f"`siku info {shown(p)}`, or continue its run with `siku run SCENE "
+                         f"--restart {shown(p)}`")
+    try:
+        return p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{p}: cannot read {what}: {exc}") from None

@@ -51,9 +51,18 @@ DEFAULT_DIAGNOSTICS, DEFAULT_DIAGNOSTICS_STEPS = 200, 10
 
 @dataclass(frozen=True)
 class StepInterval:
-    """Due at step 0, every ``every`` steps, and at the last step of a run."""
+    """Due at step ``offset`` (0), every ``every`` steps from it, and at the last step of a
+    run. A restart with another step sets ``offset`` so that the steps due are those whose
+    model time is a multiple of ``every`` of the new step (:meth:`from_origin`)."""
 
     every: int
+    offset: int = 0
+
+    def from_origin(self, k0: int, t0: float, dt: float) -> "StepInterval":
+        """The same interval on the model time of a run whose step ``k0`` is at ``t0`` [s]
+        with steps of ``dt`` [s]: due where ``t0 + (k - k0) dt`` is a multiple of
+        ``every dt``."""
+        return StepInterval(self.every, k0 - round(t0 / dt))
 
     @classmethod
     def from_seconds(cls, seconds: float | None, dt: float, n_steps: int, default_count: int,
@@ -77,4 +86,4 @@ class StepInterval:
                                 DEFAULT_DIAGNOSTICS_STEPS)
 
     def due(self, step: int, last: int) -> bool:
-        return step % self.every == 0 or step == last
+        return (step - self.offset) % self.every == 0 or step == last

@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from siku_core import Param, SceneError, hookimpl
+from siku_core.limits import physical_memory
 from siku_core.geometry.quat import east_north_row
 from siku_core.ice import ElementField
 
@@ -120,7 +121,8 @@ class Spectral(WaveField):
         "hs": Param(1.0, "m", "jonswap: significant wave height", min=0.0),
         "tp": Param(8.0, "s", "jonswap: peak period", min=1e-3),
         "gamma": Param(3.3, "1", "jonswap: peak enhancement factor", min=1.0),
-        "spreading": Param(10.0, "1", "jonswap: spreading exponent s of cos^2s", min=0.0),
+        "spreading": Param(10.0, "1", "jonswap: spreading exponent s of cos^2s", min=0.0,
+                           max=1e4),
         "n_frequencies": Param(24, "1", "jonswap: frequency bins", type=int, min=1, max=1024),
         "n_directions": Param(1, "1", "jonswap: direction bins (1: unidirectional)", type=int,
                               min=1, max=360),
@@ -146,7 +148,9 @@ class Spectral(WaveField):
                              type=str),
         "attenuation_params": Param({}, "1", "parameters of the attenuation law (their units: "
                                     "siku plugins attenuation_law)", type=dict),
-        "cfl": Param(0.9, "1", "Courant number of the transport sub-steps", min=1e-3, max=1.0),
+        "cfl": Param(0.9, "1", "Courant number of the transport sub-steps (from 0.1: the upwind "
+                     "scheme's diffusion (1 - cfl) c dx / 2 is then within 10 % of its limit)",
+                     min=0.1, max=1.0),
         **WaveField.common,
     }
     owned_fields = (
@@ -189,7 +193,7 @@ class Spectral(WaveField):
     def _table(self):
         f = np.asarray(self.p["frequencies"], float)
         S = np.asarray(self.p["energy"], float)
-        where = f"field '{self.name}'"
+        where = self.where()
         if f.ndim != 1 or f.shape != S.shape or len(f) == 0:
             raise SceneError(f"{where}: 'frequencies' and 'energy' must be lists of the same "
                              "length, at least one bin")
@@ -211,7 +215,7 @@ class Spectral(WaveField):
         self.ctx = ctx
         super().setup(ctx)
         p = self.p
-        where = ctx.where(self.table) if self.table else f"field '{self.name}'"
+        where = self.where()
         dx = float(p["resolution"])
         ok = all(isinstance(v, list) and len(v) == 2 and all(
             isinstance(e, (int, float)) and math.isfinite(e) for e in v) for v in (p["x"], p["y"]))
@@ -243,6 +247,14 @@ class Spectral(WaveField):
         self.cy[np.abs(self.cy) < 1e-12 * self.cg] = 0.0
         self.E_in = 0.5 * self.amp**2
         shape = (len(self.amp), self.ny, self.nx)
+        # the spectrum, its transported copy and the two fluxes: 32 bytes per bin and cell
+        need, ram = 32.0 * len(self.amp) * self.nx * self.ny, physical_memory()
+        if ram and need > ram / 2:
+            raise SceneError(
+                f"{where}: resolution = {dx:g} m makes a grid of {self.nx} × {self.ny} cells of "
+                f"{len(self.amp)} bins, {need / 2**30:.3g} GiB, more than half of this "
+                f"machine's {ram / 2**30:.3g} GiB; allowed: resolution at least "
+                f"{dx * math.sqrt(2 * need / ram):.4g} m (or fewer bins, a smaller x, y)")
         self.E = np.zeros(shape) + (self.E_in[:, None, None] if p["start"] == "incident"
                                     else 0.0)
         self.t_wave = 0.0
@@ -439,7 +451,7 @@ class Spectral(WaveField):
 
     def set_history(self, arrays):
         if arrays["E"].shape != self.E.shape:
-            raise SceneError(f"field '{self.name}': restart holds a spectrum of shape "
+            raise SceneError(f"{self.where()}: restart holds a spectrum of shape "
                              f"{arrays['E'].shape}, the scene builds {self.E.shape}")
         self.E = np.array(arrays["E"], float)
         self.t_wave = float(arrays["t_wave"])

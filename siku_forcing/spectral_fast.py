@@ -136,7 +136,7 @@ class FastJonswap(Jonswap):
 
     def _build(self):
         if self.p["depth"] >= 0:
-            raise SceneError(f"{self.name}: deep water only (depth = -1); use jonswap for "
+            raise SceneError(f"{self.where()}: deep water only (depth = -1); use jonswap for "
                              "finite depth")
         super()._build()
         p = self.p
@@ -145,7 +145,7 @@ class FastJonswap(Jonswap):
         edges = np.linspace(p["f_low"] * fp, p["f_high"] * fp, nf + 1)
         f = 0.5 * (edges[1:] + edges[:-1])
         if len(self.amp) != nf * nd:  # components of zero energy were dropped: no grid
-            raise SceneError(f"{self.name}: every component must carry energy (narrow the "
+            raise SceneError(f"{self.where()}: every component must carry energy (narrow the "
                              "band f_low..f_high or lower the spreading exponent)")
         th = np.radians(self.components()[2][:nd])
         c = 4.0 * math.pi**2 / p["g"]

@@ -255,11 +255,17 @@ class WaveField(Field):
         "origin": Param([0.0, 0.0], "deg", "[lon, lat] where x = y = 0 (phase reference)",
                         type=list),
         "depth": Param(-1.0, "m", "water depth h; -1: deep water", min=-1.0),
-        "g": Param(9.81, "m/s^2", "gravitational acceleration", min=0.0),
+        "g": Param(9.81, "m/s^2", "gravitational acceleration", min=0.01, max=100.0),
     }
     radius = 6_371_000.0
 
+    def where(self) -> str:
+        """The scene file and table of this field, for messages (its name before set-up)."""
+        return getattr(self, "_where", f"field '{self.name}'")
+
     def setup(self, ctx):
+        if self.table:
+            self._where = f"{ctx.where(self.table)} field '{self.name}'"
         self.radius = float(ctx.radius)
         self.seed = int(ctx.seed)
         self._build()
@@ -267,13 +273,14 @@ class WaveField(Field):
     def _build(self):
         o = self.p["origin"]
         if len(o) != 2 or not all(isinstance(v, (int, float)) for v in o) or abs(o[1]) >= 90:
-            raise SceneError(f"{self.name}: 'origin' must be [lon, lat] in degrees, off the poles")
+            raise SceneError(f"{self.where()}: 'origin' must be [lon, lat] in degrees, off the "
+                             "poles")
         self.lon0, self.lat0 = math.radians(o[0]), math.radians(o[1])
         amp, omega, direction, phase = self.components()
         depth = self.p["depth"]
         self.h = math.inf if depth < 0 else float(depth)
         if self.h == 0.0:
-            raise SceneError(f"{self.name}: depth must be positive (or -1 for deep water)")
+            raise SceneError(f"{self.where()}: depth must be positive (or -1 for deep water)")
         k = np.atleast_1d(wavenumber(omega, self.h, self.p["g"]))
         th = np.radians(direction)
         self.amp = np.ascontiguousarray(amp, dtype=float)
@@ -364,7 +371,8 @@ class Jonswap(LinesMixin, WaveField):
         "tp": Param(8.0, "s", "peak period", min=1e-3),
         "gamma": Param(3.3, "1", "peak enhancement factor", min=1.0),
         "direction": Param(90.0, "deg", "mean direction of travel, clockwise from north"),
-        "spreading": Param(10.0, "1", "directional spreading exponent s of cos^2s", min=0.0),
+        "spreading": Param(10.0, "1", "directional spreading exponent s of cos^2s (at most 1e4: "
+                           "a spread of 0.8 deg)", min=0.0, max=1e4),
         "n_frequencies": Param(48, "1", "frequency bins", type=int, min=1, max=4096),
         "n_directions": Param(16, "1", "direction bins (1: unidirectional)", type=int, min=1,
                               max=720),
@@ -381,7 +389,7 @@ class Jonswap(LinesMixin, WaveField):
         p = self.p
         fp = 1.0 / p["tp"]
         if p["f_low"] >= p["f_high"]:
-            raise SceneError(f"{self.name}: f_low must be below f_high")
+            raise SceneError(f"{self.where()}: f_low must be below f_high")
         nf, nd = p["n_frequencies"], p["n_directions"]
         edges = np.linspace(p["f_low"] * fp, p["f_high"] * fp, nf + 1)
         f = 0.5 * (edges[1:] + edges[:-1])

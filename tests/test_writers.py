@@ -54,9 +54,10 @@ def test_a_run_writes_every_writer_and_restarts_from_the_first(tmp_path, monkeyp
     Simulation(scene(tmp_path), out=tmp_path / "run.h5", progress=False,
                registry=reg).run(steps=10)
     # the NetCDF writer cannot continue its file: a restart asks for a new one
-    with pytest.raises(DataError, match="cannot continue a file"):
+    with pytest.raises(DataError, match="cannot continue a file") as ei:
         Simulation(scene(tmp_path), out=tmp_path / "run.h5", restart=tmp_path / "run.h5",
                    progress=False, registry=reg)
+    assert "--overwrite" not in str(ei.value)  # no advice that would delete the rows written
     assert (tmp_path / "run.nc").stat().st_size > 0
     sim = Simulation(scene(tmp_path, nc="more.nc"), out=tmp_path / "run.h5",
                      restart=tmp_path / "run.h5", progress=False, registry=reg)

@@ -33,6 +33,9 @@ from typing import Any
 import numpy as np
 from bmipy import Bmi
 
+from siku_core.errors import InputError
+
+from .exchange import INPUT_BOUNDS
 from .exchange import INPUTS as EXCHANGE_INPUTS
 
 #: BMI standard name -> the ``exchange`` forcing source's input field (its units and meaning
@@ -150,10 +153,10 @@ class SikuBmi(Bmi):
         try:
             t = float(time)
         except (TypeError, ValueError):
-            raise ValueError(f"SikuBmi.update_until: time {time!r} is not a number of "
+            raise InputError(f"SikuBmi.update_until: time {time!r} is not a number of "
                              "seconds") from None
         if not np.isfinite(t) or t < sim.time - 1e-9 * max(1.0, abs(sim.time)):
-            raise ValueError(f"SikuBmi.update_until({time!r}): the model is at t = "
+            raise InputError(f"SikuBmi.update_until({time!r}): the model is at t = "
                              f"{sim.time:g} s and runs forward only; give a time >= "
                              f"{sim.time:g} s")
         n = int(np.floor((t - sim.time) / sim.dt + 1e-9))
@@ -277,14 +280,16 @@ class SikuBmi(Bmi):
 
     def get_value_ptr(self, name: str) -> np.ndarray:
         """The variable's array: for inputs the array the forces read (writing into it sets the
-        input); for outputs the values at the current time (recomputed after an update)."""
+        input); for outputs the values at the current time (recomputed after an update), as a
+        read-only array."""
         key, _, way, _ = self._var(name)
         self._run()
-        if self.get_var_grid(name):
-            return self.waves.input(key) if way == "in" else self.waves.output(key)
         if way == "in":
-            return self.exchange.fields[key].reshape(-1)
-        return self._outputs()[key]
+            return self.waves.input(key) if self.get_var_grid(name) else \
+                self.exchange.fields[key].reshape(-1)
+        out = (self.waves.output(key) if self.get_var_grid(name) else self._outputs()[key]).view()
+        out.flags.writeable = False  # an output: what siku computed, not to be written
+        return out
 
     def get_value(self, name: str, dest: np.ndarray) -> np.ndarray:
         src = self.get_value_ptr(name)
@@ -305,7 +310,7 @@ class SikuBmi(Bmi):
                 or not dest.flags.writeable):
             got = (f"{dest.dtype} array of shape {dest.shape}" if isinstance(dest, np.ndarray)
                    else type(dest).__name__)
-            raise ValueError(f"{name}: the destination must be a writable float64 array of "
+            raise InputError(f"{name}: the destination must be a writable float64 array of "
                              f"shape ({n},); got a {got}")
         return dest.reshape(-1)
 
@@ -314,34 +319,33 @@ class SikuBmi(Bmi):
         """Indices as int64: integers in ``[0, n)``, else a :class:`ValueError`."""
         a = np.asarray(inds)
         if a.dtype.kind not in "iu" or a.ndim > 1:
-            raise ValueError(f"{name}: indices must be a 1-D integer array (of shape (k,), "
+            raise InputError(f"{name}: indices must be a 1-D integer array (of shape (k,), "
                              f"dtype int); got {a.dtype} of shape {a.shape}")
-        a = a.astype(np.int64).reshape(-1)
-        if a.size and (a.min() < 0 or a.max() >= n):
-            raise ValueError(f"{name}: indices must lie in [0, {n - 1}] (a grid of {n} "
+        if a.size and (a.min() < 0 or a.max() >= n):  # (before any cast can wrap them)
+            raise InputError(f"{name}: indices must lie in [0, {n - 1}] (a grid of {n} "
                              f"nodes); got {int(a.min())} to {int(a.max())}")
-        return a
+        return a.astype(np.int64).reshape(-1)
 
     @staticmethod
     def _values(name: str, src, n: int | None) -> np.ndarray:
         """Values to set as float64: real numbers (``n`` of them when given), all finite."""
         a = np.asarray(src)
         if a.dtype.kind not in "iuf":
-            raise ValueError(f"{name}: values must be real numbers (a float64 array of shape "
+            raise InputError(f"{name}: values must be real numbers (a float64 array of shape "
                              f"({n if n is not None else 'k'},)); got {a.dtype}")
         a = a.astype(np.float64).reshape(-1)
         if n is not None and a.size != n:
-            raise ValueError(f"{name}: {a.size} values for a grid of {n} nodes (a float64 "
+            raise InputError(f"{name}: {a.size} values for a grid of {n} nodes (a float64 "
                              f"array of shape ({n},))")
         if not np.isfinite(a).all():
-            raise ValueError(f"{name}: values must be finite")
+            raise InputError(f"{name}: values must be finite")
         return a
 
     def _input(self, name: str) -> np.ndarray:
         key, _, way, _ = self._var(name)
         self._run()
         if way != "in":
-            raise ValueError(f"{name} is an output of siku; its inputs are: "
+            raise InputError(f"{name} is an output of siku; its inputs are: "
                              + ", ".join(self.get_input_var_names()))
         if self.get_var_grid(name):
             return self.waves.input(key)
@@ -349,9 +353,15 @@ class SikuBmi(Bmi):
 
     def _set(self, name: str, a: np.ndarray, where, values: np.ndarray) -> None:
         if self.get_var_grid(name):
-            self.waves.set_input(name, values)  # refused before anything is written
+            self.waves.set_input(name, values, where)  # refused before anything is written
             a[where] = values
             return
+        key = self._var(name)[0]
+        top = INPUT_BOUNDS.get(key, np.inf)
+        if values.size and np.abs(values).max() > top:
+            j = int(np.argmax(np.abs(values)))
+            raise InputError(f"{name}: {values[j]:g} {self.get_var_units(name)} is beyond what "
+                             f"the model can mean (at most {top:g} in magnitude)")
         a[where] = values
         self.exchange.given.add(self._var(name)[0])
         self.exchange.inputs_changed()

@@ -54,6 +54,15 @@ INPUTS: dict[str, tuple[str, str]] = {
                  "hydrostatic), for the floating process's wave load"),
 }
 
+#: the largest magnitude of each input a model can mean, in its units: a sea surface 100 m
+#: from still water (the highest waves measured are 30 m, tides 16 m), the dynamic pressure of
+#: that head (rho g 100 m), currents of 10 m/s (the fastest tidal races run 8), winds of
+#: 150 m/s (the strongest gust measured 113) and their stress (about 100 N/m² by a bulk
+#: formula at 150 m/s)
+INPUT_BOUNDS: dict[str, float] = {
+    "eta": 100.0, "pressure": 1026.0 * 9.81 * 100.0, "water_u": 10.0, "water_v": 10.0,
+    "wind_u": 150.0, "wind_v": 150.0, "tau_x": 100.0, "tau_y": 100.0}
+
 
 def coupling_grid(scene) -> Grid:
     """The exchange grid of ``[coupling.grid]``."""

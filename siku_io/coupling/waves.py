@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+#: the steepest periodic wave, amplitude times wavenumber (Stokes' limit, H / L = 0.141)
+STEEPEST = 0.443
 #: name -> (key, units, "in"/"out", description, grid)
 WAVE_VARIABLES: dict[str, tuple[str, str, str, str, int]] = {
     "sea_surface_wave__incident_energy": (
@@ -85,11 +87,22 @@ class WaveCoupling:
         """The incident energy the transport reads (writing into it sets it)."""
         return self.field.E_in
 
-    def set_input(self, name: str, a: np.ndarray) -> None:
+    def set_input(self, name: str, a: np.ndarray, where=slice(None)) -> None:
+        """Refuse energies no sea holds: negative, or of a component steeper than a Stokes
+        wave's limit ``a k = 0.443`` (``E = a² / 2``; a wave breaks beyond it)."""
+        from siku_core.errors import InputError
+
         if (a < 0).any():
             j = int(np.flatnonzero(a < 0)[0])
-            raise ValueError(f"{name}: component {j} has {a[j]:g} m2: a sea holds no negative "
+            raise InputError(f"{name}: component {j} has {a[j]:g} m2: a sea holds no negative "
                              "energy")
+        top = 0.5 * (STEEPEST / np.asarray(self.field.k, float)[where].reshape(-1)) ** 2
+        if (a > top).any():
+            j = int(np.flatnonzero(a > top)[0])
+            j_grid = int(np.arange(len(self.field.E_in))[where].reshape(-1)[j])
+            raise InputError(f"{name}: component {j_grid} has {a[j]:g} m2, above the "
+                             f"{top[j]:.4g} m2 of the steepest wave of its length (a k = "
+                             f"{STEEPEST}: it would break); give at most that")
 
     def output(self, key: str) -> np.ndarray:
         f = self.field

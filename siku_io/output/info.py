@@ -6,39 +6,43 @@ from pathlib import Path
 
 import numpy as np
 
-from siku_core.errors import SceneError
+from siku_core.errors import DataError
 from siku_core.summary import RunSummary, format_summary
 
 
 def summary_of_file(path: str | Path) -> RunSummary:
-    """The run summary of an output file; :class:`~siku_core.errors.SceneError` naming the file
-    when it is not a siku output."""
-    import h5py
+    """The run summary of an output file (finished, running or killed), read as every reader of
+    outputs reads it (:func:`~siku_io.output.results.open_results`: identified in a child
+    process with a time limit, a killed run's mark cleared, a running one read in SWMR mode),
+    counting its complete snapshots only; :class:`~siku_core.errors.DataError` naming the file
+    when it is not a siku output or is damaged."""
+    from .results import damaged, n_snapshots, open_results
 
     path = Path(path)
     if not path.is_file():
-        raise SceneError(f"{path}: no such file")
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise SceneError(f"{path}: not an HDF5 file ({exc})") from None
-    with f:
-        if "states" not in f or "geometry" not in f:
-            raise SceneError(f"{path}: not a siku output file (no /states or /geometry)")
+        raise DataError(f"{path}: no such file")
+    with open(path, "rb") as fh:
+        if fh.read(8) != b"\x89HDF\r\n\x1a\n":
+            raise DataError(f"{path}: not an HDF5 file; give the HDF5 output of a run")
+    with damaged(path), open_results(path) as f:
+        if "geometry" not in f:
+            raise DataError(f"{path}: not a siku output file (no /geometry)")
         a = f.attrs
-        steps = f["states/step"][:] if "states/step" in f else np.zeros(0)
-        times = f["states/time"][:] if "states/time" in f else np.zeros(0)
+        n = n_snapshots(f)  # rows past it belong to a commit a fault cut short
+        steps = f["states/step"][:n]
+        times = f["states/time"][:n] if "states/time" in f else np.zeros(0)
         diag: dict[str, float] = {}
         if "diagnostics" in f and "step" in f["diagnostics"] and len(f["diagnostics/step"]):
             g = f["diagnostics"]
-            diag = {k: float(g[k][-1]) for k in g if g[k].ndim == 1 and len(g[k])}
+            m = len(g["step"])
+            diag = {k: float(g[k][m - 1]) for k in g if g[k].ndim == 1 and len(g[k]) >= m}
         wall = float(a["wall_time"]) if "wall_time" in a else None
         return RunSummary(
             title=str(a.get("title", "")), flags=f["geometry/flags"][:],
             steps=int(steps[-1]) if len(steps) else 0, n_steps=int(a.get("n_steps", 0)),
             dt=float(a.get("dt", float("nan"))),
-            time=float(times[-1]) if len(times) else 0.0, diagnostics=diag, wall=wall,
-            output=str(path), start=str(a["start"]) if "start" in a else None,
+            time=float(times[n - 1]) if n and len(times) >= n else 0.0, diagnostics=diag,
+            wall=wall, output=str(path), start=str(a["start"]) if "start" in a else None,
             areas=f["geometry/area"][:] if "geometry/area" in f else None)
 
 

@@ -266,10 +266,20 @@ def kind_test(kind: str) -> Callable[[Path], bool]:
 
 
 def writable(path: str | Path, kind: str, *, overwrite: bool, what: str | None = None,
-             option: str = "--out", inputs=()) -> Path:
+             option: str = "--out", inputs=(), overwrite_option: str = "--overwrite") -> Path:
     """:func:`siku_core.outputs.check_target` for a file of ``kind``."""
     return check_target(path, what=what or f"{kind} file", ours=kind_test(kind),
-                        overwrite=overwrite, option=option, inputs=inputs)
+                        overwrite=overwrite, option=option, inputs=inputs,
+                        overwrite_option=overwrite_option)
+
+
+def _discard(part: Path) -> None:
+    """Remove a partial file if there is one; on a read-only file system there is none to
+    remove (and removing raises), so nothing is done."""
+    try:
+        part.unlink(missing_ok=True)
+    except OSError:
+        pass
 
 
 def write_whole(target: str | Path, write: Callable[[Path], object], what: str,
@@ -283,10 +293,10 @@ def write_whole(target: str | Path, write: Callable[[Path], object], what: str,
         write(part)
         publish(part, target, replace=replace)
     except DataError:
-        part.unlink(missing_ok=True)
+        _discard(part)
         raise
     except Exception as exc:  # noqa: BLE001 - every library's error of a failed write
-        part.unlink(missing_ok=True)
+        _discard(part)
         why = "disk full" if is_disk_full(exc) or _disk_full_now(target) else (
             f"cannot write: {' '.join(str(exc).split())[:300]}")
         raise DataError(f"{target}: {why} while writing the {what}; nothing written (an "

@@ -308,4 +308,4 @@ def picture_targets(out_dir, names: list[str]) -> list[Path]:
         raise DataError(f"{out_dir}: cannot be made a folder for the pictures ({exc.strerror}); "
                         "name a folder with --out-dir") from None
     return [writable(out_dir / n, "picture", overwrite=True, what="picture",
-                     option="--out-dir") for n in names]
+                     option="--out-dir", overwrite_option="") for n in names]

@@ -35,35 +35,27 @@ element's bottom by quadrature (``siku_plugins.floating.geometry``; by default a
 shortest wave needs) at its present horizontal position; in a ``spectral`` field (a sea the
 ice damps) ``a_j = sqrt(2 E_j)`` of the cell of the element's centre (:meth:`Floating._local`).
 ``wave = "exchange"``: a coupled model's elevation and dynamic pressure through the BMI
-(``siku_plugins.floating.coupled``). Side-wall pressures and diffraction are not included (the
-wave's load is Froude–Krylov only).
+(``siku_plugins.floating.coupled``). The wave's load is Froude–Krylov only.
 
 Added mass and damping: with ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
-``A_k = added_inertia rho_w A^{1/2} J_k`` and the damping as a fraction of critical, ``B33 = 2
-damping_ratio sqrt((m + A33) rho_w g A)``, ``B_k = 2 tilt_damping_ratio sqrt(M_k C_k)``; the
-defaults are capytaine's values for a 10 m × 10 m × 1 m block at its natural frequencies
-(``docs/explanation/floating.md``). With ``coefficients = "capytaine"`` (the optional extra
-``siku[hydro]``) they are capytaine's A(omega), B(omega) of each element's prism at the natural
-frequency of each mode, computed once per shape and cached on disk
-(``siku_plugins.floating.hydro``). With ``radiation = "memory"`` the radiation force of each
-mode is Cummins' convolution of its rate with the impulse response of capytaine's B(omega) on
-a band, and its added mass A(infinity) (``siku_plugins.floating.memory``); otherwise (the
-default) the coefficients are constant, and the radiation memory of a transient is not
-modelled.
+``A_k = added_inertia rho_w A^{1/2} J_k``, ``B33 = 2 damping_ratio sqrt((m + A33) rho_w g A)``,
+``B_k = 2 tilt_damping_ratio sqrt(M_k C_k)``; defaults: capytaine's for a 10 × 10 × 1 m block.
+With ``coefficients = "capytaine"`` (the optional extra ``siku[hydro]``) they are capytaine's
+A(omega), B(omega) of each element's prism at the natural frequency of each mode, computed once
+per shape and cached on disk (``siku_plugins.floating.hydro``). With ``radiation = "memory"``
+the radiation force of each mode is Cummins' convolution of its rate with the impulse response
+of capytaine's B(omega) on a band, and its added mass A(infinity) (``.memory``); otherwise (the
+default) the coefficients are constant: a transient's radiation memory is not modelled.
 
-Time stepping: velocity Verlet with the damping half explicit, half implicit
-(``siku_plugins.floating.kernels.advance``), in sub-steps of at most ``T_min /
-steps_per_period``, ``T_min`` the shortest natural period of any free element's three modes,
-so the process sets no limit on the scene's ``dt`` (the period error is ``(2 pi /
-steps_per_period)² / 24``, 0.04 % by default). The wave load is evaluated at every sub-step
-with the element's horizontal position at the end of the engine's step.
+Time stepping: velocity Verlet, damping half explicit, half implicit (``kernels.advance``), in
+sub-steps of at most ``T_min / steps_per_period``, ``T_min`` the shortest natural period of
+any free element's modes: no limit on the scene's ``dt`` (the period error is ``(2 pi /
+steps_per_period)² / 24``, 0.04 % by default); the wave load at every sub-step at the element's
+horizontal position at the end of the engine's step.
 
-``wave_radiated_power`` [W m-2]: the rate at which each element's radiation damping takes
-energy from its motion, per unit area, averaged over the step (trapezoid over the sub-steps of
-``B33 ζ'² + B_1 s_1'² + B_2 s_2'²``, or of the memory force times the rates); its total [W] is
-the diagnostic of the same name.
-
-Only free elements float; static, steady and melted ones keep zero heave and tilt.
+``wave_radiated_power`` [W m-2]: the radiation damping's power per unit area over the step
+(trapezoid over the sub-steps of ``B33 ζ'² + B_1 s_1'² + B_2 s_2'²``, or of the memory force
+times the rates); its total [W] is the diagnostic of the same name. Only free elements float.
 """
 from __future__ import annotations
 
@@ -75,6 +67,7 @@ import numpy as np
 from siku_core.categories import SUM_TOLERANCE
 from siku_core.errors import SceneError
 from siku_core.ice import ElementField
+from siku_core.limits import check_work
 from siku_core.parallel import ITEM_NS, PARALLEL_MIN, chunks
 from siku_core.interfaces import Process
 from siku_core.params import Param
@@ -109,10 +102,13 @@ class Floating(Process):
 
     name = "floating"
     owned_fields = FIELDS
+    integrates: ClassVar[dict[str, str]] = {  # its degrees of freedom, for the engine's guard
+        **dict.fromkeys(("heave", "roll", "roll_rate", "pitch", "pitch_rate"), "finite"),
+        "heave_rate": "speed"}
     diagnostic_units: ClassVar[dict[str, str]] = {"wave_radiated_power": "W"}
     params: ClassVar[dict[str, Param]] = {
         "rho_water": Param(1026.0, "kg/m^3", "water density rho_w", min=1e-6),
-        "g": Param(9.81, "m/s^2", "gravitational acceleration", min=1e-6),
+        "g": Param(9.81, "m/s^2", "gravitational acceleration", min=0.01, max=100.0),
         "coefficients": Param("scene", "", "added mass and damping from these parameters "
                               "('scene') or from capytaine, cached ('capytaine')", type=str,
                               choices=("scene", "capytaine")),
@@ -132,8 +128,8 @@ class Floating(Process):
         "initial_heave": Param(0.0, "m", "heave of every free element at the start"),
         "initial_roll": Param(0.0, "rad", "roll of every free element at the start"),
         "initial_pitch": Param(0.0, "rad", "pitch of every free element at the start"),
-        "steps_per_period": Param(64, "1", "sub-steps per shortest natural period", type=int,
-                                  min=8),
+        "steps_per_period": Param(64, "1", "sub-steps per shortest natural period (4096: a "
+                                  "period error of 1e-7)", type=int, min=8, max=4096),
         "quadrature": Param(0, "1", "subdivisions of each edge triangle for the wave load "
                             "(0: ceil(k_max R / 0.7), R the element's bounding radius: errors "
                             "below 1e-4 in heave, 1e-3 in the tilts)", type=int, min=0,
@@ -289,6 +285,9 @@ class Floating(Process):
             self.memory.build(self, dt_p / n_sub, p["memory_tol"], where)
             self.memory.n_sub, self.memory.dt_p = n_sub, dt_p
             self._periods()
+        if self.free.any():
+            n_sub = self.memory.n_sub if self.memory is not None else self._n_sub(ctx, ctx.dt)
+            check_work(where, "steps_per_period", p["steps_per_period"], n_sub, ctx.n_steps)
         self._floats, self._loaded = bool(self.free.any()), bool(self.load.any())
         self._pack = self._uniform = None
         # the start: every free element at the scene's initial heave and tilts

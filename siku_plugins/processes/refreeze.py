@@ -36,6 +36,7 @@ import numpy as np
 from siku_core.contact_law import BreakMode
 from siku_core.errors import SceneError
 from siku_core.interfaces import Process
+from siku_core.limits import BYTES_PER_JOINT, check_count, most_count
 from siku_core.params import Param
 from siku_core.state import MELTED
 
@@ -71,6 +72,10 @@ class Refreeze(Process):
     }
 
     def joints_to_create(self, n_elements: int) -> int:
+        where = f"[{self.table}] process 'refreeze'" if self.table else "process 'refreeze'"
+        if self.p["weld"]:
+            check_count(where, "weld_capacity", self.p["weld_capacity"], BYTES_PER_JOINT,
+                        n_elements, " of joint slots")
         return math.ceil(self.p["weld_capacity"] * n_elements) if self.p["weld"] else 0
 
     def setup(self, ctx) -> None:
@@ -83,6 +88,8 @@ class Refreeze(Process):
         n = cm.joint_slots if cm is not None else 0
         #: with ``weld``: the touching pairs followed, as sorted keys (min * N + max) and the
         #: model time since which they touch [s]; -1 / NaN beyond ``self.count``
+        check_count(ctx.where(self.table), "weld_pairs", self.p["weld_pairs"], 16.0,
+                    ctx.state.n, " of pairs followed")
         m = ctx.state.n * int(self.p["weld_pairs"]) if self.p["weld"] else 0
         self.keys = np.full(m, -1, dtype=np.int64)
         self.since = np.full(m, np.nan)
@@ -151,7 +158,8 @@ class Refreeze(Process):
                 raise SceneError(
                     f"{ctx.where(self.table)}: process 'refreeze' needs more than the "
                     f"{self.joints_to_create(n)} new joints that weld_capacity = "
-                    f"{self.p['weld_capacity']:g} per element reserves; raise weld_capacity")
+                    f"{self.p['weld_capacity']:g} per element reserves; raise weld_capacity"
+                    + most_count(BYTES_PER_JOINT, n))
             new = cm.create_joints(cm.pairs[kd], cm.contact_lines(kd))
             self.refrozen_at[new] = t
             self.welded_total += len(new)
@@ -159,7 +167,8 @@ class Refreeze(Process):
         m = int(keep.sum())
         if m > len(self.keys):
             raise SceneError(f"{ctx.where(self.table)}: process 'refreeze' follows more than "
-                             f"{len(self.keys)} touching pairs; raise weld_pairs")
+                             f"{len(self.keys)} touching pairs; raise weld_pairs"
+                             + most_count(16.0, ctx.state.n))
         order = np.argsort(keys[keep], kind="stable")
         self.keys[:m] = keys[keep][order]
         self.since[:m] = since[keep][order]

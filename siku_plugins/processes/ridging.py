@@ -48,6 +48,7 @@ from siku_core.errors import SceneError
 from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
 from siku_core.ice import ElementField
 from siku_core.interfaces import Process
+from siku_core.limits import check_count, most_count
 from siku_core.parallel import alone, chunk_bounds, chunks
 from siku_core.params import Param
 from siku_core.state import MELTED
@@ -268,6 +269,9 @@ class Ridging(Process):
                              "'ridging' (its plastic limit); set [contact] law = \"ridging\"")
         self.law = law
         st = ctx.state
+        # keys, converted areas and the kernels' six scratch arrays: 64 bytes per pair
+        check_count(ctx.where(self.table), "capacity", self.p["capacity"], 64.0, st.n,
+                    " of pairs remembered")
         n = st.n * int(self.p["capacity"])
         #: pairs being converted: sorted keys (min * N + max) and the overlap area already
         #: converted [m²]; -1 / 0 beyond ``self.count``
@@ -317,7 +321,7 @@ class Ridging(Process):
                         *self._categories(ctx))
         if m < 0:
             raise SceneError(f"{ctx.where(self.table)}: more than {len(self.keys)} ridging pairs; "
-                             "raise the process's capacity")
+                             "raise the process's capacity" + most_count(64.0, st.n))
         self.count = m
 
     def _categories(self, ctx) -> tuple:

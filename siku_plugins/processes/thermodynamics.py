@@ -205,22 +205,25 @@ class Thermodynamics(Process):
                                    choices=("", "K", "degC")),
         "freezing_temperature": Param(-1.8, "degC", "temperature of the ice base (freezing "
                                       "point of sea water)", min=-10.0, max=0.0),
-        "conductivity": Param(2.03, "W m-1 K-1", "thermal conductivity of the ice k_i",
-                              min=1e-3),
-        "snow_thickness": Param(0.0, "m", "snow depth on the ice h_s (fixed)", min=0.0),
+        "conductivity": Param(2.03, "W m-1 K-1", "thermal conductivity of the ice k_i (fresh "
+                              "ice 2.2, brine lowers it)", min=1e-3, max=10.0),
+        "snow_thickness": Param(0.0, "m", "snow depth on the ice h_s (fixed)", min=0.0,
+                                max=10.0),
         "snow_conductivity": Param(0.31, "W m-1 K-1", "thermal conductivity of snow k_s",
-                                   min=1e-3),
-        "latent_heat": Param(3.34e5, "J kg-1", "latent heat of fusion of the ice L_f", min=1.0),
+                                   min=1e-3, max=10.0),
+        "latent_heat": Param(3.34e5, "J kg-1", "latent heat of fusion of the ice L_f (sea "
+                             "ice: 2e5 to 3.34e5)", min=1e4, max=1e6),
         "ocean_heat_flux": Param(0.0, "W m-2", "heat flux from the ocean into the ice base F_w "
-                                 "(positive: melts)"),
+                                 "(positive: melts; 1e7 melts 3 cm of ice a second, a rate "
+                                 "only accelerated tests use)", min=-1e7, max=1e7),
         "min_thickness": Param(0.05, "m", "an element thinner than this has melted away",
                                min=0.0),
         "lateral": Param(False, "", "open water freezes new ice (lateral growth; needs "
                          "thickness categories)", type=bool),
         "open_water_transfer": Param(13.0, "W m-2 K-1", "open-water heat loss per kelvin "
-                                     "below freezing C_o (lateral)", min=0.0),
+                                     "below freezing C_o (lateral)", min=0.0, max=1000.0),
         "new_ice_thickness": Param(0.5, "m", "thickness h_0 of the ice that forms in open "
-                                   "water (lateral; Hibler 1979)", min=1e-3),
+                                   "water (lateral; Hibler 1979)", min=1e-3, max=10.0),
         "new_ice_category": Param(0, "1", "category (0-based) that receives the new ice "
                                   "(lateral)", type=int, min=0),
     }
