@@ -48,7 +48,7 @@ from siku_core import DataError
 from siku_core.categories import Categories, ice_per_area
 from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.stress import principal
-from siku_io.analysis.fsd import Floes, output_floes
+from siku_io.analysis import fsd
 from siku_io.analysis.regular_grid import Grid, GridCfg
 
 #: gridded fields: name -> (units, standard name or "", long name)
@@ -347,7 +347,7 @@ def grid_output(path, cfg: GridCfg, progress: bool = False):
         from siku_core.errors import SikuError
 
         try:  # the floes need the run's joints: its scene is built again (siku fsd)
-            floes = output_floes(path, calipers=cfg.fields is None
+            floes = fsd.output_floes(path, calipers=cfg.fields is None
                                  or "floe_caliper_mean" in cfg.fields)
         except SikuError as exc:
             if cfg.fields is not None:  # asked for by name: refused, one line
@@ -463,7 +463,7 @@ def grid_distribution(path, cfg):
     from siku_io.analysis.regular_grid import Grid
     from siku_io.output.xr import open_output
 
-    fl = output_floes(path)
+    fl = fsd.output_floes(path)
     ds = open_output(path)
     grid = Grid(cfg, float(ds.attrs["radius"]))
     ny, nx = grid.shape
@@ -481,7 +481,7 @@ def grid_distribution(path, cfg):
     return out
 
 
-def floe_cells(grid, snap, floes: Floes, with_concentration: bool = False) -> dict:
+def floe_cells(grid, snap, floes: fsd.Floes, with_concentration: bool = False) -> dict:
     """The floe fields of :data:`GRID_FSD` per cell (flat arrays) of one snapshot ``snap``
     (:class:`Snapshot`) whose floes are ``floes``; the
     concentration too if asked."""
