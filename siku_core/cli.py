@@ -19,7 +19,7 @@ import warnings
 from importlib import resources
 from pathlib import Path
 
-from . import __version__
+from .versions import __version__
 from .errors import SceneError, SikuError, shown
 
 DEFAULT_SCENE = "default_scene.toml"

@@ -61,7 +61,7 @@ def _span_across(pi, pj, nx, ny):
 
 
 @njit(cache=True, inline="always")
-def _width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny):
+def overlap_width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny):
     """Contact width of a clipped overlap [m]: the chord between the two boundary crossings,
     else the common span across the normal (``_span_across``), else ``sqrt(area)``."""
     if ncross == 2:
@@ -135,7 +135,7 @@ ROW_SIZE = 8
 
 
 @njit(cache=True, inline="always")
-def _rotation_row(q, rm, i):
+def rotation_row(q, rm, i):
     """``rm[i] = R(q_i)``; returns the element's centre, ``R(q_i) e_z`` (its last column)."""
     w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
     rm[i, 0, 0] = 1 - 2 * (y * y + z * z)
@@ -160,7 +160,7 @@ def rotation_matrices(q, rm, nch):
     for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         for i in range(lo, hi):
-            _rotation_row(q, rm, i)
+            rotation_row(q, rm, i)
 
 
 @njit(cache=True, parallel=True)
@@ -175,7 +175,7 @@ def rotations_within(q, rm, nch, ref, lim2):
         lo, hi = chunk_bounds(c, nch, n)
         good = True
         for i in range(lo, hi):
-            cx, cy, cz = _rotation_row(q, rm, i)
+            cx, cy, cz = rotation_row(q, rm, i)
             dx = cx - ref[i, 0]
             dy = cy - ref[i, 1]
             dz = cz - ref[i, 2]

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 from siku_core.contact_frames import (
-    _width,
+    overlap_width,
     centre_normal,
     eq9_stiffness,
     i_to_j,
@@ -409,7 +409,7 @@ def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
                 if ncross < 0:
                     active[k] = 2  # touching, dropped: no force; no separating-axis test next time
                 continue
-            width = _width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny)
+            width = overlap_width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny)
         # the contact's evaluation waits for the block (_collision_block)
         b = nb * BLK_SIZE
         blk[b + BLK_K] = k

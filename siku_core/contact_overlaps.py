@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .contact_frames import _width, j_to_i, relative_matrix
+from .contact_frames import overlap_width, j_to_i, relative_matrix
 from .geometry.clip import make_overlap_scratch, overlap_inline
 
 
@@ -42,7 +42,7 @@ def pair_overlaps(rm, offsets, verts, pairs, ks, R, nmax):
             rm, offsets, verts, pairs[ks[a]], R, inv_r, proj, xy, tag)
         if area > 0.0:
             out[a, 0] = area
-            out[a, 1] = _width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
+            out[a, 1] = overlap_width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
     return out
 
 
@@ -52,7 +52,7 @@ def pair_contact_lines(rm, offsets, verts, pairs, ks, R, nmax):
     ``i``'s frame [m] ``(len(ks), 2, 2)``, running counter-clockwise round ``i`` (its normal
     ``(dy, -dx)`` points towards ``j``'s centre); zero where they do not overlap. It is the
     chord between the two crossings of the boundaries where there are two, else the contact
-    width (``_width``) across the overlap's normal through its centroid: the line a joint
+    width (``overlap_width``) across the overlap's normal through its centroid: the line a joint
     made of the contact is frozen along."""
     xy, tag = make_overlap_scratch(nmax, nmax)
     proj = np.empty((nmax, 2))
@@ -64,7 +64,7 @@ def pair_contact_lines(rm, offsets, verts, pairs, ks, R, nmax):
         if not area > 0.0:
             continue
         if ncross != 2:
-            h = 0.5 * _width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
+            h = 0.5 * overlap_width(pi, pj, area, ncross, p1x, p1y, p2x, p2y, nx, ny)
             p1x, p1y = cx + h * ny, cy - h * nx
             p2x, p2y = cx - h * ny, cy + h * nx
         if (p2y - p1y) * c2x - (p2x - p1x) * c2y < 0.0:

@@ -53,22 +53,28 @@ if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
     from .categories import Categories
-    from .contacts_view import ContactsView
-    from .interfaces import Component
-    from .plugins import Registry
     from .scene import Scene
-    from .simulation import Simulation
     from .state import ElementState
+
+#: the running :class:`~siku_core.simulation.Simulation` as the modules it drives and hands
+#: itself to see it (the context, the guard, the ice book, restarts). Those modules sit below
+#: the simulation in the engine's imports (the simulation imports them), so they name it by
+#: this alias and reach it by its attributes, never by importing :mod:`siku_core.simulation`.
+Run = Any
 
 
 class Context:
     """The run as a component sees it (see the module docstring for the members)."""
 
-    __slots__ = ("_sim", "_contacts")
+    __slots__ = ("_sim", "_contacts", "_view")
 
-    def __init__(self, sim: "Simulation"):
+    def __init__(self, sim: Run, contacts_view: Any = None):
+        """``sim``: the run; ``contacts_view``: the class of the contacts view
+        (:class:`~siku_core.contacts_view.ContactsView`, given by the simulation, which
+        stands above both) that :attr:`contacts` builds on the run's contact model."""
         self._sim = sim
-        self._contacts: "ContactsView | None" = None
+        self._view = contacts_view
+        self._contacts: Any = None
 
     def __repr__(self) -> str:
         s = self._sim
@@ -144,16 +150,17 @@ class Context:
 
     # ------------------------------------------------------------------ registry
     @property
-    def registry(self) -> "Registry":
-        """The component registry of the run."""
+    def registry(self) -> Any:
+        """The component registry of the run (:class:`~siku_core.plugins.Registry`)."""
         return self._sim.registry
 
-    def component(self, kind: str, name: str, params: dict, table: str) -> "Component":
-        """A component of ``kind`` registered as ``name`` (or ``package.module:Class``), with
-        ``params`` validated as for the scene table ``table`` (messages name it)."""
+    def component(self, kind: str, name: str, params: dict, table: str) -> Any:
+        """A component (:class:`~siku_core.component.Component`) of ``kind`` registered as
+        ``name`` (or ``package.module:Class``), with ``params`` validated as for the scene
+        table ``table`` (messages name it)."""
         return self._sim._component(kind, name, params, table)
 
-    def forcing_field(self, k: int) -> "Component | None":
+    def forcing_field(self, k: int) -> Any:
         """The field the run built for ``[[forcing]]`` table ``k`` (``None`` if it has none):
         the instance the forcing source evaluates, so a component that needs the same evolving
         sea (a ``spectral`` wave field's local spectrum) reads it rather than a copy."""
@@ -161,7 +168,7 @@ class Context:
 
     # ------------------------------------------------------------------ joints and contacts
     @property
-    def contacts(self) -> "ContactsView | None":
+    def contacts(self) -> Any:
         """The run's contacts as a component sees them, ``None`` without a ``[contact]`` table:
         a :class:`~siku_core.contacts_view.ContactsView` (read-only joint and pair tables, the
         law's parameters, and the actions a component may take: break, refreeze and create
@@ -170,9 +177,7 @@ class Context:
         if model is None:
             return None
         if self._contacts is None or not self._contacts.views(model):
-            from .contacts_view import ContactsView
-
-            self._contacts = ContactsView(model)
+            self._contacts = self._view(model)
         return self._contacts
 
     # ------------------------------------------------------------------ diagnostics, fields

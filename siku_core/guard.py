@@ -32,7 +32,7 @@ from .errors import NonFiniteError, PluginError, SceneError, StabilityError
 from .state import DYNAMIC, FREE
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .simulation import Simulation
+    from .context import Run
 
 #: quantities checked by the NaN guard, in the order their failure is reported
 GUARDED = ("F", "T", "V", "w", "q")
@@ -67,7 +67,7 @@ BREAK_SHARE = 0.1
 class Guard:
     """The NaN guard of one run and the last good snapshot it returns to."""
 
-    def __init__(self, sim: "Simulation"):
+    def __init__(self, sim: "Run"):
         self.sim = sim
         #: the step the state was last checked at (``-1``: not yet)
         self.checked_step = -1
@@ -150,7 +150,7 @@ class Guard:
                     + (f"; {hint}" if hint else ""))
 
 
-def integrated_fields(sim: "Simulation") -> list[tuple[str, str, np.ndarray, str]]:
+def integrated_fields(sim: "Run") -> list[tuple[str, str, np.ndarray, str]]:
     """``[(owner, field, values, bound)]`` of every field a component declares it integrates
     (``Component.integrates``); a declaration of a field it does not own, or of an unknown
     bound, is a :class:`~siku_core.errors.PluginError`."""
@@ -173,7 +173,7 @@ class NetworkWatch:
     """The joints after every step: the stable step rechecked as they change (one comparison
     per joint, whoever broke or froze them), and the breaking rate (:class:`BreakRate`)."""
 
-    def __init__(self, sim: "Simulation", guard: Guard):
+    def __init__(self, sim: "Run", guard: Guard):
         cm = sim.contacts
         self.sim = sim
         self.cm = cm if cm is not None and cm.law.uses_joints else None
@@ -226,7 +226,7 @@ class BreakRate:
     min(c dt / L, 1) W + 1)`` joints in ``W`` steps: a line across the pack of ``n`` free
     elements at once, and a crack tip's run from it."""
 
-    def __init__(self, sim: "Simulation", guard: Guard):
+    def __init__(self, sim: "Run", guard: Guard):
         self.sim = sim
         self.guard = guard
         st, cm = sim.state, sim.contacts
@@ -278,7 +278,7 @@ class BreakRate:
         self.guard.fail(what, StabilityError, hint + " or set [run] break_guard = \"warn\"")
 
 
-def check_initial_state(sim: "Simulation") -> None:
+def check_initial_state(sim: "Run") -> None:
     """Refuse a run whose state is not finite before step 1 (a NaN velocity or spin in the
     scene, or in a restart file)."""
     st = sim.state
@@ -302,7 +302,7 @@ def check_initial_state(sim: "Simulation") -> None:
                          "max_speed)")
 
 
-def check_time_step(sim: "Simulation", after: str = "") -> None:
+def check_time_step(sim: "Run", after: str = "") -> None:
     """Refuse (or warn on) a dt above ``dt_safety`` times the smallest component limit.
 
     Every component may declare ``stability_limit(ctx) -> (dt_max [s], reason) | None``

@@ -56,7 +56,7 @@ from .state import MELTED
 from .stress import STRESS_FIELDS
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .simulation import Simulation
+    from .context import Run
 
 #: how a grid reduces a declared field over the elements in a cell: ``mean`` (weighted by the
 #: ice area in the cell: intensive quantities, e.g. a temperature), ``sum`` (weighted by the
@@ -151,7 +151,7 @@ class IceBook:
     kind = "engine"
     name = "elements"
 
-    def __init__(self, sim: "Simulation", processes: bool,
+    def __init__(self, sim: "Run", processes: bool,
                  categories: Categories | None = None):
         self._sim = sim
         #: the elements' thickness categories, ``None`` for a scene without
@@ -351,7 +351,7 @@ class IceBook:
         return len(k)
 
 
-def apply_processes(sim: "Simulation") -> None:
+def apply_processes(sim: "Run") -> None:
     """The processes due at this step, in scene order, then what their changes imply
     (:meth:`IceBook.after_processes`)."""
     ran = []

@@ -52,7 +52,7 @@ from typing import Any
 
 import numba
 
-from . import __version__
+from .versions import __version__
 
 #: instances made in this process, by template module name and evaluator
 _MEMO: dict[tuple, Any] = {}

@@ -356,7 +356,7 @@ def _dist_of(module_name: str, top_map: dict[str, list[str]] | None = None) -> t
     return top, str(getattr(sys.modules.get(top), "__version__", "unknown"))
 
 
-def _canonical(dist: str) -> str:
+def canonical_dist(dist: str) -> str:
     return dist.strip().lower().replace("_", "-").replace(".", "-")
 
 
@@ -364,7 +364,7 @@ def skipped_distributions() -> frozenset[str]:
     """Distributions named in ``SIKU_SKIP_PLUGINS`` (comma-separated; siku's own is never
     skipped)."""
     names = os.environ.get("SIKU_SKIP_PLUGINS", "").split(",")
-    return frozenset(_canonical(n) for n in names if n.strip())
+    return frozenset(canonical_dist(n) for n in names if n.strip())
 
 
 def make_plugin_manager(autoload: bool | None = None, extra: tuple[Any, ...] = ()) -> tuple[
@@ -382,7 +382,7 @@ def make_plugin_manager(autoload: bool | None = None, extra: tuple[Any, ...] = (
     for ep in md.entry_points(group="siku"):
         dist = ep.dist.name if ep.dist else ep.value
         mine = own is not None and dist == own
-        if not (mine or autoload) or (not mine and _canonical(dist) in skip):
+        if not (mine or autoload) or (not mine and canonical_dist(dist) in skip):
             continue
         if pm.get_plugin(ep.value) is not None or pm.is_blocked(ep.value):
             continue  # the same module named twice (two copies of one distribution)

@@ -22,7 +22,7 @@ from .outputs import restart_differences
 from .scene import Scene
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .simulation import Simulation
+    from .context import Run
 
 #: run-record keys a restart may change: how long, where and how often to write, safety switches
 RESTART_MAY_CHANGE = ("scene.time.duration", "scene.time.end", "scene.output", "scene.title",
@@ -37,7 +37,7 @@ RESTART_MAY_CHANGE = ("scene.time.duration", "scene.time.end", "scene.output", "
 RAGGED_HISTORY = frozenset({"contact_pairs", "contact_hist"})
 
 
-def restart(sim: "Simulation", path: Path, force: bool = False,
+def restart(sim: "Run", path: Path, force: bool = False,
             extend: float | None = None) -> None:
     """Continue ``sim`` from the last complete snapshot of ``path``: the writer reads it, the
     run record is compared with the scene's (:data:`RESTART_MAY_CHANGE` may differ; others
@@ -105,7 +105,7 @@ def restart(sim: "Simulation", path: Path, force: bool = False,
             "(e.g. --extend 6h)")
 
 
-def restore(sim: "Simulation", path: Path, data: dict[str, Any]) -> None:
+def restore(sim: "Run", path: Path, data: dict[str, Any]) -> None:
     """Put a writer's restart data (:meth:`~siku_core.interfaces.Writer.read_restart`) into
     the run: the state ``q``, ``V``, ``w``, the step and every component's history."""
     st = sim.state
@@ -123,7 +123,7 @@ def restore(sim: "Simulation", path: Path, data: dict[str, Any]) -> None:
 
 
 
-def set_time_origin(sim: "Simulation", t: float | None) -> None:
+def set_time_origin(sim: "Run", t: float | None) -> None:
     """Continue the model time ``t`` [s] stored with the restart's snapshot. When the step
     changed (``t`` is not ``step_index * dt``) the time origin becomes ``(step_index, t)`` and
     the steps left are those of the scene's remaining time, so the time axis goes on from ``t``
@@ -138,7 +138,7 @@ def set_time_origin(sim: "Simulation", t: float | None) -> None:
     sim.n_steps = sim.step_index + max(0, math.ceil(left / sim.dt - 1e-9))
 
 
-def keyed_components(sim: "Simulation") -> dict[str, Any]:
+def keyed_components(sim: "Run") -> dict[str, Any]:
     """The run's components by the key their history is stored under: ``KIND{k}_NAME`` in
     step order, ``contacts`` (the contact model) and ``elements`` (declared per-element fields
     and a changing thickness, :class:`siku_core.ice.IceBook`)."""
@@ -150,7 +150,7 @@ def keyed_components(sim: "Simulation") -> dict[str, Any]:
     return out
 
 
-def history(sim: "Simulation") -> dict[str, dict[str, np.ndarray]]:
+def history(sim: "Run") -> dict[str, dict[str, np.ndarray]]:
     """Per-component history (joint damage, contact lists, declared fields...) needed to
     restart exactly. Components that keep history declare it with ``history() -> {name:
     array}`` and ``set_history({name: array})`` (:class:`~siku_core.interfaces.Component`; by
@@ -163,7 +163,7 @@ def history(sim: "Simulation") -> dict[str, dict[str, np.ndarray]]:
     return out
 
 
-def set_history(sim: "Simulation", hist: dict[str, dict[str, np.ndarray]]) -> None:
+def set_history(sim: "Run", hist: dict[str, dict[str, np.ndarray]]) -> None:
     """Put what :func:`history` returned back into the run's components."""
     comps = keyed_components(sim)
     for key, arrays in hist.items():

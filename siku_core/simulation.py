@@ -20,10 +20,11 @@ import numpy as np
 
 from . import parallel
 from .diagnostics import element_diagnostics, held_forces
+from .contacts_view import ContactsView
 from .context import Context
 from .elements import build_elements_and_categories
 from .guard import Guard, check_initial_state, check_time_step
-from . import __version__
+from .versions import __version__
 from .errors import SceneError
 from .ice import IceBook, apply_processes, process_schedule
 from .interfaces import Component, Field, ForcingSource, Integrator, Process, Writer
@@ -117,7 +118,7 @@ class Simulation:
         #: (0, 0.0) unless a restart changed the step (siku_core.restart.restore)
         self.time_origin: tuple[int, float] = (0, 0.0)
         #: what components see of the run (siku_core.context): handed to their setup and hooks
-        self.context = Context(self)
+        self.context = Context(self, ContactsView)
         self.progress = cfg.run.progress if progress is None else progress
 
         self.integrator: Integrator = self._component(  # type: ignore[assignment]

@@ -57,7 +57,7 @@ def drag_stability_limit(state, free: np.ndarray, rho: float, C: float, speed: f
 
 # ----------------------------------------------------------------- air and water drag
 @njit(cache=True, inline="always")
-def _stress_one(q, V, i, ui, vi, area, rho, C, ct, st, subtract_ice, F):
+def stress_one(q, V, i, ui, vi, area, rho, C, ct, st, subtract_ice, F):
     ex, ey, nx, ny = east_north_row(q, i)
     dx = ui * ex + vi * nx - subtract_ice * V[i, 0]
     dy = ui * ey + vi * ny - subtract_ice * V[i, 1]
@@ -75,7 +75,7 @@ def _stress(q, V, u, v, area, rho, C, theta, subtract_ice, F, nch=1):
     for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         for i in range(lo, hi):
-            _stress_one(q, V, i, u[i], v[i], area, rho, C, ct, st, subtract_ice, F)
+            stress_one(q, V, i, u[i], v[i], area, rho, C, ct, st, subtract_ice, F)
 
 
 @njit(cache=True, parallel=True)
@@ -86,7 +86,7 @@ def _stress_uniform(q, V, u, v, area, rho, C, theta, subtract_ice, F, nch=1):
     for c in prange(nch):
         lo, hi = chunk_bounds(c, nch, n)
         for i in range(lo, hi):
-            _stress_one(q, V, i, u, v, area, rho, C, ct, st, subtract_ice, F)
+            stress_one(q, V, i, u, v, area, rho, C, ct, st, subtract_ice, F)
 
 
 @njit(cache=True)

@@ -16,7 +16,7 @@ from numba import njit, prange
 
 from siku_core.parallel import chunk_bounds
 
-from .drag import _stress_one
+from .drag import stress_one
 from .gridded_kernel import interpolate_one
 
 
@@ -49,6 +49,6 @@ def gridded_stress(q, V, area, rho, C, theta, subtract_ice, ylat, xoff, lon0, pe
                 if no == 0:
                     fi = i
                 no += 1
-            _stress_one(q, V, i, u, v, area, rho, C, ct, st, subtract_ice, F)
+            stress_one(q, V, i, u, v, area, rho, C, ct, st, subtract_ice, F)
         nout[c] = no
         first[c] = fi

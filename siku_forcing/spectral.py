@@ -43,12 +43,11 @@ from numba import njit
 
 from siku_core import Param, SceneError, hookimpl
 from siku_core.limits import physical_memory
-from siku_core.geometry.quat import east_north_row
 from siku_core.ice import ElementField
 
-from .drag import quadratic_drag
 from .spectral_transport import absorb, transport
-from .waves import Jonswap, LinearWave, WaveField, _plane, _wrap
+from .wave_kernels import add_slope_drag, plane_coords, wrap_phase  # noqa: F401 - re-exported
+from .waves import Jonswap, LinearWave, WaveField
 
 RHO_WATER = 1025.0
 
@@ -62,7 +61,7 @@ def _cell_sums(t, lat, lon, cell, lat0, lon0, R, amp, kx, ky, om, ph, uo, se, sn
     out = np.zeros((n, 5))
     c0 = math.cos(lat0)
     for i in range(n):
-        d = _wrap(lon[i] - lon0)
+        d = wrap_phase(lon[i] - lon0)
         x = R * c0 * d
         y = R * (lat[i] - lat0)
         m = c0 / max(math.cos(lat[i]), 1e-12)
@@ -90,7 +89,7 @@ def _cell_sums(t, lat, lon, cell, lat0, lon0, R, amp, kx, ky, om, ph, uo, se, sn
 @njit(cache=True)
 def _element_cells(q, lat0, lon0, R, x0, y0, dx, dy, nx, ny):
     """:meth:`Spectral.cells` of the centres of elements at orientations ``q``, in one pass
-    (the same arithmetic as ``latlon_of``, ``_plane`` and the floors: the same cells)."""
+    (the same arithmetic as ``latlon_of``, ``plane_coords`` and the floors: the same cells)."""
     n = q.shape[0]
     out = np.empty(n, dtype=np.int64)
     c0 = math.cos(lat0)
@@ -101,7 +100,7 @@ def _element_cells(q, lat0, lon0, R, x0, y0, dx, dy, nx, ny):
         cz = 1 - 2 * (x * x + y * y)
         lat = math.atan2(cz, math.hypot(cx, cy))
         lon = math.atan2(cy, cx)
-        ix = math.floor((R * c0 * _wrap(lon - lon0) - x0) / dx)
+        ix = math.floor((R * c0 * wrap_phase(lon - lon0) - x0) / dx)
         iy = math.floor((R * (lat - lat0) - y0) / dy)
         out[i] = min(max(iy, 0), ny - 1) * nx + min(max(ix, 0), nx - 1)
     return out
@@ -276,7 +275,7 @@ class Spectral(WaveField):
     def cells(self, lat, lon):
         """Cell index (``iy * nx + ix``, clipped to the grid) of points ``lat, lon`` [rad] and
         whether each lies inside the grid."""
-        x, y = _plane(np.ascontiguousarray(lat, float), np.ascontiguousarray(lon, float),
+        x, y = plane_coords(np.ascontiguousarray(lat, float), np.ascontiguousarray(lon, float),
                       self.lat0, self.lon0, self.radius)
         ix = np.floor((x - self.x0) / self.dx).astype(np.int64)
         iy = np.floor((y - self.y0) / self.dy).astype(np.int64)
@@ -381,7 +380,7 @@ class Spectral(WaveField):
     def add_forces(self, t, q, V, st, free, g, slope, drag, F) -> None:
         """The ``waves`` forcing with the local sea: advance the spectrum when the engine
         commits a step, then add ``-m g grad eta`` and the drag ``S drag |u - U| (u - U)`` to
-        the free elements (local frames), as :func:`siku_forcing.waves._wave_forces`."""
+        the free elements (local frames), as :func:`siku_forcing.waves.wave_forces`."""
         if self.ctx.committing:
             self.advance(t, q)
             self._report()
@@ -394,7 +393,7 @@ class Spectral(WaveField):
         lat, lon = self._latlon(q)
         r = self._sums(t, lat, lon)
         power = np.zeros(len(q))
-        _add(q, V, st.m, st.area, free, r, g, slope, drag, F, power)
+        add_slope_drag(q, V, st.m, st.area, free, r, g, slope, drag, F, power)
         if self.ctx.committing:
             self.drag_power = power
             fields = self.ctx.fields
@@ -456,31 +455,6 @@ class Spectral(WaveField):
         self.E = np.array(arrays["E"], float)
         self.t_wave = float(arrays["t_wave"])
         self._amp_cells = None
-
-
-@njit(cache=True)
-def _add(q, V, m, area, free, r, g, slope, drag, F, power):
-    """Slope force and drag from the sums ``r`` (:func:`_cell_sums`) on the free elements;
-    ``power[i]``: the rate of work of the drag against the orbital flow, ``F_drag · u`` [W]."""
-    for i in range(q.shape[0]):
-        power[i] = 0.0
-        if not free[i]:
-            continue
-        ex, ey, nx, ny = east_north_row(q, i)
-        fe = 0.0
-        fn = 0.0
-        if slope:
-            fe -= m[i] * g * r[i, 1]
-            fn -= m[i] * g * r[i, 2]
-        if drag > 0.0:
-            ue = V[i, 0] * ex + V[i, 1] * ey
-            un = V[i, 0] * nx + V[i, 1] * ny
-            de, dn = quadratic_drag(area[i], drag, r[i, 3] - ue, r[i, 4] - un)
-            fe += de
-            fn += dn
-            power[i] = de * r[i, 3] + dn * r[i, 4]
-        F[i, 0] += fe * ex + fn * nx
-        F[i, 1] += fe * ey + fn * ny
 
 
 @hookimpl

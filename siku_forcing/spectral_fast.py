@@ -28,8 +28,8 @@ from numba import njit, prange
 
 from siku_core import Param, SceneError, hookimpl
 
-from .spectral import _add
-from .waves import Jonswap, _local, _wrap
+from .wave_kernels import add_slope_drag, local_plane, wrap_phase
+from .waves import Jonswap
 
 
 #: points per block of the sums: the innermost loops run over a block's points, which the
@@ -53,7 +53,7 @@ def _sums(lat, lon, lat0, lon0, R, A, GX, GY, UE, UN, nf, nd, sin_d, cos_d, K0, 
         y = np.empty(L)
         m = np.empty(L)
         for q in range(L):
-            x[q] = R * c0 * _wrap(lon[i0 + q] - lon0)
+            x[q] = R * c0 * wrap_phase(lon[i0 + q] - lon0)
             y[q] = R * (lat[i0 + q] - lat0)
             m[q] = c0 / max(math.cos(lat[i0 + q]), 1e-12)
         eta, gx, gy, ue, un = np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L)
@@ -108,7 +108,7 @@ def _curvature(lat, lon, se, sn, lat0, lon0, R, A, k, nf, nd, sin_d, cos_d, K0, 
     out = np.zeros(n)
     c0 = math.cos(lat0)
     for i in prange(n):
-        x, y, m = _local(lat[i], lon[i], lat0, lon0, c0, R)
+        x, y, m = local_plane(lat[i], lon[i], lat0, lon0, c0, R)
         acc = 0.0
         for d in range(nd):
             s = x * sin_d[d] + y * cos_d[d]
@@ -190,7 +190,7 @@ class FastJonswap(Jonswap):
         lat, lon = latlon_of(q)
         e = self.evaluate(t, lat, lon)
         r = np.column_stack([e[k] for k in ("eta", "eta_e", "eta_n", "u", "v")])
-        _add(q, V, st.m, st.area, free, r, g, slope, drag, F, np.zeros(len(q)))
+        add_slope_drag(q, V, st.m, st.area, free, r, g, slope, drag, F, np.zeros(len(q)))
 
 
 @hookimpl

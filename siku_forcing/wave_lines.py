@@ -46,7 +46,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .waves import _curvature, _evaluate, _local, _wrap
+from .wave_kernels import local_plane, plane_curvature, plane_evaluate, wrap_phase
 
 #: nodes of the interpolating polynomial (central interval: nodes -3 .. 4 around it)
 NODES = 8
@@ -122,7 +122,7 @@ def line_range(lat, lon, lat0, lon0, R, sin_d, cos_d):
         a = np.inf
         b = -np.inf
         for i in range(n):
-            s = R * c0 * _wrap(lon[i] - lon0) * sin_d[d] + R * (lat[i] - lat0) * cos_d[d]
+            s = R * c0 * wrap_phase(lon[i] - lon0) * sin_d[d] + R * (lat[i] - lat0) * cos_d[d]
             a = min(a, s)
             b = max(b, s)
         lo[d] = a
@@ -138,7 +138,7 @@ def _interpolate(lat, lon, lat0, lon0, R, sin_d, cos_d, s0, h, T, Q):
     out = np.empty((n, 5))
     c0 = math.cos(lat0)
     for i in prange(n):
-        x, y, m = _local(lat[i], lon[i], lat0, lon0, c0, R)
+        x, y, m = local_plane(lat[i], lon[i], lat0, lon0, c0, R)
         eta = 0.0
         gx = 0.0
         gy = 0.0
@@ -172,7 +172,7 @@ def _interpolate_curvature(lat, lon, se, sn, lat0, lon0, R, sin_d, cos_d, s0, h,
     out = np.empty(n)
     c0 = math.cos(lat0)
     for i in prange(n):
-        x, y, m = _local(lat[i], lon[i], lat0, lon0, c0, R)
+        x, y, m = local_plane(lat[i], lon[i], lat0, lon0, c0, R)
         acc = 0.0
         for d in range(sin_d.shape[0]):
             u = (x * sin_d[d] + y * cos_d[d] - s0[d]) / h
@@ -290,7 +290,7 @@ class LineSea:
             r = _interpolate(lat, lon, f.lat0, f.lon0, f.radius, self.sin_d, self.cos_d,
                              self.s0, self.h, self.T, self.Q)
         else:
-            r = _evaluate(t, lat, lon, *f._args(), f.u_orbital)
+            r = plane_evaluate(t, lat, lon, *f._args(), f.u_orbital)
         return r
 
     def curvature(self, t, lat, lon, se, sn):
@@ -301,4 +301,4 @@ class LineSea:
         if self._tables(t, lat, lon, True):
             return _interpolate_curvature(lat, lon, se, sn, f.lat0, f.lon0, f.radius,
                                           self.sin_d, self.cos_d, self.s0, self.h, self.T)
-        return _curvature(t, lat, lon, se, sn, *f._args())
+        return plane_curvature(t, lat, lon, se, sn, *f._args())

@@ -58,14 +58,13 @@ class LinesMixin:
             return
         from siku_core.geometry.quat import latlon_of
 
-        from .spectral import _add
-        from .waves import _wave_forces
+        from .wave_kernels import add_slope_drag, wave_forces
 
         lines = self._lines()
         if lines is None:
-            _wave_forces(float(t), q, V, st.m, st.area, free, self.lat0, self.lon0,
+            wave_forces(float(t), q, V, st.m, st.area, free, self.lat0, self.lon0,
                          self.radius, self.amp, self.kx, self.ky, self.omega, self.phase,
                          self.u_orbital, g, slope, drag, F)
             return
         r = lines.evaluate(t, *latlon_of(q))
-        _add(q, V, st.m, st.area, free, r, g, slope, drag, F, np.zeros(len(q)))
+        add_slope_drag(q, V, st.m, st.area, free, r, g, slope, drag, F, np.zeros(len(q)))

@@ -31,14 +31,15 @@ import math
 from typing import ClassVar
 
 import numpy as np
-from numba import njit
 
 from siku_core import Param, SceneError, hookimpl
-from siku_core.geometry.quat import east_north_row
 from siku_core.interfaces import Field, ForcingSource
 from siku_core.state import FREE
 
-from .drag import drag_stability_limit, quadratic_drag
+from .drag import drag_stability_limit
+from .wave_kernels import (  # noqa: F401 - re-exported, as before
+    local_plane, plane_coords, plane_curvature, plane_evaluate, wave_forces, wrap_phase,
+)
 from .wave_methods import LINES_PARAMS, LinesMixin
 
 #: von Kármán constant of the log-layer drag coefficient (Orzech et al. eq. 6)
@@ -126,126 +127,7 @@ def jonswap(f, hs: float, tp: float, gamma: float = 3.3, g: float = 9.81):
     return shape(f) * (hs / 4.0) ** 2 / m0
 
 
-# ----------------------------------------------------------------------------- kernels
-@njit(cache=True, inline="always")
-def _wrap(d):
-    """A longitude difference [rad] into [-pi, pi] (unchanged, bit for bit, when inside)."""
-    if d > math.pi:
-        return d - 2.0 * math.pi
-    if d < -math.pi:
-        return d + 2.0 * math.pi
-    return d
-
-
-@njit(cache=True, inline="always")
-def _local(lat, lon, lat0, lon0, c0, R):
-    """A point's plane coordinates ``x`` east, ``y`` north [m] about ``(lat0, lon0)`` [rad]
-    (``c0 = cos(lat0)``), and ``m = c0 / cos(lat)``, which turns a plane ``x`` derivative into
-    one per metre east at the point."""
-    x = R * c0 * _wrap(lon - lon0)
-    y = R * (lat - lat0)
-    m = c0 / max(math.cos(lat), 1e-12)
-    return x, y, m
-
-
-@njit(cache=True)
-def _plane(lat, lon, lat0, lon0, R):
-    n = lat.shape[0]
-    x = np.empty(n)
-    y = np.empty(n)
-    c0 = math.cos(lat0)
-    for i in range(n):
-        d = _wrap(lon[i] - lon0)
-        x[i] = R * c0 * d
-        y[i] = R * (lat[i] - lat0)
-    return x, y
-
-
-@njit(cache=True, inline="always")
-def _at(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo, out):
-    """eta, d eta/d east, d eta/d north, u east, u north at one point into ``out[0:5]``."""
-    x, y, m = _local(lat, lon, lat0, lon0, math.cos(lat0), R)
-    eta = 0.0
-    gx = 0.0
-    gy = 0.0
-    ue = 0.0
-    un = 0.0
-    for j in range(amp.shape[0]):
-        psi = kx[j] * x + ky[j] * y - om[j] * t + ph[j]
-        c = math.cos(psi)
-        s = math.sin(psi)
-        eta += amp[j] * c
-        gx -= amp[j] * kx[j] * m * s
-        gy -= amp[j] * ky[j] * s
-        k = math.sqrt(kx[j] * kx[j] + ky[j] * ky[j])
-        ue += uo[j] * c * kx[j] * m / k
-        un += uo[j] * c * ky[j] / k
-    out[0] = eta
-    out[1] = gx
-    out[2] = gy
-    out[3] = ue
-    out[4] = un
-
-
-@njit(cache=True)
-def _evaluate(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo):
-    n = lat.shape[0]
-    res = np.empty((n, 5))
-    for i in range(n):
-        _at(t, lat[i], lon[i], lat0, lon0, R, amp, kx, ky, om, ph, uo, res[i])
-    return res
-
-
-@njit(cache=True)
-def _curvature(t, lat, lon, se, sn, lat0, lon0, R, amp, kx, ky, om, ph):
-    """d²eta/ds² [1/m] at points along unit directions ``(se, sn)`` (east, north)."""
-    n = lat.shape[0]
-    out = np.zeros(n)
-    c0 = math.cos(lat0)
-    for i in range(n):
-        x, y, m = _local(lat[i], lon[i], lat0, lon0, c0, R)
-        acc = 0.0
-        for j in range(amp.shape[0]):
-            ks = kx[j] * m * se[i] + ky[j] * sn[i]
-            acc -= amp[j] * ks * ks * math.cos(kx[j] * x + ky[j] * y - om[j] * t + ph[j])
-        out[i] = acc
-    return out
-
-
-@njit(cache=True)
-def _wave_forces(t, q, V, m, area, free, lat0, lon0, R, amp, kx, ky, om, ph, uo, g, slope,
-                 drag_coef, F):
-    """Add ``-m g grad eta`` (if ``slope``) and ``S drag_coef |u - U| (u - U)`` with
-    ``drag_coef = rho_w C_d`` to the free elements (local frames)."""
-    buf = np.empty(5)
-    for i in range(q.shape[0]):
-        if not free[i]:
-            continue
-        z = 1.0 - 2.0 * (q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2])
-        x3 = 2.0 * (q[i, 1] * q[i, 3] + q[i, 0] * q[i, 2])
-        y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
-        lat = math.asin(max(-1.0, min(1.0, z)))
-        lon = math.atan2(y3, x3)
-        _at(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo, buf)
-        ex, ey, nx, ny = east_north_row(q, i)
-        fe = 0.0
-        fn = 0.0
-        if slope:
-            fe -= m[i] * g * buf[1]
-            fn -= m[i] * g * buf[2]
-        if drag_coef > 0.0:
-            ue = V[i, 0] * ex + V[i, 1] * ey
-            un = V[i, 0] * nx + V[i, 1] * ny
-            de = buf[3] - ue
-            dn = buf[4] - un
-            drag_e, drag_n = quadratic_drag(area[i], drag_coef, de, dn)
-            fe += drag_e
-            fn += drag_n
-        F[i, 0] += fe * ex + fn * nx
-        F[i, 1] += fe * ey + fn * ny
-
-
-# ----------------------------------------------------------------------------- fields
+# ------------------------------------------------------- kernels: siku_forcing.wave_kernels
 class WaveField(Field):
     """Base of wave fields: components ``amp, kx, ky, omega, phase`` (arrays) and the methods
     of the module docstring. Subclasses fill the components in :meth:`components`."""
@@ -306,13 +188,13 @@ class WaveField(Field):
     def plane(self, lat, lon):
         """East and north distances [m] of points ``lat, lon`` [rad] from the origin."""
         a = self._args()
-        return _plane(np.ascontiguousarray(lat, dtype=float),
+        return plane_coords(np.ascontiguousarray(lat, dtype=float),
                       np.ascontiguousarray(lon, dtype=float), a[0], a[1], a[2])
 
     def evaluate(self, t, lat, lon) -> dict[str, np.ndarray]:
         """``eta`` [m], slope ``eta_e``, ``eta_n`` [1] (east, north), orbital velocity ``u``,
         ``v`` [m/s] at ``lat, lon`` [rad] and time ``t`` [s]."""
-        r = _evaluate(float(t), np.ascontiguousarray(lat, dtype=float),
+        r = plane_evaluate(float(t), np.ascontiguousarray(lat, dtype=float),
                       np.ascontiguousarray(lon, dtype=float), *self._args(), self.u_orbital)
         return {"eta": r[:, 0], "eta_e": r[:, 1], "eta_n": r[:, 2], "u": r[:, 3], "v": r[:, 4]}
 
@@ -323,7 +205,7 @@ class WaveField(Field):
     def curvature(self, t, lat, lon, se, sn) -> np.ndarray:
         """Curvature ``d²eta/ds²`` [1/m] along unit directions ``(se, sn)`` (east, north)."""
         f = np.ascontiguousarray
-        return _curvature(float(t), f(lat, dtype=float), f(lon, dtype=float),
+        return plane_curvature(float(t), f(lat, dtype=float), f(lon, dtype=float),
                           f(se, dtype=float), f(sn, dtype=float), *self._args())
 
     def variance(self) -> float:
@@ -464,7 +346,7 @@ class Waves(ForcingSource):
             return
         if drag == 0.0 and not self.p["slope"]:
             return
-        _wave_forces(float(t), q, V, self.st.m, self.st.area, self.free, f.lat0, f.lon0,
+        wave_forces(float(t), q, V, self.st.m, self.st.area, self.free, f.lat0, f.lon0,
                      f.radius, f.amp, f.kx, f.ky, f.omega, f.phase, f.u_orbital, self.g,
                      bool(self.p["slope"]), drag, F)
 

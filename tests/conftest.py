@@ -28,11 +28,11 @@ def pytest_configure(config):
     import importlib.metadata as md
     import os
 
-    from siku_core.plugins import _canonical, get_registry, own_distribution, \
+    from siku_core.plugins import canonical_dist, get_registry, own_distribution, \
         skipped_distributions
 
     own = own_distribution()
-    others = {_canonical(ep.dist.name) for ep in md.entry_points(group="siku")
+    others = {canonical_dist(ep.dist.name) for ep in md.entry_points(group="siku")
               if ep.dist is not None and ep.dist.name != own}
     if others:
         os.environ["SIKU_SKIP_PLUGINS"] = ",".join(sorted(others | skipped_distributions()))

@@ -81,7 +81,7 @@ def test_wave_load_quadrature_is_the_rectangle_transform(k):
 def test_the_loads_from_the_vertices_are_the_pointwise_sums(n):
     """The step's loads from the quadrature lattice (each point's phase a product of powers of
     its triangle's vertices', the centre's phase and the time's turned in once) equal the
-    quadrature sums point by point (``kernels._excite``) to round-off: 1e-12 of ``a A``
+    quadrature sums point by point (``kernels.excite``) to round-off: 1e-12 of ``a A``
     (three components, random polygons, frames, times and diffraction factors)."""
     from numba import njit
 

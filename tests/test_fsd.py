@@ -209,7 +209,7 @@ def break_line_grid():
 def test_floe_sizes_per_cell_of_a_grid_along_the_break_lines(broken_pack):
     # a 2 x 2 lonlat grid whose cell edges are the lines the pack was broken along: every cell
     # holds one whole floe (3 x 2 elements)
-    from siku_io.analysis.fsd import grid_distribution
+    from siku_io.analysis.gridded_fields import grid_distribution
 
     path, side, area = broken_pack
     cfg = break_line_grid()
@@ -262,7 +262,7 @@ def test_siku_plot_draws_the_distribution_of_an_output_and_of_a_distribution_fil
 
 def test_siku_grid_puts_the_floe_sizes_per_cell_among_its_fields(broken_pack):
     # the grid of the test above through siku grid: the same floe fields as siku fsd --grid
-    from siku_io.analysis.fsd import grid_distribution
+    from siku_io.analysis.gridded_fields import grid_distribution
     from siku_io.analysis.gridded_fields import grid_output
 
     path, side, area = broken_pack

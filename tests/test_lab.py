@@ -30,7 +30,7 @@ from siku_core.contact_law import BREAK_SHEAR
 from siku_core.scene import scene_from_text
 from siku_core.simulation import Simulation
 from siku_plugins.lab import affine_moduli, measure, virtual_test
-from siku_plugins.lab_report import strength_table
+from siku_plugins.lab import strength_table
 
 ROOT = Path(__file__).resolve().parents[1]
 STRENGTHS = [0.1e6, 0.5e6, 1.0e6, 2.0e6]
@@ -146,7 +146,7 @@ def test_a_smaller_element_size_refines_the_same_block(monkeypatch):
     """``siku lab --element-size D``: the block keeps its size in metres (24 m × 12 m; flexure
     30 m × 8 m, or ``--length``/``--width``), so halving ``D`` quadruples the elements; the
     tables are run with those sizes."""
-    import siku_plugins.lab_report as lab
+    import siku_plugins.lab as lab
 
     seen = []
 
@@ -174,7 +174,7 @@ def test_calibration_puts_every_macro_strength_in_its_range():
     (``test_macro_strength_is_linear_in_bond_strength``), so the bond strength chosen from one
     run per test puts each test, run again at it, inside its wanted range, with the same ratio
     macro / bond to the 0.1 % the lines depart from proportionality (1 % asserted)."""
-    from siku_plugins.lab_report import calibrate
+    from siku_plugins.lab import calibrate
 
     ranges = {"tension": (0.2e6, 0.8e6), "compression": (0.5e6, 3.0e6),
               "flexure": (0.3e6, 1.5e6)}
@@ -191,7 +191,7 @@ def test_calibration_puts_every_macro_strength_in_its_range():
 
 
 def test_calibration_names_the_conflicting_tests():
-    from siku_plugins.lab_report import feasible_bonds
+    from siku_plugins.lab import feasible_bonds
 
     ratios = {"tension": 0.7, "compression": 2.08, "flexure": 1.29}
     low, high, t_lo, t_hi = feasible_bonds(

@@ -34,7 +34,7 @@ def test_modulus_and_strength_within_beam_theory(sigma, a, length, width, nu):
 
 def test_siku_lab_flexure_prints_the_vertical_test(monkeypatch, capsys, tmp_path):
     """``siku lab flexure`` prints, after the in-plane table, the vertical test per strength."""
-    import siku_plugins.lab_report as rep
+    import siku_plugins.lab as rep
     from siku_core.cli import main
 
     class Table:

@@ -46,8 +46,8 @@ from siku_io.mesh.mesh_file import COAST, ICE, LANDFAST, Mesh
 from siku_io.mesh.params import MeshParams
 from siku_io.mesh.region import Region
 from siku_io.mesh.seeding import SpacingField
-from siku_io.mesh.sphere import _unit, arc_of
-from siku_io.mesh.voronoi import _next_index
+from siku_io.mesh.sphere import unit_rows, arc_of
+from siku_io.mesh.voronoi import next_index
 
 R = 6_371_000.0
 
@@ -87,7 +87,7 @@ def cell_samples(mesh, cells, step_m):
             pts.append(a * (1 - t) + c * t)
             for f in (0.25, 0.5, 0.75):  # interior: points between the seed and the edge
                 pts.append(s * (1 - f) + (a * (1 - t) + c * t) * f)
-        p = _unit(np.vstack(pts))
+        p = unit_rows(np.vstack(pts))
         lo, la = xyz_to_lonlat(p)
         lon.append(lo)
         lat.append(la)
@@ -222,7 +222,7 @@ def test_whole_sphere_cells_cover_the_sphere(sphere):
     total = sphere.spherical_areas().sum()
     assert abs(total / (4 * math.pi * R**2) - 1.0) < 1e-9
     # a closed tessellation: every edge belongs to exactly two cells
-    nxt = _next_index(sphere.offsets)
+    nxt = next_index(sphere.offsets)
     e = np.sort(np.stack([sphere.vertex_id, sphere.vertex_id[nxt]], axis=1), axis=1)
     _, counts = np.unique(e, axis=0, return_counts=True)
     assert np.all(counts == 2)

@@ -69,9 +69,9 @@ def foreign_hdf5(path: Path, marked: bool = False) -> bytes:
         with open(path, "r+b") as fh:
             head = bytearray(fh.read(48))
             head[11] = 5
-            from siku_io.output.results import _lookup3
+            from siku_io.output.open_mark import lookup3
 
-            head[44:48] = _lookup3(bytes(head[:44])).to_bytes(4, "little")
+            head[44:48] = lookup3(bytes(head[:44])).to_bytes(4, "little")
             fh.seek(0)
             fh.write(head)
     return path.read_bytes()

@@ -282,7 +282,7 @@ def test_the_ice_edge_example_builds_and_steps():
 
 
 def test_the_drag_power_is_the_drag_force_times_the_orbital_velocity(tmp_path):
-    from siku_forcing.spectral import _add
+    from siku_forcing.spectral import add_slope_drag
     from siku_io.output.element_geometry import east_north
 
     sim = build(flume_scene(tmp_path, {"attenuation": "constant",
@@ -293,7 +293,7 @@ def test_the_drag_power_is_the_drag_force_times_the_orbital_velocity(tmp_path):
     r = rng.normal(0, 0.3, (st.n, 5))  # eta, slopes, orbital u east, v north
     F, power = np.zeros((st.n, 2)), np.zeros(st.n)
     coef = 1025.0 * 0.003
-    _add(st.q, V, st.m, st.area, np.ones(st.n, bool), r, 9.81, False, coef, F, power)
+    add_slope_drag(st.q, V, st.m, st.area, np.ones(st.n, bool), r, 9.81, False, coef, F, power)
     ue, un = east_north(st.q, V)
     de, dn = r[:, 3] - ue, r[:, 4] - un
     s = st.area * coef * np.hypot(de, dn)

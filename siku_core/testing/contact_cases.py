@@ -58,7 +58,7 @@ from ..contact_law import (
 from ..geometry.quat import centers, qmatrix, qmul
 from ..plugins import Registry, get_registry
 from ..scene import Scene, scene_from_text
-from .scenes import EARTH_RADIUS, _key, scene_text, toml_value
+from .scenes import EARTH_RADIUS, toml_key, scene_text, toml_value
 
 # ---------------------------------------------------------------------------------------------
 # scene helpers
@@ -114,7 +114,8 @@ def contact_scene_text(
                  ("jointed", jointed)):
         if v is not None:
             contact[k] = [list(map(int, p)) for p in v] if k == "pairs" else v
-    table = "[contact]\n" + "\n".join(f"{_key(k)} = {toml_value(v)}" for k, v in contact.items())
+    table = "[contact]\n" + "\n".join(f"{toml_key(k)} = {toml_value(v)}"
+                                        for k, v in contact.items())
     extra = kwargs.pop("extra", "")
     return scene_text(
         elements, packs=packs, dt=dt, duration=steps * dt if duration is None else duration,
@@ -214,7 +215,7 @@ def contact_forces(sim: Any, q: np.ndarray | None = None, V: np.ndarray | None =
     return F, T
 
 
-def _call(law_cls: type, check: str, which: str, fn: Any, g: np.ndarray, *args: Any,
+def call_law(law_cls: type, check: str, which: str, fn: Any, g: np.ndarray, *args: Any,
           case: str = "") -> None:
     """``fn(g, *args)``; an exception becomes the check's finding, naming the law, the
     evaluator, the geometry case and ``g``."""
@@ -228,7 +229,7 @@ def _call(law_cls: type, check: str, which: str, fn: Any, g: np.ndarray, *args: 
         ) from None
 
 
-def _evaluators(law_cls: type) -> tuple[Any, Any]:
+def law_evaluators(law_cls: type) -> tuple[Any, Any]:
     """The law's evaluators as stored on the class (numba dispatchers, not bound methods)."""
     coll = getattr(law_cls, "collision_evaluator", None)
     joint = getattr(law_cls, "joint_evaluator", None) if law_cls.uses_joints else None
@@ -238,37 +239,37 @@ def _evaluators(law_cls: type) -> tuple[Any, Any]:
 # ---------------------------------------------------------------------------------------------
 # scenes of the checks: 2 km squares of 1 m ice at 70°N
 
-_LAT = 70.0
-_SIZE = 2000.0
+CASE_LAT = 70.0
+CASE_SIZE = 2000.0
 
 
-def _overlap_kwargs() -> dict[str, Any]:
+def overlap_kwargs() -> dict[str, Any]:
     """Two squares overlapping by 150 m, offset 400 m north, moving and spinning."""
     R = EARTH_RADIUS
-    dlon = math.degrees(1850.0 / (R * math.cos(math.radians(_LAT))))
+    dlon = math.degrees(1850.0 / (R * math.cos(math.radians(CASE_LAT))))
     dlat = math.degrees(400.0 / R)
     return {"elements": [
-        {"center": (10.0, _LAT), "velocity": (0.3, -0.1), "spin": 2e-4},
-        {"center": (10.0 + dlon, _LAT + dlat), "velocity": (-0.2, 0.25), "spin": -3e-4},
-    ], "size": _SIZE, "joints": "none"}
+        {"center": (10.0, CASE_LAT), "velocity": (0.3, -0.1), "spin": 2e-4},
+        {"center": (10.0 + dlon, CASE_LAT + dlat), "velocity": (-0.2, 0.25), "spin": -3e-4},
+    ], "size": CASE_SIZE, "joints": "none"}
 
 
-def _joint_kwargs() -> dict[str, Any]:
+def joint_kwargs() -> dict[str, Any]:
     """A jointed pair: a 2 × 1 pack of 2 km cells with 2 m of open water between them (the
     joint is detected within the 10 % tolerance), so no collision acts while displaced."""
-    return {"packs": [square_pack(10.0, _LAT, 2, 1, _SIZE, gap=0.001)], "joints": "auto"}
+    return {"packs": [square_pack(10.0, CASE_LAT, 2, 1, CASE_SIZE, gap=0.001)], "joints": "auto"}
 
 
-def _separated_kwargs() -> dict[str, Any]:
+def separated_kwargs() -> dict[str, Any]:
     R = EARTH_RADIUS
-    dlon = math.degrees(2500.0 / (R * math.cos(math.radians(_LAT))))
+    dlon = math.degrees(2500.0 / (R * math.cos(math.radians(CASE_LAT))))
     return {"elements": [
-        {"center": (10.0, _LAT), "velocity": (0.3, -0.1), "spin": 2e-4},
-        {"center": (10.0 + dlon, _LAT), "velocity": (-0.2, 0.25), "spin": -3e-4},
-    ], "size": _SIZE, "joints": "none"}
+        {"center": (10.0, CASE_LAT), "velocity": (0.3, -0.1), "spin": 2e-4},
+        {"center": (10.0 + dlon, CASE_LAT), "velocity": (-0.2, 0.25), "spin": -3e-4},
+    ], "size": CASE_SIZE, "joints": "none"}
 
 
-def _assert_pair_balanced(sim: Any, q: np.ndarray, F: np.ndarray, T: np.ndarray, what: str,
+def assert_pair_balanced(sim: Any, q: np.ndarray, F: np.ndarray, T: np.ndarray, what: str,
                           rtol: float = 1e-12) -> None:
     R = sim.radius
     tau = global_torques(q, F, T, R)
@@ -446,10 +447,10 @@ def degenerate_joint_geometries() -> list[tuple[str, np.ndarray]]:
     return out
 
 
-def _touching_squares(dlon: float) -> list[list[list[float]]]:
+def touching_squares(dlon: float) -> list[list[list[float]]]:
     """Two lon/lat boxes sharing their common meridian edge exactly."""
-    dlat = math.degrees(_SIZE / EARTH_RADIUS)
-    lat0, lat1 = _LAT, _LAT + dlat
+    dlat = math.degrees(CASE_SIZE / EARTH_RADIUS)
+    lat0, lat1 = CASE_LAT, CASE_LAT + dlat
     lons = (10.0, 10.0 + dlon, 10.0 + 2 * dlon)
     return [[[lons[k], lat0], [lons[k + 1], lat0], [lons[k + 1], lat1], [lons[k], lat1]]
             for k in range(2)]

@@ -28,11 +28,11 @@ from ..contact_law import (
 )
 from ..geometry.quat import centers, qmatrix
 from .contact_cases import (
-    _LAT,
-    _SIZE,
-    _call,
-    _joint_kwargs,
-    _separated_kwargs,
+    CASE_LAT,
+    CASE_SIZE,
+    call_law,
+    joint_kwargs,
+    separated_kwargs,
     contact_forces,
     global_torques,
     law_simulation,
@@ -137,20 +137,20 @@ def check_passivity(law_cls: type, params: Mapping[str, Any] | None = None,
     """
     check = "passivity"
     R = EARTH_RADIUS
-    dlon = math.degrees(2010.0 / (R * math.cos(math.radians(_LAT))))
-    sim = law_simulation(law_cls, params, size=_SIZE, joints="none", elements=[
-        {"center": (10.0, _LAT)}, {"center": (10.0 + dlon, _LAT)}])
+    dlon = math.degrees(2010.0 / (R * math.cos(math.radians(CASE_LAT))))
+    sim = law_simulation(law_cls, params, size=CASE_SIZE, joints="none", elements=[
+        {"center": (10.0, CASE_LAT)}, {"center": (10.0 + dlon, CASE_LAT)}])
     a, b, c = _pair_axes(sim)
     d = 160.0 / R / steps
     path = _cycle([-a * d + b * (d / 3.0) + c * (3e-3 / steps)] * steps)
     for tau_s, how in ((None, "quasi-static"), (10.0, "moving")):
-        sim = law_simulation(law_cls, params, size=_SIZE, joints="none", elements=[
-            {"center": (10.0, _LAT)}, {"center": (10.0 + dlon, _LAT)}])
+        sim = law_simulation(law_cls, params, size=CASE_SIZE, joints="none", elements=[
+            {"center": (10.0, CASE_LAT)}, {"center": (10.0 + dlon, CASE_LAT)}])
         _driven_work(sim, path, tau_s, f"collision cycle, {how}", check, law_cls.name, 160.0)
     if not law_cls.uses_joints:
         return
     for tau_s, how in ((None, "quasi-static"), (10.0, "moving")):
-        sim = law_simulation(law_cls, params, **_joint_kwargs())
+        sim = law_simulation(law_cls, params, **joint_kwargs())
         assert sim.contacts.n_joints == 1, "jointed pair of the check has no joint (test setup)"
         a, b, c = _pair_axes(sim)
         d = 0.05 / R / steps
@@ -189,7 +189,7 @@ def check_energy(law_cls: type, params: Mapping[str, Any] | None = None, n: int 
     if energy is None or not law_cls.uses_joints:
         return
     energy = getattr(energy, "__func__", energy)
-    sim = law_simulation(law_cls, params, **_separated_kwargs())
+    sim = law_simulation(law_cls, params, **separated_kwargs())
     law = sim.contacts.law
     joint = law_cls.joint_evaluator
     jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
@@ -201,7 +201,7 @@ def check_energy(law_cls: type, params: Mapping[str, Any] | None = None, n: int 
         g[[J_S1X, J_S1Y, J_S2X, J_S2Y]] *= 1e-2  # strains about 1e-7 to 1e-5: intact
         g[[J_VAX, J_VAY, J_VBX, J_VBY]] = 0.0
         hist, out = np.zeros(nh), np.zeros(4)
-        _call(law_cls, check, "joint", joint, g.copy(), jpars, hist, out)
+        call_law(law_cls, check, "joint", joint, g.copy(), jpars, hist, out)
         if out[3] != 0.0:
             continue
         tested += 1
@@ -254,7 +254,7 @@ def _check_contact_history(law_cls: type, law: Any, n: int, seed: int) -> None:
         hist = np.full(nch + 2, guard)
         hist[:nch] = 0.0
         for _rep in range(2):
-            _call(law_cls, "history", "collision", coll, g.copy(), cpars, hist, np.zeros(4))
+            call_law(law_cls, "history", "collision", coll, g.copy(), cpars, hist, np.zeros(4))
             assert np.all(hist[nch:] == guard) and np.isfinite(hist[:nch]).all(), (
                 f"{law_cls.name}: history: the collision evaluator wrote contact history "
                 f"{hist.tolist()}: columns past its {nch} contact_history_names "
@@ -268,7 +268,7 @@ def check_history(law_cls: type, params: Mapping[str, Any] | None = None, n: int
     geometry a second time (at ``dt = 0`` for ``history_update = "rate"``) leaves the history
     as the first evaluation left it."""
     check = "history"
-    sim = law_simulation(law_cls, params, **_separated_kwargs())
+    sim = law_simulation(law_cls, params, **separated_kwargs())
     law = sim.contacts.law
     _check_contact_history(law_cls, law, n, seed)
     if not law_cls.uses_joints:
@@ -286,14 +286,14 @@ def check_history(law_cls: type, params: Mapping[str, Any] | None = None, n: int
         hist = np.full(max(nh, 1) + 2, guard)
         hist[:nh] = 0.0
         out = np.zeros(4)
-        _call(law_cls, check, "joint", joint, g.copy(), jpars, hist, out)
+        call_law(law_cls, check, "joint", joint, g.copy(), jpars, hist, out)
         assert np.all(hist[nh:] == guard), (
             f"{law_cls.name}: {check}: the joint evaluator wrote history column(s) "
             f"{[k for k in range(nh, len(hist)) if hist[k] != guard]} beyond its "
             f"{nh} history_names {tuple(law.history_names)} (g = {g.tolist()})"
         )
         first = hist.copy()
-        _call(law_cls, check, "joint", joint, g.copy(), jpars, hist, np.zeros(4))
+        call_law(law_cls, check, "joint", joint, g.copy(), jpars, hist, np.zeros(4))
         assert np.array_equal(hist, first, equal_nan=True), (
             f"{law_cls.name}: {check}: evaluating the same joint again changed its history "
             f"from {first[:nh].tolist()} to {hist[:nh].tolist()}"

@@ -19,15 +19,15 @@ from ..contact_law import (
 )
 from ..geometry.quat import centers
 from .contact_cases import (
-    _LAT,
-    _SIZE,
-    _assert_pair_balanced,
-    _call,
-    _evaluators,
-    _joint_kwargs,
-    _overlap_kwargs,
-    _separated_kwargs,
-    _touching_squares,
+    CASE_LAT,
+    CASE_SIZE,
+    assert_pair_balanced,
+    call_law,
+    law_evaluators,
+    joint_kwargs,
+    overlap_kwargs,
+    separated_kwargs,
+    touching_squares,
     contact_forces,
     contact_history_row,
     degenerate_collision_geometries,
@@ -50,13 +50,13 @@ def check_newton_third_law(law_cls: type, params: Mapping[str, Any] | None = Non
     curvature term ``4 d/R``. The collision pair overlaps obliquely while moving and spinning
     (elastic, damping, friction and couples all act); the jointed pair is pulled, sheared and
     twisted while moving apart and spinning."""
-    sim = law_simulation(law_cls, params, **_overlap_kwargs())
+    sim = law_simulation(law_cls, params, **overlap_kwargs())
     F, T = contact_forces(sim, commit=True)
     assert sim.contacts.n_overlap == 1, f"{law_cls.name}: the overlapping pair does not overlap"
-    _assert_pair_balanced(sim, sim.state.q, F, T, f"{law_cls.name} collision evaluator")
+    assert_pair_balanced(sim, sim.state.q, F, T, f"{law_cls.name} collision evaluator")
     if not law_cls.uses_joints:
         return
-    sim = law_simulation(law_cls, params, **_joint_kwargs())
+    sim = law_simulation(law_cls, params, **joint_kwargs())
     cm = sim.contacts
     assert cm.n_joints == 1, f"{law_cls.name}: expected one joint in the pair, got {cm.n_joints}"
     R = sim.radius
@@ -70,13 +70,13 @@ def check_newton_third_law(law_cls: type, params: Mapping[str, Any] | None = Non
     F, T = contact_forces(sim, q, V, w, commit=True)
     assert sim.contacts.n_overlap == 0, "jointed pair of the check overlaps (test setup)"
     assert cm.n_intact == 1, f"{law_cls.name}: the joint broke under a strain of 5e-5"
-    _assert_pair_balanced(sim, q, F, T, f"{law_cls.name} joint evaluator")
+    assert_pair_balanced(sim, q, F, T, f"{law_cls.name} joint evaluator")
 
 
 def check_zero_force_when_apart(law_cls: type, params: Mapping[str, Any] | None = None) -> None:
     """Two moving, spinning elements 500 m apart, without a joint: exactly zero force and
     torque."""
-    sim = law_simulation(law_cls, params, **_separated_kwargs())
+    sim = law_simulation(law_cls, params, **separated_kwargs())
     F, T = contact_forces(sim)
     assert not np.any(F) and not np.any(T), (
         f"{law_cls.name}: separated pair without joint got F = {F.tolist()}, T = {T.tolist()}"
@@ -99,9 +99,9 @@ def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | Non
     outputs and history to ``rtol`` (relative to the largest component: compiled ``math``
     functions such as ``hypot`` may differ from CPython's in the last bit), break flags exactly
     (joint laws are evaluated twice, the second time on the history the first left)."""
-    sim = law_simulation(law_cls, params, **_separated_kwargs())
+    sim = law_simulation(law_cls, params, **separated_kwargs())
     law = sim.contacts.law
-    coll, joint = _evaluators(law_cls)
+    coll, joint = law_evaluators(law_cls)
     rng = np.random.default_rng(seed)
     cpars = np.ascontiguousarray(law.collision_parameters(), dtype=float)
     for k in range(n):
@@ -109,8 +109,8 @@ def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | Non
         hc, hp = contact_history_row(law), contact_history_row(law)  # () or (zero row,)
         for rep in range(2 if hc else 1):  # twice on the row the first evaluation left
             oc, op = np.zeros(4), np.zeros(4)
-            _call(law_cls, "compiled == python", "collision", coll, g.copy(), cpars, *hc, oc)
-            _call(law_cls, "compiled == python", "collision (py_func)", coll.py_func,
+            call_law(law_cls, "compiled == python", "collision", coll, g.copy(), cpars, *hc, oc)
+            call_law(law_cls, "compiled == python", "collision (py_func)", coll.py_func,
                   g.copy(), cpars, *hp, op)
             assert _close(oc, op, rtol) and all(_close(a, b, rtol) for a, b in zip(hc, hp)), (
                 f"{law_cls.name}: compiled == python: compiled collision evaluator "
@@ -126,8 +126,8 @@ def check_compiled_matches_python(law_cls: type, params: Mapping[str, Any] | Non
         hc, hp = np.zeros(nh), np.zeros(nh)
         for rep in range(2):
             oc, op = np.zeros(4), np.zeros(4)
-            _call(law_cls, "compiled == python", "joint", joint, g.copy(), jpars, hc, oc)
-            _call(law_cls, "compiled == python", "joint (py_func)", joint.py_func, g.copy(),
+            call_law(law_cls, "compiled == python", "joint", joint, g.copy(), jpars, hc, oc)
+            call_law(law_cls, "compiled == python", "joint (py_func)", joint.py_func, g.copy(),
                   jpars, hp, op)
             assert oc[3] == op[3] and _close(hc, hp, rtol) and _close(oc, op, rtol), (
                 f"{law_cls.name}: compiled == python: compiled joint evaluator out "
@@ -144,14 +144,14 @@ def check_degenerate_finite(law_cls: type, params: Mapping[str, Any] | None = No
     """Finite forces, couples, flags and history for the degenerate geometry vectors above,
     and through the engine for two coincident elements and for two elements that only touch
     along an edge (zero overlap area)."""
-    coll, joint = _evaluators(law_cls)
-    sim = law_simulation(law_cls, params, **_separated_kwargs())
+    coll, joint = law_evaluators(law_cls)
+    sim = law_simulation(law_cls, params, **separated_kwargs())
     law = sim.contacts.law
     cpars = np.ascontiguousarray(law.collision_parameters(), dtype=float)
     check = "degenerate geometry"
     for name, g in degenerate_collision_geometries():
         out, hist = np.zeros(4), contact_history_row(law)
-        _call(law_cls, check, "collision", coll, g, cpars, *hist, out, case=name)
+        call_law(law_cls, check, "collision", coll, g, cpars, *hist, out, case=name)
         assert np.isfinite(out).all() and all(np.isfinite(h).all() for h in hist), (
             f"{law_cls.name}: {check}: collision evaluator, {name}: out = {out.tolist()}"
             f"{_rows(hist)}")
@@ -160,20 +160,21 @@ def check_degenerate_finite(law_cls: type, params: Mapping[str, Any] | None = No
         nh = max(len(law.history_names), 1)
         for name, g in degenerate_joint_geometries():
             out, hist = np.zeros(4), np.zeros(nh)
-            _call(law_cls, check, "joint", joint, g, jpars, hist, out, case=name)
+            call_law(law_cls, check, "joint", joint, g, jpars, hist, out, case=name)
             assert np.isfinite(out).all() and np.isfinite(hist).all(), (
                 f"{law_cls.name}: {check}: joint evaluator, {name}: out = {out.tolist()}, "
                 f"hist = {hist.tolist()}"
             )
     R = EARTH_RADIUS
-    dlon = math.degrees(_SIZE / (R * math.cos(math.radians(_LAT))))
+    dlon = math.degrees(CASE_SIZE / (R * math.cos(math.radians(CASE_LAT))))
     cases = {
-        "coincident elements": [{"center": (10.0, _LAT), "velocity": (0.2, 0.0)},
-                                {"center": (10.0, _LAT), "velocity": (-0.2, 0.1), "spin": 1e-4}],
-        "touching elements": [{"vertices": v} for v in _touching_squares(dlon)],
+        "coincident elements": [{"center": (10.0, CASE_LAT), "velocity": (0.2, 0.0)},
+                                {"center": (10.0, CASE_LAT), "velocity": (-0.2, 0.1),
+                                 "spin": 1e-4}],
+        "touching elements": [{"vertices": v} for v in touching_squares(dlon)],
     }
     for name, elements in cases.items():
-        sim = law_simulation(law_cls, params, elements=elements, size=_SIZE, joints="none")
+        sim = law_simulation(law_cls, params, elements=elements, size=CASE_SIZE, joints="none")
         try:
             F, T = contact_forces(sim)
         except Exception as exc:  # noqa: BLE001 - a finding

@@ -145,10 +145,10 @@ def siku_fake_install(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterat
             {v.split(":")[0].split(".")[0] for v in entry_points.values()})
         tops.extend(top)
         write_dist_info(site, name, version, entry_points, top)
-        from ..plugins import _canonical, skipped_distributions
+        from ..plugins import canonical_dist, skipped_distributions
 
-        if _canonical(name) in skipped_distributions():  # installed for this test: load it
-            keep = sorted(skipped_distributions() - {_canonical(name)})
+        if canonical_dist(name) in skipped_distributions():  # installed for this test: load it
+            keep = sorted(skipped_distributions() - {canonical_dist(name)})
             monkeypatch.setenv("SIKU_SKIP_PLUGINS", ",".join(keep))
         for p in (*paths, site):
             monkeypatch.syspath_prepend(str(p))

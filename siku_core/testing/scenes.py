@@ -52,19 +52,19 @@ def toml_value(value: Any) -> str:
     if isinstance(value, (_dt.datetime, _dt.date)):
         return value.isoformat()
     if isinstance(value, Mapping):
-        return "{ " + ", ".join(f"{_key(k)} = {toml_value(v)}" for k, v in value.items()) + " }"
+        return "{ " + ", ".join(f"{toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + " }"
     if isinstance(value, (Sequence, np.ndarray)):
         return "[" + ", ".join(toml_value(v) for v in value) + "]"
     raise TypeError(f"cannot write {type(value).__name__} {value!r} as TOML")
 
 
-def _key(k: str) -> str:
+def toml_key(k: str) -> str:
     return k if _BARE_KEY.match(k) else json.dumps(k)
 
 
 def _table(header: str, values: Mapping[str, Any]) -> str:
     lines = [header]
-    lines += [f"{_key(k)} = {toml_value(v)}" for k, v in values.items() if v is not None]
+    lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in values.items() if v is not None]
     return "\n".join(lines)
 
 
@@ -147,7 +147,7 @@ def scene_text(
     if planet:
         parts.append(_table("[planet]", planet))
     for name, mat in (materials or {}).items():
-        parts.append(_table(f"[materials.{_key(name)}]", mat))
+        parts.append(_table(f"[materials.{toml_key(name)}]", mat))
     parts.append(_table("[elements]", {"thickness": thickness}))
     for spec in elements:
         parts.append(_table("[[elements.polygon]]", _polygon_table(spec, size, radius)))

@@ -200,9 +200,9 @@ def output_statistics(path, scales, steps=(1,), min_cover: float = 0.5) -> Defor
 
     ds = open_output(path)
     R = float(ds.attrs["radius"])
-    from siku_io.analysis.gridded_fields import _seconds
+    from siku_io.analysis.gridded_fields import snapshot_seconds
 
-    seconds = np.asarray(_seconds(ds), float)
+    seconds = np.asarray(snapshot_seconds(ds), float)
     dts = np.diff(seconds)
     if len(dts) == 0 or not np.allclose(dts, dts[0], rtol=1e-9):
         from siku_core import DataError

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from siku_core import DataError
+from siku_core.deprecation import moved_names
 
 #: fewest floes in the tail for a power-law fit
 MIN_TAIL = 10
@@ -334,64 +335,9 @@ def output_distribution(path, per_decade: int = 5, min_tail: int = MIN_TAIL,
     return ds
 
 
-# ------------------------------------------------------------------------ on a grid
-#: gridded floe fields: name -> (units, long name)
-GRID_FSD = {
-    "concentration": ("1", "ice area over cell area"),
-    "floe_number": ("1", "floes in the cell: sum over its elements of their share of the cell "
-                    "times their area over their floe's area"),
-    "floe_area_mean": ("m2", "area of the floe the ice in the cell belongs to, mean weighted by "
-                       "that ice's area"),
-    "floe_caliper_mean": ("m", "mean caliper diameter of the floe the ice in the cell belongs "
-                          "to, mean weighted by that ice's area"),
-}
-
-
-def grid_distribution(path, cfg):
-    """Floe sizes per cell of the regular grid ``cfg`` (``siku_io.analysis.regular_grid``,
-    the same overlap of elements and cells as ``siku grid``) at every snapshot of output file
-    ``path``: :data:`GRID_FSD` as an ``xarray.Dataset`` along ``time`` and the grid's two
-    dimensions."""
-    import xarray as xr
-
-    from siku_io.analysis.gridded_fields import snapshots
-    from siku_io.analysis.regular_grid import Grid
-    from siku_io.output.xr import open_output
-
-    fl = output_floes(path)
-    ds = open_output(path)
-    grid = Grid(cfg, float(ds.attrs["radius"]))
-    ny, nx = grid.shape
-    rows = [floe_cells(grid, snap, f, with_concentration=True)
-            for snap, f in zip(snapshots(ds, open_output(path, group="breaks")), fl)]
-    dims = ("time", *grid.dims)
-    coords = {k: xr.Variable(d, v, a) for k, (d, v, a) in grid.cf_coords().items()}
-    coords["time"] = xr.Variable("time", [f.time for f in fl], {
-        "units": "s", "long_name": "model time of the snapshot"})
-    data = {k: xr.Variable(dims, np.stack([r[k].reshape(ny, nx) for r in rows]),
-                           {"units": u, "long_name": n}) for k, (u, n) in GRID_FSD.items()}
-    out = xr.Dataset(data, coords)
-    out.attrs.update({"title": "floe size distribution per cell",
-                      "grid": cfg.model_dump_json(exclude_none=True)})
-    return out
-
-
-def floe_cells(grid, snap, floes: Floes, with_concentration: bool = False) -> dict:
-    """The floe fields of :data:`GRID_FSD` per cell (flat arrays) of one snapshot ``snap``
-    (``siku_io.analysis.gridded_fields.Snapshot``) whose floes are ``floes``; the
-    concentration too if asked."""
-    from siku_io.analysis.gridded_fields import cell_means
-
-    nc = grid.shape[0] * grid.shape[1]
-    el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
-    w = frac * snap.area[el]
-    ice = np.bincount(cell, w, nc)
-    floe_a = floes.area[floes.label][el]
-    # (float even where no element reaches the grid: bincount of nothing is int64)
-    out = {"floe_number": np.bincount(cell, w / floe_a, nc).astype(float, copy=False),
-           "floe_area_mean": cell_means(cell, w, ice, floe_a, np.nan),
-           "floe_caliper_mean": cell_means(cell, w, ice, floes.caliper[floes.label][el],
-                                           np.nan)}
-    if with_concentration:
-        out["concentration"] = ice / grid.cell_area.ravel()
-    return out
+#: names that moved to :mod:`siku_io.analysis.gridded_fields`, the grid side of the floe sizes
+__getattr__ = moved_names(__name__, {
+    "GRID_FSD": "siku_io.analysis.gridded_fields",
+    "grid_distribution": "siku_io.analysis.gridded_fields",
+    "floe_cells": "siku_io.analysis.gridded_fields",
+})

@@ -123,7 +123,7 @@ def _cmd_fsd(args) -> int:
         plot_fsd(ds, args.plot)
         print(f"{args.plot}: floe size distribution plot")
     if cfg is not None:
-        from siku_io.analysis.fsd import grid_distribution
+        from siku_io.analysis.gridded_fields import grid_distribution
 
         target = Path(args.grid)
         with damaged(args.output):

@@ -48,6 +48,7 @@ from siku_core import DataError
 from siku_core.categories import Categories, ice_per_area
 from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.stress import principal
+from siku_io.analysis import fsd
 from siku_io.analysis.regular_grid import Grid, GridCfg
 
 #: gridded fields: name -> (units, standard name or "", long name)
@@ -72,7 +73,7 @@ GRID_FIELDS: dict[str, tuple[str, str, str]] = {
     "n_elements": ("1", "", "element centres in the cell"),
     "broken_joints": ("1", "", "broken joints with their midpoint in the cell"),
 }
-#: the floe fields of ``siku fsd`` (``siku_io.analysis.fsd.GRID_FSD``): floes over the intact
+#: the floe fields of ``siku fsd`` (:data:`GRID_FSD`): floes over the intact
 #: joints of each snapshot
 FLOE_FIELDS = ("floe_number", "floe_area_mean", "floe_caliper_mean")
 
@@ -278,7 +279,7 @@ def snapshots(ds, breaks=None):
     bt = bi = bj = None
     if breaks is not None and "time" in breaks:
         bt, bi, bj = (breaks[k].values for k in ("time", "i", "j"))
-    seconds = _seconds(ds)
+    seconds = snapshot_seconds(ds)
     extra = declared_in(ds)
     cats = None
     if "category_fraction" in ds and "category_thickness" in ds:
@@ -311,7 +312,7 @@ def declared_in(ds) -> dict[str, str]:
             if v.attrs.get("grid") in ("mean", "sum") and v.dims == ("time", "element")}
 
 
-def _seconds(ds) -> np.ndarray:
+def snapshot_seconds(ds) -> np.ndarray:
     """Model seconds of every snapshot of an output dataset."""
     t = ds["time"].values
     if np.issubdtype(t.dtype, np.datetime64):
@@ -329,7 +330,7 @@ def grid_output(path, cfg: GridCfg, progress: bool = False):
     ds = open_output(path)
     breaks = open_output(path, group="breaks")
     grid = Grid(cfg, float(ds.attrs["radius"]))
-    seconds = _seconds(ds)
+    seconds = snapshot_seconds(ds)
     keep = np.arange(ds.sizes["time"])
     if cfg.every is not None:
         try:
@@ -344,10 +345,9 @@ def grid_output(path, cfg: GridCfg, progress: bool = False):
     floes = None
     if cfg.fields is None or set(FLOE_FIELDS) & set(cfg.fields):
         from siku_core.errors import SikuError
-        from siku_io.analysis.fsd import floe_cells, output_floes
 
         try:  # the floes need the run's joints: its scene is built again (siku fsd)
-            floes = output_floes(path, calipers=cfg.fields is None
+            floes = fsd.output_floes(path, calipers=cfg.fields is None
                                  or "floe_caliper_mean" in cfg.fields)
         except SikuError as exc:
             if cfg.fields is not None:  # asked for by name: refused, one line
@@ -379,8 +379,6 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
                     f"{src[k].attrs.get('long_name', k)} ({src[k].attrs['grid']} over the "
                     "elements in the cell)")
                 for k in declared_in(src)}
-    from siku_io.analysis.fsd import GRID_FSD
-
     known = {**GRID_FIELDS, **{k: (GRID_FSD[k][0], "", GRID_FSD[k][1]) for k in FLOE_FIELDS},
              **declared}
     if rows and "category_fraction" in rows[0]:
@@ -397,7 +395,7 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
 
     coords = {k: xr.Variable(d, v, a) for k, (d, v, a) in grid.cf_coords().items()}
     units, comment = cf_time_units(str(src.attrs.get("start", "")))
-    coords["time"] = xr.Variable("time", _seconds(src), {
+    coords["time"] = xr.Variable("time", snapshot_seconds(src), {
         "standard_name": "time", "long_name": "time of the gridded fields", "units": units,
         "calendar": "proleptic_gregorian", "axis": "T", "comment": comment})
     mapping = "crs" if grid.kind != "lonlat" else None
@@ -439,4 +437,64 @@ def to_dataset(grid: Grid, rows: list[dict], src, cfg: GridCfg):
         "scene": src.attrs.get("scene", ""),
         "references": "Kwok et al. (2008), J. Geophys. Res. 113, C08010 (RGPS strain rates)",
     })
+    return out
+
+
+# ------------------------------------------------------------------------ floe sizes on a grid
+#: gridded floe fields: name -> (units, long name)
+GRID_FSD = {
+    "concentration": ("1", "ice area over cell area"),
+    "floe_number": ("1", "floes in the cell: sum over its elements of their share of the cell "
+                    "times their area over their floe's area"),
+    "floe_area_mean": ("m2", "area of the floe the ice in the cell belongs to, mean weighted by "
+                       "that ice's area"),
+    "floe_caliper_mean": ("m", "mean caliper diameter of the floe the ice in the cell belongs "
+                          "to, mean weighted by that ice's area"),
+}
+
+
+def grid_distribution(path, cfg):
+    """Floe sizes per cell of the regular grid ``cfg`` (``siku_io.analysis.regular_grid``,
+    the same overlap of elements and cells as ``siku grid``) at every snapshot of output file
+    ``path``: :data:`GRID_FSD` as an ``xarray.Dataset`` along ``time`` and the grid's two
+    dimensions."""
+    import xarray as xr
+
+    from siku_io.analysis.regular_grid import Grid
+    from siku_io.output.xr import open_output
+
+    fl = fsd.output_floes(path)
+    ds = open_output(path)
+    grid = Grid(cfg, float(ds.attrs["radius"]))
+    ny, nx = grid.shape
+    rows = [floe_cells(grid, snap, f, with_concentration=True)
+            for snap, f in zip(snapshots(ds, open_output(path, group="breaks")), fl)]
+    dims = ("time", *grid.dims)
+    coords = {k: xr.Variable(d, v, a) for k, (d, v, a) in grid.cf_coords().items()}
+    coords["time"] = xr.Variable("time", [f.time for f in fl], {
+        "units": "s", "long_name": "model time of the snapshot"})
+    data = {k: xr.Variable(dims, np.stack([r[k].reshape(ny, nx) for r in rows]),
+                           {"units": u, "long_name": n}) for k, (u, n) in GRID_FSD.items()}
+    out = xr.Dataset(data, coords)
+    out.attrs.update({"title": "floe size distribution per cell",
+                      "grid": cfg.model_dump_json(exclude_none=True)})
+    return out
+
+
+def floe_cells(grid, snap, floes: fsd.Floes, with_concentration: bool = False) -> dict:
+    """The floe fields of :data:`GRID_FSD` per cell (flat arrays) of one snapshot ``snap``
+    (:class:`Snapshot`) whose floes are ``floes``; the
+    concentration too if asked."""
+    nc = grid.shape[0] * grid.shape[1]
+    el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
+    w = frac * snap.area[el]
+    ice = np.bincount(cell, w, nc)
+    floe_a = floes.area[floes.label][el]
+    # (float even where no element reaches the grid: bincount of nothing is int64)
+    out = {"floe_number": np.bincount(cell, w / floe_a, nc).astype(float, copy=False),
+           "floe_area_mean": cell_means(cell, w, ice, floe_a, np.nan),
+           "floe_caliper_mean": cell_means(cell, w, ice, floes.caliper[floes.label][el],
+                                           np.nan)}
+    if with_concentration:
+        out["concentration"] = ice / grid.cell_area.ravel()
     return out

@@ -59,9 +59,9 @@ from .mesh_file import COAST, ICE, LANDFAST, Mesh
 from .params import MeshParams
 from .region import Region
 from .relax import OUTSIDE, REMOVED, relax_small_cells
-from .seeding import SpacingField, _guards, blue_noise
-from .sphere import _unit, chord_of
-from .voronoi import _csr_take, _next_index, voronoi_cells
+from .seeding import SpacingField, guard_points, blue_noise
+from .sphere import unit_rows, chord_of
+from .voronoi import csr_take, next_index, voronoi_cells
 
 
 # ---------------------------------------------------------------------------- build
@@ -73,7 +73,7 @@ def _edge_samples(a: np.ndarray, b: np.ndarray, step_chord):
     arc = np.repeat(np.arange(len(a)), m)
     start = np.cumsum(m) - m
     t = (np.arange(int(m.sum())) - np.repeat(start, m)) / np.repeat(m - 1, m)
-    p = _unit(a[arc] * (1.0 - t)[:, None] + b[arc] * t[:, None])
+    p = unit_rows(a[arc] * (1.0 - t)[:, None] + b[arc] * t[:, None])
     return p, arc
 
 
@@ -87,7 +87,7 @@ def _classify(land: LandGrid, seeds_all: np.ndarray, cells: np.ndarray, verts: n
     has_land = seed_land.copy()
     has_water = ~seed_land
     # edges: unique undirected vertex pairs, each sampled once, flags sent to both cells
-    nxt = _next_index(offsets)
+    nxt = next_index(offsets)
     ea, eb = index, index[nxt]
     key = np.stack([np.minimum(ea, eb), np.maximum(ea, eb)], axis=1)
     uniq, inv = np.unique(key, axis=0, return_inverse=True)
@@ -155,7 +155,7 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
     land = _land_window(params, patch, land_fn, land_grid, graded, r_min, r_max, R)
     t_land = time.perf_counter() - t_land
     spacing = _spacing_field(params, land, graded, spacing_fn, r_min, r_max, R)
-    guards = _guards(patch, R, 2.0 * r_max + 0.05 * R)
+    guards = guard_points(patch, R, 2.0 * r_max + 0.05 * R)
     t1 = time.perf_counter()
     pts = blue_noise(patch, spacing, R, rng, guards=guards)
     t_points = time.perf_counter() - t1
@@ -177,7 +177,7 @@ def build_mesh(params: MeshParams | None = None, *, land_fn: Callable | None = N
     order = _row_order(region, pts[keep], stay, r_max, R)
     custom = land_fn is not None or land_grid is not None or spacing_fn is not None
     mesh = _assemble_mesh(params, custom, verts, pts[keep[order]], kind[order],
-                          *_csr_take(sub_off, sub_idx, order))
+                          *csr_take(sub_off, sub_idx, order))
     _check_convex(mesh)
     mesh.stats = {
         "points": int(len(pts)), "guards": len(guards), "cells_in_region": len(keep),
@@ -205,7 +205,7 @@ def _relax(params: MeshParams, land: LandGrid | None, region: Region, pts: np.nd
         out = np.full(len(rows), OUTSIDE, dtype=np.int8)
         ok = _inside(region, allp, rows, verts, offsets, index)
         cells = rows[ok]
-        c_off, c_idx = _csr_take(offsets, index, cells)
+        c_off, c_idx = csr_take(offsets, index, cells)
         k, s, _ = _cell_kinds(params, land, allp, allp, cells, verts, c_off, c_idx, R)
         out[ok] = np.where(s, k, REMOVED)
         return out
@@ -217,7 +217,7 @@ def _relax(params: MeshParams, land: LandGrid | None, region: Region, pts: np.nd
                                              reach=float(chord_of(4.0 * r_max, R)))
     keep = np.flatnonzero((status >= 0) & (status != REMOVED))
     verts, offsets, index = voronoi_cells(np.vstack([new, guards]), merge_chord=merge_chord)
-    sub_off, sub_idx = _csr_take(offsets, index, keep)
+    sub_off, sub_idx = csr_take(offsets, index, keep)
     info["share"] = float(params.min_area_share)
     if not info["reached"]:
         warnings.warn(
@@ -285,7 +285,7 @@ def _cells_inside(region: Region, pts: np.ndarray, verts: np.ndarray, offsets: n
     region (seed, vertices and edge midpoints), as indices into ``pts`` and their CSR
     vertex lists."""
     keep = np.flatnonzero(_inside(region, pts, np.arange(len(pts)), verts, offsets, index))
-    sub_off, sub_idx = _csr_take(offsets, index, keep)
+    sub_off, sub_idx = csr_take(offsets, index, keep)
     return keep, sub_off, sub_idx
 
 
@@ -295,9 +295,9 @@ def _inside(region: Region, seeds: np.ndarray, rows: np.ndarray, verts: np.ndarr
     midpoints (the boundary treatment)."""
     ok = region.contains_xyz(seeds[rows]) & (np.diff(offsets)[rows] >= 3)
     cand = rows[ok]
-    c_off, c_idx = _csr_take(offsets, index, cand)
+    c_off, c_idx = csr_take(offsets, index, cand)
     v = verts[c_idx]
-    mid = _unit(v + v[_next_index(c_off)])
+    mid = unit_rows(v + v[next_index(c_off)])
     inside = region.contains_xyz(v) & region.contains_xyz(mid)
     ok[ok] = np.logical_and.reduceat(inside, c_off[:-1]) if len(cand) else np.zeros(0, bool)
     return ok
@@ -360,7 +360,7 @@ def _check_convex(mesh: Mesh) -> None:
     if mesh.n == 0:
         return
     p = mesh.xyz()
-    nxt = _next_index(mesh.offsets)
+    nxt = next_index(mesh.offsets)
     a, b, c = p, p[nxt], p[nxt[nxt]]
     turn = np.einsum("ij,ij->i", np.cross(a, b), c)
     bad = np.flatnonzero(turn <= 0)

@@ -4,12 +4,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .sphere import _unit
+from .sphere import unit_rows
 
 MERGE_SHARE = 1e-4  # Voronoi vertices closer than this share of the smallest spacing are merged
 
 
-def _merge_vertices(verts, offsets, index, tol):
+def merge_vertices(verts, offsets, index, tol):
     pairs = cKDTree(verts).query_pairs(tol, output_type="ndarray")
     if len(pairs) == 0:
         return verts, offsets, index
@@ -32,7 +32,7 @@ def _merge_vertices(verts, offsets, index, tol):
     np.add.at(sums, root, verts)
     verts = verts.copy()
     merged = np.unique(root[root != np.arange(len(verts))])
-    verts[merged] = _unit(sums[merged])
+    verts[merged] = unit_rows(sums[merged])
     new_index = root[index]
     out, new_off = [], [0]
     for i in range(len(offsets) - 1):

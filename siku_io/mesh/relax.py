@@ -32,8 +32,8 @@ from collections.abc import Callable
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .sphere import _unit, spherical_polygon_areas
-from .voronoi import _csr_take, _next_index, cell_pairs, voronoi_cells
+from .sphere import unit_rows, spherical_polygon_areas
+from .voronoi import csr_take, next_index, cell_pairs, voronoi_cells
 
 #: rounds of moves alone before merges start, and the whole budget of rounds
 LLOYD_ROUNDS = 8
@@ -58,7 +58,7 @@ class _Diagram:
         n = len(pts)
         self.free = status == FREE_KIND
         rows = np.flatnonzero(self.free)
-        off, idx = _csr_take(self.offsets, self.index, rows)
+        off, idx = csr_take(self.offsets, self.index, rows)
         self.area = np.full(n, np.nan)
         self.area[rows] = spherical_polygon_areas(off, self.verts[idx])
         pairs, edge = cell_pairs(self.offsets, self.index, edges=True)
@@ -90,14 +90,14 @@ class _Diagram:
 
     def centroids(self, rows: np.ndarray) -> np.ndarray:
         """Centroids of the cells ``rows`` on the sphere (triangles seed-vertex-vertex)."""
-        off, idx = _csr_take(self.offsets, self.index, rows)
+        off, idx = csr_take(self.offsets, self.index, rows)
         cell = np.repeat(np.arange(len(rows)), np.diff(off))
         s = self.allp[rows][cell]
-        a, b = self.verts[idx], self.verts[idx[_next_index(off)]]
+        a, b = self.verts[idx], self.verts[idx[next_index(off)]]
         w = np.linalg.norm(np.cross(a - s, b - s), axis=1)
         c = np.zeros((len(rows), 3))
         np.add.at(c, cell, w[:, None] * (s + a + b))
-        return _unit(c)
+        return unit_rows(c)
 
     def pushes(self, small: np.ndarray, movable: np.ndarray, target: float) -> np.ndarray:
         """Displacements (unit sphere, ``(n, 3)``) of the movable seeds next to the small cells
@@ -217,7 +217,7 @@ def relax_small_cells(pts: np.ndarray, guards: np.ndarray, status: np.ndarray, s
         old = s.pts[active].copy()
         d_old = d
         s.pts[grow] = d.centroids(grow)
-        s.pts[active] = _unit(s.pts[active] + push[active])
+        s.pts[active] = unit_rows(s.pts[active] + push[active])
         d = diagram()
         while len(active):  # moves that change a cell's kind or reach outside: undone
             moved = np.zeros(len(s.pts), dtype=bool)
@@ -271,7 +271,7 @@ def _merge(d: _Diagram, s: _Seeds, small: np.ndarray, diagram: Callable,
         j = int(nb[np.argmin(np.linalg.norm(s.pts[nb] - s.pts[i], axis=1))])
         used[[i, j]] = True
         gone += [int(i), j]
-        born.append(_unit(s.pts[i] + s.pts[j]))
+        born.append(unit_rows(s.pts[i] + s.pts[j]))
     if not born:
         return 0, d
     undo = s.merge(gone, np.array(born))

@@ -89,7 +89,7 @@ def _fibonacci(n: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
 
-def _guards(patch: Region, R: float, gap_m: float) -> np.ndarray:
+def guard_points(patch: Region, R: float, gap_m: float) -> np.ndarray:
     """Far points closing the Voronoi diagram of a patch (none for the whole sphere)."""
     if patch.full_lon and patch.lat0 <= -90 and patch.lat1 >= 90:
         return np.zeros((0, 3))

@@ -10,7 +10,7 @@ from siku_core.scene import PlanetCfg
 DEFAULT_RADIUS: float = PlanetCfg.model_fields["radius"].default
 
 
-def _unit(p: np.ndarray) -> np.ndarray:
+def unit_rows(p: np.ndarray) -> np.ndarray:
     return p / np.linalg.norm(p, axis=-1, keepdims=True)
 
 

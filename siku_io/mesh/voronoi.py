@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import SphericalVoronoi
 
-from .merge import _merge_vertices
-from .sphere import _unit
+from .merge import merge_vertices
+from .sphere import unit_rows
 
 
 # ---------------------------------------------------------------------------- voronoi
@@ -18,16 +18,16 @@ def voronoi_cells(points: np.ndarray, merge_chord: float = 0.0):
     """
     sv = SphericalVoronoi(points, radius=1.0, center=np.zeros(3))
     sv.sort_vertices_of_regions()
-    verts = _unit(np.asarray(sv.vertices, dtype=float))
+    verts = unit_rows(np.asarray(sv.vertices, dtype=float))
     regions = sv.regions
     lens = np.fromiter((len(r) for r in regions), dtype=np.int64, count=len(regions))
     offsets = np.zeros(len(regions) + 1, dtype=np.int64)
     offsets[1:] = np.cumsum(lens)
     index = np.fromiter((v for r in regions for v in r), dtype=np.int64, count=int(offsets[-1]))
     if merge_chord > 0:
-        verts, offsets, index = _merge_vertices(verts, offsets, index, merge_chord)
+        verts, offsets, index = merge_vertices(verts, offsets, index, merge_chord)
     # orientation: counter-clockwise seen from outside, i.e. (v_k x v_k+1) . seed > 0
-    nxt = _next_index(offsets)
+    nxt = next_index(offsets)
     a, b = verts[index], verts[index[nxt]]
     seed_of = np.repeat(np.arange(len(regions)), np.diff(offsets))
     s = np.einsum("ij,ij->i", np.cross(a, b), points[seed_of])
@@ -37,7 +37,7 @@ def voronoi_cells(points: np.ndarray, merge_chord: float = 0.0):
     return verts, offsets, index
 
 
-def _next_index(offsets: np.ndarray) -> np.ndarray:
+def next_index(offsets: np.ndarray) -> np.ndarray:
     """For CSR cells, the position of the next vertex around each cell."""
     m = int(offsets[-1])
     nxt = np.arange(1, m + 1, dtype=np.int64)
@@ -51,7 +51,7 @@ def cell_pairs(offsets: np.ndarray, vertex_id: np.ndarray, edges: bool = False):
     """Pairs ``(i, j)``, ``i < j``, of CSR cells sharing an edge (both its vertex ids); with
     ``edges``, also the two vertex ids of each pair's edge (cells that share one edge only,
     as Voronoi cells do)."""
-    nxt = _next_index(offsets)
+    nxt = next_index(offsets)
     a, b = vertex_id, vertex_id[nxt]
     cell = np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
     key = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
@@ -65,7 +65,7 @@ def cell_pairs(offsets: np.ndarray, vertex_id: np.ndarray, edges: bool = False):
     return np.unique(np.sort(np.stack([i, j], axis=1), axis=1), axis=0)
 
 
-def _csr_take(offsets: np.ndarray, index: np.ndarray, rows: np.ndarray):
+def csr_take(offsets: np.ndarray, index: np.ndarray, rows: np.ndarray):
     """Rows ``rows`` of a CSR array: ``(offsets, values)``."""
     rows = np.asarray(rows, dtype=np.int64)
     lens = np.diff(offsets)[rows]

@@ -68,7 +68,7 @@ def _is_hdf5_output(path: Path) -> bool:
             return False
     # marked "open for writing" (a killed writer, or a run writing it now): read through a
     # view of the file with the mark cleared, never SWMR's retries on a damaged file
-    from .results import MarkedReader
+    from .open_mark import MarkedReader
 
     try:
         reader = MarkedReader(path)

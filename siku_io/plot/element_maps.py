@@ -71,9 +71,9 @@ def _levels(vmax: float, field: str) -> np.ndarray:
     """Colour levels: tenths for damage, about ten round steps up to ``vmax`` otherwise."""
     if field == "damage":
         return np.linspace(0.0, 1.0, 11)
-    from siku_io.plot.mapdeco import _nice
+    from siku_io.plot.mapdeco import nice_step
 
-    step = _nice(vmax / 10.0) if vmax > 0 else 0.1
+    step = nice_step(vmax / 10.0) if vmax > 0 else 0.1
     return np.arange(0.0, vmax + step * 1.0001, step)
 
 

@@ -175,7 +175,7 @@ def _label_once(ax, gl) -> None:
     gl._draw_gridliner = once
 
 
-def _nice(x: float) -> float:
+def nice_step(x: float) -> float:
     e = math.floor(math.log10(x))
     for m in (5.0, 2.0, 1.0):
         if m * 10**e <= x:
@@ -200,7 +200,7 @@ def scale_bar(ax, proj, box, radius: float = 6_371_000.0):
     metres = radius * math.acos(min(1.0, max(-1.0, c)))
     if not metres > 0:
         return None
-    km = _nice(metres / 1000.0)
+    km = nice_step(metres / 1000.0)
     length = probe * km * 1000.0 / metres
     ax.plot([bx, bx + length], [by, by], color="k", linewidth=3, transform=proj, zorder=5,
             solid_capstyle="butt")
@@ -232,7 +232,7 @@ def legend(ax, land: bool, static: bool, extra=()) -> None:
 def signed_levels(values, n: int = 5) -> np.ndarray:
     """Colour levels symmetric about zero (``2 n`` bins, zero an edge) covering ``values``."""
     vmax = float(np.nanmax(np.abs(values))) if np.isfinite(values).any() else 1.0
-    step = _nice(vmax / n) if vmax > 0 else 0.1
+    step = nice_step(vmax / n) if vmax > 0 else 0.1
     k = int(math.ceil(vmax / step - 1e-9)) or 1
     return np.arange(-k, k + 1) * step
 

@@ -31,8 +31,8 @@ from numba import njit
 
 from siku_core.contact_law import BreakMode
 
-from .kernels import _attenuation, _excite
-from .memory import _lagged
+from .kernels import attenuation, excite
+from .memory import lagged
 
 
 class Beams:
@@ -169,7 +169,7 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
     att = np.empty((n, natt))
     for i in range(n):
         for j in range(natt):
-            att[i, j] = _attenuation(kk[j], draft[i], depth)
+            att[i, j] = attenuation(kk[j], draft[i], depth)
     F = np.zeros(3 * n)
     M = np.empty(3 * n)
     B = np.empty(3 * n)
@@ -189,14 +189,14 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
             if free[i]:
                 Ki = K[kidx[i], m]
                 mu[r] = dt * (0.5 * Ki[0] * hist[i, m, head]
-                              + _lagged(Ki, hist[i, m], (head - 1) % L, L))
+                              + lagged(Ki, hist[i, m], (head - 1) % L, L))
                 den[r] = 1.0 + hd * 0.5 * dt * Ki[0] / M[r]
 
     def forces(t):
         for i in range(n):
             if not free[i]:
                 continue
-            f, g1, g2 = _excite(t, i, xc[i], yc[i], e0[i], e1[i], qoff[i], qoff[i + 1], qa,
+            f, g1, g2 = excite(t, i, xc[i], yc[i], e0[i], e1[i], qoff[i], qoff[i + 1], qa,
                                 qb, qu, qv, qw, acell[cell[i]], kx, ky, om, ph, att[i], kap,
                                 ramp, ext)
             d = draft[i]
@@ -231,7 +231,7 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
             if mem:
                 m = r % 3
                 Ki = K[kidx[i], m]
-                rest = dt * _lagged(Ki, hist[i, m], hp, L)
+                rest = dt * lagged(Ki, hist[i, m], hp, L)
                 v[r] = (v[r] + hd * (F[r] - rest) / M[r]) / den[r]
                 mu[r] = rest + 0.5 * dt * Ki[0] * v[r]
             else:

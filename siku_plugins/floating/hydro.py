@@ -38,7 +38,7 @@ OMEGA_TOL = 1e-6
 MARK = "siku floating hydro cache"
 
 
-def _cpt(where: str):
+def capytaine_module(where: str):
     try:
         import capytaine as cpt
     except ImportError:
@@ -96,7 +96,7 @@ def prism_mesh(poly: np.ndarray, draft: float, size: float) -> tuple[np.ndarray,
 
 def body(poly, draft, thickness, size, where="capytaine"):
     """The ``capytaine.FloatingBody`` of the prism (module docstring)."""
-    cpt = _cpt(where)
+    cpt = capytaine_module(where)
     v, f = prism_mesh(np.asarray(poly, dtype=float), float(draft), float(size))
     zg = thickness / 2.0 - draft
     mesh = cpt.Mesh(vertices=v, faces=f, name="element")
@@ -106,7 +106,7 @@ def body(poly, draft, thickness, size, where="capytaine"):
 
 def radiation(bod, dof: str, omega: float, rho: float, g: float, where="capytaine"):
     """``(A [kg or kg m²], B [kg/s or kg m²/s])`` of ``dof`` at ``omega`` [rad/s]."""
-    cpt = _cpt(where)
+    cpt = capytaine_module(where)
     pb = cpt.RadiationProblem(body=bod, radiating_dof=dof, omega=float(omega), rho=rho, g=g,
                               water_depth=np.inf)
     r = cpt.BEMSolver().solve(pb)
@@ -118,7 +118,7 @@ def excitation(bod, omega: float, rho: float, g: float, direction: float = 0.0,
     """``{dof: (Froude–Krylov, diffraction)}`` complex force amplitudes [N or N m per m of
     wave amplitude] of a wave travelling along ``direction`` [rad from x], phase zero at the
     origin, time factor ``e^{-i omega t}``."""
-    cpt = _cpt(where)
+    cpt = capytaine_module(where)
     pb = cpt.DiffractionProblem(body=bod, wave_direction=direction, omega=float(omega),
                                 rho=rho, g=g, water_depth=np.inf)
     fk = cpt.bem.airy_waves.froude_krylov_force(pb)
@@ -142,7 +142,7 @@ def mode_coefficients(bod, dof, M, C, rho, g, omega=None, where="capytaine"):
                      f"{ITERATIONS} capytaine solves")
 
 
-def _cache_dir(cache: str, base: Path, where: str) -> Path:
+def hydro_cache_dir(cache: str, base: Path, where: str) -> Path:
     if not cache:
         from siku_core.kernel_cache import user_cache_dir
 
@@ -158,7 +158,7 @@ def _cache_dir(cache: str, base: Path, where: str) -> Path:
     return d
 
 
-def _cached(cache_dir: Path, prefix: str, key: dict, compute, where: str):
+def cached_value(cache_dir: Path, prefix: str, key: dict, compute, where: str):
     """The value cached under ``key`` (module docstring), or ``compute()`` written there."""
     digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
     path = cache_dir / f"{prefix}-{digest}.json"
@@ -183,7 +183,7 @@ def _cached(cache_dir: Path, prefix: str, key: dict, compute, where: str):
     return out
 
 
-def _shape_key(poly, h, d, rho, g, size) -> dict:
+def shape_key(poly, h, d, rho, g, size) -> dict:
     return {"poly": np.round(np.asarray(poly), 3).tolist(), "draft": round(float(d), 6),
             "thickness": round(float(h), 6), "rho": rho, "g": g, "size": round(size, 6)}
 
@@ -192,7 +192,7 @@ def shape_coefficients(poly, h, d, M, C, rho, g, size, omega, cache_dir: Path, w
     """``{"heave"|"slope1"|"slope2": (A, B, omega)}`` for one shape, from the cache or
     computed and cached (module docstring). ``M, C``: the three modes' masses and
     stiffnesses without added mass; ``omega``: a frequency or ``None`` (natural)."""
-    key = {**_shape_key(poly, h, d, rho, g, size), "omega": omega,
+    key = {**shape_key(poly, h, d, rho, g, size), "omega": omega,
            "M": [float(f"{x:.9g}") for x in M], "C": [float(f"{x:.9g}") for x in C],
            "iterations": ITERATIONS, "tol": OMEGA_TOL}
 
@@ -203,18 +203,18 @@ def shape_coefficients(poly, h, d, M, C, rho, g, size, omega, cache_dir: Path, w
                                         ("slope1", "Pitch", M[1], C[1]),
                                         ("slope2", "Roll", M[2], C[2]))}
 
-    return {k: tuple(v) for k, v in _cached(cache_dir, "hydro", key, compute, where).items()}
+    return {k: tuple(v) for k, v in cached_value(cache_dir, "hydro", key, compute, where).items()}
 
 
 def shape_excitation(poly, h, d, rho, g, size, omega, beta, depth, cache_dir, where):
     """Capytaine's Froude–Krylov plus diffraction excitation of one shape by a unit wave of
     ``omega`` [rad/s] travelling at ``beta`` [rad] from principal axis 1, as the model's
     modes: ``{"heave": N/m, "slope1": -Pitch, "slope2": Roll [N m/m]}``, complex, cached."""
-    key = {**_shape_key(poly, h, d, rho, g, size), "omega": float(omega),
+    key = {**shape_key(poly, h, d, rho, g, size), "omega": float(omega),
            "beta": round(float(beta), 9), "depth": None if math.isinf(depth) else depth}
 
     def compute():
-        cpt = _cpt(where)
+        cpt = capytaine_module(where)
         bod = body(poly, d, h, size, where)
         pb = cpt.DiffractionProblem(body=bod, wave_direction=float(beta), omega=float(omega),
                                     rho=rho, g=g, water_depth=depth)
@@ -225,7 +225,7 @@ def shape_excitation(poly, h, d, rho, g, size, omega, beta, depth, cache_dir, wh
                 "slope1": [-tot["Pitch"].real, -tot["Pitch"].imag],
                 "slope2": [tot["Roll"].real, tot["Roll"].imag]}
 
-    out = _cached(cache_dir, "hydro-exc", key, compute, where)
+    out = cached_value(cache_dir, "hydro-exc", key, compute, where)
     return {k: complex(*v) for k, v in out.items()}
 
 
@@ -236,15 +236,15 @@ MAX_DIFFRACTION = 64
 def diffraction_factors(proc, ctx, rho, g, where) -> np.ndarray:
     """``kap (n, M, 3, 2)``: per free element, wave component and mode, capytaine's excitation
     over the model's Froude–Krylov integral (real, imaginary), at the element's heading at the
-    start (``siku_plugins.floating.kernels._excite``). A mode the wave does not load (an
+    start (``siku_plugins.floating.kernels.excite``). A mode the wave does not load (an
     integral below 1e-9 of ``rho g A sqrt(A)``) keeps the factor 1."""
-    from .kernels import _attenuation, centres_and_frames
+    from .kernels import attenuation, centres_and_frames
 
     st = ctx.state
     fld = proc.field
     p = proc.p
     _, _, e0, e1 = centres_and_frames(st.q)
-    cache_dir = _cache_dir(p["hydro_cache"], ctx.scene.base_dir, where)
+    cache_dir = hydro_cache_dir(p["hydro_cache"], ctx.scene.base_dir, where)
     nm = len(fld.amp)
     kap = np.zeros((st.n, nm, 3, 2))
     kap[..., 0] = 1.0
@@ -273,7 +273,7 @@ def diffraction_factors(proc, ctx, rho, g, where) -> np.ndarray:
                                              where)
             tot = done[key]
             e = np.exp(1j * (ku * u + kv * v))
-            att = _attenuation(fld.k[j], proc.draft[i], float(fld.h))
+            att = attenuation(fld.k[j], proc.draft[i], float(fld.h))
             small = 1e-9 * rho * g * proc.area[i] ** 1.5
             for mode, lever in enumerate((np.ones_like(u), u, v)):
                 model = rho * g * att * np.sum(w * lever * e)
@@ -289,8 +289,8 @@ def element_coefficients(st, free, phi, h, d, m, I1, I2, C3, C1, C2, rho, g, cac
     others), one capytaine computation per distinct shape (``shape_coefficients``)."""
     n = st.n
     out = [np.zeros(n) for _ in range(6)]
-    cache_dir = _cache_dir(cache, base, where)
-    _cpt(where)
+    cache_dir = hydro_cache_dir(cache, base, where)
+    capytaine_module(where)
     done: dict[tuple, dict] = {}
     for i in np.flatnonzero(free):
         c, s = math.cos(phi[i]), math.sin(phi[i])

@@ -55,7 +55,7 @@ def wave_frame(q, i, wave, R, c0, lat0, lon0):
 
 
 @njit(cache=True, inline="always")
-def _attenuation(k, d, depth):
+def attenuation(k, d, depth):
     """Pressure of a linear wave at depth ``d`` over that at the surface: ``e^{-k d}`` in deep
     water (``depth`` = inf), ``cosh(k (H - d)) / cosh(k H)`` otherwise (written without
     overflow)."""
@@ -68,7 +68,7 @@ def _attenuation(k, d, depth):
 
 
 @njit(cache=True, inline="always")
-def _excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap,
+def excite(t, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap,
             ramp, ext):
     """``(∫ eta' dA [m³], ∫ u eta' dA, ∫ v eta' dA [m⁴])`` over element ``i``'s bottom,
     ``eta'`` the incident elevation attenuated to the draft (``att`` per component), ``u, v``
@@ -144,7 +144,7 @@ def _cis(x):
 @njit(cache=True, inline="always")
 def _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp, kx, ky, att,
                   S, Z):
-    """The part of :func:`_excite`'s sums that is fixed within an engine step: ``S[j]`` (row
+    """The part of :func:`excite`'s sums that is fixed within an engine step: ``S[j]`` (row
     of ``(natt, 6)``) ``= a_j att_j Σ_p w_p (1, u_p, v_p) e^{i delta_p}`` as (real, imaginary)
     pairs, ``delta_p = k_j·(x_p - x_c)`` the phase of point ``p`` relative to the element's
     centre (local frame ``e0, e1``); :func:`_turn` and :func:`_load` give the loads, since
@@ -154,7 +154,7 @@ def _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp,
     z_e^beta z_{e+1}^gamma`` with ``z_v = e^{i k'·v / m6}``: one sine and cosine per vertex
     (:func:`_cis`), the powers by products (table ``Z``, ``(zsize,)``, at ``ia, ib``), one
     product per point. The same sums
-    as :func:`_excite`'s up to round-off (a power ``z^m`` carries ``m`` roundings, ``m <
+    as :func:`excite`'s up to round-off (a power ``z^m`` carries ``m`` roundings, ``m <
     m6``)."""
     vlo = voff[i]
     nv = voff[i + 1] - vlo
@@ -215,7 +215,7 @@ def _sums_lattice(e0, e1, i, lo, hi, voff, vx, vy, m6a, ia, ib, qu, qv, qw, amp,
 def clock(t0, dt, n_sub, om, ramp):
     """What the sub-steps' times ``t_k = t0 + k dt`` (``k = 0..n_sub``) share between
     elements: ``E[k, j] = e^{-i omega_j t_k}`` (cosine, sine) and the ramp's factor ``r[k]``
-    (:func:`_excite`)."""
+    (:func:`excite`)."""
     natt = om.shape[0]
     E = np.empty((n_sub + 1, natt, 2))
     r = np.ones(n_sub + 1)
@@ -246,7 +246,7 @@ def _turn(xc, yc, kx, ky, ph, S):
 
 @njit(cache=True, inline="always")
 def _load(k, i, S, E, r, kap, ext):
-    """:func:`_excite` at the sub-step time ``t_k`` of :func:`clock` from the turned sums ``S``
+    """:func:`excite` at the sub-step time ``t_k`` of :func:`clock` from the turned sums ``S``
     (:func:`_turn`): ``Σ w cos(psi) = Re(e^{-i omega t_k} S)``, ``Σ w sin(psi) = Im(...)``."""
     f = 0.0
     g1 = 0.0
@@ -308,7 +308,7 @@ def _advance_range(lo_e, hi_e, n_sub, dt, t0, q, free, par, elem, ints, pts, pin
         d = draft[i]
         if d != d_att:     # the last element's draft: the same factors
             for j in range(natt):
-                att[j] = _attenuation(kk[j], d, depth)
+                att[j] = attenuation(kk[j], d, depth)
             d_att = d
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
@@ -395,7 +395,7 @@ def advance(nch, n_sub, dt, t0, q, free, par, elem, ints, pts, pint, verts, zsiz
     ib``; ``verts`` (``(2, V)``) = ``vx, vy`` [m] (``siku_plugins.floating.geometry
     .lattice_arrays``, table of ``zsize``); ``wv`` (``(6, M)``) = the wave's incident ``amp``
     [m], ``kx, ky`` [1/m], ``omega`` [rad/s], ``phase`` [rad], ``k`` [1/m]; ``kap`` and ``ext``
-    as :func:`_excite`.
+    as :func:`excite`.
 
     The amplitudes an element feels are the row ``acell[cell[i]]`` (``(C, M)`` [m], ``cell``
     ``(n,)`` int64): the local sea of a ``spectral`` field, ``sqrt(2 E_j)`` of the element's

@@ -40,7 +40,7 @@ from numba import njit
 
 from siku_core.errors import SceneError
 
-from .kernels import _attenuation, _excite, wave_frame
+from .kernels import attenuation, excite, wave_frame
 
 
 def taper_bins(n: int) -> int:
@@ -101,7 +101,7 @@ def a_infinity(omega, A, K, dt: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _lagged(Ki, row, hp, L):
+def lagged(Ki, row, hp, L):
     """``Σ_{j=1}^{L-1} Ki[j] row[(hp + 1 - j) mod L]`` in two contiguous runs."""
     acc = 0.0
     top = min(hp + 1, L - 1)
@@ -145,11 +145,11 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
         xc, yc, e0, e1 = wave_frame(q, i, wave, R, c0, lat0, lon0)
         d = draft[i]
         for j in range(natt):
-            att[j] = _attenuation(kk[j], d, depth)
+            att[j] = attenuation(kk[j], d, depth)
         lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
         amp = acell[cell[i]]
-        f, g1, g2 = _excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky,
+        f, g1, g2 = excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky,
                             om, ph, att, kap, ramp, ext)
         c = cphi[i]
         s = sphi[i]
@@ -173,7 +173,7 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
         hp = head
         for m in range(3):
             mu[m] = dt * (0.5 * Ki[m, 0] * hist[i, m, hp]
-                          + _lagged(Ki[m], hist[i, m], (hp - 1) % L, L))
+                          + lagged(Ki[m], hist[i, m], (hp - 1) % L, L))
             den[m] = 1.0 + hd * 0.5 * dt * Ki[m, 0] / mm[m]
         e = -0.5 * (mu[0] * v[0] + mu[1] * v[1] + mu[2] * v[2])   # the memory force's work
         for k in range(n_sub):
@@ -186,13 +186,13 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
                 vh[m] = v[m] + hd * (fk[m] - mu[m]) / mm[m]
                 x[m] += dt * vh[m]
             if wave:
-                f, g1, g2 = _excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa, qb, qu,
+                f, g1, g2 = excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa, qb, qu,
                                     qv, qw, amp, kx, ky, om, ph, att, kap, ramp, ext)
             fk[0] = ka * (min(max(d - x[0] + f / area[i], 0.0), h[i]) - d)
             fk[1] = -cc[1] * x[1] + rho_g * g1
             fk[2] = -cc[2] * x[2] + rho_g * g2
             for m in range(3):
-                rest = dt * _lagged(Ki[m], hist[i, m], hp, L)
+                rest = dt * lagged(Ki[m], hist[i, m], hp, L)
                 v[m] = (vh[m] + hd * (fk[m] - rest) / mm[m]) / den[m]
                 mu[m] = rest + 0.5 * dt * Ki[m, 0] * v[m]
             hp = (hp + 1) % L
@@ -218,7 +218,7 @@ def shape_band(poly, h, d, rho, g, size, omega, cache_dir, where):
     cached with the other hydro results (``siku_plugins.floating.hydro``)."""
     from . import hydro
 
-    key = {**hydro._shape_key(poly, h, d, rho, g, size), "band": [float(w) for w in omega],
+    key = {**hydro.shape_key(poly, h, d, rho, g, size), "band": [float(w) for w in omega],
            "modes": [dof for _, dof in MODES]}
 
     def compute():
@@ -229,7 +229,7 @@ def shape_band(poly, h, d, rho, g, size, omega, cache_dir, where):
             out.append([[a for a, _ in ab], [b for _, b in ab]])
         return out
 
-    vals = np.array(hydro._cached(cache_dir, "hydro-band", key, compute, where))
+    vals = np.array(hydro.cached_value(cache_dir, "hydro-band", key, compute, where))
     return vals[:, 0], vals[:, 1]
 
 
@@ -245,8 +245,8 @@ class Memory:
         if p["coefficients"] != "capytaine":
             raise SceneError(f"{where}: radiation = 'memory' needs coefficients = 'capytaine' "
                              "(its B(omega) on a band gives the kernel)")
-        hydro._cpt(where)
-        cache_dir = hydro._cache_dir(p["hydro_cache"], ctx.scene.base_dir, where)
+        hydro.capytaine_module(where)
+        cache_dir = hydro.hydro_cache_dir(p["hydro_cache"], ctx.scene.base_dir, where)
         n = st.n
         self.kidx = np.zeros(n, dtype=np.int64)
         shapes: dict[tuple, int] = {}

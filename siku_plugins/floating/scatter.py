@@ -28,7 +28,7 @@ transmission coefficients are ``K_r = sigma_back / W`` and ``K_t = 1 - (sigma_e 
 sigma_forward) / W``, ``K_r + K_t = 1 - (sigma_e - sigma_s) / W``.
 
 Cache: one JSON file per (floes, period, mesh) in the cache folder, named by the SHA-256 of
-what the result depends on (``hydro._cached``, the same files and mark as the floating
+what the result depends on (``hydro.cached_value``, the same files and mark as the floating
 process's coefficients).
 """
 from __future__ import annotations
@@ -76,7 +76,7 @@ def solve(floes, h, period, size, rho_i=920.0, rho_w=1025.0, g=9.81, where="scat
     ``period`` s: ``{"sigma_back", "sigma_forward", "sigma_ext", "rad_check"}`` (widths in m;
     ``rad_check``: per radiating mode ``[int |A_j|², omega² B_jj / (rho g c_g)]``; ``rao``: the
     motions' amplitudes per mode, m and rad per m of wave)."""
-    cpt = hydro._cpt(where)
+    cpt = hydro.capytaine_module(where)
     omega = 2 * math.pi / period
     k = omega**2 / g
     d = h * rho_i / rho_w
@@ -123,11 +123,11 @@ def coefficients(floes, h, period, width, size, cache="", base: Path | None = No
                  rho_i=920.0, rho_w=1025.0, g=9.81, where="scatter"):
     """``(K_r, K_t, far)`` of the floes in a flume of ``width`` m (module docstring), ``far``
     from ``solve``, cached."""
-    cache_dir = hydro._cache_dir(cache, base or Path.cwd(), where)
+    cache_dir = hydro.hydro_cache_dir(cache, base or Path.cwd(), where)
     key = {"what": "scatter", "floes": [[float(v) for v in f] for f in floes], "h": float(h),
            "period": float(period), "size": float(size), "rho_i": float(rho_i),
            "rho_w": float(rho_w), "g": float(g), "thetas": THETAS}
-    far = hydro._cached(cache_dir, "scatter", key,
+    far = hydro.cached_value(cache_dir, "scatter", key,
                         lambda: solve(floes, h, period, size, rho_i, rho_w, g, where), where)
     kr = far["sigma_back"] / width
     kt = 1.0 - (far["sigma_ext"] - far["sigma_forward"]) / width

@@ -75,7 +75,7 @@ class Steady:
         from scipy.sparse import csr_matrix, diags
         from scipy.sparse.linalg import splu
 
-        from .kernels import _attenuation, centres_and_frames
+        from .kernels import attenuation, centres_and_frames
 
         fld = proc.field
         if (fld is None or len(fld.amp) != 1 or proc.beams is None or proc.memory is not None
@@ -89,7 +89,7 @@ class Steady:
         xc, yc = fld.plane(lat, lon)
         self.omega = w = float(fld.omega[0])
         self.k = float(fld.k[0])
-        att = np.array([_attenuation(self.k, d, float(fld.h)) for d in proc.draft])
+        att = np.array([attenuation(self.k, d, float(fld.h)) for d in proc.draft])
         F = np.zeros(3 * n, dtype=complex)
         for i in np.flatnonzero(proc.free):
             lo, hi = proc.qoff[i], proc.qoff[i + 1]

@@ -43,7 +43,7 @@ import numpy as np
 from numba import njit, prange
 
 from siku_core.categories import row_mean, row_sum
-from siku_core.contact_frames import _rotation_row, j_to_i, relative_matrix
+from siku_core.contact_frames import rotation_row, j_to_i, relative_matrix
 from siku_core.errors import SceneError
 from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
 from siku_core.ice import ElementField
@@ -90,8 +90,8 @@ def ridge_candidates(pairs, active, caps, flags, keys, count, poff, pidx, q, rm,
         cand[nc] = k
         known_at[nc] = r
         nc += 1
-        _rotation_row(q, rm, i)
-        _rotation_row(q, rm, j)
+        rotation_row(q, rm, i)
+        rotation_row(q, rm, j)
     return nc
 
 

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 from numba import njit
 
-from siku_core.contact_frames import _width, eq9_stiffness, frame_point
+from siku_core.contact_frames import overlap_width, eq9_stiffness, frame_point
 from siku_core.contact_law import (
     G_AREA,
     G_AREA_I,
@@ -243,7 +243,7 @@ def _collision_loop(pars, q, V, w, minv, h, E, area, offsets, verts, pairs, R, F
                                                                              c2x, c2y)
             if a <= 0.0:
                 continue
-            width = _width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny)
+            width = overlap_width(pi, pj, a, ncross, p1x, p1y, p2x, p2y, nx, ny)
         n_overlap += 1
         ri = math.sqrt(cx * cx + cy * cy)
         xj, yj = frame_point(q[i], q[j], cx, cy, R)
