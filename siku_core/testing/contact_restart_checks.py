@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from .contact_cases import (
-    _joint_kwargs,
-    _overlap_kwargs,
+    joint_kwargs,
+    overlap_kwargs,
     contact_scene,
     law_registry,
 )
@@ -63,9 +63,9 @@ def check_restart(law_cls: type, params: Mapping[str, Any] | None = None, steps:
     overlapping pair pressed together (the collision evaluator and its contact rows) and, for a
     joint law, a jointed pair pulled and sheared. ``directory``: where the file goes (default:
     a temporary folder, removed after)."""
-    cases = [("overlapping pair", _overlap_kwargs(), _PRESS)]
+    cases = [("overlapping pair", overlap_kwargs(), _PRESS)]
     if law_cls.uses_joints:
-        cases.append(("jointed pair", _joint_kwargs(), _PULL))
+        cases.append(("jointed pair", joint_kwargs(), _PULL))
     with tempfile.TemporaryDirectory(dir=directory) as tmp:
         for k, (what, kwargs, velocities) in enumerate(cases):
             whole = _run(law_cls, params, kwargs, velocities, dt, steps, out=False)

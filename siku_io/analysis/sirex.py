@@ -342,12 +342,12 @@ def output_sirex(path, scales, steps=(1,), coverage: float = 0.5, **kw) -> Sirex
     """:func:`sirex` of the free elements of a run's output file, no scale below the median
     element's size (square root of its area)."""
     from siku_io.analysis.deformation_stats import plane_positions
-    from siku_io.analysis.gridded_fields import _seconds
+    from siku_io.analysis.gridded_fields import snapshot_seconds
     from siku_io.output.xr import open_output
 
     ds = open_output(path)
     R = float(ds.attrs["radius"])
-    seconds = np.asarray(_seconds(ds), float)
+    seconds = np.asarray(snapshot_seconds(ds), float)
     dts = np.diff(seconds)
     if len(dts) == 0 or not np.allclose(dts, dts[0], rtol=1e-9):
         from siku_core import DataError
