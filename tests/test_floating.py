@@ -99,7 +99,7 @@ def test_the_loads_from_the_vertices_are_the_pointwise_sums(n):
         kn._turn(xc, yc, kx, ky, ph, S)
         E, r = kn.clock(t, 0.0, 0, om, 0.0)
         new = kn._load(0, 0, S, E, r, kap, ext)
-        old = kn._excite(t, 0, xc, yc, e0, e1, 0, qa.shape[0], qa, qb, qu, qv, qw, amp, kx, ky,
+        old = kn.excite(t, 0, xc, yc, e0, e1, 0, qa.shape[0], qa, qb, qu, qv, qw, amp, kx, ky,
                          om, ph, att, kap, 0.0, ext)
         return new, old
 
