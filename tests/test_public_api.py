@@ -92,6 +92,7 @@ siku_core.contacts                    J_VBY               siku_core.contact_law
 siku_core.contacts                    J_W                 siku_core.contact_law
 siku_core.diagnostics                 catalogue           -
 siku_core.errors                      SikuError           -
+siku_core.errors                      InputError          -
 siku_core.geometry.quat               east_north_local    -
 siku_core.geometry.quat               latlon_of           -
 siku_core.ice                         ElementField        -

@@ -17,7 +17,7 @@ its elements and ghosts (:mod:`.local`). A step:
 4. if an element moved half the skin (the engine's own rule for its candidate list), or
    ``every`` steps passed, a redistribution: elements whose centre left their subdomain
    change owner; and whenever the slowest rank's measured work (at least :data:`MIN_WORK`)
-   exceeds the mean by :data:`MARGIN`, the elements are split again;
+   exceeds the mean by :data:`REBALANCE_MARGIN`, the elements are split again;
 5. on output steps the ranks' elements, joints and contact fields are gathered on rank 0 in
    global order, and the run's writers write them: the same files as one rank's.
 
@@ -44,23 +44,29 @@ from .ghosts import exchange_plan, local_sets, reach_pairs
 from .local import JOINT_STATE, local_engine
 
 #: re-split the elements when the slowest rank's work exceeds the mean by this share
-MARGIN = 0.2
+REBALANCE_MARGIN = 0.2
 #: ... measured over at least this much work per rank since the last split [s] (a shorter
 #: window measures noise)
 MIN_WORK = 1.0
+
+
+def refusal_reason(comp) -> str:
+    """Why the component ``comp`` cannot run on more than one rank ("" where it can)."""
+    if not getattr(comp, "runs_on_ranks", True):
+        return getattr(comp, "ranks_refusal", "") or "it reads the contacts of every element"
+    if comp.owned_fields:
+        return "it owns per-element fields, which ranks do not carry yet"
+    if comp.diagnostic_units:
+        return "it reports diagnostics from its own step, which ranks do not gather yet"
+    return ""
 
 
 def refusals(sim, size: int) -> list[str]:
     """One line per component of ``sim`` that cannot run on ``size`` ranks (empty: all can)."""
     out = []
     for comp in sim.components():
-        if not getattr(comp, "runs_on_ranks", True):
-            why = getattr(comp, "ranks_refusal", "") or "it reads the contacts of every element"
-        elif comp.owned_fields:
-            why = "it owns per-element fields, which ranks do not carry yet"
-        elif comp.diagnostic_units:
-            why = "it reports diagnostics from its own step, which ranks do not gather yet"
-        else:
+        why = refusal_reason(comp)
+        if not why:
             continue
         where = sim.scene.where(comp.table) if comp.table else comp.kind
         out.append(f"{where}: {comp.kind} '{comp.name}' cannot run on {size} ranks ({why}); "
@@ -87,7 +93,7 @@ class RankRun:
 
     def __init__(self, sim, comm: Comm | None = None, every: int | None = None,
                  owner: Callable[[int, np.ndarray], np.ndarray] | None = None,
-                 margin: float = MARGIN, min_work: float = MIN_WORK):
+                 margin: float = REBALANCE_MARGIN, min_work: float = MIN_WORK):
         self.sim = sim
         self.comm = comm or Comm()
         self.rank, self.size = self.comm.rank, self.comm.size
@@ -427,4 +433,5 @@ def run_on_ranks(sim, **kwargs: Any) -> RankRun:
     return RankRun(sim, **kwargs).run()
 
 
-__all__ = ["MARGIN", "RankRun", "refusals", "run_digest", "run_on_ranks"]
+__all__ = ["REBALANCE_MARGIN", "RankRun", "refusal_reason", "refusals", "run_digest",
+           "run_on_ranks"]

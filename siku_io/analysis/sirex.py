@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-DAY = 86400.0
+from .deformation_stats import DAY
 #: the rate above which a cell counts in the distribution's tail [1/s] (0.01 /day)
 TAIL_RATE = 0.01 / DAY
 #: the moments of the structure function
