@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .deformation_stats import DAY
+from .lkf import detect, intersection_angles, lifetimes
 #: the rate above which a cell counts in the distribution's tail [1/s] (0.01 /day)
 TAIL_RATE = 0.01 / DAY
 #: the moments of the structure function
@@ -154,37 +155,11 @@ def structure_fit(qs, beta) -> tuple[float, float, float]:
 
 
 def features(tri: np.ndarray, eps: np.ndarray, cx, cy, rate: float, min_cells: int = 3):
-    """Linear kinematic features: groups of cells faster than ``rate`` [1/s] joined through
-    shared sides, at least ``min_cells`` cells each; ``(lengths [m], orientations [deg from
-    east, 0-180])``."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    act = np.flatnonzero(eps > rate)
-    if len(act) < min_cells:
-        return np.zeros(0), np.zeros(0)
-    t = np.sort(tri[act], axis=1)
-    sides = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [0, 2]]])
-    owner = np.tile(np.arange(len(act)), 3)
-    order = np.lexsort((sides[:, 1], sides[:, 0]))
-    s, o = sides[order], owner[order]
-    same = np.all(s[1:] == s[:-1], axis=1)
-    a, b = o[:-1][same], o[1:][same]
-    g = coo_matrix((np.ones(len(a)), (a, b)), shape=(len(act), len(act)))
-    n, lab = connected_components(g, directed=False)
-    lengths, angles = [], []
-    for k in range(n):
-        m = lab == k
-        if m.sum() < min_cells:
-            continue
-        px, py = cx[act][m], cy[act][m]
-        P = np.column_stack([px - px.mean(), py - py.mean()])
-        w, vec = np.linalg.eigh(P.T @ P)
-        axis = vec[:, -1]
-        proj = P @ axis
-        lengths.append(proj.max() - proj.min())
-        angles.append(np.degrees(np.arctan2(axis[1], axis[0])) % 180.0)
-    return np.asarray(lengths), np.asarray(angles)
+    """Linear kinematic features (:func:`siku_io.analysis.lkf.detect`: cells faster than
+    ``rate`` [1/s], split at junctions), at least ``min_cells`` cells each: ``(lengths [m],
+    orientations [deg from east, 0-180])``."""
+    fs = detect(tri, eps, cx, cy, rate, min_cells)
+    return (np.array([f.length for f in fs]), np.array([f.angle for f in fs]))
 
 
 @dataclass
@@ -194,7 +169,8 @@ class SirexStats:
     spatial exponents at the shortest interval and ``(a, b, c)`` their quadratic fit; ``alpha``
     (± ``alpha_se``) the temporal exponent of ``<eps>`` at the smallest scale; ``rates`` the
     cell rates [1/s] at the shortest interval; ``lkf_lengths`` [m], ``lkf_angles`` [deg] and
-    ``lkf_counts`` per interval; ``cell_size`` [m] the median cell's square-root area;
+    ``lkf_counts`` per interval, ``lkf_intersections`` [deg, 0-90] and ``lkf_lifetimes`` [s]
+    (:mod:`siku_io.analysis.lkf`); ``cell_size`` [m] the median cell's square-root area;
     ``dropped`` the scales below ``min_scale`` not reported."""
 
     scales: np.ndarray
@@ -214,6 +190,8 @@ class SirexStats:
     lkf_angles: np.ndarray = field(default_factory=lambda: np.zeros(0))
     lkf_counts: list = field(default_factory=list)
     dropped: list = field(default_factory=list)
+    lkf_intersections: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    lkf_lifetimes: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def tail(self) -> float:
@@ -258,6 +236,13 @@ class SirexStats:
                        f"{len(self.lkf_counts)} intervals, median length "
                        f"{np.median(self.lkf_lengths) / 1e3:.0f} km, orientation spread "
                        f"{_axial_spread(self.lkf_angles):.0f} deg")
+            if len(self.lkf_intersections):
+                out.append(f"  intersections: {len(self.lkf_intersections)}, median angle "
+                           f"{np.median(self.lkf_intersections):.0f} deg")
+            if len(self.lkf_lifetimes):
+                out.append(f"  tracks: {len(self.lkf_lifetimes)}, median lifetime "
+                           f"{np.median(self.lkf_lifetimes) / 3600:g} h, longest "
+                           f"{self.lkf_lifetimes.max() / 3600:g} h")
         out.append("RGPS (winter): " + RGPS_LINE)
         return "\n".join(out)
 
@@ -303,7 +288,7 @@ def sirex(positions, dt: float, scales, steps=(1,), coverage: float = 0.5,
     nT, nL = len(steps), len(scales)
     sums = {q: np.zeros((nT, nL)) for q in qs}
     counts = np.zeros((nT, nL), np.int64)
-    rates, lengths, angles, nlkf = [], [], [], []
+    rates, lengths, angles, nlkf, crossings, tracked = [], [], [], [], [], []
     for iT, n in enumerate(steps):
         for k in range(0, len(positions) - n, n):
             (xa, ya), (xb, yb) = positions[k], positions[k + n]
@@ -319,10 +304,12 @@ def sirex(positions, dt: float, scales, steps=(1,), coverage: float = 0.5,
                 eps = total_rate(grad)
                 good = np.isfinite(eps)
                 rates.append(eps[good])
-                ln, an = features(tri[good], eps[good], cx[good], cy[good], lkf_rate)
-                lengths.append(ln)
-                angles.append(an)
-                nlkf.append(len(ln))
+                fs = detect(tri[good], eps[good], cx[good], cy[good], lkf_rate)
+                lengths.append(np.array([f.length for f in fs]))
+                angles.append(np.array([f.angle for f in fs]))
+                nlkf.append(len(fs))
+                crossings.append(intersection_angles(fs, 3.0 * cell_size))
+                tracked.append(fs)
     with np.errstate(invalid="ignore", divide="ignore"):
         moments = {q: s / counts for q, s in sums.items()}
     times = np.asarray(steps, float) * dt
@@ -335,7 +322,9 @@ def sirex(positions, dt: float, scales, steps=(1,), coverage: float = 0.5,
     return SirexStats(scales, times, moments, counts, bq, bse, a, b, c, alpha, alpha_se,
                       np.concatenate(rates) if rates else np.zeros(0), cell_size,
                       np.concatenate(lengths) if lengths else np.zeros(0),
-                      np.concatenate(angles) if angles else np.zeros(0), nlkf, dropped)
+                      np.concatenate(angles) if angles else np.zeros(0), nlkf, dropped,
+                      np.concatenate(crossings) if crossings else np.zeros(0),
+                      lifetimes(tracked, steps[0] * dt))
 
 
 def output_sirex(path, scales, steps=(1,), coverage: float = 0.5, **kw) -> SirexStats:
