@@ -148,6 +148,9 @@ siku_io.output.element_geometry       east_north          -
 siku_io.output.element_geometry       polygons_lonlat     -
 siku_io.output.netcdf                 write_netcdf        -
 siku_io.output.xr                     outlines_at         -
+siku_io.plot                          mapdeco             -
+siku_io.plot.element_maps             MapPainter          -
+siku_io.plot.element_maps             Output              -
 siku_io.plot.element_maps             draw_map            -
 siku_io.plot.grid_maps                draw_grid_map       -
 siku_io.xr                            east_north          siku_io.output.xr
