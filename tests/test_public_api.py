@@ -107,6 +107,7 @@ siku_core.kernel_cache                user_cache_dir      -
 siku_core.params                      Param               -
 siku_core.plugins                     get_registry        -
 siku_core.plugins                     register_module     -
+siku_core.plugins                     unregister_module   -
 siku_core.scene                       load_scene          -
 siku_core.scene                       scene_from_text     -
 siku_core.scene_api                   SceneBuilder        -
