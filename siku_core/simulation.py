@@ -55,7 +55,9 @@ class Simulation:
     Parameters
     ----------
     scene : a :class:`~siku_core.scene.Scene` or a path to a scene file.
-    out : output file, overriding ``[output] file``; ``False`` writes nothing.
+    out : output file, overriding ``[output] file``; ``False`` writes nothing; ``"memory"``
+        writes nothing and keeps the snapshots of ``[output] every`` in memory, in the output
+        file's layout, for :meth:`to_xarray`.
     progress : show a progress bar (``None``: as the scene says, else only on long runs).
     restart : continue from the last complete snapshot in this output file; refused when the
         scene differs from the run that wrote it (``force=True`` restarts anyway) or when that
@@ -85,7 +87,9 @@ class Simulation:
             raise SceneError("--extend continues a finished run: give the file with --restart")
         self.registry = registry or get_registry()
         self.output_path: Path | None = None
-        if out is not False:
+        #: the snapshots are kept in memory (``out="memory"``), not written
+        self.in_memory = isinstance(out, str) and out == "memory"
+        if out is not False and not self.in_memory:
             # a restart continues its file unless --out names another
             self.output_path = (Path(out) if out not in (None, True) else Path(restart)
                                 if restart is not None else Path(cfg.output.file))
@@ -139,6 +143,8 @@ class Simulation:
                                for k, p in enumerate(cfg.process)]
 
         self.writers: list[Writer] = [self._writer()] if self.output_path is not None else []
+        if self.in_memory:
+            self.writers.append(self._component("writer", "memory", {}, "output"))  # type: ignore
         for k, (x, path) in enumerate(zip(cfg.output.extra, self.extra_paths)):
             w = self._component("writer", x.writer, x.params, f"output.extra[{k}]")
             w.path = path  # type: ignore[attr-defined]
@@ -472,6 +478,23 @@ class Simulation:
             proc.close()
         if self.pm is not None:
             self.pm.hook.siku_finished(simulation=self)
+
+    def to_xarray(self, group: str | None = None, outlines: bool = True,
+                  decode_times: bool = True) -> Any:
+        """The run as an ``xarray.Dataset``: the same variables, units, coordinates and values as
+        ``xr.open_dataset(FILE, engine="siku", group=group, outlines=outlines)`` gives for the
+        output file of the same run. A run made with ``out="memory"`` gives every snapshot it
+        kept; any other (``out=False``, or one writing a file) the state now, as one snapshot
+        (the file's last after :meth:`run`). ``group``: ``None`` (the elements),
+        ``"diagnostics"`` or ``"breaks"``."""
+        kept = next((w for w in self.writers if getattr(w, "in_memory", False)), None)
+        if kept is not None and getattr(kept, "f", None) is not None:
+            return kept.dataset(group, outlines, decode_times)  # type: ignore[attr-defined]
+        now = self._component("writer", "memory", {}, "output")
+        now.open(self.context)
+        now.write_diagnostics(self.context, self.diagnostics())
+        now.write_state(self.context)
+        return now.dataset(group, outlines, decode_times)  # type: ignore[attr-defined]
 
     def history_arrays(self) -> dict[str, dict[str, np.ndarray]]:
         """Every component's history for an exact restart (:func:`siku_core.restart.history`)."""

@@ -16,6 +16,14 @@ the page is rendered):
 Blocks of language ``text`` are listings and output, not commands; ``toml`` blocks without a
 ``file`` comment are checked by parsing (``test_toml_examples_in_the_docs_parse``). Every other
 block is run: ``bash`` through bash (``set -e``), ``python`` in one namespace per page.
+
+What a block needs is said where the reader sees it, and the runner gives a page nothing more:
+
+- a page runs in an empty folder, unless it says, before its first block that reads them, that
+  its blocks run from the root of a clone of siku (:func:`runs_in_clone`): then the folder holds
+  copies of ``examples/`` and the helper scripts of ``tests/``, as a clone does;
+- a ``python`` block that uses a name an earlier block defined says so in the text just before
+  it (``the mesh built above``): :func:`continued_names` finds such names.
 """
 from __future__ import annotations
 
@@ -64,9 +72,60 @@ def blocks(page: Path) -> list[Block]:
     return out
 
 
-def prepare(folder: Path) -> None:
-    """A clean folder with what a clone holds beside the docs: ``examples/`` and the helper
-    scripts of ``tests/`` that pages run (copies: nothing a block writes reaches the source)."""
+#: how a page says that its blocks run from the root of a clone of siku
+CLONE = re.compile(r"root of (?:a|the|your) clone", re.IGNORECASE)
+#: what a block reads from a clone (beside the installed package)
+FROM_CLONE = re.compile(r"(?<![\w/.])(?:examples|tests)/")
+
+
+def runs_in_clone(page: Path | str) -> bool:
+    """Whether the page says that its blocks run from the root of a clone of siku."""
+    return bool(CLONE.search(Path(page).read_text(encoding="utf-8")
+                             if isinstance(page, Path) else page))
+
+
+def reads_clone(block: Block) -> bool:
+    """Whether a run block reads files of a clone (``examples/``, ``tests/``)."""
+    return block.runs and bool(FROM_CLONE.search(block.code))
+
+
+def text_before(page_text: str, block: Block) -> str:
+    """The page's text between the block before ``block`` (or the top) and ``block``."""
+    lines = page_text.split("\n")[: block.line - 1]
+    head = "\n".join(lines)
+    fences = [m.end() for m in FENCE.finditer(head)]
+    return head[fences[-1]:] if fences else head
+
+
+def continued_names(code: str) -> list[str]:
+    """Names a python block uses without defining or importing them (nor builtins): what it
+    takes from an earlier block of its page."""
+    import ast
+    import builtins
+
+    tree = ast.parse(code)
+    bound: set[str] = set()
+    used: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            bound.update((a.asname or a.name).split(".")[0] for a in node.names)
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            bound.add(node.name)
+        elif isinstance(node, ast.arg):
+            bound.add(node.arg)
+        elif isinstance(node, ast.ExceptHandler) and node.name:
+            bound.add(node.name)
+        elif isinstance(node, ast.Name):
+            (bound if isinstance(node.ctx, (ast.Store, ast.Del)) else used).add(node.id)
+    return sorted(u for u in used - bound if not hasattr(builtins, u))
+
+
+def prepare(folder: Path, clone: bool = True) -> None:
+    """A clean folder; for a page that runs from the root of a clone (``clone``), with what a
+    clone holds beside the docs: ``examples/`` and the helper scripts of ``tests/`` that pages
+    run (copies: nothing a block writes reaches the source)."""
+    if not clone:
+        return
     shutil.copytree(ROOT / "examples", folder / "examples",
                     ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "*.h5", "*.nc"))
     (folder / "tests").mkdir()

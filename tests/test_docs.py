@@ -372,6 +372,44 @@ def test_every_block_of_every_page_runs_or_says_why_not():
             "docs/howto/coupling.md", "docs/howto/forcing_data.md"} <= set(RUN_PAGES)
 
 
+def test_blocks_say_what_they_need_from_the_page():
+    """A block runs where its page says: a page whose blocks read a clone's files
+    (``examples/``, ``tests/``) says, before the first such block, that they run from the root
+    of a clone (elsewhere a page runs in an empty folder); a python block that uses a name of
+    an earlier block says so just before it ("above")."""
+    for page in doc_blocks.pages():
+        text = page.read_text(encoding="utf-8")
+        page_blocks = doc_blocks.blocks(page)
+        clone = [b for b in page_blocks if doc_blocks.reads_clone(b)]
+        if clone:
+            head = "\n".join(text.split("\n")[: clone[0].line - 1])
+            assert doc_blocks.runs_in_clone(head), (
+                f"{clone[0].where}: reads a clone's files; say before it that the page's blocks "
+                "run from the root of a clone of siku")
+        for b in page_blocks:
+            if b.lang == "python" and b.runs:
+                names = doc_blocks.continued_names(b.code)
+                if names:
+                    assert "above" in doc_blocks.text_before(text, b), (
+                        f"{b.where}: uses {', '.join(names)} of an earlier block; say so just "
+                        "before it (e.g. 'for the mesh built above')")
+
+
+def test_the_block_rules_can_fail():
+    """The checks of the test above on made-up blocks: a name from elsewhere is found, one the
+    block defines is not; a path into examples/ is a clone's, a file named like one is not."""
+    assert doc_blocks.continued_names("import numpy as np\nx = np.ones(3)\nprint(mesh, x)\n"
+                                      "def f(a):\n    return a + b\n") == ["b", "mesh"]
+    blk = doc_blocks.Block("p.md", 3, "bash", "cd examples/coupling && ls\n")
+    assert doc_blocks.reads_clone(blk)
+    assert not doc_blocks.reads_clone(doc_blocks.Block("p.md", 3, "bash", "ls my_examples/\n"))
+    assert doc_blocks.runs_in_clone("Run these from the root of a clone of siku.")
+    page = "intro\n```python\nx = 1\n```\nfor x above:\n```python\nprint(x)\n```\n"
+    second = [b for b in doc_blocks.FENCE.finditer(page)][1]
+    b = doc_blocks.Block("p.md", page[: second.start()].count("\n") + 1, "python", "print(x)\n")
+    assert doc_blocks.text_before(page, b).strip() == "for x above:"
+
+
 @pytest.fixture(scope="session")
 def stand_ins(tmp_path_factory) -> dict[str, Path]:
     made: dict[str, Path] = {}
@@ -394,7 +432,7 @@ def test_page_runs_as_written(page, tmp_path, monkeypatch, stand_ins):
     import matplotlib
 
     matplotlib.use("Agg")
-    doc_blocks.prepare(tmp_path)
+    doc_blocks.prepare(tmp_path, clone=doc_blocks.runs_in_clone(ROOT / page))
     bin_ = doc_blocks.network_stand_ins(tmp_path, sys.executable)
     env = {**os.environ, "MPLBACKEND": "Agg", "SIKU_NO_PROGRESS": "1",
            "PATH": os.pathsep.join([str(bin_), str(Path(sys.executable).parent),

@@ -186,3 +186,31 @@ def test_the_gallery_pictures_are_those_the_current_code_draws(tmp_path):
                    capture_output=True)
     for name in ("wave_breaking.png", "two_way_waves.png"):
         assert _similar(tmp_path / name, GALLERY / name) > 0.99, name
+
+
+def test_grid_maps_take_the_map_options_and_keep_the_colour_bar_beside_the_frame(files,
+                                                                                 tmp_path):
+    """A gridded field with fixed colour limits, a lon/lat frame and plate carrée, drawn as
+    SVG; its colour bar as tall as the frame, clear of the graticule's labels."""
+    import cartopy.crs as ccrs
+    from cartopy.mpl.gridliner import Gridliner
+
+    from siku_io.output.marks import is_picture
+    from siku_io.plot.grid_maps import GridPainter, draw_grid_map
+
+    p = GridPainter(files[1], "concentration", vmin=0.2, vmax=0.9, projection="platecarree",
+                    extent=(-158.0, -154.0, 70.6, 72.0))
+    assert p.mesh.norm.vmin == 0.2 and p.mesh.norm.vmax == 0.9
+    assert isinstance(p.proj, ccrs.PlateCarree)
+    p.draw(0)
+    p.fig.canvas.draw()
+    r = p.fig.canvas.get_renderer()
+    gl = next(a for a in p.ax.artists if isinstance(a, Gridliner))
+    frame, bar = p.ax.get_window_extent(r), p.colorbar.ax.get_window_extent(r)
+    for lab in gl._labels:
+        if lab.artist.get_visible() and lab.artist.get_text():
+            assert not lab.artist.get_window_extent(r).overlaps(bar)
+    assert abs(bar.height - frame.height) <= 1.0 and bar.x0 > frame.x1
+    matplotlib.pyplot.close(p.fig)
+    svg = draw_grid_map(files[1], tmp_path / "g.svg", "concentration", -1, vmin=0.0, vmax=1.0)
+    assert is_picture(svg) and b"<svg" in svg.read_bytes()[:2000]

@@ -107,6 +107,7 @@ siku_core.kernel_cache                user_cache_dir      -
 siku_core.params                      Param               -
 siku_core.plugins                     get_registry        -
 siku_core.plugins                     register_module     -
+siku_core.plugins                     unregister_module   -
 siku_core.scene                       load_scene          -
 siku_core.scene                       scene_from_text     -
 siku_core.scene_api                   SceneBuilder        -
@@ -148,6 +149,9 @@ siku_io.output.element_geometry       east_north          -
 siku_io.output.element_geometry       polygons_lonlat     -
 siku_io.output.netcdf                 write_netcdf        -
 siku_io.output.xr                     outlines_at         -
+siku_io.plot                          mapdeco             -
+siku_io.plot.element_maps             MapPainter          -
+siku_io.plot.element_maps             Output              -
 siku_io.plot.element_maps             draw_map            -
 siku_io.plot.grid_maps                draw_grid_map       -
 siku_io.xr                            east_north          siku_io.output.xr

@@ -317,20 +317,32 @@ def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None 
     from tqdm.auto import tqdm
 
     bar = tqdm(total=len(sw.members), unit="member", desc=sw.cfg.title or "ensemble",
-               disable=not show, initial=len(sw.members) - len(jobs))
+               disable=not show, initial=len(sw.members) - len(jobs), file=sys.stderr,
+               bar_format="{l_bar}{bar}| {n:.1f}/{total_fmt} members [{elapsed}<{remaining}]")
     actions = {m.name: todo[m.name]["action"] for m in sw.members}
+    serial = (scheduler or sw.cfg.cluster.scheduler) == "serial" or not jobs
+    # members of this process are not read while they write (HDF5 holds their files here)
+    watch = MemberProgress(bar, jobs, results, files=not serial) if show else None
+    if watch is not None:
+        watch.start()
+
+    def advance() -> None:
+        bar.update(1) if watch is None else watch.poll()
+
     try:
-        if (scheduler or sw.cfg.cluster.scheduler) == "serial" or not jobs:
+        if serial:
             if on_start is not None:
                 on_start(actions)
             for m in jobs:
                 results[m.name] = run_member(str(m.scene_path), m.overrides, str(m.output),
                                              todo[m.name]["action"] == "restart", threads)
-                bar.update(1)
+                advance()
         else:
-            _run_dask(sw, jobs, todo, results, bar, scheduler, workers, threads,
+            _run_dask(sw, jobs, todo, results, advance, scheduler, workers, threads,
                       lambda: on_start(actions) if on_start is not None else None)
     finally:
+        if watch is not None:
+            watch.stop()
         bar.close()
     ds = summarize(sw, results)
     if write:
@@ -338,7 +350,7 @@ def run(sweep: Sweep | str | Path | Mapping[str, Any], *, scheduler: str | None 
     return ds
 
 
-def _run_dask(sw: Sweep, jobs: list[Member], todo, results, bar, scheduler, workers,
+def _run_dask(sw: Sweep, jobs: list[Member], todo, results, advance, scheduler, workers,
               threads, started) -> None:
     from distributed import as_completed
 
@@ -360,12 +372,77 @@ def _run_dask(sw: Sweep, jobs: list[Member], todo, results, bar, scheduler, work
                 results[m.name] = {"status": "failed", "wall_time": math.nan, "steps": 0,
                                    "message": f"{type(exc).__name__}: "
                                               f"{' '.join(str(exc).split())[:300]}"}
-            bar.update(1)
+            advance()
     except KeyboardInterrupt:
         cl.stop_members(futures)
         raise
     finally:
         cl.close()
+
+
+class MemberProgress:
+    """The progress bar of an ensemble counts members in fractions: a running member counts
+    the share of its steps its output file holds (the step of its last complete snapshot over
+    the steps its scene asks for, read from the file as it is written, as ``siku info`` reads
+    it), a finished one counts one. :meth:`start` polls every ``interval`` seconds [s] in a
+    thread, so the bar moves (and its clock runs) while members run, not only when one ends.
+    With ``files=False`` (members running in this process) only finished members count."""
+
+    def __init__(self, bar, jobs: list[Member], results: Mapping[str, Any],
+                 interval: float = 1.0, files: bool = True):
+        import threading
+
+        self.bar, self.jobs, self.results, self.interval = bar, jobs, results, interval
+        self.files = files
+        self._lock = threading.Lock()
+        self.base = float(bar.n)  # members done before this run (reused, failed in the plan)
+        self._stop = None
+        self._thread = None
+
+    @staticmethod
+    def fraction(path) -> float:
+        """The share [1] of its steps a member's output file holds (0 when it holds none or
+        cannot be read yet)."""
+        from siku_io.output.results import run_progress
+
+        try:
+            prog = run_progress(path)
+        except Exception:  # noqa: BLE001 - a file being created, or a member that failed
+            return 0.0
+        return max(0.0, prog["step"]) / max(1, prog["n_steps"])
+
+    def poll(self) -> float:
+        """Set the bar to the members done so far, in fractions; returns that count."""
+        with self._lock:
+            done = self.base
+            for m in self.jobs:
+                if m.name in self.results:
+                    done += 1.0
+                elif self.files and Path(m.output).exists():
+                    done += min(self.fraction(m.output), 0.999)  # one only when finished
+            self.bar.n = done
+            self.bar.refresh()
+            return done
+
+    def start(self) -> None:
+        import threading
+
+        self._stop = threading.Event()
+
+        def loop() -> None:
+            while not self._stop.wait(self.interval):
+                self.poll()
+
+        self._thread = threading.Thread(target=loop, name="siku-ensemble-progress",
+                                        daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        if self._thread is not None:
+            self._stop.set()
+            self._thread.join()
+            self._thread = None
+        self.poll()
 
 
 # ---------------------------------------------------------------------------- command line

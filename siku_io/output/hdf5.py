@@ -495,6 +495,75 @@ def _leaves(group, prefix: str = "") -> list[str]:
     return out
 
 
+class MemoryWriter(HDF5Writer):
+    """The snapshots of a run kept in memory, in the HDF5 file's layout, for
+    ``Simulation(scene, out="memory")`` and ``Simulation.to_xarray()``: nothing is written to
+    disk; :meth:`dataset` reads them as ``xr.open_dataset(FILE, engine="siku")`` reads the file
+    of the same run (the same variables, units, coordinates and values)."""
+
+    name = "memory"
+    appends = False
+    #: told apart from the writers of files by the engine (``Simulation.to_xarray``)
+    in_memory = True
+
+    def open(self, ctx) -> None:
+        import io
+
+        import h5py
+
+        if self.path is not None:
+            from siku_core.errors import SceneError
+
+            raise SceneError(f"{ctx.scene.where(getattr(self, 'table', 'output'))}: writer "
+                             "'memory' keeps a run's snapshots for Python "
+                             "(Simulation(scene, out=\"memory\")); a file is written by "
+                             "'hdf5' or 'netcdf'")
+        self.target = Path("<memory>")
+        self.published, self.lock, self._copied = True, None, False
+        self.comp = None if self.p["compression"] == "none" else self.p["compression"]
+        if getattr(self, "f", None) is not None:  # a second run() continues the snapshots,
+            self._last_state = (ctx.step_index, ctx.time)  # as HDF5Writer continues its file
+            return
+        self.buffer = io.BytesIO()
+        self._last_state = None
+        self._last_diag = None
+        self._diag_rows = []
+        self.f = h5py.File(self.buffer, "w", libver="latest")
+        self._layout(ctx)
+
+    def _publish(self) -> None:
+        self.published = True
+
+    def _abandon(self, exc: BaseException, what: str) -> None:
+        raise DataError(f"the run's snapshots held in memory: {what} failed ({exc})") from None
+
+    def close(self, ctx) -> None:
+        """The snapshots stay (in memory, open): a later ``run()`` continues them."""
+        if getattr(self, "f", None) is not None:
+            self.f.flush()
+
+    @classmethod
+    def owns(cls, path) -> bool:
+        return False  # it never makes a file
+
+    @classmethod
+    def read_restart(cls, path, ctx) -> dict:
+        raise DataError(f"{path}: the 'memory' writer keeps no file to restart from")
+
+    def dataset(self, group: str | None = None, outlines: bool = True,
+                decode_times: bool = True):
+        """The snapshots kept so far as an ``xarray.Dataset``
+        (:func:`siku_io.output.xr.dataset_of`); ``group``: ``None``, ``"diagnostics"``,
+        ``"breaks"``."""
+        from siku_io.output.xr import dataset_of
+
+        if getattr(self, "f", None) is None:
+            raise DataError("the run keeps no snapshot in memory yet (run or advance it first)")
+        self.f.flush()
+        return dataset_of(self.f, "<memory>", group, outlines, decode_times,
+                          source="run held in memory")
+
+
 @hookimpl
 def siku_register_writers():
-    return [HDF5Writer]
+    return [HDF5Writer, MemoryWriter]

@@ -14,8 +14,8 @@ marks, by kind of file:
 * ``grid`` (``siku grid``, ``[output.grid]``): global attributes ``grid`` and a ``source``
   ending ``(siku grid)``;
 * ``summary`` (an ensemble's): global attribute ``kind = "siku ensemble summary"``;
-* ``picture`` (PNG maps, GIF animations): the PNG text ``Software`` or the GIF comment
-  starting ``siku``;
+* ``picture`` (PNG, PDF and SVG maps, GIF animations): the PNG text ``Software``, the GIF
+  comment, the PDF ``Creator`` or the SVG title starting ``siku``;
 * ``mesh`` (a mesh cache): the array ``format = "siku-mesh"``.
 """
 from __future__ import annotations
@@ -222,10 +222,22 @@ def _netcdf_kind(path: Path) -> str | None:
 
 
 def is_picture(path: str | Path) -> bool:
-    """A PNG map or GIF animation siku drew (its ``Software`` text or GIF comment)."""
+    """A PNG map or GIF animation siku drew (its ``Software`` text or GIF comment), or a PDF or
+    SVG map (its ``Creator``)."""
     path = Path(path)
     if not path.is_file():
         return False
+    if path.suffix.lower() in (".pdf", ".svg"):  # the PDF Info's Creator, the SVG's metadata
+        try:
+            with path.open("rb") as f:
+                head = f.read(4096)
+                f.seek(max(0, path.stat().st_size - 8192))
+                tail = f.read()
+        except OSError:
+            return False
+        mark = PICTURE_MARK.encode()
+        return (head.startswith(b"%PDF") and b"/Creator (" + mark in tail) or (
+            b"<svg" in head and b">" + mark + b" " in head)
     try:
         from PIL import Image
 

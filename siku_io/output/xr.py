@@ -60,37 +60,54 @@ def open_output(path: str | os.PathLike, group: str | None = None, outlines: boo
                 decode_times: bool = True, drop_variables=None):
     """The complete snapshots of a siku HDF5 output file as an ``xarray.Dataset`` (module
     docstring); ``group``: ``None`` (the states), ``"diagnostics"`` or ``"breaks"``."""
-    import xarray as xr
-
-    from siku_io.output.results import check_layout, n_snapshots, open_results
+    from siku_io.output.results import open_results
 
     path = Path(path)
     if group not in GROUPS:
         raise DataError(f"{path}: no group {group!r} in a siku output; one of states, "
                         "diagnostics, breaks")
     with open_results(path) as f:
-        check_layout(f, path)
-        root, attrs = _file_attrs(f, path)
-        start = str(root.get("start", ""))
-        if group == "diagnostics":
-            data, coords = _diagnostics_variables(f["diagnostics"], start, decode_times)
-            return _drop(xr.Dataset(data, coords, attrs), drop_variables)
-        if group == "breaks":
-            if "breaks" not in f:
-                return xr.Dataset(attrs=attrs)
-            g = f["breaks"]
-            n = int(g["time"].shape[0])
-            data = {k: xr.Variable("break", ds[:n], _attrs(ds)) for k, ds in g.items()}
-            return _drop(xr.Dataset(data, attrs=attrs), drop_variables)
-        n = n_snapshots(f)
-        s, geo = f["states"], f["geometry"]
-        q = s["q"][:n]
-        offsets = geo["vert_offsets"][...]
-        # a field that changes (thickness, mass, flags under processes) replaces the fixed one
-        data = {**_geometry_variables(geo, offsets), **_state_variables(s, q, n)}
-        coords = _state_coords(s, n, int(root["n_elements"]), start, decode_times)
-        if outlines:
-            data.update(_outline_variables(q, offsets, geo["verts"][...], float(root["radius"])))
+        return dataset_of(f, path, group, outlines, decode_times, drop_variables)
+
+
+def dataset_of(f, path: str | os.PathLike, group: str | None = None, outlines: bool = True,
+               decode_times: bool = True, drop_variables=None,
+               source: str | None = None):
+    """:func:`open_output` of an open ``h5py.File`` ``f`` in siku's layout (a file, or the
+    snapshots a run keeps in memory: ``Simulation.to_xarray``); ``path`` names it in messages
+    and ``source`` says where it is (default: the file ``path``)."""
+    import xarray as xr
+
+    from siku_io.output.results import check_layout, n_snapshots
+
+    path = Path(path)
+    if group not in GROUPS:
+        raise DataError(f"{path}: no group {group!r} in a siku output; one of states, "
+                        "diagnostics, breaks")
+    check_layout(f, path)
+    root, attrs = _file_attrs(f, path)
+    if source is not None:
+        attrs["source"] = f"siku {root.get('siku_version', '')} {source}"
+    start = str(root.get("start", ""))
+    if group == "diagnostics":
+        data, coords = _diagnostics_variables(f["diagnostics"], start, decode_times)
+        return _drop(xr.Dataset(data, coords, attrs), drop_variables)
+    if group == "breaks":
+        if "breaks" not in f:
+            return xr.Dataset(attrs=attrs)
+        g = f["breaks"]
+        n = int(g["time"].shape[0])
+        data = {k: xr.Variable("break", ds[:n], _attrs(ds)) for k, ds in g.items()}
+        return _drop(xr.Dataset(data, attrs=attrs), drop_variables)
+    n = n_snapshots(f)
+    s, geo = f["states"], f["geometry"]
+    q = s["q"][:n]
+    offsets = geo["vert_offsets"][...]
+    # a field that changes (thickness, mass, flags under processes) replaces the fixed one
+    data = {**_geometry_variables(geo, offsets), **_state_variables(s, q, n)}
+    coords = _state_coords(s, n, int(root["n_elements"]), start, decode_times)
+    if outlines:
+        data.update(_outline_variables(q, offsets, geo["verts"][...], float(root["radius"])))
     return _drop(xr.Dataset(data, coords, attrs), drop_variables)
 
 

@@ -45,8 +45,13 @@ def _cmd_plot(args) -> int:
         return 0
     grid = is_grid_file(args.output)
     draw = plot_grid if grid else plot_all
+    times = [t for spec in args.time for t in spec.split(",") if t.strip()] if args.time else None
+    options = {"times": times, "fmt": args.format, "dpi": args.dpi, "vmin": args.vmin,
+               "vmax": args.vmax, "extent": args.extent, "projection": args.projection,
+               "land": {"auto": None, "on": True, "off": False}[args.coast]}
     with damaged(args.output, "gridded file" if grid else "siku output file"):
-        files = draw(args.output, args.out_dir, args.field, animation=not args.no_animation)
+        files = draw(args.output, args.out_dir, args.field,
+                     animation=not args.no_animation and times is None, **options)
     for f in files:
         print(f)
     return 0
@@ -64,6 +69,8 @@ def siku_draw(path, field):
 
 @hookimpl
 def siku_register_commands(subparsers):
+    from siku_io.plot.mapdeco import DPI, FORMATS, PROJECTIONS
+
     pl = subparsers.add_parser("plot", help="draw maps and an animation from an output file")
     pl.add_argument("output", help="HDF5 output file of a run, a gridded file of 'siku grid' "
                     "or a floe size distribution of 'siku fsd'")
@@ -72,6 +79,24 @@ def siku_register_commands(subparsers):
                     "concentration, stress_I ...)")
     pl.add_argument("--out-dir", help="directory for the pictures (default: beside the file)")
     pl.add_argument("--no-animation", action="store_true", help="maps only")
+    pl.add_argument("--time", action="append", metavar="WHEN",
+                    help="the snapshot(s) to map instead of the first and last: an index (0, "
+                    "-1) or a model time with its unit (6h, 90min); repeat or separate by "
+                    "commas; files STEM_FIELD_NNN.FMT, NNN the snapshot's index (no animation)")
+    pl.add_argument("--format", choices=FORMATS, default="png",
+                    help="png (raster), pdf or svg (vector) maps; the animation stays a GIF")
+    pl.add_argument("--dpi", type=float, default=DPI,
+                    help="resolution of PNG maps (and of images inside PDF and SVG) "
+                    f"[dots per inch], default {DPI}")
+    pl.add_argument("--extent", type=float, nargs=4, metavar=("LON0", "LON1", "LAT0", "LAT1"),
+                    help="frame the map on this lon/lat box [deg] (default: the ice)")
+    pl.add_argument("--vmin", type=float, help="lower colour limit [the field's units]")
+    pl.add_argument("--vmax", type=float, help="upper colour limit [the field's units]")
+    pl.add_argument("--projection", choices=PROJECTIONS, default="auto",
+                    help="map projection (auto: polar stereographic poleward of 45 degrees, "
+                    "else plate carree)")
+    pl.add_argument("--coast", choices=("auto", "on", "off"), default="auto",
+                    help="draw the GSHHG land (auto: when the run's scene has a coast)")
     pl.add_argument("--fsd", action="store_true", help="draw the floe size distribution of "
                     "the output file (as 'siku fsd --plot') instead of maps")
     pl.set_defaults(func=_cmd_plot)

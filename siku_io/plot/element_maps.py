@@ -77,35 +77,60 @@ def _levels(vmax: float, field: str) -> np.ndarray:
     return np.arange(0.0, vmax + step * 1.0001, step)
 
 
+def _levels_between(lo: float, hi: float) -> np.ndarray:
+    """Ten colour bins from ``lo`` to ``hi``: the limits asked for, exactly."""
+    return np.linspace(lo, hi, 11)
+
+
 class MapPainter:
-    """Draws one snapshot of an output file; reused for animation frames."""
+    """Draws one snapshot of an output file; reused for animation frames.
+
+    ``field`` colours the elements; ``vmin``, ``vmax`` [the field's units] fix the colour
+    scale (default: zero, or symmetric about zero for a signed field, to the largest value);
+    ``land`` draws the GSHHG land (default: when the scene has a coast); ``extent`` frames the
+    map on a lon/lat box ``(lon0, lon1, lat0, lat1)`` [deg] (default: the elements);
+    ``projection`` one of :data:`siku_io.plot.mapdeco.PROJECTIONS`. With ``ax``, a cartopy
+    ``GeoAxes`` of the caller's figure, the map is drawn there in the axes' own projection
+    (a panel of a larger figure); ``colorbar=False`` leaves the colour bar to the caller
+    (``painter.coll`` is the mappable).
+    """
 
     def __init__(self, out: Output, field: str = "damage", vmax: float | None = None,
-                 land: bool | None = None):
+                 land: bool | None = None, *, vmin: float | None = None, extent=None,
+                 projection: str = "auto", ax=None, colorbar: bool = True):
         import matplotlib
 
-        matplotlib.use("Agg")
+        if ax is None:
+            matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         from matplotlib.collections import PolyCollection
         from matplotlib.colors import BoundaryNorm
 
         from . import mapdeco
 
+        mapdeco.check_limits(vmin, vmax)
         self.out = out
         self.field_name = field
         self.values = out.field(field)
-        allv = np.concatenate([
-            np.concatenate(polygons_lonlat(out.q[k], out.offsets, out.verts, out.radius))
-            for k in sorted({0, len(out.time) // 2, len(out.time) - 1})
-        ])
-        lon_ref = float(allv[0, 0])
-        lonw = (allv[:, 0] - lon_ref + 180) % 360 - 180 + lon_ref
-        lat_mean = float(allv[:, 1].mean())
-        self.proj = mapdeco.projection(lat_mean, float(lonw.mean()))
-        self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
-        self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
+        if extent is not None:
+            lonw, lat = mapdeco.extent_outline(extent)
+        else:
+            allv = np.concatenate([
+                np.concatenate(polygons_lonlat(out.q[k], out.offsets, out.verts, out.radius))
+                for k in sorted({0, len(out.time) // 2, len(out.time) - 1})
+            ])
+            lon_ref = float(allv[0, 0])
+            lonw = (allv[:, 0] - lon_ref + 180) % 360 - 180 + lon_ref
+            lat = allv[:, 1]
+        if ax is None:
+            self.proj = mapdeco.projection(float(lat.mean()), float(lonw.mean()), projection)
+            self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
+            self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
+        else:
+            self.ax, self.fig, self.proj = ax, ax.figure, ax.projection
         self.ax.set_facecolor(mapdeco.OCEAN)
-        self.box = mapdeco.frame_for(self.ax, self.proj, lonw, allv[:, 1])
+        self.box = mapdeco.frame_for(self.ax, self.proj, lonw, lat,
+                                     pad=0.0 if extent is not None else 0.08)
         self.land = out.has_coast if land is None else land
         self.land_level = (mapdeco.draw_land(self.ax, self.proj, self.box) if self.land
                            else None)
@@ -115,8 +140,21 @@ class MapPainter:
         mapdeco.legend(self.ax, land=self.land_level is not None, static=bool(self.static.any()))
         # a signed field (stress, a velocity component) on a diverging scale centred on zero:
         # compression and tension alike stand out from the unstressed ice
-        self.signed = field != "damage" and bool(np.nanmin(self.values) < 0)
-        if self.signed:
+        self.signed = field != "damage" and (bool(np.nanmin(self.values) < 0)
+                                             or (vmin is not None and vmin < 0))
+        if vmin is not None or (vmax is not None and not self.signed):
+            lo = vmin if vmin is not None else (0.0 if not self.signed else -abs(vmax))
+            hi = vmax if vmax is not None else (
+                1.0 if field == "damage" else float(np.nanmax(self.values)))
+            if not hi > lo:
+                from siku_core.errors import InputError
+
+                raise InputError(f"colour limits: vmin {lo:g} must be below vmax {hi:g} "
+                                 f"(the largest {field} is {hi:g})")
+            levels = _levels_between(lo, hi)
+            cmap = matplotlib.colormaps["RdBu_r" if lo < 0 < hi else
+                                       "viridis" if field != "damage" else "magma_r"]
+        elif self.signed:
             levels = (mapdeco.signed_levels(self.values) if vmax is None
                       else mapdeco.signed_levels(np.array([vmax])))
             cmap = matplotlib.colormaps["RdBu_r"]
@@ -130,9 +168,11 @@ class MapPainter:
         self.coll = PolyCollection([], cmap=cmap, norm=BoundaryNorm(levels, len(levels) - 1),
                                    edgecolors="0.25", linewidths=0.15, zorder=2)
         self.ax.add_collection(self.coll)
-        self.colorbar = cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.8, pad=0.03,
-                                               ticks=levels[::2])
-        cb.set_label(f"{field} [{COLORBAR_UNITS.get(field, '')}]")
+        self.colorbar = None
+        if colorbar:
+            self.colorbar = cb = mapdeco.colorbar_beside(self.fig, self.ax, self.coll,
+                                                         ticks=levels[::2])
+            cb.set_label(f"{field} [{COLORBAR_UNITS.get(field, '')}]")
 
     def draw(self, index: int) -> None:
         import cartopy.crs as ccrs
@@ -152,29 +192,35 @@ class MapPainter:
 
 
 def draw_map(path: str | Path, out_png: str | Path, index: int = -1,
-             field: str = "damage") -> Path:
-    """Write a PNG map of snapshot ``index`` coloured by ``field``."""
-    out = Output(path)
-    painter = MapPainter(out, field)
-    painter.draw(index if index >= 0 else len(out.time) + index)
+             field: str = "damage", *, dpi: float | None = None, **map_options) -> Path:
+    """Write a map of snapshot ``index`` coloured by ``field``, in the format the file's
+    suffix names (``.png``, ``.pdf``, ``.svg``; ``dpi`` [dots per inch], default
+    :data:`~siku_io.plot.mapdeco.DPI`); ``map_options`` are :class:`MapPainter`'s (``vmin``,
+    ``vmax``, ``land``, ``extent``, ``projection``)."""
     import matplotlib.pyplot as plt
 
-    from siku_io.plot.mapdeco import DPI, save_png
+    from siku_io.plot.mapdeco import DPI, picture_format, save_picture
 
+    picture_format(out_png)
+    out = Output(path)
+    painter = MapPainter(out, field, **map_options)
     try:
-        return save_png(painter.fig, Path(out_png), bbox_inches="tight", dpi=DPI)
+        painter.draw(index if index >= 0 else len(out.time) + index)
+        return save_picture(painter.fig, Path(out_png), dpi=DPI if dpi is None else dpi,
+                            bbox_inches="tight")
     finally:
         plt.close(painter.fig)
 
 
-def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: int = 6) -> Path:
+def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: int = 6,
+            **map_options) -> Path:
     """Write a GIF animation of every snapshot coloured by ``field`` (tight frames)."""
     import matplotlib.pyplot as plt
 
     from siku_io.plot.mapdeco import save_gif
 
     out = Output(path)
-    painter = MapPainter(out, field)
+    painter = MapPainter(out, field, **map_options)
     try:
         return save_gif(painter.fig, painter.draw, len(out.time), Path(out_gif), fps)
     finally:
@@ -182,20 +228,31 @@ def animate(path: str | Path, out_gif: str | Path, field: str = "damage", fps: i
 
 
 def plot_all(path: str | Path, out_dir: str | Path | None = None, field: str | None = None,
-             animation: bool = True) -> list[Path]:
-    """Maps of the first and last snapshots and an animation; returns the files written."""
-    from siku_io.plot.mapdeco import picture_targets
+             animation: bool = True, *, times=None, fmt: str = "png", dpi: float | None = None,
+             **map_options) -> list[Path]:
+    """Maps of the first and last snapshots (``STEM_FIELD_first.png``, ``_last``), or of the
+    snapshots ``times`` selects (:func:`~siku_io.plot.mapdeco.select_snapshots`; files
+    ``STEM_FIELD_NNN.FMT``, ``NNN`` the snapshot's index), in format ``fmt`` (png, pdf, svg),
+    and an animation; returns the files written. ``map_options``: :class:`MapPainter`'s."""
+    from siku_io.plot.mapdeco import check_options, picture_targets, select_snapshots
 
+    check_options(dpi=dpi, **map_options)
     path = Path(path)
     out_dir = Path(out_dir) if out_dir else path.parent
     out = Output(path)
     if field is None:
         field = "damage" if "damage" in out.fields else "speed"
+    out.field(field)
     stem = path.stem
-    names = [f"{stem}_{field}_first.png", f"{stem}_{field}_last.png"]
-    first, last, *gif = picture_targets(out_dir, names + ([f"{stem}_{field}.gif"]
-                                                          if animation else []))
-    files = [draw_map(path, first, 0, field), draw_map(path, last, -1, field)]
+    if times is None:
+        indices = [0, len(out.time) - 1]
+        names = [f"{stem}_{field}_first.{fmt}", f"{stem}_{field}_last.{fmt}"]
+    else:
+        indices = select_snapshots(out.time, times)
+        names = [f"{stem}_{field}_{k:03d}.{fmt}" for k in indices]
+    maps = picture_targets(out_dir, names + ([f"{stem}_{field}.gif"] if animation else []))
+    files = [draw_map(path, target, k, field, dpi=dpi, **map_options)
+             for k, target in zip(indices, maps)]
     if animation:
-        files.append(animate(path, gif[0], field))
+        files.append(animate(path, maps[-1], field, **map_options))
     return files

@@ -43,9 +43,15 @@ def _open(path):
 
 
 class GridPainter:
-    """Draws one field of a gridded file at one time; reused for animation frames."""
+    """Draws one field of a gridded file at one time; reused for animation frames.
 
-    def __init__(self, path, field: str):
+    ``vmin``, ``vmax`` [the field's units as drawn: strain rates per day] fix the colour
+    scale; ``land``, ``extent`` and ``projection`` as for
+    :class:`siku_io.plot.element_maps.MapPainter`."""
+
+    def __init__(self, path, field: str, *, vmin: float | None = None,
+                 vmax: float | None = None, land: bool | None = None, extent=None,
+                 projection: str = "auto"):
         import cartopy.crs as ccrs
         import matplotlib
 
@@ -68,13 +74,18 @@ class GridPainter:
         ref = float(lon[lon.shape[0] // 2, lon.shape[1] // 2])
         self.lon = (lon - ref + 180.0) % 360.0 - 180.0 + ref
         self.lat = lat
-        self.proj = mapdeco.projection(float(lat.mean()), float(self.lon.mean()))
+        mapdeco.check_limits(vmin, vmax)
+        frame_lon, frame_lat = ((self.lon.ravel(), lat.ravel()) if extent is None
+                                else mapdeco.extent_outline(extent))
+        self.proj = mapdeco.projection(float(frame_lat.mean()), float(frame_lon.mean()),
+                                       projection)
         self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
         self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
         self.ax.set_facecolor(mapdeco.OCEAN)
-        self.box = mapdeco.frame_for(self.ax, self.proj, self.lon.ravel(), lat.ravel(),
-                                     pad=0.02)
-        land = mapdeco.scene_has_coast(str(self.ds.attrs.get("scene", "")))
+        self.box = mapdeco.frame_for(self.ax, self.proj, frame_lon, frame_lat,
+                                     pad=0.02 if extent is None else 0.0)
+        if land is None:
+            land = mapdeco.scene_has_coast(str(self.ds.attrs.get("scene", "")))
         # land over the cells: a cell is ocean or ice, never land coloured as a value
         self.land_level = (mapdeco.draw_land(self.ax, self.proj, self.box, zorder=1.2)
                            if land else None)
@@ -96,10 +107,16 @@ class GridPainter:
         signed = field in SIGNED
         cmap = matplotlib.colormaps["RdBu_r" if signed else "viridis"].with_extremes(
             bad=(0, 0, 0, 0))
+        lo = vmin if vmin is not None else (-scale if signed else 0.0)
+        hi = vmax if vmax is not None else (scale if lo < scale else lo + scale)
+        if not hi > lo:
+            from siku_core.errors import InputError
+
+            raise InputError(f"colour limits: vmin {lo:g} must be below vmax {hi:g}")
         self.mesh = self.ax.pcolormesh(self.lon, self.lat, np.ma.masked_invalid(values[0]),
-                                       cmap=cmap, vmin=-scale if signed else 0.0, vmax=scale,
+                                       cmap=cmap, vmin=lo, vmax=hi,
                                        transform=ccrs.PlateCarree(), zorder=1, shading="flat")
-        self.colorbar = cb = self.fig.colorbar(self.mesh, ax=self.ax, shrink=0.8)
+        self.colorbar = cb = mapdeco.colorbar_beside(self.fig, self.ax, self.mesh)
         cb.set_label(f"{field} [{self.units}]\n{attrs.get('long_name', '')}", fontsize=8)
         self.lines = []
 
@@ -148,42 +165,68 @@ class GridPainter:
         self.ax.set_title(f"{title}\n{self.field}, {when}", fontsize=10)
 
 
-def draw_grid_map(path, out_png, field: str, index: int = -1) -> Path:
-    """A PNG map of one gridded field at time ``index``."""
+def grid_seconds(ds) -> np.ndarray:
+    """Model time [s] of a gridded file's times (from its ``start``; model time written as
+    seconds since 1970 without one)."""
+    t = ds["time"].values
+    if not np.issubdtype(t.dtype, np.datetime64):
+        return t.astype(float)
+    start = str(ds.attrs.get("start", "")).replace("+00:00", "").replace("Z", "")
+    origin = np.datetime64(start, "ns") if start else np.datetime64("1970-01-01", "ns")
+    return (t - origin) / np.timedelta64(1, "s")
+
+
+def draw_grid_map(path, out_png, field: str, index: int = -1, *, dpi: float | None = None,
+                  **map_options) -> Path:
+    """A map of one gridded field at time ``index``, in the format the file's suffix names
+    (``.png``, ``.pdf``, ``.svg``); ``map_options`` are :class:`GridPainter`'s."""
     import matplotlib.pyplot as plt
 
-    p = GridPainter(path, field)
-    n = p.ds.sizes["time"]
-    p.draw(index if index >= 0 else n + index)
-    from siku_io.plot.mapdeco import DPI, save_png
+    from siku_io.plot.mapdeco import DPI, picture_format, save_picture
 
+    picture_format(out_png)
+    p = GridPainter(path, field, **map_options)
     try:
-        return save_png(p.fig, Path(out_png), bbox_inches="tight", dpi=DPI)
+        n = p.ds.sizes["time"]
+        p.draw(index if index >= 0 else n + index)
+        return save_picture(p.fig, Path(out_png), dpi=DPI if dpi is None else dpi,
+                            bbox_inches="tight")
     finally:
         plt.close(p.fig)
 
 
-def plot_grid(path, out_dir=None, field: str | None = None, animation: bool = True
+def plot_grid(path, out_dir=None, field: str | None = None, animation: bool = True, *,
+              times=None, fmt: str = "png", dpi: float | None = None, **map_options
               ) -> list[Path]:
-    """Maps of the first and last times of a gridded file and an animation."""
-    from siku_io.plot.mapdeco import picture_targets
+    """Maps of the first and last times of a gridded file (or of the times ``times`` selects,
+    as :func:`siku_io.plot.element_maps.plot_all`) and an animation."""
+    from siku_io.plot.mapdeco import check_options, picture_targets, select_snapshots
 
+    check_options(dpi=dpi, **map_options)
     path = Path(path)
     out_dir = Path(out_dir) if out_dir else path.parent
     field = field or "total_deformation"
     stem = path.name.removesuffix(".nc").replace(".", "_")
-    first, last, *gif = picture_targets(
-        out_dir, [f"{stem}_{field}_first.png", f"{stem}_{field}_last.png"]
-        + ([f"{stem}_{field}.gif"] if animation else []))
-    files = [draw_grid_map(path, first, field, 0), draw_grid_map(path, last, field, -1)]
+    ds, _ = _open(path)
+    with ds:
+        seconds = grid_seconds(ds)
+    if times is None:
+        indices = [0, len(seconds) - 1]
+        names = [f"{stem}_{field}_first.{fmt}", f"{stem}_{field}_last.{fmt}"]
+    else:
+        indices = select_snapshots(seconds, times)
+        names = [f"{stem}_{field}_{k:03d}.{fmt}" for k in indices]
+    targets = picture_targets(out_dir, names + ([f"{stem}_{field}.gif"] if animation else []))
+    files = [draw_grid_map(path, t, field, k, dpi=dpi, **map_options)
+             for k, t in zip(indices, targets)]
     if animation:
         import matplotlib.pyplot as plt
 
         from siku_io.plot.mapdeco import save_gif
 
-        p = GridPainter(path, field)
+        p = GridPainter(path, field, **map_options)
         try:
-            files.append(save_gif(p.fig, p.draw, p.ds.sizes["time"], gif[0], fps=4))
+            files.append(save_gif(p.fig, p.draw, p.ds.sizes["time"], targets[-1], fps=4))
         finally:
             plt.close(p.fig)
     return files

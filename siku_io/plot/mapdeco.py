@@ -38,15 +38,98 @@ def scene_has_coast(scene_text: str) -> bool:
     return isinstance(mesh, dict) and mesh.get("land", "global-land-mask") != "none"
 
 
-def projection(lat_mean: float, lon_mean: float):
-    """Polar stereographic poleward of 45°, else plate carrée, centred on the data."""
+#: the map projections ``siku plot --projection`` offers (``auto``: :func:`projection`)
+PROJECTIONS = ("auto", "polar", "platecarree", "mercator")
+#: picture formats, told by the file's suffix (PNG raster, PDF and SVG vector)
+FORMATS = ("png", "pdf", "svg")
+
+
+def projection(lat_mean: float, lon_mean: float, kind: str = "auto"):
+    """The map projection centred on ``lon_mean`` [deg]: ``auto`` is polar stereographic
+    poleward of 45° (``lat_mean`` [deg]) and plate carrée elsewhere; ``polar`` the polar
+    stereographic of the hemisphere of ``lat_mean``; ``platecarree``; ``mercator``."""
     import cartopy.crs as ccrs
 
-    if lat_mean > 45:
-        return ccrs.NorthPolarStereo(central_longitude=lon_mean)
-    if lat_mean < -45:
+    from siku_core.errors import InputError
+
+    if kind not in PROJECTIONS:
+        raise InputError(f"projection '{kind}' unknown; one of {', '.join(PROJECTIONS)}")
+    if kind == "polar" or (kind == "auto" and abs(lat_mean) > 45):
+        if lat_mean >= 0:
+            return ccrs.NorthPolarStereo(central_longitude=lon_mean)
         return ccrs.SouthPolarStereo(central_longitude=lon_mean)
+    if kind == "mercator":
+        return ccrs.Mercator(central_longitude=lon_mean)
     return ccrs.PlateCarree(central_longitude=lon_mean)
+
+
+def check_extent(extent) -> tuple[float, float, float, float]:
+    """``(lon0, lon1, lat0, lat1)`` [deg] of a map's frame, checked: finite, ``lon0 < lon1``
+    (a box across the antimeridian is given with ``lon1 > 180``), ``-90 <= lat0 < lat1 <= 90``
+    (:class:`~siku_core.errors.InputError` otherwise)."""
+    from siku_core.errors import InputError
+
+    try:
+        lon0, lon1, lat0, lat1 = (float(v) for v in extent)
+    except (TypeError, ValueError):
+        raise InputError(f"extent {extent!r}: four numbers LON0 LON1 LAT0 LAT1 [deg]") from None
+    if not all(math.isfinite(v) for v in (lon0, lon1, lat0, lat1)):
+        raise InputError(f"extent {extent!r}: not finite")
+    if not (lon0 < lon1 and lon1 - lon0 <= 360.0):
+        raise InputError(f"extent: LON0 {lon0:g} must be below LON1 {lon1:g}, at most 360° apart")
+    if not (-90.0 <= lat0 < lat1 <= 90.0):
+        raise InputError(f"extent: latitudes must satisfy -90 <= LAT0 < LAT1 <= 90 (got {lat0:g}, "
+                         f"{lat1:g})")
+    return lon0, lon1, lat0, lat1
+
+
+def extent_outline(extent, samples: int = 32) -> tuple[np.ndarray, np.ndarray]:
+    """The outline of a lon/lat box ``(lon0, lon1, lat0, lat1)`` [deg], sampled along its edges
+    (a parallel is a curve in a polar projection: its corners alone would cut it)."""
+    lon0, lon1, lat0, lat1 = check_extent(extent)
+    t = np.linspace(0.0, 1.0, samples)
+    lon = np.concatenate([lon0 + (lon1 - lon0) * t, np.full(samples, lon1),
+                          lon1 - (lon1 - lon0) * t, np.full(samples, lon0)])
+    lat = np.concatenate([np.full(samples, lat0), lat0 + (lat1 - lat0) * t,
+                          np.full(samples, lat1), lat1 - (lat1 - lat0) * t])
+    return lon, lat
+
+
+def check_limits(vmin: float | None, vmax: float | None) -> None:
+    """Colour limits: finite, ``vmin < vmax`` when both are given."""
+    from siku_core.errors import InputError
+
+    for name, v in (("vmin", vmin), ("vmax", vmax)):
+        if v is not None and not math.isfinite(v):
+            raise InputError(f"{name} {v}: not a finite number")
+    if vmin is not None and vmax is not None and not vmin < vmax:
+        raise InputError(f"colour limits: vmin {vmin:g} must be below vmax {vmax:g}")
+
+
+#: the colour bar beside a map: its gap to the frame and its width [inch]; the gap holds the
+#: half of a longitude label that overhangs the frame's lower right corner ("140°W")
+COLORBAR_GAP = 0.45
+COLORBAR_WIDTH = 0.16
+
+
+def colorbar_beside(fig, ax, mappable, **kw):
+    """A colour bar right of the map ``ax``, exactly as tall as the map's frame as drawn (a
+    GeoAxes keeps its aspect, so a small or tall domain leaves its frame shorter than the axes'
+    slot, and a colour bar sized on the slot stood up to twice the map's height), and
+    :data:`COLORBAR_GAP` inches from it, clear of the graticule's labels."""
+    from matplotlib.transforms import Bbox
+
+    cax = fig.add_axes(ax.get_position(), label=f"colorbar of {id(ax)}")
+
+    def locate(_cax, renderer):
+        ax.apply_aspect()
+        pos = ax.get_position()
+        w, _ = fig.get_size_inches()
+        return Bbox.from_bounds(pos.x1 + COLORBAR_GAP / w, pos.y0, COLORBAR_WIDTH / w,
+                                pos.height)
+
+    cax.set_axes_locator(locate)
+    return fig.colorbar(mappable, cax=cax, **kw)
 
 
 def frame_for(ax, proj, lon, lat, pad: float = 0.08) -> tuple[float, float, float, float]:
@@ -295,6 +378,46 @@ def save_png(fig, path: Path, **kw) -> Path:
         part, format="png", metadata={"Software": picture_mark()}, **kw), "picture")
 
 
+def picture_format(path) -> str:
+    """The format of a picture told by its suffix: one of :data:`FORMATS`."""
+    from siku_core.errors import InputError
+
+    fmt = Path(path).suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise InputError(f"{path}: a picture ends in {', '.join('.' + f for f in FORMATS)}")
+    return fmt
+
+
+def check_dpi(dpi: float) -> None:
+    """A resolution [dots per inch] siku draws: 10 to 2400."""
+    from siku_core.errors import InputError
+
+    if not (math.isfinite(dpi) and 10 <= dpi <= 2400):
+        raise InputError(f"dpi {dpi:g}: between 10 and 2400 dots per inch")
+
+
+def check_options(vmin=None, vmax=None, extent=None, dpi=None, **_) -> None:
+    """Colour limits, extent and resolution of a map checked before anything is drawn."""
+    check_limits(vmin, vmax)
+    if extent is not None:
+        check_extent(extent)
+    if dpi is not None:
+        check_dpi(dpi)
+
+
+def save_picture(fig, path, dpi: float = DPI, **kw) -> Path:
+    """``fig`` at ``path`` in the format its suffix names (PNG at ``dpi`` [dots per inch]; PDF
+    and SVG as vectors, ``dpi`` only for what they hold as images), with siku's mark (the PNG
+    ``Software`` text, the PDF and SVG ``Creator``), whole or not at all."""
+    from siku_io.output.marks import write_whole
+
+    fmt = picture_format(path)
+    check_dpi(dpi)
+    meta = {"Software": picture_mark()} if fmt == "png" else {"Creator": picture_mark()}
+    return write_whole(Path(path), lambda part: fig.savefig(
+        part, format=fmt, metadata=meta, dpi=dpi, **kw), "picture")
+
+
 def picture_targets(out_dir, names: list[str]) -> list[Path]:
     """The pictures' paths in ``out_dir`` (made if missing), each one new or a picture siku
     drew: a user's file of the same name is never replaced (one line, exit 2)."""
@@ -309,3 +432,42 @@ def picture_targets(out_dir, names: list[str]) -> list[Path]:
                         "name a folder with --out-dir") from None
     return [writable(out_dir / n, "picture", overwrite=True, what="picture",
                      option="--out-dir", overwrite_option="") for n in names]
+
+
+def select_snapshots(times, specs) -> list[int]:
+    """Snapshot indices for ``specs``, each a snapshot index (``3``; ``-1`` the last) or a
+    model time with its unit (``6h``, ``90min``, ``0s``: the snapshot at that time, within
+    half the spacing of the snapshots), given the snapshots' model times ``times`` [s].
+    Repeats are drawn once, in the order given. :class:`~siku_core.errors.InputError` names a
+    spec that selects no snapshot."""
+    from siku_core.errors import InputError
+    from siku_core.units import parse_duration
+
+    times = np.asarray(times, float)
+    n = len(times)
+    half = 0.5 * float(np.min(np.diff(times))) if n > 1 else 0.0
+    chosen: list[int] = []
+    for spec in specs:
+        text = str(spec).strip()
+        try:
+            k = int(text)
+        except ValueError:
+            try:
+                t = parse_duration(text)
+            except (ValueError, TypeError):
+                raise InputError(f"time '{text}': a snapshot index (0, -1) or a model time with "
+                                 "its unit (6h, 90min)") from None
+            k = int(np.argmin(np.abs(times - t)))
+            if not abs(times[k] - t) <= half + 1e-6 * max(1.0, abs(t)):
+                raise InputError(
+                    f"time '{text}': no snapshot at {t:g} s; the file's {n} snapshots run from "
+                    f"{times[0]:g} s to {times[-1]:g} s" + (f", every {2 * half:g} s"
+                                                           if n > 1 else ""))
+        else:
+            if not -n <= k < n:
+                raise InputError(f"time '{text}': snapshot index out of range; the file holds "
+                                 f"{n} snapshots (0 to {n - 1}, or -{n} to -1)")
+            k %= n
+        if k not in chosen:
+            chosen.append(k)
+    return chosen
