@@ -276,7 +276,8 @@ class HDF5Writer(Writer):
         declared = ctx.field_catalogue()
         for path in _leaves(self.f):
             ds = self.f[path]
-            ds.attrs.update(dataset_attrs(path, diagnostics, declared, epoch, ds.dtype))
+            ds.attrs.update(dataset_attrs(path, diagnostics, declared, epoch, ds.dtype,
+                                          ctx.standard_names()))
 
     def _state_rows(self, ctx, fields: bool = True) -> dict[str, np.ndarray]:
         """Every per-snapshot dataset's row for the current state, by path in ``/states``."""
@@ -378,12 +379,13 @@ class HDF5Writer(Writer):
                         self._extend(ds, v)
                     else:
                         self._grow(ds, v)
-                self._flush()
+                self._flush(final=phase is markers)
         except (OSError, RuntimeError, ValueError) as exc:
             self._abandon(exc, what)
 
-    def _flush(self) -> None:
-        """Make what was written reach the file (SWMR's ordered flush)."""
+    def _flush(self, final: bool = True) -> None:
+        """Make what was written reach the file (SWMR's ordered flush); ``final``: the last
+        flush of a commit."""
         self.f.flush()
 
     def _publish(self) -> None:

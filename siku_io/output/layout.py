@@ -143,12 +143,13 @@ def state_rows(ctx) -> dict:
 
 
 def dataset_attrs(path: str, diagnostics: dict, declared: dict, epoch: str | None,
-                  dtype=None) -> dict:
+                  dtype=None, standard: dict | None = None) -> dict:
     """The attributes of the dataset at ``path`` of a run's output (HDF5 or Zarr): ``units``
     and ``long_name`` (:func:`describe`; a declared field's from ``declared``, the run's
     ``field_catalogue``, with its ``grid``), the time axes' epoch (``epoch``: the scene's
-    start, ``None`` without one) and CF flag meanings (of the dataset's ``dtype``) on the coded
-    datasets."""
+    start, ``None`` without one), CF flag meanings (of the dataset's ``dtype``) on the coded
+    datasets and the CF ``standard_name`` of a per-element field that has one (``standard``:
+    the run's ``standard_names()``; ``geometry/thickness`` takes the thickness's)."""
     import numpy as np
 
     from siku_core.contact_law import BREAK_MODES
@@ -161,6 +162,10 @@ def dataset_attrs(path: str, diagnostics: dict, declared: dict, epoch: str | Non
     if path.endswith("time") and path.count("/") == 1 and epoch:
         units = f"seconds since {epoch}"
     out["units"], out["long_name"] = units, long_name
+    field = path[14:] if path.startswith("states/fields/") else (
+        "thickness" if path == "geometry/thickness" else None)
+    if standard and field in standard:
+        out["standard_name"] = standard[field]
     if path in ("geometry/flags", "states/fields/flags"):
         out.update(flag_attrs({v: k for k, v in FLAG_MEANINGS.items()}, dtype))
     if path == "breaks/mode":

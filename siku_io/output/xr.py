@@ -53,8 +53,8 @@ def _time_coord(time_s: np.ndarray, start: str, decode_times: bool):
 
 
 def _attrs(ds) -> dict:
-    return {k: v for k, v in ds.attrs.items() if k in ("units", "long_name", "flag_values",
-                                                      "flag_meanings", "grid")}
+    return {k: v for k, v in ds.attrs.items() if k in ("units", "long_name", "standard_name",
+                                                      "flag_values", "flag_meanings", "grid")}
 
 
 def open_output(path: str | os.PathLike, group: str | None = None, outlines: bool = True,

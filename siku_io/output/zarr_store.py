@@ -189,6 +189,7 @@ class ZarrWriter(HDF5Writer):
         HDF5 writer's."""
         epoch = ctx.start.strftime("%Y-%m-%d %H:%M:%S") if ctx.start else None
         declared = ctx.field_catalogue()
+        standard = ctx.standard_names()
         arrays = [(f"geometry/{k}", self.root[f"geometry/{k}"]) for k in GEOMETRY]
         arrays += [(f"states/{k}", a) for k, a in self.rows.items()]
         arrays += [("states/step", self.step_ds)]
@@ -197,7 +198,7 @@ class ZarrWriter(HDF5Writer):
         for path, arr in arrays:
             dtype = np.dtype(arr.dtype)
             arr.attrs.update(_jsonable(dataset_attrs(path, diagnostics, declared, epoch,
-                                                     dtype)))
+                                                     dtype, standard)))
 
     # -------------------------------------------------------------- the storage
     def _extend(self, arr, values) -> None:
@@ -217,11 +218,15 @@ class ZarrWriter(HDF5Writer):
     def _grow(self, arr, value) -> None:
         self._extend(arr, np.asarray(value)[None])
 
-    def _flush(self) -> None:
-        """Commit: the root ``zarr.json`` with every array's shape (consolidated metadata),
-        replaced in one rename."""
+    def _flush(self, final: bool = True) -> None:
+        """Commit (``final``, after a commit's last row): the root ``zarr.json`` with every
+        array's shape (consolidated metadata), replaced in one rename. Before (the new rows of
+        a commit written, ``states/step``'s not yet) nothing is to be done: every file is
+        already on disk, and readers see no row of the commit."""
         import zarr
 
+        if not final:
+            return
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # consolidated metadata: not in the v3 spec yet
             zarr.consolidate_metadata(self.store)
