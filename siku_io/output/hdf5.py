@@ -14,7 +14,9 @@ File layout (``layout`` = 2)::
     /plugins           attrs: package -> version of every package that provided a component
     /components        JSON: name and parameters of every component of the run
     /geometry          vert_offsets, verts [m], m [kg], I [kg m²], area [m²], thickness [m],
-                       radius [m], flags, material, floe (floe index of each element, -1: none)
+                       radius [m], flags, material, floe (floe index of each element, -1: none):
+                       the elements at the file's first snapshot (a restart that continues the
+                       file keeps them; one written to another file starts there)
     /states            the snapshots: step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N)
                        [rad/s], lat, lon (T,N) [deg], fields/NAME (T,N) per-element fields
                        (speed, damage, stress, declared ones), history/KEY/NAME (T,...) every
@@ -289,9 +291,14 @@ class HDF5Writer(Writer):
     _extend = staticmethod(_extend)
     _grow = staticmethod(_grow)
 
+    def _set_geometry(self, name: str, values) -> None:
+        """Replace the values of ``/geometry/NAME`` (same shape)."""
+        self.f["geometry"][name][...] = values
+
     def _copy_restart(self, ctx) -> bool:
-        """Continuing the file a restart read: copy its complete snapshots, the diagnostics up
-        to the restart step and the breaks before it. ``False`` when writing another file."""
+        """Continuing the file a restart read: copy its ``/geometry`` (the elements at its first
+        snapshot), its complete snapshots, the diagnostics up to the restart step and the
+        breaks before it. ``False`` when writing another file."""
         if self._again:
             src, step = self.target, ctx.step_index
         else:
@@ -302,6 +309,8 @@ class HDF5Writer(Writer):
                 return False
             step = ctx.restarted_from
         with open_results(src) as g:
+            for k in _GEOMETRY:  # the elements at the file's first snapshot, not the restart's
+                self._set_geometry(k, g["geometry"][k][...])
             n = n_snapshots(g)
             s = g["states"]
             names = {k for k in _leaves(s) if k != "step"}

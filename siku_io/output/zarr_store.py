@@ -218,6 +218,9 @@ class ZarrWriter(HDF5Writer):
     def _grow(self, arr, value) -> None:
         self._extend(arr, np.asarray(value)[None])
 
+    def _set_geometry(self, name: str, values) -> None:
+        self.root[f"geometry/{name}"][...] = values
+
     def _flush(self, final: bool = True) -> None:
         """Commit (``final``, after a commit's last row): the root ``zarr.json`` with every
         array's shape (consolidated metadata), replaced in one rename. Before (the new rows of
