@@ -115,6 +115,13 @@ def test_a_zarr_output_round_trips_equal_to_the_hdf5_output(runs):
         assert np.array_equal(states["lat"].values, f["states/lat"][:])
 
 
+def test_siku_info_summarises_a_zarr_output_as_the_hdf5_one(runs, capsys):
+    assert main(["info", str(runs / "run.h5"), str(runs / "run.zarr")]) == 0
+    text = capsys.readouterr().out.replace("run.zarr", "run.h5").split("\n\n")
+    assert len(text) == 2 and text[0].strip() == text[1].strip()
+    assert "steps     12 of 60 s" in text[0]
+
+
 def test_siku_export_to_zarr_writes_the_netcdf_exports_layout(runs, capsys):
     assert main(["export", str(runs / "run.h5"), "--to", "zarr",
                  "--out", str(runs / "run_cf.zarr")]) == 0

@@ -46,6 +46,9 @@ class ZarrArray:
     def __getitem__(self, key):
         return self.array[key]
 
+    def __len__(self) -> int:
+        return self.shape[0]
+
 
 class ZarrGroup:
     """A group of the store, as an ``h5py.Group`` for reading."""
