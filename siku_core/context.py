@@ -201,6 +201,13 @@ class Context:
         ``grid``: ``mean``, ``sum`` or ``none``, how ``siku grid`` reduces them per cell)."""
         return self._sim.ice.catalogue()
 
+    def standard_names(self) -> dict[str, str]:
+        """``{name: CF standard_name}`` of the per-element fields that have one: the engine's
+        own (``siku_core.ice.STANDARD_NAMES``: ``speed``, ``thickness``) and every declared
+        field's :attr:`~siku_core.ice.ElementField.standard_name`; writers label the fields with
+        them."""
+        return self._sim.ice.standard_names()
+
     @property
     def categories(self) -> "Categories | None":
         """The elements' thickness categories (:class:`~siku_core.categories.Categories`:

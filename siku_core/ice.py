@@ -144,6 +144,15 @@ CHANGING = {
 }
 
 
+#: CF standard names of the engine's own per-element fields (``Simulation.element_fields``;
+#: ``thickness``: the elements' fixed thickness, or the changing one under processes); a
+#: declared field's is its :attr:`ElementField.standard_name`
+STANDARD_NAMES = {
+    "speed": "sea_ice_speed",
+    "thickness": "sea_ice_thickness",
+}
+
+
 class IceBook:
     """The declared per-element fields of a run and the changing thickness (module
     docstring). ``history()`` holds them for snapshots, the NaN guard and restarts."""
@@ -206,6 +215,13 @@ class IceBook:
             out.update(CHANGING)
         if self.categories is not None:
             out.update({k: (u, ln, "none") for k, (u, ln) in CATEGORY_FIELDS.items()})
+        return out
+
+    def standard_names(self) -> dict[str, str]:
+        """``{name: CF standard_name}`` of the per-element fields that have one: the engine's
+        own (:data:`STANDARD_NAMES`) and every declared field's ``standard_name``."""
+        out = dict(STANDARD_NAMES)
+        out.update({n: f.standard_name for n, (_, f) in self.specs.items() if f.standard_name})
         return out
 
     # ------------------------------------------------------------------ history (restart)

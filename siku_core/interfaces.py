@@ -146,6 +146,9 @@ class Writer(Component):
     #: whether :meth:`open` continues its own file on a restart (``ctx.restarted_from`` set):
     #: the engine then lets a restart write to an existing file of this writer
     appends: ClassVar[bool] = False
+    #: whether the output is a folder (a Zarr store) rather than one file: the engine then
+    #: treats an existing folder at :attr:`path` as the existing output (``owns`` decides)
+    folder: ClassVar[bool] = False
 
     @abstractmethod
     def open(self, ctx: "Context") -> None:

@@ -87,7 +87,8 @@ def check_target(path: str | Path, *, what: str = "output file",
                  ours: Callable[[Path], bool] | None = None, overwrite: bool = False,
                  inputs: Iterable[tuple[str, Path]] = (), appending_to: Path | None = None,
                  option: str = "--out", overwrite_option: str = "--overwrite",
-                 follow_links: bool = True, continue_option: str = "") -> Path:
+                 follow_links: bool = True, continue_option: str = "",
+                 folder: bool = False) -> Path:
     """May siku write ``path``? The one rule for every file siku writes; refused with a
     one-line :class:`DataError` naming the file and what to do:
 
@@ -104,7 +105,9 @@ def check_target(path: str | Path, *, what: str = "output file",
     option to name); ``continue_option`` (e.g. ``--restart``) is advised for an existing file
     of siku's own; with
     ``follow_links=False`` a symbolic link is not followed: it counts as the existing file
-    itself (replaced only with ``overwrite``, its target never written)."""
+    itself (replaced only with ``overwrite``, its target never written). With ``folder=True``
+    the file is a folder (a Zarr store): an existing folder is the existing file, under the
+    same rules."""
     path = Path(path)
     if "\x00" in str(path):
         raise DataError(f"{str(path)!r}: a file name cannot hold a NUL character")
@@ -120,9 +123,9 @@ def check_target(path: str | Path, *, what: str = "output file",
     except OSError as exc:  # a file used as a folder, a name too long, a loop of links
         raise DataError(f"{path}: cannot be written ({exc.strerror}); choose another "
                         f"{option}") from None
-    if st is not None and stat.S_ISDIR(st.st_mode):
+    if st is not None and stat.S_ISDIR(st.st_mode) and not folder:
         raise DataError(f"{path}: is a folder; {option} names the {what}")
-    if st is not None and not stat.S_ISREG(st.st_mode):
+    if st is not None and not (stat.S_ISREG(st.st_mode) or folder and stat.S_ISDIR(st.st_mode)):
         raise DataError(f"{path}: is not a regular file (a device, FIFO or socket); siku "
                         f"writes its {what} only to a regular file: choose another {option}")
     for key, p in inputs:
@@ -160,12 +163,13 @@ def _a(noun: str) -> str:
 def check_output_path(path: Path, inputs: list[tuple[str, Path]], *, overwrite: bool,
                       appending_to: Path | None = None,
                       ours: Callable[[Path], bool] | None = None,
-                      continue_option: str = "--restart") -> None:
+                      continue_option: str = "--restart", folder: bool = False) -> None:
     """The run's output path under :func:`check_target`: ``ours`` is the writer's
     :meth:`~siku_core.interfaces.Writer.owns`; an existing output of the writer is refused
-    with the advice to continue it (``continue_option``, e.g. ``--restart``)."""
+    with the advice to continue it (``continue_option``, e.g. ``--restart``); ``folder``: the
+    writer's output is a folder (:attr:`~siku_core.interfaces.Writer.folder`)."""
     check_target(path, what="output file", ours=ours, overwrite=overwrite, inputs=inputs,
-                 appending_to=appending_to, continue_option=continue_option)
+                 appending_to=appending_to, continue_option=continue_option, folder=folder)
 
 
 def partial_path(target: Path) -> Path:
@@ -178,8 +182,12 @@ def publish(partial: Path, target: Path, *, replace: bool) -> None:
     """Put the file ``partial`` in place as ``target`` atomically.
 
     ``replace=False`` never replaces a file that appeared at ``target`` meanwhile (a hard link
-    fails if the name exists); ``replace=True`` replaces it in one rename.
+    fails if the name exists); ``replace=True`` replaces it in one rename. A folder (a Zarr
+    store) replaces a folder by exchanging the two names in one call (:func:`exchange`), then
+    removes the old one: at every moment ``target`` names a whole store.
     """
+    if partial.is_dir() and not partial.is_symlink():
+        return _publish_folder(partial, target, replace)
     if replace:
         os.replace(partial, target)
         return
@@ -195,6 +203,50 @@ def publish(partial: Path, target: Path, *, replace: bool) -> None:
         os.rename(partial, target)
         return
     os.unlink(partial)
+
+
+def _publish_folder(partial: Path, target: Path, replace: bool) -> None:
+    """:func:`publish` of a folder."""
+    import shutil
+
+    if not os.path.lexists(target):
+        try:
+            os.mkdir(target)  # claims the name: fails if it appeared meanwhile
+        except FileExistsError:
+            if not replace:
+                raise DataError(f"{target}: was created by another process while this run "
+                                f"started; this run's output is in {partial}") from None
+    elif not replace:
+        raise DataError(f"{target}: was created by another process while this run started; "
+                        f"this run's output is in {partial}")
+    if os.path.isdir(target) and not os.path.islink(target):
+        exchange(partial, target)  # the new store at target, the old one at partial
+        shutil.rmtree(partial, ignore_errors=True)
+    else:  # a link or a file siku wrote in its place: replaced in one rename
+        os.replace(partial, target)
+
+
+def exchange(a: Path, b: Path) -> None:
+    """Exchange the names ``a`` and ``b`` (two folders) in one call, ``renameat2`` with
+    ``RENAME_EXCHANGE`` (Linux 3.15): neither name is ever missing. Where the call is missing,
+    ``b`` goes aside, ``a`` takes its name and the old ``b`` takes ``a``'s (a fault in between
+    leaves both folders whole, the old one at ``a``)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        renameat2 = None
+    if renameat2 is not None:
+        at_fdcwd, rename_exchange = -100, 2
+        if renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
+            return
+    aside = b.with_name(f"{b.name}.{os.getpid()}.old")
+    os.rename(b, aside)
+    os.rename(a, b)
+    os.rename(aside, a)
 
 
 def write_text_file(path: Path, text: str, *, replace: bool) -> None:
@@ -249,10 +301,11 @@ class RunLock:
 
 
 def in_use(path: Path) -> bool:
-    """Whether a process holds ``path`` open with a lock (a running siku run, or an HDF5
-    program): an exclusive ``flock`` cannot be taken."""
+    """Whether a process holds ``path`` (a file, or a folder such as a Zarr store) open with a
+    lock (a running siku run, or an HDF5 program): an exclusive ``flock`` cannot be taken."""
     try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
+        mode = os.stat(path).st_mode
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
             return False
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except OSError:
@@ -332,11 +385,12 @@ def extra_output_paths(scene: Any, primary: Path | None, overwrite: bool, restar
                             "file: give it a new file for the continuation (its file = "
                             "'...'); the old file keeps the rows before the restart")
         check_output_path(p, input_paths(scene), overwrite=overwrite,
-                          appending_to=p if cont else None, ours=cls.owns)
+                          appending_to=p if cont else None, ours=cls.owns,
+                          folder=getattr(cls, "folder", False))
         paths.append(p)
     return paths
 
 
 __all__ = ["check_output_path", "check_target", "extra_output_paths", "input_paths",
-           "partial_path", "publish", "RunLock", "in_use",
+           "partial_path", "publish", "exchange", "RunLock", "in_use",
            "is_disk_full", "restart_differences", "fsync_path", "settle", "DISK_FULL"]

@@ -91,12 +91,13 @@ class Simulation:
         self.in_memory = isinstance(out, str) and out == "memory"
         if out is not False and not self.in_memory:
             # a restart continues its file unless --out names another
+            writer_cls = self.registry.get("writer", cfg.output.writer,
+                                           where=f"{scene.where('output')}: ")
             self.output_path = (Path(out) if out not in (None, True) else Path(restart)
                                 if restart is not None else Path(cfg.output.file))
             check_output_path(self.output_path, input_paths(scene), overwrite=overwrite,
                               appending_to=Path(restart) if restart is not None else None,
-                              ours=self.registry.get("writer", cfg.output.writer,
-                                                     where=f"{scene.where('output')}: ").owns)
+                              ours=writer_cls.owns, folder=writer_cls.folder)
         #: the files of the scene's further writers ([[output.extra]]), in order
         self.extra_paths = extra_output_paths(
             scene, self.output_path, overwrite, restart is not None,

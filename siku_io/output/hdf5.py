@@ -14,7 +14,9 @@ File layout (``layout`` = 2)::
     /plugins           attrs: package -> version of every package that provided a component
     /components        JSON: name and parameters of every component of the run
     /geometry          vert_offsets, verts [m], m [kg], I [kg m²], area [m²], thickness [m],
-                       radius [m], flags, material, floe (floe index of each element, -1: none)
+                       radius [m], flags, material, floe (floe index of each element, -1: none):
+                       the elements at the file's first snapshot (a restart that continues the
+                       file keeps them; one written to another file starts there)
     /states            the snapshots: step, time [s], q (T,N,4), V (T,N,2) [m/s], w (T,N)
                        [rad/s], lat, lon (T,N) [deg], fields/NAME (T,N) per-element fields
                        (speed, damage, stress, declared ones), history/KEY/NAME (T,...) every
@@ -56,7 +58,6 @@ from typing import Any, Mapping
 import numpy as np
 
 from siku_core import PLUGIN_API_VERSION, DataError, Param, __version__, hookimpl
-from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Writer
 from siku_core.outputs import (
     RunLock,
@@ -75,8 +76,7 @@ from .results import (
     open_results,
 )
 
-_GEOMETRY = ("vert_offsets", "verts", "m", "I", "area", "thickness", "radius", "flags",
-             "material", "floe")
+from .layout import GEOMETRY as _GEOMETRY
 #: files given up after a failed write, kept open (on /dev/null) until the process ends
 _SEALED: list = []
 
@@ -272,45 +272,33 @@ class HDF5Writer(Writer):
     def _describe(self, ctx, diagnostics) -> None:
         """``units`` and ``long_name`` on every dataset (``siku_io.output.layout``), CF flag
         meanings on the coded ones, and the epoch of the time axes when the scene has a start."""
-        from siku_core.contact_law import BREAK_MODES
-        from siku_core.state import FLAG_MEANINGS
-        from siku_io.output.layout import describe, flag_attrs
+        from siku_io.output.layout import dataset_attrs
 
         epoch = ctx.start.strftime("%Y-%m-%d %H:%M:%S") if ctx.start else None
         declared = ctx.field_catalogue()
         for path in _leaves(self.f):
             ds = self.f[path]
-            units, long_name = describe(path, diagnostics)
-            if path[14:] in declared and path.startswith("states/fields/"):  # siku_core.ice
-                units, long_name, ds.attrs["grid"] = declared[path[14:]]
-            if path.endswith("time") and path.count("/") == 1 and epoch:
-                units = f"seconds since {epoch}"
-            ds.attrs["units"] = units
-            ds.attrs["long_name"] = long_name
-        meanings = {v: k for k, v in FLAG_MEANINGS.items()}
-        for path in ("geometry/flags", "states/fields/flags"):
-            if path in self.f:
-                flags = self.f[path]
-                flags.attrs.update(flag_attrs(meanings, flags.dtype))
-        if self.breaks is not None:
-            self.breaks["mode"].attrs.update(flag_attrs(BREAK_MODES, np.int8))
+            ds.attrs.update(dataset_attrs(path, diagnostics, declared, epoch, ds.dtype,
+                                          ctx.standard_names()))
 
     def _state_rows(self, ctx, fields: bool = True) -> dict[str, np.ndarray]:
         """Every per-snapshot dataset's row for the current state, by path in ``/states``."""
-        st = ctx.state
-        lat, lon = latlon_of(st.q)
-        rows = {"time": np.float64(ctx.time), "q": st.q, "V": st.V, "w": st.w,
-                "lat": np.degrees(lat), "lon": np.degrees(lon)}
-        for name, val in ctx.element_fields().items():
-            rows[f"fields/{name}"] = np.asarray(val)
-        for key, arrays in ctx.history().items():
-            for name, arr in arrays.items():
-                rows[f"history/{key}/{name}"] = np.asarray(arr)
-        return rows
+        from siku_io.output.layout import state_rows
+
+        return state_rows(ctx)
+
+    # the storage primitives (a subclass writes another format: siku_io.output.zarr_store)
+    _extend = staticmethod(_extend)
+    _grow = staticmethod(_grow)
+
+    def _set_geometry(self, name: str, values) -> None:
+        """Replace the values of ``/geometry/NAME`` (same shape)."""
+        self.f["geometry"][name][...] = values
 
     def _copy_restart(self, ctx) -> bool:
-        """Continuing the file a restart read: copy its complete snapshots, the diagnostics up
-        to the restart step and the breaks before it. ``False`` when writing another file."""
+        """Continuing the file a restart read: copy its ``/geometry`` (the elements at its first
+        snapshot), its complete snapshots, the diagnostics up to the restart step and the
+        breaks before it. ``False`` when writing another file."""
         if self._again:
             src, step = self.target, ctx.step_index
         else:
@@ -321,6 +309,8 @@ class HDF5Writer(Writer):
                 return False
             step = ctx.restarted_from
         with open_results(src) as g:
+            for k in _GEOMETRY:  # the elements at the file's first snapshot, not the restart's
+                self._set_geometry(k, g["geometry"][k][...])
             n = n_snapshots(g)
             s = g["states"]
             names = {k for k in _leaves(s) if k != "step"}
@@ -331,14 +321,14 @@ class HDF5Writer(Writer):
                     f"{', '.join(sorted(set(self.rows) - names)) or 'no'} missing datasets for "
                     "this scene; write the continued run to another --out")
             for name, ds in self.rows.items():
-                _extend(ds, s[name][:n])
-            _extend(self.step_ds, s["step"][:n])
+                self._extend(ds, s[name][:n])
+            self._extend(self.step_ds, s["step"][:n])
             d = g["diagnostics"]
             if "step" in d:
                 keep = int(np.searchsorted(d["step"][:d["step"].shape[0]], step, side="right"))
                 for k, ds in self.diag.items():
                     if k in d:
-                        _extend(ds, d[k][:keep])
+                        self._extend(ds, d[k][:keep])
                 if keep:
                     self._last_diag = int(d["step"][keep - 1])
             if self.breaks is not None and "breaks" in g:
@@ -346,7 +336,7 @@ class HDF5Writer(Writer):
                 t = b["time"][:b["time"].shape[0]]
                 keep = int(np.count_nonzero(t < step * ctx.dt))
                 for k, ds in self.breaks.items():
-                    _extend(ds, b[k][:keep])
+                    self._extend(ds, b[k][:keep])
         self._last_state = (step, step * ctx.dt)
         return True
 
@@ -394,13 +384,18 @@ class HDF5Writer(Writer):
         try:
             for phase in (data, markers):
                 for ds, v in phase:
-                    if np.ndim(v) == 1 and ds.id.rank == 1:
-                        _extend(ds, v)
+                    if np.ndim(v) == 1 and len(ds.shape) == 1:
+                        self._extend(ds, v)
                     else:
-                        _grow(ds, v)
-                self.f.flush()
+                        self._grow(ds, v)
+                self._flush(final=phase is markers)
         except (OSError, RuntimeError, ValueError) as exc:
             self._abandon(exc, what)
+
+    def _flush(self, final: bool = True) -> None:
+        """Make what was written reach the file (SWMR's ordered flush); ``final``: the last
+        flush of a commit."""
+        self.f.flush()
 
     def _publish(self) -> None:
         publish(self.partial, self.target, replace=self.replace)

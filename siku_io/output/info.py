@@ -1,5 +1,5 @@
-"""``siku info FILE``: the summary ``siku run`` prints at its end, for any HDF5 output file (of a
-finished, running or interrupted run), read from the file alone."""
+"""``siku info FILE``: the summary ``siku run`` prints at its end, for any HDF5 output file or
+Zarr output store (of a finished, running or interrupted run), read from the file alone."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -19,11 +19,14 @@ def summary_of_file(path: str | Path) -> RunSummary:
     from .results import damaged, n_snapshots, open_results
 
     path = Path(path)
-    if not path.is_file():
+    if path.is_dir():  # a Zarr store: open_results identifies it (siku_io.output.zarr_read)
+        pass
+    elif not path.is_file():
         raise DataError(f"{path}: no such file")
-    with open(path, "rb") as fh:
-        if fh.read(8) != b"\x89HDF\r\n\x1a\n":
-            raise DataError(f"{path}: not an HDF5 file; give the HDF5 output of a run")
+    else:
+        with open(path, "rb") as fh:
+            if fh.read(8) != b"\x89HDF\r\n\x1a\n":
+                raise DataError(f"{path}: not an HDF5 file; give the HDF5 output of a run")
     with damaged(path), open_results(path) as f:
         if "geometry" not in f:
             raise DataError(f"{path}: not a siku output file (no /geometry)")
@@ -58,5 +61,5 @@ def add_info_command(subparsers) -> None:
     """Registered by ``siku_io.output.commands``."""
     p = subparsers.add_parser("info", help="summarise output files: elements, steps, joints "
                               "broken by mode, lead fraction, where they are")
-    p.add_argument("output", nargs="+", help="HDF5 output file(s) of siku run")
+    p.add_argument("output", nargs="+", help="output file(s) of siku run (HDF5 or Zarr)")
     p.set_defaults(func=_cmd_info)

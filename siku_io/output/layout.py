@@ -117,6 +117,62 @@ def describe(path: str, diagnostics: dict[str, tuple[str, str]] | None = None
     return ("", "")
 
 
+#: the per-element datasets of ``/geometry`` (attributes of ``siku_core.state.State``)
+GEOMETRY = ("vert_offsets", "verts", "m", "I", "area", "thickness", "radius", "flags",
+            "material", "floe")
+
+
+def state_rows(ctx) -> dict:
+    """Every per-snapshot dataset's row for the current state of the run ``ctx``, by path in
+    ``/states``: ``time`` [s], ``q``, ``V`` [m/s], ``w`` [rad/s], ``lat``, ``lon`` [deg], the
+    per-element fields and every component's history."""
+    import numpy as np
+
+    from siku_core.geometry.quat import latlon_of
+
+    st = ctx.state
+    lat, lon = latlon_of(st.q)
+    rows = {"time": np.float64(ctx.time), "q": st.q, "V": st.V, "w": st.w,
+            "lat": np.degrees(lat), "lon": np.degrees(lon)}
+    for name, val in ctx.element_fields().items():
+        rows[f"fields/{name}"] = np.asarray(val)
+    for key, arrays in ctx.history().items():
+        for name, arr in arrays.items():
+            rows[f"history/{key}/{name}"] = np.asarray(arr)
+    return rows
+
+
+def dataset_attrs(path: str, diagnostics: dict, declared: dict, epoch: str | None,
+                  dtype=None, standard: dict | None = None) -> dict:
+    """The attributes of the dataset at ``path`` of a run's output (HDF5 or Zarr): ``units``
+    and ``long_name`` (:func:`describe`; a declared field's from ``declared``, the run's
+    ``field_catalogue``, with its ``grid``), the time axes' epoch (``epoch``: the scene's
+    start, ``None`` without one), CF flag meanings (of the dataset's ``dtype``) on the coded
+    datasets and the CF ``standard_name`` of a per-element field that has one (``standard``:
+    the run's ``standard_names()``; ``geometry/thickness`` takes the thickness's)."""
+    import numpy as np
+
+    from siku_core.contact_law import BREAK_MODES
+    from siku_core.state import FLAG_MEANINGS
+
+    out: dict = {}
+    units, long_name = describe(path, diagnostics)
+    if path.startswith("states/fields/") and path[14:] in declared:  # siku_core.ice
+        units, long_name, out["grid"] = declared[path[14:]]
+    if path.endswith("time") and path.count("/") == 1 and epoch:
+        units = f"seconds since {epoch}"
+    out["units"], out["long_name"] = units, long_name
+    field = path[14:] if path.startswith("states/fields/") else (
+        "thickness" if path == "geometry/thickness" else None)
+    if standard and field in standard:
+        out["standard_name"] = standard[field]
+    if path in ("geometry/flags", "states/fields/flags"):
+        out.update(flag_attrs({v: k for k, v in FLAG_MEANINGS.items()}, dtype))
+    if path == "breaks/mode":
+        out.update(flag_attrs(BREAK_MODES, np.int8))
+    return out
+
+
 def flag_attrs(names: dict[int, str], dtype) -> dict:
     """CF ``flag_values`` (of the variable's ``dtype``) / ``flag_meanings`` for code -> name."""
     import numpy as np

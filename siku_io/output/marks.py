@@ -11,6 +11,10 @@ marks, by kind of file:
   ``siku_scene``, an unlimited ``time`` dimension and the variable ``step``;
 * ``export`` (``siku export``): global attribute ``siku_siku_version`` and the dimension
   ``obs``;
+* ``zarr output`` (the Zarr writer, a folder): a Zarr group whose root ``zarr.json`` has the
+  attributes ``siku_version`` and ``layout`` and the group ``states``;
+* ``zarr export`` (``siku export --to zarr``, a folder): a Zarr group with the attribute
+  ``siku_siku_version`` and the array ``obs`` dimension of the trajectory layout;
 * ``grid`` (``siku grid``, ``[output.grid]``): global attributes ``grid`` and a ``source``
   ending ``(siku grid)``;
 * ``summary`` (an ensemble's): global attribute ``kind = "siku ensemble summary"``;
@@ -89,6 +93,41 @@ def _is_hdf5_output(path: Path) -> bool:
             return ours(f)
     except Exception:  # noqa: BLE001
         return False
+
+
+def _zarr_root(path: Path) -> dict | None:
+    """The root metadata (``zarr.json``) of a Zarr version 3 group at the folder ``path``, or
+    ``None``. Plain JSON, read here (no library that can crash on a damaged file)."""
+    import json
+
+    try:
+        if not path.is_dir():
+            return None
+        meta = json.loads((path / "zarr.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(meta, dict) or meta.get("node_type") != "group":
+        return None
+    return meta
+
+
+def zarr_kind(path: str | Path) -> str | None:
+    """``"zarr output"`` (the Zarr writer's store) or ``"zarr export"`` (``siku export --to
+    zarr``) for a folder siku wrote, else ``None``."""
+    meta = _zarr_root(Path(path))
+    if meta is None:
+        return None
+    attrs = meta.get("attributes") or {}
+    if "siku_version" in attrs and "layout" in attrs and (Path(path) / "states").is_dir():
+        return "zarr output"
+    if "siku_siku_version" in attrs and attrs.get("featureType") == "trajectory":
+        return "zarr export"
+    return None
+
+
+def is_zarr_output(path: str | Path) -> bool:
+    """A store of siku's Zarr writer (module docstring)."""
+    return zarr_kind(path) == "zarr output"
 
 
 def in_child(fn: Callable[[], str | None], timeout: float = 10.0) -> str | None:
@@ -274,15 +313,18 @@ def kind_test(kind: str) -> Callable[[Path], bool]:
         return is_picture
     if kind == "mesh":
         return is_mesh_cache
+    if kind.startswith("zarr"):
+        return lambda p: zarr_kind(p) == kind
     return lambda p: netcdf_kind(p) == kind
 
 
 def writable(path: str | Path, kind: str, *, overwrite: bool, what: str | None = None,
              option: str = "--out", inputs=(), overwrite_option: str = "--overwrite") -> Path:
-    """:func:`siku_core.outputs.check_target` for a file of ``kind``."""
+    """:func:`siku_core.outputs.check_target` for a file of ``kind`` (a Zarr kind is a
+    folder)."""
     return check_target(path, what=what or f"{kind} file", ours=kind_test(kind),
                         overwrite=overwrite, option=option, inputs=inputs,
-                        overwrite_option=overwrite_option)
+                        overwrite_option=overwrite_option, folder=kind.startswith("zarr"))
 
 
 def _discard(part: Path) -> None:
@@ -331,5 +373,5 @@ def _disk_full_now(target: Path) -> bool:
     return free < 1 << 20 or (limit != resource.RLIM_INFINITY and limit < 1 << 40)
 
 
-__all__ = ["is_hdf5_output", "netcdf_kind", "in_child", "is_picture", "is_mesh_cache", "kind_test",
-           "writable", "write_whole", "PICTURE_MARK"]
+__all__ = ["is_hdf5_output", "is_zarr_output", "zarr_kind", "netcdf_kind", "in_child",
+           "is_picture", "is_mesh_cache", "kind_test", "writable", "write_whole", "PICTURE_MARK"]

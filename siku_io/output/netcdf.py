@@ -327,7 +327,8 @@ class NetCDFWriter(Writer):
             u, ln = ELEMENT_FIELDS.get(k, ("1", f"per-element field '{k}'"))
             if k in declared:  # declared by a component, or changed by processes
                 u, ln = declared[k][:2]
-            per[k] = (u, _STANDARD.get(k, {}).get("standard_name", ""), ln)
+            per[k] = (u, ctx.standard_names().get(
+                k, _STANDARD.get(k, {}).get("standard_name", "")), ln)
         for k, (u, std, ln) in per.items():
             dims = ("time", "element", "category")[:1 + max(1, np.ndim(fields.get(k, 0)))]
             if k == "flags":  # changed by processes (an element melted away)

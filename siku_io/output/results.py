@@ -26,7 +26,8 @@ LAYOUT = 2
 
 
 def open_results(path: str | Path):
-    """Open a siku HDF5 output file for reading (an ``h5py.File``).
+    """Open a siku HDF5 output file for reading (an ``h5py.File``), or a Zarr output store
+    (a :class:`~siku_io.output.zarr_read.ZarrFile`, read through the same interface).
 
     The file is first identified as siku's (``siku_io.output.marks``), reading only: any other
     file is refused untouched. A file a killed run left behind is opened after
@@ -38,6 +39,17 @@ def open_results(path: str | Path):
     from .marks import is_hdf5_output, netcdf_kind
 
     path = Path(path)
+    if path.is_dir():  # a store of the Zarr writer (siku_io.output.zarr_read)
+        from .marks import is_zarr_output
+        from .zarr_read import ZarrFile
+
+        if not is_zarr_output(path):
+            raise DataError(f"{path}: is a folder but not a siku Zarr output store (no siku "
+                            "attributes in its zarr.json); give the output of a run")
+        try:
+            return ZarrFile(path)
+        except Exception as exc:  # noqa: BLE001 - any error of the library on a damaged store
+            raise DataError(f"{path}: not a readable Zarr store: {exc}") from None
     if not path.is_file():
         raise DataError(f"{path}: output file not found")
     if not is_hdf5_output(path):  # identified before anything else is done to it
@@ -186,7 +198,7 @@ def restart_snapshot(path: Path, n: int, history: dict) -> dict[str, Any]:
     """What a restart reads from ``path`` (``HDF5Writer.read_restart``): its last complete
     snapshot, checked against the scene's ``n`` elements and ``history`` arrays (by shape)."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise DataError(f"{path}: restart file not found")
     try:
         with damaged(path, "restart file"):

@@ -1,7 +1,8 @@
 """siku output files as xarray datasets: ``xr.open_dataset("run.h5", engine="siku")``.
 
 The backend (entry point ``siku`` of ``xarray.backends``) reads the complete snapshots of an
-HDF5 output file (``siku_io.output.hdf5``; a file a killed run left behind opens too) into a dataset
+HDF5 output file (``siku_io.output.hdf5``; a file a killed run left behind opens too) or of a
+Zarr output store (``siku_io.output.zarr_store``, read the same way) into a dataset
 with dimensions ``time`` × ``element`` (and ``node``, the polygon vertices of all elements in
 order):
 
@@ -52,8 +53,8 @@ def _time_coord(time_s: np.ndarray, start: str, decode_times: bool):
 
 
 def _attrs(ds) -> dict:
-    return {k: v for k, v in ds.attrs.items() if k in ("units", "long_name", "flag_values",
-                                                      "flag_meanings", "grid")}
+    return {k: v for k, v in ds.attrs.items() if k in ("units", "long_name", "standard_name",
+                                                      "flag_values", "flag_meanings", "grid")}
 
 
 def open_output(path: str | os.PathLike, group: str | None = None, outlines: bool = True,
@@ -252,7 +253,7 @@ except ImportError:  # pragma: no cover - xarray is a dependency
 
 class SikuBackend(BackendEntrypoint):
     """``xr.open_dataset(path, engine="siku", group=None|"diagnostics"|"breaks",
-    outlines=True)``: a siku HDF5 output file (``siku_io.output.xr``)."""
+    outlines=True)``: a siku HDF5 output file or Zarr output store (``siku_io.output.xr``)."""
 
     open_dataset_parameters = ("filename_or_obj", "drop_variables", "group", "outlines",
                                "decode_times")
@@ -268,7 +269,11 @@ class SikuBackend(BackendEntrypoint):
                                decode_times=decode_times, drop_variables=drop_variables)
 
     def guess_can_open(self, filename_or_obj) -> bool:
+        from siku_io.output.marks import is_zarr_output
+
         try:
+            if os.path.isdir(filename_or_obj):
+                return is_zarr_output(filename_or_obj)
             import h5py
 
             with h5py.File(filename_or_obj, "r") as f:
