@@ -74,17 +74,21 @@ def writer_scene_text(name: str, steps: int = STEPS, params: dict | None = None)
 
 def snapshot_steps(path: Path) -> np.ndarray:
     """The steps of the complete snapshots of the output ``path``, in file order: the ``step``
-    variable of ``xarray.open_dataset(path)`` (engine guessed), or of its ``states`` group."""
+    variable of ``xarray.open_dataset(path)`` (the engine xarray guesses, else the first
+    installed engine that opens it), or of its ``states`` group."""
     import xarray as xr
 
     errors = []
-    for group in (None, "states"):
-        try:
-            with xr.open_dataset(path, group=group, decode_times=False) as ds:
-                if "step" in ds.variables:
-                    return np.asarray(ds["step"].values).astype(np.int64)
-        except Exception as exc:  # noqa: BLE001 - any engine's refusal: try the next
-            errors.append(f"{type(exc).__name__}: {exc}")
+    engines = [None, *(e for e in xr.backends.list_engines() if e != "store")]
+    for engine in engines:  # the guess first (by content or name), then every engine
+        for group in (None, "states"):
+            try:
+                with xr.open_dataset(path, engine=engine, group=group,
+                                     decode_times=False) as ds:
+                    if "step" in ds.variables:
+                        return np.asarray(ds["step"].values).astype(np.int64)
+            except Exception as exc:  # noqa: BLE001 - any engine's refusal: try the next
+                errors.append(f"{engine or 'guessed'}: {type(exc).__name__}")
     raise AssertionError(f"{path}: xarray finds no 'step' variable in this output "
                          f"({'; '.join(errors) or 'none'}); pass steps=READER (the steps of the "
                          "file's complete snapshots) to the writer checks")
