@@ -155,6 +155,17 @@ BREAK_FLEXURE = int(BreakMode.FLEXURE)
 BREAK_MELT = int(BreakMode.MELT)
 #: names of the break modes by code (code 0: intact), as written in output files
 BREAK_MODES = {int(m): m.name.lower() for m in BreakMode}
+#: what each break mode means (the reference tables of the documentation are made from it)
+BREAK_MODE_MEANINGS = {
+    BreakMode.INTACT: "not broken",
+    BreakMode.STRAIN: "a strain or displacement threshold without a direction",
+    BreakMode.TENSION: "normal (opening) stress above the tensile strength",
+    BreakMode.SHEAR: "shear stress above the shear strength",
+    BreakMode.COMPRESSION: "normal (closing) stress above the compressive strength",
+    BreakMode.EXTERNAL: "broken by a component outside the law (`ctx.contacts.break_joints`)",
+    BreakMode.FLEXURE: "flexural (bending) strain above the critical strain (wave-induced)",
+    BreakMode.MELT: "one of its elements melted away (a process, `siku_core.ice`)",
+}
 
 
 # ---------------------------------------------------------------------- parameters
@@ -450,7 +461,8 @@ def parameter_vector(law: ContactLaw, which: str, package: str) -> np.ndarray:
 
 #: the contract a contact law is written against (docs/reference/api.md)
 __all__ = [
-    "ContactLaw", "ParameterRecord", "BreakMode", "BREAK_MODES", "BREAK_STRAIN", "BREAK_TENSION",
+    "ContactLaw", "ParameterRecord", "BreakMode", "BREAK_MODES", "BREAK_MODE_MEANINGS",
+    "BREAK_STRAIN", "BREAK_TENSION",
     "BREAK_SHEAR", "BREAK_COMPRESSION", "BREAK_EXTERNAL", "BREAK_FLEXURE", "BREAK_MELT",
     "G_AREA", "G_CX", "G_CY", "G_NX", "G_NY", "G_WIDTH", "G_K", "G_MEFF", "G_VX", "G_VY",
     "G_AREA_I", "G_AREA_J", "G_HI", "G_HJ", "G_SIZE",

@@ -1,5 +1,6 @@
-"""``siku bench``: the benchmark runner of a source checkout (no subpackage's concern: it runs
-the repository's ``bench/``)."""
+"""siku's developer commands: ``siku bench``, the benchmark runner of a source checkout (no
+subpackage's concern: it runs the repository's ``bench/``), and ``siku new-plugin``, a plugin
+package to grow from (``siku_io.new_plugin``)."""
 from __future__ import annotations
 
 from siku_core import hookimpl
@@ -30,5 +31,8 @@ def siku_register_commands(subparsers):
     b = subparsers.add_parser("bench", help="benchmark tables (source checkout; 'siku bench "
                               "--help')", add_help=False)
     b.set_defaults(func=_cmd_bench, raw_args=True)
+    from siku_io.new_plugin import add_parser
+
+    add_parser(subparsers)
 
 

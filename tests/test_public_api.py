@@ -44,10 +44,13 @@ siku_core                             -                   -
 siku_core                             PLUGIN_API_VERSION  -
 siku_core                             Param               -
 siku_core                             Simulation          -
+siku_core                             contact_law         -
 siku_core                             hookimpl            -
 siku_core.cells                       small_cell_report   -
+siku_core.contact_law                 BREAK_MODE_MEANINGS -
 siku_core.contact_law                 BREAK_SHEAR         -
 siku_core.contact_law                 BREAK_TENSION       -
+siku_core.contact_law                 BreakMode           -
 siku_core.contact_law                 COLLISION_LAYOUT    -
 siku_core.contact_law                 ContactLaw          -
 siku_core.contact_law                 J_AX                -
@@ -91,8 +94,8 @@ siku_core.contacts                    J_VBX               siku_core.contact_law
 siku_core.contacts                    J_VBY               siku_core.contact_law
 siku_core.contacts                    J_W                 siku_core.contact_law
 siku_core.diagnostics                 catalogue           -
-siku_core.errors                      SikuError           -
 siku_core.errors                      InputError          -
+siku_core.errors                      SikuError           -
 siku_core.geometry.quat               east_north_local    -
 siku_core.geometry.quat               latlon_of           -
 siku_core.ice                         ElementField        -
@@ -104,6 +107,9 @@ siku_core.interfaces                  Integrator          -
 siku_core.interfaces                  Process             -
 siku_core.interfaces                  Writer              -
 siku_core.kernel_cache                user_cache_dir      -
+siku_core.outputs                     partial_path        -
+siku_core.outputs                     publish             -
+siku_core.outputs                     settle              -
 siku_core.params                      Param               -
 siku_core.plugins                     get_registry        -
 siku_core.plugins                     register_module     -
@@ -120,7 +126,10 @@ siku_core.testing                     make_scene          -
 siku_core.testing.contact_conformance check_contact_law   -
 siku_core.testing.contact_conformance collision_geometry   -
 siku_core.testing.contact_conformance contact_history_row   -
+siku_core.testing.element_source_checks check_element_source -
 siku_core.testing.process_checks      check_process       -
+siku_core.testing.writer_checks       DT                  -
+siku_core.testing.writer_checks       check_writer        -
 siku_forcing.spectral_transport       steady_ratio        -
 siku_forcing.synthetic                write_ncep_pair     -
 siku_io                               ensemble            -

@@ -2,6 +2,10 @@
 
 * ``<a id="name"></a>`` (the anchors of docs/reference/references.md, which GitHub renders)
   becomes a MyST target ``(name)=``, so ``references.md#name`` links resolve in the site;
+* a generated region (``<!-- generated: NAME -->`` ... ``<!-- end generated -->``) holds the
+  table the code gives when the site is built (``siku_tables.py``: layouts, break modes, the
+  contact laws' parameters, the declared per-element fields), so the site cannot drift from
+  the code;
 * a link that leaves docs/ (``../../CHANGELOG.md``, ``../../examples/...``) points to the
   file in the repository (``siku_repository`` of conf.py).
 """
@@ -15,7 +19,9 @@ OUTSIDE = re.compile(r"\]\(((?:\.\./)+)([^)#\s]+)(#[^)\s]*)?\)")
 
 
 def _rewrite(app, docname: str, source: list[str]) -> None:
-    text = ANCHOR.sub(r"(\1)=", source[0])
+    from siku_tables import refresh
+
+    text = ANCHOR.sub(r"(\1)=", refresh(source[0]))
     depth = len(Path(docname).parts) - 1  # folders between the page and docs/
 
     def link(m: re.Match) -> str:

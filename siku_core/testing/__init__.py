@@ -11,6 +11,13 @@
   (:func:`~siku_core.testing.contact_conformance.check_contact_law`: Newton's third law for both
   evaluators, zero force when apart, compiled evaluator equal to its pure-Python form, finite
   output in degenerate geometry), for built-in and third-party laws alike.
+* :mod:`siku_core.testing.process_checks`: the process conformance suite (:func:`check_process`).
+* :mod:`siku_core.testing.writer_checks`: the writer conformance suite
+  (:func:`~siku_core.testing.writer_checks.check_writer`: partial file then publish, ``owns``,
+  ``--overwrite``, restart with no row twice or extra, a run stopped before its first
+  snapshot), for any writer by its registered name.
+* :mod:`siku_core.testing.element_source_checks`: the element-source conformance suite
+  (:func:`~siku_core.testing.element_source_checks.check_element_source`).
 * :mod:`siku_core.testing.dists`: :func:`write_dist_info` fakes an installed plugin package, to
   test the entry-point path without ``pip install``.
 

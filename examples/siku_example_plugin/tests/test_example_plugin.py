@@ -1,6 +1,7 @@
 """Tests of siku-example-plugin: siku's conformance suite plus the physics of each component."""
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ from siku_core.contact_law import BREAK_TENSION
 from siku_core.plugins import get_registry
 from siku_core.testing import conformance
 from siku_core.testing.contact_conformance import check_contact_law
+from siku_core.testing.writer_checks import DT, check_writer
 from siku_example_plugin.laws import BrittleBond
 
 SCENE = Path(__file__).parents[1] / "scenes" / "tilt_drift.toml"
@@ -115,3 +117,14 @@ def test_the_shared_run_sped_up_at_g_times_the_slope(tilted):
     """|V| = g s t: the force keeps its size along the path (the local east turns under the
     floe by d tan(lat) / R = 3e-3 rad over its 4.5 km, a 4e-6 change of the force's share)."""
     assert np.hypot(*tilted.state.V[0]) == pytest.approx(9.81 * 2e-6 * 6 * 3600.0, rel=1e-5)
+
+
+def csv_steps(path):
+    """The steps of the snapshots in a centres_csv file: the times of element 0's rows / DT."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))[2:]
+    return [round(float(r[0]) / DT) for r in rows if r[1] == "0"]
+
+
+def test_centres_csv_passes_the_writer_suite(tmp_path):
+    check_writer("centres_csv", tmp_path, steps=csv_steps)
