@@ -312,8 +312,10 @@ def check_writer(name: str, tmp_path: Path | None = None, registry: Registry | N
 
 
 def shipped_writers(registry: Registry | None = None) -> list[str]:
-    """The names of every registered writer (for ``pytest.mark.parametrize``)."""
-    return sorted((registry or get_registry()).entries.get("writer", {}))
+    """The names of every registered writer of files (for ``pytest.mark.parametrize``): a
+    writer whose class says ``in_memory = True`` writes no file and is not checked here."""
+    entries = (registry or get_registry()).entries.get("writer", {})
+    return sorted(n for n, e in entries.items() if not getattr(e.cls, "in_memory", False))
 
 
 __all__ = ["STEPS", "DT", "EVERY", "StopBeforeFirstSnapshot", "check_writer",
