@@ -28,6 +28,15 @@ def pytest_configure(config):
     import importlib.metadata as md
     import os
 
+    # pytest-xdist's workers (``-n N``) share the cores: each takes its share of numba's
+    # threads (one each with as many workers as cores), since spinning threads of one worker
+    # on a core another needs make both many times slower; a test that needs two threads
+    # sets them itself
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0") or 0)
+    if workers > 1:
+        numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS,
+                                         (os.cpu_count() or 1) // workers)))
+
     from siku_core.plugins import canonical_dist, get_registry, own_distribution, \
         skipped_distributions
 

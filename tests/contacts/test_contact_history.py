@@ -2,8 +2,10 @@
 docs/explanation/contacts.md).
 
 A test law counts, in its contact's row, the committed evaluations (one per step) at which the
-pair overlapped, and stiffens with that count (its force is the collision law's times ``1 +
-steps / 100``), so the history changes the motion and a restart that lost it would differ.
+pair overlapped, and softens with that count (its force is the collision law's divided by
+``1 + steps / 100``; the evaluator of tests/contacts/test_contact_history_conformance.py, whose
+compiled collision loop the two files share), so the history changes the motion and a
+restart that lost it would differ.
 Two 2 km squares on the equator start 1 m into each other and closing at 1 m/s: their contact
 lasts about ``pi / omega`` = 4 s (``omega`` = 0.74 rad/s, tests/contacts/test_v3_collision.py),
 80 steps of 0.05 s, longer than any run here, which checks the pair overlaps at every step.
@@ -15,7 +17,6 @@ import types
 
 import numpy as np
 import pytest
-from numba import njit
 
 from siku_core import hookimpl
 from siku_core.contact_law import G_AREA, G_K, G_MEFF, G_NX, G_SIZE, G_WIDTH, check_contact_law
@@ -27,6 +28,7 @@ from siku_core.testing.contact_cases import rotate_about
 from siku_core.testing.contact_conformance import contact_scene
 from siku_io.output.results import last_snapshot
 from siku_plugins.contact_laws import Collision, collision_evaluator
+from test_contact_history_conformance import aging_evaluator
 
 R = 6_371_000.0
 SIZE = 2000.0
@@ -35,19 +37,8 @@ DT = 0.05
 N = 30  # steps in contact, well inside the contact's 80
 
 
-@njit(cache=True)
-def aging_evaluator(g, pars, hist, out):
-    """The collision law, stiffened by ``1 + steps / 100``; counts the steps in ``hist[0]``."""
-    collision_evaluator(g, pars, out)
-    f = 1.0 + hist[0] / 100.0
-    out[0] *= f
-    out[1] *= f
-    out[2] *= f
-    hist[0] += 1.0
-
-
 class Aging(Collision):
-    """Collisions that count their steps in contact and stiffen with them."""
+    """Collisions that count their steps in contact and soften with them."""
 
     name = "contact_age_test"
     contact_history_names = ("steps",)
@@ -185,7 +176,7 @@ def test_restart_mid_contact_continues_bit_for_bit(aging, tmp_path):
 
 
 def test_restart_without_the_rows_would_differ(aging, tmp_path):
-    """Control: the same restart with the rows forgotten diverges (the stiffening depends on
+    """Control: the same restart with the rows forgotten diverges (the softening depends on
     them), so the match above depends on the stored rows."""
     sc = pressed(steps=2 * N, output={"every": N * DT})
     whole = Simulation(sc, out=False, progress=False).run()

@@ -17,7 +17,8 @@ from numba import njit
 from siku_core.contact_law import G_AREA, G_K, G_MEFF, G_NX, G_WIDTH, J_DT, J_S1X, J_W
 from siku_core.plugins import get_registry
 from siku_core.testing import contact_conformance as cc
-from siku_plugins.contact_laws import Collision, collision_evaluator
+from siku_plugins.contact_laws import Collision, DistributedSpring, collision_evaluator, \
+    spring_evaluator
 
 
 @njit(cache=True)
@@ -89,6 +90,27 @@ class Forgetful(Collision):
         return np.append(super().collision_parameters(), 0.0)
 
 
+@njit(cache=True)
+def forgetful_joint_evaluator(g, pars, hist, out):
+    """The same fault in a joint: the distributed spring, softened by its evaluations counted
+    in a slot of its parameter vector instead of its history (compiles the joint loop only, a
+    few seconds, where the collision fault compiles the collision loop, a minute or more)."""
+    spring_evaluator(g, pars, hist, out)
+    f = 1.0 / (1.0 + pars[-1] / 10.0)
+    out[0] *= f
+    out[1] *= f
+    out[2] *= f
+    pars[-1] += 1.0
+
+
+class ForgetfulJoint(DistributedSpring):
+    name = "forgetful_joint_test"
+    joint_evaluator = forgetful_joint_evaluator
+
+    def joint_parameters(self):
+        return np.append(super().joint_parameters(), 0.0)
+
+
 @pytest.fixture
 def drifting():
     """Drifting with its pure-Python form swapped for ``_drift_python`` once compiled."""
@@ -122,11 +144,13 @@ def test_the_row_is_passed_to_every_evaluation_compiled_and_python():
      "contact_spill_test: history: the collision evaluator wrote"),
     ("drifting", cc.check_compiled_matches_python,
      "contact_drift_test: compiled == python: compiled collision evaluator"),
-    ("forgetful", cc.check_restart, "contact_forgetful_test: restart: overlapping pair: "),
+    pytest.param("forgetful", cc.check_restart,
+                 "contact_forgetful_test: restart: overlapping pair: ", marks=pytest.mark.slow),
+    ("forgetful_joint", cc.check_restart, "forgetful_joint_test: restart: jointed pair: "),
 ])
 def test_the_suite_fails_a_history_law_with_a_planted_fault(law, check, expected, request):
-    law_cls = {"spilling": Spilling, "forgetful": Forgetful}.get(law) or request.getfixturevalue(
-        law)
+    law_cls = {"spilling": Spilling, "forgetful": Forgetful,
+               "forgetful_joint": ForgetfulJoint}.get(law) or request.getfixturevalue(law)
     with pytest.raises(AssertionError) as ei:
         check(law_cls, {"damping_ratio": 0.0})
     assert str(ei.value).startswith(expected), str(ei.value)

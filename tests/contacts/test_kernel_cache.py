@@ -136,6 +136,25 @@ def test_no_regular_expressions_over_source():
     assert "import re\n" not in src and "re.sub" not in src
 
 
+def test_the_generic_instance_is_the_template_run_with_the_evaluator_and_writes_nothing(
+        fresh_cache):
+    """An evaluator that no module holds by its name (a copy of the law's own): its instance
+    is the template's file itself, run with the binding preset (the evaluator's own code,
+    numba's cache off), and nothing is written to the cache directory. Making it compiles
+    nothing of the loops (numba compiles them at their first call)."""
+    import numba
+
+    for ev in (spring_evaluator, collision_evaluator):
+        anonymous = numba.njit(ev.py_func)
+        assert not kernel_cache._importable(anonymous)
+        loops = kernel_cache.instantiate(contact_loops, anonymous)
+        assert loops.CACHE is False and loops.NRT is False
+        assert loops.__file__ == contact_loops.__file__
+        assert loops.evaluate.py_func.__code__ is ev.py_func.__code__
+    assert not any(fresh_cache.iterdir())
+
+
+@pytest.mark.slow  # compiles both loops for the generic instance, which is never cached
 def test_an_evaluator_not_importable_by_name_gets_the_generic_instance(fresh_cache):
     """Not cached, and bit for bit what the cached instance computes: a pulled, jointed pack
     whose joints and collisions are evaluated by copies of the law's evaluators that no module
