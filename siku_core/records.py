@@ -37,7 +37,7 @@ from .errors import SikuError
 
 #: dtype kinds a field may declare (``numpy.dtype.kind``): signed and unsigned integers,
 #: floats, booleans; ``"n"``: a Python or numpy number, not an array (``ndim`` 0)
-KINDS = "iufbn"
+FIELD_KINDS = "iufbn"
 
 
 class RecordError(SikuError, TypeError):
@@ -79,14 +79,14 @@ def record_type(name: str, module: str, fields: Sequence[tuple[str, str, int, st
     """A record type (a namedtuple class numba takes as one argument) named ``name``, held as
     the global ``name`` of ``module`` (so that numba's cache and pickling find it again).
 
-    ``fields``: per field ``(name, kind, ndim, description)``; ``kind`` one of :data:`KINDS`.
+    ``fields``: per field ``(name, kind, ndim, description)``; ``kind`` one of :data:`FIELD_KINDS`.
     """
     names = [f[0] for f in fields]
     if len(set(names)) != len(names) or not all(n.isidentifier() and not n.startswith("_")
                                                 for n in names):
         raise ValueError(f"record {name}: field names must be distinct public identifiers")
     for f in fields:
-        if len(f) != 4 or f[1] not in KINDS or (f[1] == "n") != (f[2] == 0):
+        if len(f) != 4 or f[1] not in FIELD_KINDS or (f[1] == "n") != (f[2] == 0):
             raise ValueError(f"record {name}: bad field declaration {f!r}")
     base = namedtuple(name, names)  # noqa: PYI024 (numba types a namedtuple's fields by name)
     table = "\n".join(f"    {n:14s} {k}{d}  {text}" for n, k, d, text in fields)

@@ -16,7 +16,7 @@ from siku_core.errors import DataError
 TEMPLATES = Path(__file__).resolve().parent / "new_plugin_template"
 
 #: template -> where it goes in the package (``{module}``: the import name)
-LAYOUT = {
+TEMPLATE_FILES = {
     "pyproject.toml.tmpl": "pyproject.toml",
     "README.md.tmpl": "README.md",
     "__init__.py.tmpl": "{module}/__init__.py",
@@ -62,7 +62,7 @@ def new_plugin(name: str, folder: str | Path = ".") -> Path:
         raise DataError(f"{root}: exists; siku new-plugin writes a new folder only: choose "
                         "another NAME or --dir")
     files = {_fill(dest, subs): _fill((TEMPLATES / src).read_text(encoding="utf-8"), subs)
-             for src, dest in LAYOUT.items()}
+             for src, dest in TEMPLATE_FILES.items()}
     try:
         root.mkdir(parents=True)
     except OSError as exc:

@@ -41,7 +41,7 @@ from .contact_cases import registry_with, square_pack
 from .scenes import scene_text, toml_value
 
 #: the conformance scene: steps and step [s]
-STEPS, DT = 40, 0.4
+PROCESS_STEPS, PROCESS_DT = 40, 0.4
 
 
 def process_registry(cls: type, registry: Registry | None = None) -> Registry:
@@ -51,7 +51,8 @@ def process_registry(cls: type, registry: Registry | None = None) -> Registry:
 
 
 def process_scene_text(name: str, params: Mapping[str, Any] | None = None,
-                       every: float | None = None, steps: int = STEPS, dt: float = DT,
+                       every: float | None = None, steps: int = PROCESS_STEPS,
+                       dt: float = PROCESS_DT,
                        out: str | None = None, thickness: float = 0.5,
                        law: str = "distributed_spring", categories: Any = None) -> str:
     """The conformance scene (module docstring) with process ``name`` and ``params``; ``out``
@@ -174,7 +175,7 @@ def _assert_same(a: dict, b: dict, what: str) -> None:
 def check_process_idempotent(cls: type, params: Mapping[str, Any] | None = None,
                              **kwargs: Any) -> None:
     sim = process_simulation(cls, params, **kwargs)
-    sim.run(steps=STEPS // 2)
+    sim.run(steps=PROCESS_STEPS // 2)
     before = _snapshot(sim)
     for p in _procs(sim, cls):
         p.apply(sim.context, 0.0)
@@ -194,12 +195,12 @@ def check_process_restart(cls: type, params: Mapping[str, Any] | None, tmp_path:
     tmp_path = Path(tmp_path)
     whole = process_simulation(cls, params, out=tmp_path / "whole.h5", **kwargs).run()
     part = tmp_path / "part.h5"
-    process_simulation(cls, params, out=part, **kwargs).run(steps=STEPS // 2)
+    process_simulation(cls, params, out=part, **kwargs).run(steps=PROCESS_STEPS // 2)
     again = process_simulation(cls, params, out=part, restart=part, **kwargs)
-    assert again.step_index == STEPS // 2, f"restart began at step {again.step_index}"
+    assert again.step_index == PROCESS_STEPS // 2, f"restart began at step {again.step_index}"
     again.run()
     _assert_same(_snapshot(whole), _snapshot(again),
-                 f"process '{cls.name}': restart from step {STEPS // 2}")
+                 f"process '{cls.name}': restart from step {PROCESS_STEPS // 2}")
 
 
 def check_process(cls: type, params: Mapping[str, Any] | None = None,
