@@ -120,3 +120,22 @@ def test_a_writer_missing_a_method_is_refused_at_load_in_one_line():
     with pytest.raises(PluginError, match="read_restart must be a classmethod"):
         check_component("writer", _InstanceRestart, "bad_pkg")
     check_component("writer", guide_writer(), "guide")  # the guide's writer passes
+
+
+def test_a_netcdf_file_of_another_layout_is_not_continued(tmp_path, monkeypatch):
+    """A restart whose NetCDF writer would write other records (here without the outlines)
+    refuses to continue the old file in one line and leaves it as it was."""
+    monkeypatch.chdir(tmp_path)
+    reg = registry_with(guide_writer())
+    Simulation(scene(tmp_path), out=tmp_path / "run.h5", progress=False,
+               registry=reg).run(steps=10)
+    before = (tmp_path / "run.nc").read_bytes()
+    text = scene(tmp_path).text.replace('file = "run.nc"\n',
+                                        'file = "run.nc"\nparams = { outlines = false }\n')
+    (tmp_path / "run.csv").unlink()
+    with pytest.raises(DataError, match="run.nc: cannot continue this file in place") as ei:
+        Simulation(scene_from_text(text, "<writers>"), out=tmp_path / "run.h5",
+                   restart=tmp_path / "run.h5", progress=False, registry=reg,
+                   force=True).run()
+    assert "\n" not in str(ei.value)
+    assert (tmp_path / "run.nc").read_bytes() == before
