@@ -302,6 +302,21 @@ def references() -> dict[bool, dict[str, Any]]:
     return refs
 
 
+def made_apart(ff) -> None:
+    """The fuzz tests' source files (``test_fuzz_files.sources``) made by another process and
+    read here: this process forks every case, and numba's OpenMP layer ends a forked child that
+    runs parallel code when the parent ran some before the fork; so this one runs none."""
+    with tempfile.TemporaryDirectory() as d:
+        code = ("import sys, pathlib\nsys.path.insert(0, sys.argv[1])\n"
+                "import test_fuzz_files as ff\nfor k, v in ff.sources().items():\n"
+                "    pathlib.Path(sys.argv[2], k).write_bytes(v)\n")
+        subprocess.run([sys.executable, "-c", code, str(ROOT / "tests"), d], check=True,
+                       env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True,
+                       timeout=600)
+        for f in Path(d).iterdir():
+            ff._SOURCES[f.name] = f.read_bytes()
+
+
 # ------------------------------------------------------------------ driving
 def campaign(name: str, n: int, strategy, case: Callable[..., dict], log) -> dict[str, int]:
     """``n`` cases drawn from the hypothesis ``strategy`` (fixed seed), each run by ``case`` in
@@ -339,7 +354,7 @@ def main(argv: list[str] | None = None) -> int:
     import test_fuzz_files as ff
     import test_fuzz_scenes as fs
 
-    ff.sources()  # made once, before the children fork
+    made_apart(ff)  # the files to damage, made in another process (see made_apart)
     total = dict.fromkeys(OUTCOMES, 0)
     with open(a.log, "w", encoding="utf-8") as log:
         plan = [("scenes", a.scenes, fs.scenes(), scene_case),
