@@ -39,7 +39,8 @@ changing the ice          ``melt(elements)`` (processes: an element melted away)
 what writers record       ``run_record()``, ``history()``, ``component_descriptions()``,
                           ``plugin_versions()``, ``snapshot_every``, ``diagnostics_every``
                           (steps), ``restarted_from``, ``restart_path`` (where a restart
-                          continued from), ``dt_requested``
+                          continued from), ``output_path`` (the run's first output
+                          file), ``dt_requested``
 ========================  =============================================================
 """
 from __future__ import annotations
@@ -262,6 +263,12 @@ class Context:
     def restart_path(self) -> "Path | None":
         """The file a restarted run continued from, ``None`` for a fresh run."""
         return self._sim.restart_path
+
+    @property
+    def output_path(self) -> "Path | None":
+        """The run's first output file (``[output] file`` or ``--out``; the one a restart
+        reads), ``None`` when the run writes none."""
+        return self._sim.output_path
 
     @property
     def dt_requested(self) -> float:

@@ -40,6 +40,25 @@ class InputError(SikuError, ValueError):
     the grid. Also a :class:`ValueError`, as callers of those interfaces expect."""
 
 
+def check_argument(call: str, name: str, value, ok: bool, want: str) -> None:
+    """The one rule for an argument of siku's Python API (``Simulation``, ``run``,
+    ``scene_from_text``, ``load_scene``...): when ``ok`` is false, an :class:`InputError` on one
+    line naming the call, the argument and its value, and saying what to give (``want``),
+    never a ``TypeError`` from deep inside."""
+    if not ok:
+        shown_value = " ".join(repr(value).split())[:60]
+        raise InputError(f"{call}: {name} = {shown_value}: give {want}")
+
+
+def is_path(value) -> bool:
+    """Whether ``value`` can name a file: a ``str`` or an ``os.PathLike`` of text (a
+    ``pathlib.Path``)."""
+    import os
+
+    return isinstance(value, str) or (isinstance(value, os.PathLike)
+                                      and isinstance(os.fspath(value), str))
+
+
 def shown(path) -> str:
     """How messages name a file: relative to the working directory when it lies inside it
     (``run.h5``, ``scenes/a.toml``), else absolute; the same file is always named the same

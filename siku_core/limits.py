@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+from typing import Callable
 
 from .errors import SceneError
 
@@ -60,16 +61,33 @@ def check_count(where: str, key: str, value: float, unit_bytes: float, units: fl
             f"{key} at most {math.floor(most):.4g}")
 
 
-def check_work(where: str, key: str, value: float, per_step: float, steps: int) -> None:
+def check_work(where: str, key: str, value: float, per_step: Callable[[float], float],
+               steps: int, least: float = 1.0, dt: float | None = None) -> None:
     """Refuse a count that makes a run take more than :data:`MAX_STEPS` steps of its own
-    (sub-steps: ``per_step`` of them in each of the run's ``steps``), naming the key."""
-    total = per_step * steps
-    if total > MAX_STEPS:
-        most = value * MAX_STEPS / total
-        raise SceneError(
-            f"{where}: {key} = {value:g} makes {per_step:.3g} sub-steps in each of the run's "
-            f"{steps} steps, {total:.3g} in all, above the limit of {MAX_STEPS:.0e}; allowed: "
-            f"{key} at most {most:.4g} for this scene (or a larger dt)")
+    (sub-steps: ``per_step(value)`` of them in each of the run's ``steps``), naming the key.
+
+    The advice is one the scene can follow: the largest whole ``key`` whose sub-steps fit
+    (found on ``per_step`` itself, so its rounding counts) when it is at least the key's own
+    ``least`` allowed value; otherwise no value of ``key`` fits and the run must be shorter
+    (at most so many steps; a duration with ``dt`` [s]). Sub-steps per step grow with the step,
+    so a larger step is no remedy and is never advised."""
+    total = per_step(value) * steps
+    if total <= MAX_STEPS:
+        return
+    head = (f"{where}: {key} = {value:g} makes {per_step(value):.3g} sub-steps in each of the "
+            f"run's {steps} steps, {total:.3g} in all, above the limit of {MAX_STEPS:.0e}")
+    fits = per_step(least) * steps <= MAX_STEPS
+    if not fits:
+        steps_most = math.floor(MAX_STEPS / per_step(least))
+        span = f" ([time] duration at most {math.floor(steps_most * dt)} s)" if dt else ""
+        raise SceneError(f"{head}; even the least {key}, {least:g}, makes too many: shorten "
+                         f"the run to at most {steps_most} steps{span}")
+    lo, hi = math.ceil(least), math.floor(value)  # lo fits, hi does not
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if per_step(mid) * steps <= MAX_STEPS else (lo, mid)
+    raise SceneError(f"{head}; allowed: {key} at most {lo} for this scene (or a shorter "
+                     "[time] duration)")
 
 
 def _box_area(lon: list[float], lat: list[float], R: float) -> float:

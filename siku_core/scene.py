@@ -24,7 +24,7 @@ from pydantic import (
     model_validator,
 )
 
-from .errors import SceneError
+from .errors import SceneError, check_argument, is_path
 from .params import format_validation_error
 from .scene_messages import explain_validation_error, is_duration, read_input_text
 from .units import parse_duration
@@ -449,6 +449,8 @@ def scene_from_text(
     ``overrides`` (``{"time.duration": "6h"}``) replace keys before validation; they are
     appended to the recorded scene text as comments, so an output file says how it was run.
     """
+    check_argument("scene_from_text", "text", text, isinstance(text, str),
+                   "the scene's TOML text as a str (a file: load_scene(path))")
     data = parse_toml(text, label)
     if overrides:
         apply_overrides(data, overrides, label)
@@ -467,6 +469,7 @@ def load_scene(path: str | Path, overrides: dict[str, str] | None = None) -> Sce
     """Read and validate a scene file (``overrides``: see :func:`scene_from_text`)."""
     from .errors import shown
 
+    check_argument("load_scene", "path", path, is_path(path), "the path of a scene file")
     p = Path(path)
     return scene_from_text(read_input_text(p), shown(p), p.resolve(), overrides)
 

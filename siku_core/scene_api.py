@@ -64,7 +64,8 @@ def _value(v: Any) -> str:
         v = v.tolist()
     if isinstance(v, Sequence):
         return "[" + ", ".join(_value(x) for x in v) + "]"
-    raise SceneError(f"cannot write {type(v).__name__} {v!r} in a scene")
+    raise SceneError(f"a value of type {type(v).__name__} cannot be written in a scene file; "
+                     "give a number, text, a date, a list or a table")
 
 
 def _is_table(v: Any) -> bool:
@@ -85,7 +86,11 @@ def to_toml(data: Mapping[str, Any]) -> str:
         plain = [(k, v) for k, v in table.items() if v is not None and not _is_table(v)
                  and not _is_table_list(v)]
         for k, v in plain:
-            out.append(f"{_key(k)} = {_value(v)}")
+            try:
+                out.append(f"{_key(k)} = {_value(v)}")
+            except SceneError as exc:  # name the key the value was given for
+                full = f"{prefix}.{k}" if prefix else str(k)
+                raise SceneError(f"key '{full}': {exc}") from None
         for k, v in table.items():
             name = f"{prefix}.{_key(k)}" if prefix else _key(k)
             if _is_table(v):

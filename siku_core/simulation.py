@@ -25,7 +25,7 @@ from .context import Context
 from .elements import build_elements_and_categories
 from .guard import Guard, check_initial_state, check_time_step
 from .versions import __version__
-from .errors import SceneError
+from .errors import SceneError, check_argument, is_path
 from .ice import IceBook, apply_processes, process_schedule
 from .interfaces import Component, Field, ForcingSource, Integrator, Process, Writer
 from .limits import check_limits
@@ -78,6 +78,15 @@ class Simulation:
         force: bool = False,
         extend: float | None = None,
     ):
+        check_argument("Simulation", "scene", scene, isinstance(scene, Scene) or is_path(scene),
+                       "a Scene (siku_core.scene.load_scene) or the path of a scene file")
+        check_argument("Simulation", "out", out, out is None or isinstance(out, bool)
+                       or is_path(out), "the path of the output file, or False to write none")
+        check_argument("Simulation", "restart", restart, restart is None or is_path(restart),
+                       "the path of the output file to continue")
+        check_argument("Simulation", "extend", extend, extend is None or (
+            isinstance(extend, (int, float)) and not isinstance(extend, bool)
+            and math.isfinite(extend) and extend > 0), "a positive duration in seconds")
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
         self.scene = scene
@@ -415,6 +424,9 @@ class Simulation:
         """Run ``steps`` steps (default: to the end of the scene's time span). More steps
         than remain before the scene's end raise :class:`SceneError` saying how many remain
         (nothing is run); a finished run is lengthened by a restart with ``extend``."""
+        check_argument("Simulation.run", "steps", steps, steps is None or (
+            isinstance(steps, (int, np.integer)) and not isinstance(steps, bool)
+            and steps >= 0), "a whole number of steps, 0 or more (None: to the scene's end)")
         left = self.n_steps - self.step_index
         if steps is not None and steps > left:
             raise SceneError(

@@ -154,3 +154,36 @@ def test_a_tiny_mesh_spacing_with_the_default_land_mask_is_refused_in_one_line(s
     with pytest.raises(SceneError, match=f"spacing {spacing:g} m over this box needs a land "
                                          "raster of .* pixels"):
         check_limits(scene_from_text(txt, "<mesh>"))
+
+
+@pytest.mark.parametrize("spp, duration", [(4096, 1e6), (8, 1e9)])
+def test_the_sub_step_advice_is_one_the_scene_can_follow(spp, duration):
+    """The refusal of too many floating sub-steps advises a value the process takes: the
+    largest steps_per_period whose sub-steps fit (following it runs, one more is refused), or,
+    when even the least allowed (8) makes too many, the longest duration that fits. On main it
+    advised "steps_per_period at most 2.667 (or a larger dt)": below the key's minimum of 8,
+    and a larger dt makes as many sub-steps."""
+    import re
+
+    def refusal(spp, duration):
+        try:
+            Simulation(scene_from_text(block(f"steps_per_period = {spp}", dt=1.0,
+                                             duration=duration), "<block>"),
+                       out=False, progress=False)
+        except SceneError as exc:
+            return str(exc)
+        return None
+
+    msg = refusal(spp, duration)
+    assert msg is not None and "larger dt" not in msg, msg
+    if m := re.search(r"allowed: steps_per_period at most (\d+) for this scene", msg):
+        most = int(m.group(1))
+        assert 8 <= most < spp
+        assert refusal(most, duration) is None
+        assert "sub-steps" in refusal(most + 1, duration)
+    else:
+        m = re.search(r"even the least steps_per_period, 8, .*\[time\] duration at most "
+                      r"(\d+) s", msg)
+        assert m, msg
+        assert refusal(spp, float(m.group(1))) is None
+        assert "sub-steps" in refusal(spp, float(m.group(1)) + 1.0)

@@ -126,3 +126,42 @@ def test_the_mesh_cache_ends_a_full_disk_with_one_line(tmp_path):
     disk_full_line(rc, err, "m.mesh.npz")
     assert not (tmp_path / "m.mesh.npz").exists()
     no_partial(tmp_path)
+
+
+def test_a_further_netcdf_writers_full_disk_advises_restart_and_the_advice_keeps_the_data(
+        tmp_path):
+    """A full disk stops the further NetCDF writer (two 48-gons: its outlines at every snapshot
+    make its file grow fastest). Its line advises ``--restart`` of the run's first file (on
+    main: "run the scene again", which replaces both files); followed once there is room,
+    both files are continued whole: every snapshot of the scene once, in order."""
+    import math
+
+    import xarray as xr
+
+    from siku_io.output.netcdf import complete_records
+
+    def gon(lon, lat, r=0.05, n=48):
+        c = math.cos(math.radians(lat))
+        return [[lon + r / c * math.cos(2 * math.pi * k / n),
+                 lat + 0.5 * r * math.sin(2 * math.pi * k / n)] for k in range(n)]
+
+    d = tmp_path
+    text = scene_text([gon(-150.0, 75.0), {"vertices": gon(-149.6, 75.0),
+                                           "velocity": (0.1, 0.0)}],
+                      forcing=[{"source": "water_drag"}], duration=6000, dt=60,
+                      output={"file": "run.h5", "every": 60})
+    (d / "scene.toml").write_text(text + '\n[[output.extra]]\nwriter = "netcdf"\n'
+                                  'file = "w.nc"\n', encoding="utf-8")
+    rc, err = siku(["run", "scene.toml", "--no-progress", "--no-plots"], d, limit=100000)
+    line = disk_full_line(rc, err, "w.nc")
+    assert "--restart run.h5" in line and "run the scene again" not in line, line
+    assert 1 <= complete_records(d / "w.nc") < 101
+    rc, err = siku(["run", "scene.toml", "--restart", "run.h5", "--no-progress",
+                    "--no-plots"], d)
+    assert rc == 0, err
+    h5 = xr.open_dataset(d / "run.h5", engine="siku")
+    nc = xr.open_dataset(d / "w.nc")
+    assert list(h5["step"].values) == list(range(0, 101)), h5["step"].values
+    assert list(nc["step"].values) == list(range(0, 101)), nc["step"].values
+    assert (nc["lon"].notnull()).all()
+    no_partial(d)

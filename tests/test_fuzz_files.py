@@ -248,7 +248,7 @@ def check_reader(name: str, data: bytes) -> None:
     files = {damaged: data, "scene.toml": SCENE}
     cmds = [["plot", damaged, "--no-animation", "--out-dir", "pics"],
             ["export", damaged, "--out", "x.nc"],
-            ["grid", damaged, "--out", "x.grid.nc", *GRID_ARGS]]
+            ["grid", damaged, "--out", "x.grid.nc", *GRID_ARGS], ["info", damaged]]
     if name == "out.h5":
         cmds.append(["run", "scene.toml", "--restart", damaged, "--out", "r.h5",
                      "--no-progress", "--no-plots"])
@@ -360,7 +360,7 @@ def test_an_interrupted_identification_leaves_no_child_behind():
     assert {c.pid for c in psutil.Process().children()} <= before
 
 
-@pytest.mark.parametrize("command", ["plot", "export", "grid", "restart"])
+@pytest.mark.parametrize("command", ["plot", "export", "grid", "restart", "info"])
 def test_a_damaged_attribute_that_hangs_the_hdf5_library_is_refused(tmp_path, command):
     """``tests/data/damaged_attribute_hangs_hdf5.h5``: a siku output damaged by the slow
     reader fuzz. Its marks read well, but reading the attributes of its ``/geometry`` datasets
@@ -378,7 +378,7 @@ def test_a_damaged_attribute_that_hangs_the_hdf5_library_is_refused(tmp_path, co
             "export": ["export", "in.h5", "--out", "x.nc"],
             "grid": ["grid", "in.h5", "--out", "g.nc", *GRID_ARGS],
             "restart": ["run", "scene.toml", "--restart", "in.h5", "--out", "r.h5",
-                        "--no-progress", "--no-plots"]}[command]
+                        "--no-progress", "--no-plots"], "info": ["info", "in.h5"]}[command]
     code = ("import sys\nfrom siku_io.output import marks\nmarks.in_child.__defaults__ = (2.0,)\n"
             "from siku_core.cli import main\nsys.exit(main(sys.argv[1:]))\n")
     r = subprocess.run([sys.executable, "-c", code, *args], cwd=tmp_path, capture_output=True,

@@ -68,3 +68,23 @@ def test_info_refuses_a_damaged_output_in_one_line_without_hanging(killed, tmp_p
     lines = [ln for ln in r.stderr.strip().splitlines() if ln]
     assert r.returncode == 2 and len(lines) == 1 and "bad.h5" in lines[0], r.stderr
     assert "Traceback" not in r.stderr and time.monotonic() - t0 < 100
+
+
+def test_info_gives_up_a_file_whose_data_hang_the_hdf5_library(killed, tmp_path):
+    """A file whose marks read well but whose data the HDF5 library never finishes reading
+    (a damaged B-tree or heap inside it: here a read of ``/geometry/flags`` made to hang): the
+    summary is read in a child process with a time limit (set to 3 s here), so ``siku info``
+    ends with one line naming the file. On a summary read in the command's own process it hung
+    for ever (the subprocess's limit of 120 s ended it)."""
+    code = ("import sys, time\nimport h5py\nfrom siku_io.output import info\n"
+            "info.TIMEOUT = 3.0\nreal = h5py.Dataset.__getitem__\n"
+            "def hang(self, key):\n"
+            "    if self.name == '/geometry/flags':\n        time.sleep(3600)\n"
+            "    return real(self, key)\n"
+            "h5py.Dataset.__getitem__ = hang\n"
+            "from siku_core.cli import main\nsys.exit(main(sys.argv[1:]))\n")
+    r = subprocess.run([sys.executable, "-c", code, "info", str(killed / "k.h5")],
+                       capture_output=True, text=True, cwd=tmp_path, env=ENV, timeout=120)
+    lines = [ln for ln in r.stderr.strip().splitlines() if ln]
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert "k.h5" in lines[0] and "did not end within 3 s" in lines[0], lines[0]

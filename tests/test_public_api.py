@@ -41,8 +41,12 @@ FROZEN = Path(__file__).resolve().parent / "data" / "frozen_plugins"
 #: (test_the_list_covers_every_import_in_the_history).
 HISTORY = """
 siku_core                             -                   -
+siku_core                             DataError           -
+siku_core                             InputError          -
 siku_core                             PLUGIN_API_VERSION  -
 siku_core                             Param               -
+siku_core                             SceneError          -
+siku_core                             SikuError           -
 siku_core                             Simulation          -
 siku_core                             contact_law         -
 siku_core                             hookimpl            -

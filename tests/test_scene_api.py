@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from siku_core.cli import default_scene_path
-from siku_core.errors import DataError, SceneError, SikuError
+from siku_core.errors import DataError, InputError, SceneError, SikuError
 from siku_core.scene import load_scene, scene_from_text
 from siku_core.scene_api import SceneBuilder, to_toml
 from siku_core.simulation import Simulation
@@ -173,3 +173,36 @@ def test_run_past_the_scenes_end_is_refused_saying_how_many_steps_remain():
     assert sim.step_index == 4
     sim.run(steps=6)
     assert sim.step_index == sim.n_steps == 10
+
+
+@pytest.mark.parametrize("misuse, expect", [
+    (lambda s: s.time(dt=object()).to_toml(), r"key 'time\.dt': a value of type object cannot "
+                                              r"be written"),
+    (lambda s: s.process("thermodynamics", every=object()).validate(), r"key 'process\.every'"),
+])
+def test_a_value_a_scene_cannot_hold_is_refused_naming_its_key(misuse, expect):
+    """On main: "cannot write object <object ...> in a scene", naming no key."""
+    with pytest.raises(SceneError, match=expect) as ei:
+        misuse(one_floe())
+    assert "\n" not in str(ei.value)
+
+
+@pytest.mark.parametrize("call, expect", [
+    (lambda sb: Simulation(123, out=False), r"Simulation: scene = 123: give a Scene"),
+    (lambda sb: sb.simulation(out=1.5), r"Simulation: out = 1\.5: give the path"),
+    (lambda sb: sb.simulation(out=False, restart=7), r"Simulation: restart = 7: give the path"),
+    (lambda sb: sb.simulation(out=False).run(steps=-1), r"Simulation\.run: steps = -1: give a "
+                                                        r"whole number of steps, 0 or more"),
+    (lambda sb: sb.simulation(out=False).run(steps=1.5), r"steps = 1\.5"),
+    (lambda sb: sb.simulation(out=False).run(steps="3"), r"steps = '3'"),
+    (lambda sb: scene_from_text(b"[time]", "x"), r"scene_from_text: text = b'\[time\]': give "
+                                                 r"the scene's TOML text as a str"),
+    (lambda sb: load_scene(None), r"load_scene: path = None: give the path of a scene file"),
+])
+def test_the_python_api_refuses_a_wrong_argument_with_an_input_error(call, expect):
+    """A wrong argument of the Python API is one InputError naming the call, the argument and
+    what to give (on main: TypeError or AttributeError from deep inside; run(steps=-1) ran
+    nothing without a word)."""
+    with pytest.raises(InputError, match=expect) as ei:
+        call(one_floe())
+    assert "\n" not in str(ei.value)

@@ -53,22 +53,23 @@ def test_a_run_writes_every_writer_and_restarts_from_the_first(tmp_path, monkeyp
     reg = registry_with(guide_writer())
     Simulation(scene(tmp_path), out=tmp_path / "run.h5", progress=False,
                registry=reg).run(steps=10)
-    # the NetCDF writer cannot continue its file: a restart asks for a new one
-    with pytest.raises(DataError, match="cannot continue a file") as ei:
-        Simulation(scene(tmp_path), out=tmp_path / "run.h5", restart=tmp_path / "run.h5",
-                   progress=False, registry=reg)
-    assert "--overwrite" not in str(ei.value)  # no advice that would delete the rows written
-    assert (tmp_path / "run.nc").stat().st_size > 0
-    sim = Simulation(scene(tmp_path, nc="more.nc"), out=tmp_path / "run.h5",
-                     restart=tmp_path / "run.h5", progress=False, registry=reg)
+    # the NetCDF writer continues its own file, as the HDF5 writer does: one file, whole
+    # (main refused it, and a file given for the continuation held only the rows after it)
+    before = xr.open_dataset(tmp_path / "run.nc").load()
+    sim = Simulation(scene(tmp_path), out=tmp_path / "run.h5", restart=tmp_path / "run.h5",
+                     progress=False, registry=reg)
     assert sim.restarted_from == 10
     sim.run()
     h5 = xr.open_dataset(tmp_path / "run.h5", engine="siku")
     nc = xr.open_dataset(tmp_path / "run.nc")
     assert list(h5["step"].values) == [0, 5, 10, 15, 20]
-    assert np.array_equal(h5["thickness"].values[:3], nc["thickness"].values)
-    more = xr.open_dataset(tmp_path / "more.nc")
-    assert np.array_equal(h5["thickness"].values[2:], more["thickness"].values)
+    assert list(nc["step"].values) == [0, 5, 10, 15, 20]
+    assert np.array_equal(h5["thickness"].values, nc["thickness"].values)
+    assert np.array_equal(h5["time"].values, (nc["time"].values - nc["time"].values[0])
+                          / np.timedelta64(1, "s"))
+    for k in before.data_vars:  # the rows before the restart: the old file's, value for value
+        if "time" in before[k].dims:
+            assert np.array_equal(before[k].values[:2], nc[k].values[:2], equal_nan=True), k
     rows = list(csv.reader(open(tmp_path / "run.csv")))[1:]  # after the writer's mark
     assert rows[0][2:] == ["lat [deg]", "lon [deg]", "flags [1]", "grown_volume [m3]",
                            "growth_rate [m s-1]", "mass [kg]", "thickness [m]"]
@@ -119,3 +120,22 @@ def test_a_writer_missing_a_method_is_refused_at_load_in_one_line():
     with pytest.raises(PluginError, match="read_restart must be a classmethod"):
         check_component("writer", _InstanceRestart, "bad_pkg")
     check_component("writer", guide_writer(), "guide")  # the guide's writer passes
+
+
+def test_a_netcdf_file_of_another_layout_is_not_continued(tmp_path, monkeypatch):
+    """A restart whose NetCDF writer would write other records (here without the outlines)
+    refuses to continue the old file in one line and leaves it as it was."""
+    monkeypatch.chdir(tmp_path)
+    reg = registry_with(guide_writer())
+    Simulation(scene(tmp_path), out=tmp_path / "run.h5", progress=False,
+               registry=reg).run(steps=10)
+    before = (tmp_path / "run.nc").read_bytes()
+    text = scene(tmp_path).text.replace('file = "run.nc"\n',
+                                        'file = "run.nc"\nparams = { outlines = false }\n')
+    (tmp_path / "run.csv").unlink()
+    with pytest.raises(DataError, match="run.nc: cannot continue this file in place") as ei:
+        Simulation(scene_from_text(text, "<writers>"), out=tmp_path / "run.h5",
+                   restart=tmp_path / "run.h5", progress=False, registry=reg,
+                   force=True).run()
+    assert "\n" not in str(ei.value)
+    assert (tmp_path / "run.nc").read_bytes() == before

@@ -49,11 +49,42 @@ def summary_of_file(path: str | Path) -> RunSummary:
             areas=f["geometry/area"][:] if "geometry/area" in f else None)
 
 
+#: how long [s] reading one file's summary may take before the file is refused as damaged
+#: (a summary reads a few small datasets: well under a second on any file siku wrote)
+TIMEOUT = 60.0
+
+
+def summary_text(path: str | Path, timeout: float | None = None) -> str:
+    """The summary of an output file as text (:func:`summary_of_file`, formatted), read in a
+    child process with a time limit (:func:`~siku_io.output.marks.in_child`), as every reader
+    identifies a file: the HDF5 library can loop for ever or crash on data damaged inside a
+    file whose marks read well; such a file is refused with one
+    :class:`~siku_core.errors.DataError` naming it."""
+    from siku_core.errors import SikuError
+
+    from .marks import in_child
+
+    def child() -> str:
+        try:
+            return "ok:" + format_summary(summary_of_file(path))
+        except SikuError as exc:
+            return "no:" + str(exc)
+
+    answer = in_child(child, TIMEOUT if timeout is None else timeout)
+    if answer is None:
+        raise DataError(f"{path}: damaged siku output file: reading its summary did not end "
+                        f"within {TIMEOUT if timeout is None else timeout:g} s (or the HDF5 "
+                        "library failed on it); rerun the scene that wrote it")
+    if answer.startswith("no:"):
+        raise DataError(answer[3:])
+    return answer[3:]
+
+
 def _cmd_info(args) -> int:
     for i, p in enumerate(args.output):
         if i:
             print()
-        print(format_summary(summary_of_file(p)))
+        print(summary_text(p))
     return 0
 
 

@@ -30,6 +30,11 @@ missing values, NaN), then variable by variable, ``step`` last; a kill leaves at
 record whose ``step`` is missing, which :func:`complete_records` leaves out and any other
 reader sees as missing values, never as numbers. The file is built beside its target and put
 in place with its first snapshot, as the HDF5 writer's (``docs/explanation/outputs.md``).
+
+A restart continues the writer's own file, as the HDF5 writer does (``appends``): the new file
+begins with the old file's complete records before the restart's step, copied value for value,
+and replaces the old one with its first new snapshot, so a killed run continued with
+``--restart`` leaves one file equal to an uninterrupted run's (:meth:`NetCDFWriter.continued`).
 """
 from __future__ import annotations
 
@@ -229,6 +234,7 @@ class NetCDFWriter(Writer):
     that opens and holds only real data (or values marked missing)."""
 
     name = "netcdf"
+    appends = True  # a restart continues the file (NetCDFWriter.continued)
     params = {
         "outlines": Param(True, "", "write the polygon outlines at every snapshot "
                           "(node_lon_t, node_lat_t)", type=bool),
@@ -252,12 +258,49 @@ class NetCDFWriter(Writer):
             self.nc = netCDF4.Dataset(self.partial, "ws", format="NETCDF3_64BIT_OFFSET")
             self.nc.set_fill_on()
             self._define(ctx)
+            self.t = self.continued(ctx)
             self.nc.sync()
             self.lock = RunLock(self.partial)
         except (OSError, RuntimeError, ValueError) as exc:
             self._discard()
             raise DataError(f"{self.target}: cannot create the output file: {exc}; nothing "
                             "written (an existing file is untouched)") from None
+
+    def continued(self, ctx) -> int:
+        """On a restart, when this writer's file exists: copy its complete records before the
+        restart's step into the new file (the restart writes its step again, from the same
+        state) and return how many; 0 otherwise. A file of another layout (other variables,
+        another number of elements or nodes) is refused in one line: the old file is kept
+        whole and the continuation goes to a new file."""
+        import netCDF4
+
+        if ctx.restarted_from is None or not self.target.exists():
+            return 0
+        if not self.owns(self.target):
+            self._discard()
+            raise DataError(f"{self.target}: exists and is not an output of the NetCDF writer; "
+                            "siku never replaces a file it did not write: move it away or give "
+                            "the writer another file")
+        n = complete_records(self.target)
+        with netCDF4.Dataset(self.target) as old:
+            mine = {k: v.shape[1:] for k, v in self.nc.variables.items()
+                    if v.dimensions[:1] == ("time",)}
+            theirs = {k: v.shape[1:] for k, v in old.variables.items()
+                      if v.dimensions[:1] == ("time",)}
+            if mine != theirs:
+                self._discard()
+                diff = sorted(set(mine.items()) ^ set(theirs.items()))
+                raise DataError(
+                    f"{self.target}: cannot continue this file in place: its records differ "
+                    f"from this scene's ({', '.join(f'{k}{list(s)}' for k, s in diff[:4])}); "
+                    "the file is kept as it is: give the writer another file for the "
+                    "continuation")
+            keep = int(np.count_nonzero(np.asarray(old["step"][:n]) < ctx.step_index))
+            # time first (it grows the records), step last, as write_state writes a record
+            for k in ["time", *sorted(set(mine) - {"time", "step"}), "step"]:
+                if keep:
+                    self.nc[k][:keep] = old[k][:keep]
+        return keep
 
     def _define(self, ctx) -> None:
         """The header of the file and its fixed data, in this order: the global attributes, the
@@ -447,10 +490,16 @@ class NetCDFWriter(Writer):
             self._discard()
             raise DataError(f"{self.target}: {why}; nothing written (an existing file is "
                             "untouched)") from None
+        first = ctx.output_path
+        if first is not None and Path(first).resolve() != self.target.resolve():
+            how = (f"continue the run with --restart {first} once there is room: this file is "
+                   "continued with it")
+        else:  # the run's only file: kept, a new run goes to another file
+            how = ("outputs of the NetCDF writer cannot be restarted: keep this file and run "
+                   "the scene again to another --out, with [output] writer = \"hdf5\" and "
+                   "this writer in [[output.extra]] to be able to restart")
         raise DataError(f"{self.target}: {why} at step {ctx.step_index}; the file holds "
-                        f"{self.t} complete snapshots (outputs of the NetCDF writer cannot be "
-                        "restarted: run the scene again, with [output] writer = \"hdf5\" to "
-                        "be able to restart)") from None
+                        f"{self.t} complete snapshots; {how}") from None
 
     def _seal(self) -> None:
         """Close the file after a failed write. When the library cannot close it, it has

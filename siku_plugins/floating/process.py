@@ -287,7 +287,15 @@ class Floating(Process):
             self._periods()
         if self.free.any():
             n_sub = self.memory.n_sub if self.memory is not None else self._n_sub(ctx, ctx.dt)
-            check_work(where, "steps_per_period", p["steps_per_period"], n_sub, ctx.n_steps)
+            span = self.memory.dt_p if self.memory is not None else ctx.dt  # one step [s]
+
+            def per_step(spp: float) -> int:  # sub-steps in one step with spp of them a period
+                if spp == p["steps_per_period"]:
+                    return n_sub
+                return max(1, math.ceil(span * spp / self.period_min - 1e-9))
+
+            check_work(where, "steps_per_period", p["steps_per_period"], per_step, ctx.n_steps,
+                       least=self.params["steps_per_period"].min, dt=ctx.dt)
         self._floats, self._loaded = bool(self.free.any()), bool(self.load.any())
         self._pack = self._uniform = None
         # the start: every free element at the scene's initial heave and tilts
