@@ -124,12 +124,12 @@ def test_thermodynamics_on_two_ranks_same_bits(tmp_path):
 @needs_mpi
 @pytest.mark.slow
 def test_thermodynamics_writes_the_same_file_on_two_ranks_and_restarts_on_one(tmp_path):
-    """``siku run --ranks 2`` of the melting pack writes the one-rank file byte for byte
+    """``siku run --ranks 2`` of the thinning pack writes the one-rank file byte for byte
     (thickness, mass, flags, the process's fields and diagnostics); a restart from its
     mid-run snapshot on one rank writes what the one-rank run writes."""
     from siku_core.testing.ranks_cases import thermo_text
 
-    (tmp_path / "scene.toml").write_text(thermo_text().replace(
+    (tmp_path / "scene.toml").write_text(thermo_text(flux=3e6).replace(
         "[run]", '[output]\nevery = 20.0\ndiagnostics_every = 3.0\n\n[run]'),
         encoding="utf-8")
     base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",

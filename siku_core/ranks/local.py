@@ -143,6 +143,8 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np
     loc.ice = local_ice(glob, loc, ids)
     for comp in [*loc.forcing, loc.integrator, *loc.processes]:
         comp.setup(loc.context)
+    for name, values in glob.ice.values.items():  # the carried values, not a set-up's start
+        loc.ice.values[name][...] = values[ids]
     return loc, jg
 
 

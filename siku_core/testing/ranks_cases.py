@@ -44,16 +44,16 @@ def collision_text(steps: int = 400) -> str:
                               steps=steps, run={"progress": False})
 
 
-def thermo_text(steps: int = 600) -> str:
-    """The spring pack under ``thermodynamics`` every second: an ocean heat flux thins the
-    ice (its mass and joints' stiffness follow) until every element melts away at about
-    step 480 (its joints break with mode ``melt``); the stable step is checked again as it
-    thins."""
-    return spring_text(steps) + """
+def thermo_text(steps: int = 600, flux: float = 6e6) -> str:
+    """The spring pack under ``thermodynamics`` every second: an ocean heat flux ``flux``
+    [W/m²] thins the ice (its mass and joints' stiffness follow; the stable step is checked
+    again as it thins); at the default, every element melts away at about step 480 (its
+    joints break with mode ``melt``), at 3e6 none within 600 steps."""
+    return spring_text(steps) + f"""
 [[process]]
 name = "thermodynamics"
 every = 1.0
-params = { surface_temperature = -20.0, ocean_heat_flux = 6e6 }
+params = {{ surface_temperature = -20.0, ocean_heat_flux = {flux!r} }}
 """
 
 
