@@ -143,8 +143,8 @@ def test_thermodynamics_writes_the_same_file_on_two_ranks_and_restarts_on_one(tm
     run("two.h5", "--ranks", "2")
     one = (tmp_path / "one.h5").read_bytes()
     assert one == (tmp_path / "two.h5").read_bytes()
-    run("part.h5", "--ranks", "2", "--set", "time.duration=40")
-    run("more.h5", "--restart", "part.h5", "--set", "time.duration=40", "--extend", "20s")
+    run("part.h5", "--ranks", "2", "--set", "time.duration=40s")
+    run("more.h5", "--restart", "part.h5", "--set", "time.duration=40s", "--extend", "20s")
     import h5py
 
     with h5py.File(tmp_path / "one.h5", "r") as a, h5py.File(tmp_path / "more.h5", "r") as b:

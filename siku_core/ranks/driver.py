@@ -11,15 +11,20 @@ its elements and ghosts (:mod:`.local`). A step:
    from their owners before each later evaluation);
 2. owners send their elements' new state and damper bound to the ranks that hold them as
    ghosts (one ``alltoall``);
-3. one ``allgather`` of a few numbers: how far elements moved since the redistribution, the
-   joints that broke (of which the rank owns the first element) and whether the state is
-   sound; every rank applies the breaks to the run's joint table, and runs the joints' guard;
-4. if an element moved half the skin (the engine's own rule for its candidate list), or
+3. the element-local processes due (``runs_on_ranks``) change the rank's elements, owned
+   and ghosts alike, and the owners send their new damper bounds again;
+4. one ``allgather`` of a few numbers: how far elements moved since the redistribution, the
+   joints that broke (of which the rank owns the first element), whether the state (and the
+   fields components integrate) is sound, an error a process raised and whether some
+   element's ice changed enough to check the stable step again (on the whole run, every rank
+   alike); every rank applies the breaks to the run's joint table, and runs the joints' guard;
+5. if an element moved half the skin (the engine's own rule for its candidate list), or
    ``every`` steps passed, a redistribution: elements whose centre left their subdomain
    change owner; and whenever the slowest rank's measured work (at least :data:`MIN_WORK`)
    exceeds the mean by :data:`REBALANCE_MARGIN`, the elements are split again;
-5. on output steps the ranks' elements, joints and contact fields are gathered on rank 0 in
-   global order, and the run's writers write them: the same files as one rank's.
+6. on output steps the ranks' elements, joints, ice, contact and declared fields are
+   gathered on rank 0 in global order, and the run's writers write them: the same files as
+   one rank's (the components' diagnostics computed there, on the gathered run).
 
 A joint between elements of two ranks is evaluated on both, from the same inputs (the owners'
 states and damper bounds, its own state carried since the last redistribution): it breaks in
@@ -37,7 +42,7 @@ from .. import parallel
 from ..categories import ice_per_area
 from ..errors import SceneError, SikuError
 from ..geometry.quat import centers
-from ..guard import RECHECK_JOINTS
+from ..guard import RECHECK_JOINTS, integrated_fields
 from ..ice import apply_processes
 from ..progress import clock
 from .comm import Comm
@@ -403,7 +408,14 @@ class RankRun:
         if not all(np.isfinite(a).all() for a in arrs):
             return False
         v2 = arrs[2][:, 0] ** 2 + arrs[2][:, 1] ** 2
-        return not (len(v2) and v2.max() > vmax * vmax)
+        if len(v2) and v2.max() > vmax * vmax:
+            return False
+        for _, _, arr, bound in integrated_fields(self.loc):  # (the guard's, on the run)
+            v = arr[own]
+            if not np.isfinite(v).all() or bound == "speed" and len(v) and (
+                    np.abs(v).max() > vmax):
+                return False
+        return True
 
     def _take_breaks(self, parts: list[tuple]) -> None:
         """Apply the ranks' reported breaks to the run's joint table, in joint order."""
