@@ -75,7 +75,8 @@ def two_ranks(tmp_path_factory):
     if not HAVE_MPI:
         pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
     d = tmp_path_factory.mktemp("ranks2")
-    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *CASES], d)
+    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *CASES], d,
+                     timeout=TIMEOUT * len(CASES))  # (each case's)
     assert rc == 0, err
     return d
 

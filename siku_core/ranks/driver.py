@@ -299,12 +299,12 @@ class RankRun:
             loc.compute_forces(t, q, V, w, F, T)
         with parallel.threads_for(loc.state.n):
             loc.integrator.step(loc.state, sim.time, sim.dt, forces)
+        t1 = clock()
+        self.work += t1 - t0
         sim.step_index += 1
         loc.step_index = sim.step_index
         self._exchange()
         failed = self._processes() if loc.processes else None
-        t1 = clock()
-        self.work += t1 - t0
         breaks = None
         if lc is not None:
             lc._pending = []
@@ -350,10 +350,16 @@ class RankRun:
         """The processes due at this step on the rank's engine, then the ghosts' new damper
         bounds from their owners; an error they raise is returned (type, message) for every
         rank to raise (it may arise on some ranks only: the elements it names)."""
+        loc = self.loc
+        if not any(loc.step_index % every == 0 for every in loc._process_every):
+            return None
+        t0 = clock()
         try:
-            apply_processes(self.loc)
+            apply_processes(loc)
         except SikuError as exc:
             return type(exc), str(exc)
+        finally:
+            self.work += clock() - t0
         self._exchange()
         return None
 
