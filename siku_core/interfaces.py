@@ -209,9 +209,12 @@ class Process(Component):
     """
 
     kind = "process"
-    #: processes change the ice (thickness, joints, fields) that ranks do not carry yet
+    #: a process runs on MPI ranks when it changes each element by itself, from that
+    #: element's state and fields alone (``thermodynamics``): it sets ``runs_on_ranks =
+    #: True``, and each rank applies it to the elements it holds (``siku_core.ranks``)
     runs_on_ranks = False
-    ranks_refusal = "it changes the ice, which ranks do not carry yet"
+    ranks_refusal = ("it is not declared element-local; a process that changes each element "
+                     "by itself declares runs_on_ranks = True")
     required = {"apply": ("ctx", "dt")}
     #: quantities the process conserves (checked by the conformance suite)
     conserves: ClassVar[tuple[str, ...]] = ()

@@ -114,6 +114,11 @@ class Spectral(WaveField):
     #: ``Context.forcing_field``) and loads each element with its cell's amplitudes
     #: (:meth:`_amplitudes`, :meth:`cells`)
     local_sea = True
+    #: the spectrum on its grid takes the drag of every element and each element reads its
+    #: cell: not a function of each element by itself
+    runs_on_ranks = False
+    ranks_refusal = ("its wave spectrum evolves on a grid from the drag of every element, "
+                     "which one rank does not hold")
     params: ClassVar[dict[str, Param]] = {
         "spectrum": Param("jonswap", "", "incident sea: jonswap, monochromatic or table",
                           type=str, choices=("jonswap", "monochromatic", "table")),

@@ -330,6 +330,8 @@ class Waves(ForcingSource):
         self.breaker = None
         if p["breaking"]:  # the floes' labels come from the contacts of every element
             self.runs_on_ranks = False
+            self.ranks_refusal = ("its breaking labels floes from the joints of every element "
+                                  "and breaks them by their whole length")
             from .wave_breaking import FlexuralBreaking
 
             self.breaker = FlexuralBreaking(ctx, self.field, p["critical_strain"],

@@ -23,6 +23,7 @@ from siku_core.testing.process_checks import (
     check_process_conservation,
     check_process_finite,
     check_process_idempotent,
+    check_process_on_ranks,
     check_process_restart,
     ice_volume,
     process_registry,
@@ -335,6 +336,32 @@ class _Forgetful(_Growth):
     def apply(self, ctx, dt):
         self.calls += 1
         super().apply(ctx, dt * self.calls)
+
+
+class _GrowsWithTheMean(_Growth):
+    """Declares itself element-local but grows every element by the mean thickness of all:
+    on a rank's subset of the elements it grows them differently."""
+
+    name = "test_mean"
+    runs_on_ranks = True
+
+    def apply(self, ctx, dt):
+        st = ctx.state
+        dh = 1e-4 * dt * st.thickness.mean() * (1.0 + np.arange(st.n) % 3)
+        st.thickness += dh
+        ctx.fields["test_grown"] += st.area * dh
+
+
+def test_the_ranks_check_passes_local_growth_and_catches_one_reading_all():
+    """An element-local process passes the ranks check; one whose change of an element
+    depends on the others fails it, naming the element."""
+    class Local(_Growth):
+        name = "test_local"
+        runs_on_ranks = True
+
+    check_process_on_ranks(Local)
+    with pytest.raises(AssertionError, match="must change each element by itself"):
+        check_process_on_ranks(_GrowsWithTheMean)
 
 
 def test_a_correct_growth_process_passes_and_planted_faults_fail(tmp_path):

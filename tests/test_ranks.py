@@ -75,7 +75,8 @@ def two_ranks(tmp_path_factory):
     if not HAVE_MPI:
         pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
     d = tmp_path_factory.mktemp("ranks2")
-    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *CASES], d)
+    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *CASES], d,
+                     timeout=TIMEOUT * len(CASES))  # (each case's)
     assert rc == 0, err
     return d
 
@@ -100,6 +101,57 @@ def test_two_ranks_same_bits(two_ranks, name):
         assert int(many["ranks_migrated"]) >= 9 * 10
     if name == "rebalance":  # split again as the measured work varied
         assert int(many["ranks_splits"]) >= 3
+
+
+@needs_mpi
+def test_thermodynamics_on_two_ranks_same_bits(tmp_path):
+    """The bonded pack thinning and melting away under ``thermodynamics``, the ranks'
+    boundary across joints: thickness, mass, flags, the process's fields, joints broken by
+    the melt and diagnostics equal one rank's bit for bit."""
+    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), "thermo"],
+                     tmp_path)
+    assert rc == 0, err
+    many = np.load(tmp_path / "thermo.npz")
+    one = one_rank("thermo")
+    assert_same_bits(one, many, "thermo")
+    assert bool(many["ranks_joints_agree"])
+    assert int(many["ranks_shared_joints"]) >= 2
+    h0 = 1.0  # the pack's thickness [m]: it thinned, then every element melted away
+    assert (one["field_flags"] == 3).all() and (one["field_thickness"] < 0.1 * h0).all()
+    assert int(one["diag_joints_broken_melt"]) == len(one["joint_intact"])
+    assert (one["field_grown_volume"] < 0).all()
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_thermodynamics_writes_the_same_file_on_two_ranks_and_restarts_on_one(tmp_path):
+    """``siku run --ranks 2`` of the thinning pack writes the one-rank file byte for byte
+    (thickness, mass, flags, the process's fields and diagnostics); a restart from its
+    mid-run snapshot on one rank writes what the one-rank run writes."""
+    from siku_core.testing.ranks_cases import thermo_text
+
+    (tmp_path / "scene.toml").write_text(thermo_text(flux=3e6).replace(
+        "[run]", '[output]\nevery = 20.0\ndiagnostics_every = 3.0\n\n[run]'),
+        encoding="utf-8")
+    base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",
+            "--no-plots", "--out"]
+
+    def run(*args):
+        p = subprocess.run([*base, *args], cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    run("one.h5")
+    run("two.h5", "--ranks", "2")
+    one = (tmp_path / "one.h5").read_bytes()
+    assert one == (tmp_path / "two.h5").read_bytes()
+    run("part.h5", "--ranks", "2", "--set", "time.duration=40s")
+    run("more.h5", "--restart", "part.h5", "--set", "time.duration=40s", "--extend", "20s")
+    import h5py
+
+    with h5py.File(tmp_path / "one.h5", "r") as a, h5py.File(tmp_path / "more.h5", "r") as b:
+        k = list(a["states/step"][:]).index(int(b["states/step"][-1]))
+        for name in ("fields/thickness", "fields/grown_volume", "fields/flags", "q", "V"):
+            assert np.array_equal(a[f"states/{name}"][k], b[f"states/{name}"][-1]), name
 
 
 @needs_mpi
@@ -171,20 +223,20 @@ def test_ranks_given_different_scenes_or_a_process_are_refused(tmp_path):
     lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
     assert len(lines) == 1 and "rank 1 was given a different scene" in lines[0], p.stderr
     assert not (tmp_path / "x.h5").exists()
-    # a process cannot run on ranks: refused in one line naming it and the ranks
+    # a process that cannot run on ranks: refused in one line naming it and the ranks
     (tmp_path / "c.toml").write_text(spring_text(50) + '\n[[process]]\nname = '
-                                     '"thermodynamics"\n', encoding="utf-8")
+                                     '"refreeze"\n', encoding="utf-8")
     p = subprocess.run([*run, "y.h5", "c.toml", "--ranks", "2"], cwd=tmp_path, env=_env(),
                        capture_output=True, text=True, timeout=120)
     lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
     assert p.returncode == 2 and len(lines) == 1, p.stderr
-    assert "process 'thermodynamics' cannot run on 2 ranks" in lines[0]
+    assert "process 'refreeze' cannot run on 2 ranks" in lines[0]
     assert not (tmp_path / "y.h5").exists()
 
 
 def test_components_that_cannot_run_on_ranks_are_named():
-    """A scene with a process is refused on ranks in one line naming it and the ranks;
-    forcing, integrator and contact law are not."""
+    """A scene with a process that is not element-local is refused on ranks in one line
+    naming it and the ranks; forcing, integrator, contact law and thermodynamics are not."""
     from siku_core.ranks.driver import refusals
     from siku_core.scene import scene_from_text
     from siku_core.simulation import Simulation
@@ -192,10 +244,17 @@ def test_components_that_cannot_run_on_ranks_are_named():
 
     plain = Simulation(scene_from_text(spring_text(10), "<a>"), out=False)
     assert refusals(plain, 2) == []
-    text = spring_text(10) + '\n[[process]]\nname = "thermodynamics"\n'
-    sim = Simulation(scene_from_text(text, "<b>"), out=False)
-    got = refusals(sim, 3)
-    assert len(got) == 1 and "process 'thermodynamics' cannot run on 3 ranks" in got[0]
+    thermo = spring_text(10) + '\n[[process]]\nname = "thermodynamics"\n'
+    assert refusals(Simulation(scene_from_text(thermo, "<t>"), out=False), 2) == []
+    for name in ("ridging", "refreeze"):
+        text = spring_text(10) + f'\n[[process]]\nname = "{name}"\n'
+        if name == "ridging":
+            text = text.replace('law = "distributed_spring"', 'law = "ridging"')
+            text = text.replace("params = { tensile_strain = 0.0002, damage_onset = 0.3 }",
+                                "params = {}")
+        sim = Simulation(scene_from_text(text, f"<{name}>"), out=False)
+        got = refusals(sim, 3)
+        assert len(got) == 1 and f"process '{name}' cannot run on 3 ranks" in got[0], got
 
 
 # ---------------------------------------------------------------------- the parts

@@ -11,15 +11,20 @@ its elements and ghosts (:mod:`.local`). A step:
    from their owners before each later evaluation);
 2. owners send their elements' new state and damper bound to the ranks that hold them as
    ghosts (one ``alltoall``);
-3. one ``allgather`` of a few numbers: how far elements moved since the redistribution, the
-   joints that broke (of which the rank owns the first element) and whether the state is
-   sound; every rank applies the breaks to the run's joint table, and runs the joints' guard;
-4. if an element moved half the skin (the engine's own rule for its candidate list), or
+3. the element-local processes due (``runs_on_ranks``) change the rank's elements, owned
+   and ghosts alike, and the owners send their new damper bounds again;
+4. one ``allgather`` of a few numbers: how far elements moved since the redistribution, the
+   joints that broke (of which the rank owns the first element), whether the state (and the
+   fields components integrate) is sound, an error a process raised and whether some
+   element's ice changed enough to check the stable step again (on the whole run, every rank
+   alike); every rank applies the breaks to the run's joint table, and runs the joints' guard;
+5. if an element moved half the skin (the engine's own rule for its candidate list), or
    ``every`` steps passed, a redistribution: elements whose centre left their subdomain
    change owner; and whenever the slowest rank's measured work (at least :data:`MIN_WORK`)
    exceeds the mean by :data:`REBALANCE_MARGIN`, the elements are split again;
-5. on output steps the ranks' elements, joints and contact fields are gathered on rank 0 in
-   global order, and the run's writers write them: the same files as one rank's.
+6. on output steps the ranks' elements, joints, ice, contact and declared fields are
+   gathered on rank 0 in global order, and the run's writers write them: the same files as
+   one rank's (the components' diagnostics computed there, on the gathered run).
 
 A joint between elements of two ranks is evaluated on both, from the same inputs (the owners'
 states and damper bounds, its own state carried since the last redistribution): it breaks in
@@ -34,15 +39,19 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import parallel
-from ..errors import SceneError
+from ..categories import ice_per_area
+from ..errors import SceneError, SikuError
 from ..geometry.quat import centers
-from ..guard import RECHECK_JOINTS
+from ..guard import RECHECK_JOINTS, integrated_fields
+from ..ice import apply_processes
 from ..progress import clock
 from .comm import Comm
 from .decompose import Cuts, bisect, imbalance
 from .ghosts import exchange_plan, local_sets, reach_pairs
 from .local import JOINT_STATE, local_engine
 
+#: the element arrays processes change besides the declared fields (``siku_core.ice``)
+ICE_STATE = ("thickness", "m", "I", "flags")
 #: re-split the elements when the slowest rank's work exceeds the mean by this share
 REBALANCE_MARGIN = 0.2
 #: ... measured over at least this much work per rank since the last split [s] (a shorter
@@ -54,10 +63,8 @@ def refusal_reason(comp) -> str:
     """Why the component ``comp`` cannot run on more than one rank ("" where it can)."""
     if not getattr(comp, "runs_on_ranks", True):
         return getattr(comp, "ranks_refusal", "") or "it reads the contacts of every element"
-    if comp.owned_fields:
-        return "it owns per-element fields, which ranks do not carry yet"
-    if comp.diagnostic_units:
-        return "it reports diagnostics from its own step, which ranks do not gather yet"
+    if comp.history() is not None:  # each rank's copy would keep its own part
+        return "it keeps history of its own for restarts, which ranks do not carry"
     return ""
 
 
@@ -116,6 +123,7 @@ class RankRun:
         self.splits = 0
         self.migrated = 0
         self.owner = np.zeros(sim.state.n, dtype=np.int64)
+        self._recheck = ""
         self._redistribute(resplit=True)
 
     # ------------------------------------------------------------------ distribution
@@ -147,7 +155,10 @@ class RankRun:
         self.recv_rows = [np.searchsorted(self.ids, r) for r in recv]
         #: where each rank's ghosts sit among this rank's ghosts (for their damper bounds)
         self.recv_ghosts = [np.searchsorted(self.ghost_rows, r) for r in self.recv_rows]
+        if getattr(self, "loc", None) is not None:
+            self._close_local()
         self.loc, self.jg = local_engine(sim, self.ids, self.ghost_rows)
+        self.loc.check_time_step = self._local_check  # (made on the whole run, :meth:`step`)
         lc = self.loc.contacts
         # joints reported here: those whose first element this rank owns
         self.j_mine = (owner[sim.contacts.ji[self.jg]] == self.rank if gc is not None
@@ -160,6 +171,11 @@ class RankRun:
         self.skin = gc.skin if gc is not None else np.inf
         self.since = sim.step_index
         self.redistributions += 1
+
+    def _close_local(self) -> None:
+        """Release what the rank's engine's processes opened in their set-up (files)."""
+        for proc in self.loc.processes:
+            proc.close()
 
     def _ghost_dmob_from_run(self) -> np.ndarray:
         """The ghosts' damper bounds from the run's joint table (current at a redistribution)."""
@@ -194,6 +210,13 @@ class RankRun:
         rec: dict[str, Any] = {"ids": self.ids[own]}
         for k in ("q", "V", "w", "F", "T"):
             rec[k] = getattr(ls, k)[own]
+        ice = self.loc.ice
+        if ice.active:  # the ice processes change and the fields components own
+            rec["ice"] = {k: v[own] for k, v in ice.values.items()}
+            if ice.processes:
+                for k in ICE_STATE:
+                    rec[k] = getattr(ls, k)[own]
+            rec["cats"] = {k: v[own] for k, v in ice._category_arrays().items()}
         if lc is not None:
             jm = self.j_mine
             rec["jg"] = self.jg[jm]
@@ -219,15 +242,27 @@ class RankRun:
         """Put the ranks' records into the run (its state, joint table, contact fields)."""
         sim = self.sim
         st, gc = sim.state, sim.contacts
+        ice = sim.ice
         for rec in recs:
             ids = rec["ids"]
             for k in ("q", "V", "w", "F", "T"):
                 getattr(st, k)[ids] = rec[k]
+            if "ice" in rec:
+                for k, v in rec["ice"].items():
+                    ice.values[k][ids] = v
+                for k in ICE_STATE:
+                    if k in rec:
+                        getattr(st, k)[ids] = rec[k]
+                cats = ice._category_arrays()
+                for k, v in rec["cats"].items():
+                    cats[k][ids] = v
             if gc is not None:
                 for k in JOINT_STATE:
                     getattr(gc, k)[rec["jg"]] = rec[k]
         if gc is None:
             return
+        if ice.processes:  # the run's contact model follows the ice (melted elements gone)
+            gc.ice_changed(None, True)
         if fields:
             got: dict[str, np.ndarray] = {}
             for rec in recs:
@@ -267,7 +302,9 @@ class RankRun:
         t1 = clock()
         self.work += t1 - t0
         sim.step_index += 1
+        loc.step_index = sim.step_index
         self._exchange()
+        failed = self._processes() if loc.processes else None
         breaks = None
         if lc is not None:
             lc._pending = []
@@ -279,20 +316,57 @@ class RankRun:
         moved = self._moved()
         sound = self._sound()
         due = self.every is not None and sim.step_index - self.since >= self.every
+        recheck, self._recheck = self._recheck, ""
         t2 = clock()
-        news = self.comm.allgather((moved, sound, breaks, self.work))
+        news = self.comm.allgather((moved, sound, breaks, self.work, failed, recheck))
         self.exchange_time += clock() - t2 + (t2 - t1)
-        self._take_breaks([b for _, _, b, _ in news if b is not None])
+        for got in news:  # a process raised on some rank: the same error on every rank
+            if got[4] is not None:
+                raise got[4][0](got[4][1])
+        self._take_breaks([n[2] for n in news if n[2] is not None])
         sim.guard.after_step()  # the joints' guard, on the run's joint table (every rank)
-        if not all(s for _, s, _, _ in news):
+        if not all(n[1] for n in news):
             self._sync_all()
             sim.guard.check()  # raises on every rank alike
-        work = np.array([w for _, _, _, w in news])
+        synced = False
+        who = next((n[5] for n in news if n[5]), "")
+        if who:  # some element's ice changed enough: the stable step of the whole run
+            self._sync_all()
+            synced = True
+            sim.check_time_step(after=who)  # raises on every rank alike
+            for run in (sim, self.loc):  # every element checked now, as on one rank
+                ice = run.ice
+                ice._h_checked[:] = run.state.thickness
+                ice._v_checked[:] = ice_per_area(run.state.thickness, ice.categories)
+        work = np.array([n[3] for n in news])
         resplit = (self.owner_fn is None and bool(work.min() >= self.min_work)
                    and imbalance(work) > self.margin)
-        if sim.step_index < sim.n_steps and (any(m for m, _, _, _ in news) or due or resplit):
-            self._sync_all()
+        if sim.step_index < sim.n_steps and (any(n[0] for n in news) or due or resplit):
+            if not synced:
+                self._sync_all()
             self._redistribute(resplit=resplit)
+
+    def _processes(self) -> tuple[type, str] | None:
+        """The processes due at this step on the rank's engine, then the ghosts' new damper
+        bounds from their owners; an error they raise is returned (type, message) for every
+        rank to raise (it may arise on some ranks only: the elements it names)."""
+        loc = self.loc
+        if not any(loc.step_index % every == 0 for every in loc._process_every):
+            return None
+        t0 = clock()
+        try:
+            apply_processes(loc)
+        except SikuError as exc:
+            return type(exc), str(exc)
+        finally:
+            self.work += clock() - t0
+        self._exchange()
+        return None
+
+    def _local_check(self, after: str = "") -> None:
+        """The rank's engine's stable-step check after its processes changed the ice: noted,
+        and made on the whole run by every rank (:meth:`step`)."""
+        self._recheck = after
 
     def _exchange(self, *arrays: np.ndarray) -> None:
         """Owners' new states (and damper bounds) to the ranks holding them as ghosts: of the
@@ -340,7 +414,14 @@ class RankRun:
         if not all(np.isfinite(a).all() for a in arrs):
             return False
         v2 = arrs[2][:, 0] ** 2 + arrs[2][:, 1] ** 2
-        return not (len(v2) and v2.max() > vmax * vmax)
+        if len(v2) and v2.max() > vmax * vmax:
+            return False
+        for _, _, arr, bound in integrated_fields(self.loc):  # (the guard's, on the run)
+            v = arr[own]
+            if not np.isfinite(v).all() or bound == "speed" and len(v) and (
+                    np.abs(v).max() > vmax):
+                return False
+        return True
 
     def _take_breaks(self, parts: list[tuple]) -> None:
         """Apply the ranks' reported breaks to the run's joint table, in joint order."""
@@ -417,6 +498,7 @@ class RankRun:
             msg = " | ".join(str(exc).splitlines()) or type(exc).__name__
             self.comm.abort(f"siku: error: rank {self.rank}: {type(exc).__name__}: {msg}")
         finally:
+            self._close_local()
             if self.root:
                 sim.close()
         return self

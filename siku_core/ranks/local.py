@@ -11,6 +11,12 @@ bit.
 What is not a function of the local elements alone is taken from the run: the skin (a mean
 over every element), the joints' rest lengths and state, and the dampers' bound of a ghost
 (its count of intact joints, ``siku_core.damping.mobility``), which its owner sends every step.
+
+The ice that processes change (thickness, mass, inertia, flags, thickness categories) and the
+per-element fields components own come with the elements: a rank's engine has its own ice book
+(``siku_core.ice.IceBook``) over its elements, whose rows are the run's, and its own copies of
+the element-local processes, which change its owned elements and its ghosts alike (an element
+changes by itself, so a ghost changes as on its owner, bit for bit).
 """
 from __future__ import annotations
 
@@ -20,10 +26,12 @@ from typing import Any
 
 import numpy as np
 
+from ..categories import Categories
 from ..contact_model import ContactModel
 from ..context import Context
 from ..damping import contact_mobility
-from ..state import ElementState
+from ..ice import IceBook
+from ..state import MELTED, ElementState
 
 #: the joint arrays a rank's engine takes from the run's joint table (the rest it derives)
 JOINT_STATE = ("L0", "width", "intact", "break_mode", "break_time", "hist")
@@ -81,19 +89,37 @@ class RankContacts(ContactModel):
         return contact_mobility(self)
 
 
+def local_ice(glob, loc, ids: np.ndarray) -> IceBook:
+    """The ice book of the rank's engine ``loc``: the rows ``ids`` of the run's declared
+    fields, thickness categories and polygons' polar moments (taken, not recomputed from the
+    masses: the same bits as the run's)."""
+    gi = glob.ice
+    cats = gi.categories
+    sub = None if cats is None else Categories(fraction=cats.fraction[ids].copy(),
+                                               thickness=cats.thickness[ids].copy())
+    ice = IceBook(loc, processes=gi.processes, categories=sub)
+    for name, values in gi.values.items():
+        ice.values[name][...] = values[ids]
+    if gi.processes:
+        ice.J = gi.J[ids].copy()
+        ice._h_checked = gi._h_checked[ids].copy()
+        ice._v_checked = gi._v_checked[ids].copy()
+    return ice
+
+
 def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np.ndarray]:
-    """A shallow copy of the run ``glob`` (a ``Simulation``) whose state, contacts, forcing
-    sources and integrator hold the elements ``ids`` (ascending global indices);
-    ``ghost_rows`` are the local rows of ghosts. Returns it and the run's indices of its
-    joints."""
+    """A shallow copy of the run ``glob`` (a ``Simulation``) whose state, contacts, ice book,
+    forcing sources, integrator and processes hold the elements ``ids`` (ascending global
+    indices); ``ghost_rows`` are the local rows of ghosts. Returns it and the run's indices
+    of its joints."""
     loc = copy.copy(glob)
     loc.state = sub_state(glob.state, ids)
     loc.context = Context(loc)
     loc.writers = []
-    loc.processes = []
     loc.pm = None
     loc.forcing = [copy.copy(f) for f in glob.forcing]
     loc.integrator = copy.copy(glob.integrator)
+    loc.processes = [copy.copy(p) for p in glob.processes]
     jg = np.zeros(0, dtype=np.int64)
     gc = glob.contacts
     if gc is not None:
@@ -110,10 +136,16 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np
             where=scene.where("contact"), label=scene.label, timings=glob.timings,
             joints=joints, skin=gc.skin, nmax=gc.nmax, ghost_rows=ghost_rows)
         loc.contacts.n_broken_total = 0
+        gone = loc.state.flags == MELTED
+        if gone.any():  # melted elements touch nothing (as ``ContactModel.ice_changed``)
+            loc.contacts.gone = gone
         loc.contacts.setup()
-    for comp in [*loc.forcing, loc.integrator]:
+    loc.ice = local_ice(glob, loc, ids)
+    for comp in [*loc.forcing, loc.integrator, *loc.processes]:
         comp.setup(loc.context)
+    for name, values in glob.ice.values.items():  # the carried values, not a set-up's start
+        loc.ice.values[name][...] = values[ids]
     return loc, jg
 
 
-__all__ = ["JOINT_STATE", "RankContacts", "local_engine", "sub_state"]
+__all__ = ["JOINT_STATE", "RankContacts", "local_engine", "local_ice", "sub_state"]

@@ -22,7 +22,11 @@ failed:
 * :func:`check_process_idempotent`: applied over no time (``dt = 0``) it changes nothing, and
   two runs of the same scene end bit for bit equal;
 * :func:`check_process_restart`: a run restarted from a mid-run snapshot ends bit for bit equal
-  to an uninterrupted one (state, thickness, declared fields, history).
+  to an uninterrupted one (state, thickness, declared fields, history);
+* :func:`check_process_on_ranks`: a process that declares ``runs_on_ranks = True`` changes
+  every other element, set up over those elements alone as an MPI rank sets it up, as it
+  changes them among all, bit for bit (thickness, mass, inertia, flags, declared fields,
+  thickness categories).
 """
 from __future__ import annotations
 
@@ -203,11 +207,47 @@ def check_process_restart(cls: type, params: Mapping[str, Any] | None, tmp_path:
                  f"process '{cls.name}': restart from step {PROCESS_STEPS // 2}")
 
 
+def _ice(sim: Any) -> dict[str, np.ndarray]:
+    """What processes change per element: the ice book's arrays and mass, inertia."""
+    st = sim.state
+    return {"m": st.m, "I": st.I, **sim.ice.element_fields()}
+
+
+def check_process_on_ranks(cls: type, params: Mapping[str, Any] | None = None,
+                           **kwargs: Any) -> None:
+    """A process that runs on ranks (``runs_on_ranks``) changes every other element, set up
+    over those elements alone (``siku_core.ranks.local``), as it changes them among all, bit
+    for bit; a process that declares it cannot is not checked."""
+    from ..ranks.driver import refusal_reason
+    from ..ranks.local import local_engine
+
+    sim = process_simulation(cls, params, **kwargs)
+    if any(refusal_reason(p) for p in _procs(sim, cls)):
+        return
+    sim.run(steps=STEPS // 2)  # a state the process has changed
+    ids = np.arange(1, sim.state.n, 2)
+    loc, _ = local_engine(sim, ids, np.zeros(0, dtype=np.int64))
+    loc.check_time_step = lambda after="": None  # (the run's check, below)
+    for run in (sim, loc):
+        for p in run.processes:
+            p.apply(run.context, DT)
+        run.ice.after_processes(f"process '{cls.name}'")
+    a, b = _ice(sim), _ice(loc)
+    for k in b:
+        bad = ~(np.asarray(a[k])[ids] == b[k]).reshape(len(ids), -1).all(axis=1)
+        i = int(np.argmax(bad)) if len(bad) else 0
+        assert not bad.any(), (
+            f"process '{cls.name}': '{k}' of element {ids[i]} is {b[k][i]!r} when set up over "
+            f"a subset of the elements, {np.asarray(a[k])[ids[i]]!r} among all: a process that "
+            "runs on ranks must change each element by itself (or set runs_on_ranks = False)")
+
+
 def check_process(cls: type, params: Mapping[str, Any] | None = None,
                   tmp_path: Path | None = None, **kwargs: Any) -> None:
     """Every check of the suite (the restart check only with a ``tmp_path`` to write in)."""
     check_process_finite(cls, params, **kwargs)
     check_process_conservation(cls, params, **kwargs)
     check_process_idempotent(cls, params, **kwargs)
+    check_process_on_ranks(cls, params, **kwargs)
     if tmp_path is not None:
         check_process_restart(cls, params, tmp_path, **kwargs)

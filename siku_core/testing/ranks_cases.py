@@ -8,7 +8,8 @@ across the joints that break), ``mohr`` (the pack with ``mohr_coulomb``), ``coll
 jittered pack without joints pushed by a moving edge), ``migrate`` (the spring pack with every
 element moving to the other rank and back every 60 steps), ``rebalance`` (the collision pack
 split again whenever the ranks' measured work differs at all), ``rk4`` (on three ranks, the
-spring pack under an integrator that evaluates forces four times a step), ``raise`` (rank
+spring pack under an integrator that evaluates forces four times a step), ``thermo`` (the
+spring pack thinning and melting under ``thermodynamics``), ``raise`` (rank
 1's integrator raises at step 10: the run ends on every rank with one line).
 """
 from __future__ import annotations
@@ -43,6 +44,19 @@ def collision_text(steps: int = 400) -> str:
                               steps=steps, run={"progress": False})
 
 
+def thermo_text(steps: int = 600, flux: float = 6e6) -> str:
+    """The spring pack under ``thermodynamics`` every second: an ocean heat flux ``flux``
+    [W/m²] thins the ice (its mass and joints' stiffness follow; the stable step is checked
+    again as it thins); at the default, every element melts away at about step 480 (its
+    joints break with mode ``melt``), at 3e6 none within 600 steps."""
+    return spring_text(steps) + f"""
+[[process]]
+name = "thermodynamics"
+every = 1.0
+params = {{ surface_temperature = -20.0, ocean_heat_flux = {flux!r} }}
+"""
+
+
 def _last_column(step: int, c: np.ndarray) -> np.ndarray:
     """Rank 1 owns the last column of the spring pack (elements 8 and 9), rank 0 the rest."""
     return (np.arange(len(c)) >= 8).astype(np.int64)
@@ -66,6 +80,7 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "collision": (collision_text(), {}),
     "migrate": (spring_text(600), {"owner": _swapping, "every": 30}),
     "rebalance": (collision_text(), {"margin": 0.0, "min_work": 0.001}),
+    "thermo": (thermo_text(), {"owner": _last_column}),
     "rk4": (spring_text(3000).replace('"siku2"', '"rk4"'), {"owner": _three_columns}),
     "raise": (spring_text(100), {}),
 }

@@ -101,6 +101,10 @@ class Floating(Process):
     the Froude–Krylov load of the scene's waves (linear, per element)."""
 
     name = "floating"
+    #: its sub-steps follow the shortest natural period of all the elements, its bending
+    #: beams span the joints of whole floes and its loads name elements by index
+    ranks_refusal = ("its sub-steps follow the shortest natural period of all the elements, "
+                     "its floes bend across their joints and its loads name elements by index")
     owned_fields = FIELDS
     integrates: ClassVar[dict[str, str]] = {  # its degrees of freedom, for the engine's guard
         **dict.fromkeys(("heave", "roll", "roll_rate", "pitch", "pitch_rate"), "finite"),

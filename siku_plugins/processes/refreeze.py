@@ -53,6 +53,9 @@ class Refreeze(Process):
     as the square root of the time frozen (module docstring)."""
 
     name = "refreeze"
+    #: it changes and creates joints in the run's joint table and counts them over the run
+    ranks_refusal = ("it refreezes and creates joints in the run's joint table and counts them "
+                     "over the whole run, and ranks carry joint breaks only")
     params: ClassVar[dict[str, Param]] = {
         "gap": Param(1.0, "m", "largest distance between the two sides of a broken joint that "
                      "counts as closed", min=0.0),

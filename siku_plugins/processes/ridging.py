@@ -249,6 +249,10 @@ class Ridging(Process):
     """Overlap of ice pressed beyond its plastic limit becomes ridged (or rafted) ice."""
 
     name = "ridging"
+    #: its remembered pairs (by element index) and the ghosts' new thickness would have to
+    #: move between ranks
+    ranks_refusal = ("it remembers its ridging pairs from step to step by element index and "
+                     "changes both elements of each, which ranks do not carry between them")
     conserves = ("volume",)
     params: ClassVar[dict[str, Param]] = {
         "capacity": Param(8, "1", "pairs remembered per element (a fault names it if a pack "

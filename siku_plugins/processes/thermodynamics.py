@@ -194,6 +194,9 @@ class Thermodynamics(Process):
     docstring)."""
 
     name = "thermodynamics"
+    #: each element grows or melts by itself (its thickness, categories, fields and surface
+    #: temperature at its centre): each rank applies it to the elements it holds
+    runs_on_ranks = True
     params: ClassVar[dict[str, Param]] = {
         "surface_temperature": Param(-20.0, "degC", "ice (or snow) surface temperature, uniform "
                                      "(without temperature_file)", min=-100.0, max=50.0),
