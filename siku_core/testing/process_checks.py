@@ -224,13 +224,13 @@ def check_process_on_ranks(cls: type, params: Mapping[str, Any] | None = None,
     sim = process_simulation(cls, params, **kwargs)
     if any(refusal_reason(p) for p in _procs(sim, cls)):
         return
-    sim.run(steps=STEPS // 2)  # a state the process has changed
+    sim.run(steps=PROCESS_STEPS // 2)  # a state the process has changed
     ids = np.arange(1, sim.state.n, 2)
     loc, _ = local_engine(sim, ids, np.zeros(0, dtype=np.int64))
     loc.check_time_step = lambda after="": None  # (the run's check, below)
     for run in (sim, loc):
         for p in run.processes:
-            p.apply(run.context, DT)
+            p.apply(run.context, PROCESS_DT)
         run.ice.after_processes(f"process '{cls.name}'")
     a, b = _ice(sim), _ice(loc)
     for k in b:
