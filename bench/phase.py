@@ -27,6 +27,7 @@ import time
 import numba
 
 from bench.scenes import KINDS, LAWS, scene
+from siku_core.contact_tables import NO_DMOB, pair_table
 from siku_core.contacts import collision_forces, joint_forces
 from siku_core.parallel import chunks
 from siku_core.simulation import Simulation
@@ -55,19 +56,20 @@ def measure(kind: str, n: int, law: str | None, spinup: int, reps: int,
         raise ValueError(f"bench.phase: scene {kind!r} has no contacts")
     pairs = cm._candidates(st.q, cm._rotations(st.q))
 
+    # the dampers unbounded, no per-contact history, no cap flags: the loops' work alone
+    el = cm.element_table(st.V, st.w)._replace(dmob=NO_DMOB)
+    pt = pair_table(pairs, cm.pair_rows, cm.pair_active, cm.separating_hint, cm.pface,
+                    chint=cm.clip_hint if len(cm.clip_hint) else None)
+    cm.jK  # the joints' constants current (no fresh ones in the timed loop)
+    jt = cm.joint_table() if cm.n_joints and cm.law.uses_joints else None
+
     def collisions():
-        return collision_forces(
-            cm._cev, cm._cpars, cm.rm, st.V, st.w, cm.minv, st.thickness, cm.E, st.area,
-            st.vert_offsets, st.verts, pairs, sim.radius, cm.nmax, switches.pretest, cm.pair_rows,
-            cm.pair_active, chunks(len(pairs)), cm.margin, cm.separating_hint, cm.drop_touching,
-            cm.pface, cm.scale, cm.edges, chint=cm.clip_hint if len(cm.clip_hint) else None)
+        return collision_forces(cm._cev, cm._cpars, el, pt, sim.radius, cm.nmax,
+                                switches.pretest, chunks(len(pairs)), cm.drop_touching)
 
     def joints():
-        return joint_forces(
-            cm._jev, cm._jpars, cm.rm, st.V, st.w, st.thickness, cm.E, cm.nu, cm.ji, cm.jj,
-            cm.ends_i, cm.ends_j, cm.L0, cm.width, cm.jK, cm.jmeff, cm.intact, cm.break_mode,
-            cm.hist, sim.radius, sim.dt, False, cm.joint_rows, cm.joint_active,
-            chunks(cm.n_joints))
+        return joint_forces(cm._jev, cm._jpars, el, jt, sim.radius, sim.dt, False,
+                            chunks(cm.n_joints))
 
     out = {"elements": st.n, "pairs": len(pairs)}
     out["collisions_s"], out["overlapping"] = _best(collisions, reps)

@@ -136,39 +136,47 @@ BLK_SIZE = BLK_M + 9
 # The parallel loops are thin: each task calls a (serially compiled) chunk function. Numba's
 # parallel compilation of a large loop body takes twice as long as compiling it serially.
 @njit(parallel=True, cache=CACHE)
-def _joint_forces(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK,
-                  jmeff, intact, break_mode, hist, R, dt, commit, out, active, nch, nt, fresh,
-                  ri, rj, dmob):
+def _joint_forces(pars, el, jt, R, dt, commit, nch, nt):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
         g = np.empty(J_SIZE)
         res = np.empty(4)
-        scratch = np.empty(hist.shape[1])
+        scratch = np.empty(jt.hist.shape[1])
         while True:
             c = claim(counter)
             if c >= nch:
                 break
-            lo, hi = chunk_bounds(c, nch, ji.shape[0])
-            counts[c] = _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i,
-                                     ends_j, L0, width, jK, jmeff, intact, break_mode, hist, R, dt,
-                                     commit, out, active, lo, hi, g, res, scratch, fresh, ri, rj,
-                                     dmob)
+            lo, hi = chunk_bounds(c, nch, jt.ji.shape[0])
+            counts[c] = _joint_chunk(pars, el, jt, R, dt, commit, lo, hi, g, res, scratch)
     return counts.sum()
 
 
 @njit(cache=CACHE, _nrt=NRT)
-def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK, jmeff, intact,
-                 break_mode, hist, R, dt, commit, out, active, lo, hi, g, res, scratch, fresh, ri,
-                 rj, dmob):
+def _joint_chunk(pars, el, jt, R, dt, commit, lo, hi, g, res, scratch):
     """Joints ``lo <= k < hi`` of :func:`~siku_core.contacts.joint_forces`; returns how many
-    broke. ``g``, ``res``, ``scratch``: the task's buffers (geometry, result, history row).
-    ``fresh`` (not empty): the joints' constants ``jK``, ``jmeff`` are first computed from it
-    (:func:`~siku_core.ice_follow.joints_from`, lever arms ``ri``, ``rj``). ``dmob`` (per
-    element ``n/m, n/I``; empty: the dampers unbounded): ``g[J_DTM]`` of each joint
-    (:mod:`siku_core.damping`)."""
-    if fresh.shape[0]:
-        joints_from(lo, hi, fresh, ji, jj, ri, rj, jK, jmeff)
+    broke. ``el``, ``jt``: the elements and the joint table (records of
+    :mod:`siku_core.contact_tables`); ``g``, ``res``, ``scratch``: the task's buffers
+    (geometry, result, history row). ``jt.fresh`` (not empty): the joints' constants ``jt.K``,
+    ``jt.meff`` are first computed from it (:func:`~siku_core.ice_follow.joints_from`, lever
+    arms ``jt.ri``, ``jt.rj``). ``el.dmob`` (per element ``n/m, n/I``; empty: the dampers
+    unbounded): ``g[J_DTM]`` of each joint (:mod:`siku_core.damping`)."""
+    ji = jt.ji
+    jj = jt.jj
+    ends_i = jt.ends_i
+    ends_j = jt.ends_j
+    intact = jt.intact
+    hist = jt.hist
+    out = jt.rows
+    active = jt.active
+    rm = el.rm
+    V = el.V
+    w = el.w
+    h = el.h
+    E = el.E
+    dmob = el.dmob
+    if jt.fresh.shape[0]:
+        joints_from(lo, hi, jt.fresh, ji, jj, jt.ri, jt.rj, jt.K, jt.meff)
     nh = hist.shape[1]
     inv_r = 1.0 / R
     bounded = dmob.shape[0] > 0
@@ -192,10 +200,10 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
         g[J_AY] = ay
         g[J_BX] = bx
         g[J_BY] = by
-        g[J_L0] = L0[k]
-        g[J_W] = width[k]
-        g[J_K] = jK[k]
-        g[J_MEFF] = jmeff[k]
+        g[J_L0] = jt.L0[k]
+        g[J_W] = jt.width[k]
+        g[J_K] = jt.K[k]
+        g[J_MEFF] = jt.meff[k]
         # the material points at the ends: i's copy at a (b), j's copy at A (B)
         xa, ya = i_to_j(M, ax, ay, R, inv_r)
         xb, yb = i_to_j(M, bx, by, R, inv_r)
@@ -205,7 +213,7 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
         g[J_HJ] = h[j]
         g[J_EI] = E[i]
         g[J_EJ] = E[j]
-        g[J_NU] = nu[i]
+        g[J_NU] = el.nu[i]
         g[J_DT] = dt
         if bounded:
             # the largest lever arms of the joint's points: its ends, in each element's frame
@@ -228,7 +236,7 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
         if res[3] != 0.0:
             if commit:
                 intact[k] = False
-                break_mode[k] = res[3]
+                jt.break_mode[k] = res[3]
                 nb += 1
             continue
         pair_contribution(M, res[0], res[1], 0.5 * (ax + bx), 0.5 * (ay + by), res[2], inv_r,
@@ -239,9 +247,7 @@ def _joint_chunk(pars, rm, V, w, h, E, nu, ji, jj, ends_i, ends_j, L0, width, jK
 
 
 @njit(parallel=True, cache=CACHE)
-def _collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                      nmax, pretest, out, active, nch, nt, margin, hint, drop, face, scale, edges,
-                      chist, commit, caps, chint, dmob, dt):
+def _collision_forces(pars, el, pt, R, dt, nmax, pretest, drop, commit, nch, nt):
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -251,34 +257,43 @@ def _collision_forces(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R
         res = np.empty(4)
         blk = np.empty(CBLOCK * BLK_SIZE)
         if CHIST:
-            hrow = np.empty(chist.shape[1])
+            hrow = np.empty(pt.chist.shape[1])
         else:
             hrow = res  # never read: the row's branches are pruned
         while True:
             c = claim(counter)
             if c >= nch:
                 break
-            lo, hi = chunk_bounds(c, nch, pairs.shape[0])
-            counts[c] = _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets,
-                                         verts, pairs, R, pretest, out, active, lo, hi, xy, tag,
-                                         proj, g, res, margin, hint, drop, face, scale, blk,
-                                         edges, chist, commit, hrow, caps, chint, dmob, dt)
+            lo, hi = chunk_bounds(c, nch, pt.pairs.shape[0])
+            counts[c] = _collision_chunk(pars, el, pt, R, dt, pretest, drop, commit, lo, hi,
+                                         (xy, tag, proj, g, res, blk, hrow))
     return counts.sum()
 
 
 @njit(cache=CACHE, _nrt=NRT)
-def _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res, blk, nb,
-                     chist, commit, hrow, caps, dmob, dt):
+def _collision_block(pars, el, pt, R, dt, commit, g, res, blk, nb, hrow):
     """Evaluate the ``nb`` overlapping pairs of one block of :func:`_collision_chunk` (rows of
-    ``blk``, ``BLK_*``) into ``out`` and ``on``; with ``CHIST``, pair ``k``'s history row
-    ``chist[k]`` goes to the evaluator in ``hrow`` and back to ``chist[k]`` when ``commit``;
-    ``caps[k]`` gets the evaluator's ``res[3]`` (1: the law capped the normal force) where
-    ``caps`` is not empty; ``g[G_DTM]`` from ``dmob`` and the step ``dt`` [s]
-    (:mod:`siku_core.damping`; 0 where ``dmob`` is empty).
+    ``blk``, ``BLK_*``) into ``pt.rows`` and ``pt.active``; with ``CHIST``, pair ``k``'s
+    history row ``pt.chist[k]`` goes to the evaluator in ``hrow`` and back to ``pt.chist[k]``
+    when ``commit``; ``pt.caps[k]`` gets the evaluator's ``res[3]`` (1: the law capped the
+    normal force) where ``pt.caps`` is not empty; ``g[G_DTM]`` from ``el.dmob`` and the step
+    ``dt`` [s] (:mod:`siku_core.damping`; 0 where ``el.dmob`` is empty).
     Apart from the geometry that finds them, a contact's evaluation is a chain of dependent
     square roots and divisions (lever arms, stiffness, damping); evaluated in a loop of their
     own, the chains of consecutive contacts overlap in the processor instead of waiting for the
     next pair's clip."""
+    V = el.V
+    w = el.w
+    minv = el.minv
+    h = el.h
+    E = el.E
+    area = el.area
+    dmob = el.dmob
+    pairs = pt.pairs
+    out = pt.rows
+    active = pt.active
+    chist = pt.chist
+    caps = pt.caps
     inv_r = 1.0 / R
     for n in range(nb):
         b = n * BLK_SIZE
@@ -332,19 +347,30 @@ def _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res
 
 
 @njit(cache=CACHE, _nrt=NRT)
-def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
-                     pretest, out, active, lo, hi, xy, tag, proj, g, res, margin, hint, drop, face,
-                     scale, blk, edges, chist, commit, hrow, caps, chint, dmob, dt):
+def _collision_chunk(pars, el, pt, R, dt, pretest, drop, commit, lo, hi, buffers):
     """Pairs ``lo <= k < hi`` of :func:`~siku_core.contacts.collision_forces`; returns how
-    many overlap. ``xy``, ``tag``, ``proj``, ``g``, ``res``, ``blk``: the task's buffers
-    (clipping, partner vertices, geometry, result, a block of overlaps waiting for
-    :func:`_collision_block`); ``chist``, ``commit``, ``hrow``: the per-contact history
-    (``CHIST``), whether it changes, the task's row buffer; ``caps``: per pair, whether the
-    law capped its normal force (empty: not kept); ``chint``: the pairs' crossing edges for
-    the coherent clip (``geometry.coherent``; empty: the clip in full); ``dmob``, ``dt``: the
-    dampers' bound (:func:`_collision_block`). One compiled loop on
+    many overlap. ``el``, ``pt``: the elements and the pair table (records of
+    :mod:`siku_core.contact_tables`; ``pt.chist``, ``commit``: the per-contact history
+    (``CHIST``) and whether it changes; ``pt.caps``: per pair, whether the law capped its
+    normal force (empty: not kept); ``pt.chint``: the pairs' crossing edges for the coherent
+    clip (``geometry.coherent``; empty: the clip in full); ``el.dmob``, ``dt``: the dampers'
+    bound, :func:`_collision_block`). ``buffers``: the task's ``xy``, ``tag``, ``proj``,
+    ``g``, ``res``, ``blk``, ``hrow`` (clipping, partner vertices, geometry, result, a block
+    of overlaps waiting for :func:`_collision_block`, the history row). One compiled loop on
     purpose: the geometry, the pretest and the block hand-off share the task's buffers, and a
     split would cost calls in the hot loop."""
+    xy, tag, proj, g, res, blk, hrow = buffers
+    rm = el.rm
+    offsets = el.offsets
+    verts = el.verts
+    margin = el.margin
+    scale = el.scale
+    edges = el.edges
+    pairs = pt.pairs
+    active = pt.active
+    hint = pt.hint
+    face = pt.face
+    chint = pt.chint
     inv_r = 1.0 / R
     no = 0
     nb = 0
@@ -423,12 +449,10 @@ def _collision_chunk(pars, rm, V, w, minv, h, E, area, offsets, verts, pairs, R,
             blk[b + BLK_M + m] = M[m]
         nb += 1
         if nb == CBLOCK:
-            _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res,
-                             blk, nb, chist, commit, hrow, caps, dmob, dt)
+            _collision_block(pars, el, pt, R, dt, commit, g, res, blk, nb, hrow)
             no += nb
             nb = 0
     if nb:
-        _collision_block(pars, V, w, minv, h, E, area, pairs, R, out, active, g, res, blk,
-                         nb, chist, commit, hrow, caps, dmob, dt)
+        _collision_block(pars, el, pt, R, dt, commit, g, res, blk, nb, hrow)
         no += nb
     return no

@@ -19,6 +19,7 @@ from .contact_frames import (
     rotations_within,
 )
 from .contact_joints import JointBook
+from .contact_tables import ContactTables
 from .contact_law import (
     BREAK_MODES,
     ContactLaw,
@@ -42,7 +43,7 @@ from .state import FREE, MELTED, ElementState
 from .testing import switches
 
 
-class ContactModel(JointBook):
+class ContactModel(ContactTables, JointBook):
     """Contacts of one run: joints (SoA), candidate pairs (reused within a skin), the law.
 
     Arrays are allocated here only, so a scene without a ``[contact]`` table has none. Per
@@ -285,17 +286,11 @@ class ContactModel(JointBook):
         within = self._rotations(q)
         t1 = clock()
         joints = self.n_joints and law.uses_joints
-        dmob = self.damping_mobility()
+        el = self.element_table(V, w)
         dt = self.time_step()
         if joints:
-            broke = joint_forces(
-                self._jev, self._jpars, self.rm, V, w, st.thickness, self.E,
-                self.nu, self.ji, self.jj, self.ends_i, self.ends_j, self.L0, self.width,
-                self._jK, self._jmeff, self.intact, self.break_mode, self.hist, R,
-                dt, commit, self.joint_rows, self.joint_active,
-                chunks(self.n_joints), self._jscratch if self._joints_stale else None, self.arms,
-                dmob,
-            )
+            broke = joint_forces(self._jev, self._jpars, el, self.joint_table(), R, dt, commit,
+                                 chunks(self.n_joints))
             self._joints_stale = False
             if commit and broke:
                 self.n_broken_total += broke
@@ -304,15 +299,9 @@ class ContactModel(JointBook):
         pairs = self._candidates(q, within)
         t3 = clock()
         if len(pairs):
-            n = collision_forces(
-                self._cev, self._cpars, self.rm, V, w, self.minv, st.thickness,
-                self.E, st.area, st.vert_offsets, st.verts, pairs, R, self.nmax,
-                switches.pretest, self.pair_rows, self.pair_active, chunks(len(pairs)), self.margin,
-                self.separating_hint, self.drop_touching, self.pface, self.scale, self.edges,
-                self.chist if self.n_contact_hist else None, commit,
-                self.pair_capped if self.caps_kept else None,
-                self.clip_hint if len(self.clip_hint) else None, dmob, dt,
-            )
+            n = collision_forces(self._cev, self._cpars, el, self.pair_table(pairs), R,
+                                 self.nmax, switches.pretest, chunks(len(pairs)),
+                                 self.drop_touching, commit, dt)
             if commit:
                 self.n_overlap = n
                 if self.n_contact_hist:  # a pair out of contact forgets its history
@@ -327,8 +316,7 @@ class ContactModel(JointBook):
         if joints or n:
             nch = chunks(st.n, GATHER_NS)
             with alone(nch):
-                gather_forces(F, T, self.joff, self.jidx, self.jside, self.joint_rows,
-                              self.joint_active, self.poff, self.pidx, self.pside,
+                gather_forces(F, T, self.contact_index(), self.joint_rows, self.joint_active,
                               self.pair_rows, self.pair_active, nch)
         t5 = clock()
         tm["joints"] += t2 - t1
@@ -374,13 +362,12 @@ class ContactModel(JointBook):
             elements = self._no_elements
         if len(self.arms[0]) != len(self.ji):
             self.arms = joint_arms(self.ends_i, self.ends_j)
-        ri, rj = self.arms
         if len(self._jscratch) != 2 * st.n:
             self._jscratch = np.empty(2 * st.n)
         jK, jmeff = (self._jK, self._jmeff) if full else (self.jK, self.jmeff)
+        jt = self.joint_table(fresh=True)._replace(K=jK, meff=jmeff)
         follow_contacts(elements, len(elements), full, False, st.thickness, self.E, st.m,
-                        st.flags, self.minv, self.ji, self.jj, ri, rj, jK, jmeff, self.joff,
-                        self.jidx, self._jscratch)
+                        st.flags, self.minv, jt, self.contact_index())
         if full:
             self._joints_stale = True
         if not flags:

@@ -127,17 +127,26 @@ def joints_from(lo, hi, fresh, ji, jj, ri, rj, jK, jmeff):
 
 
 @njit(cache=True, error_model="numpy")
-def follow_contacts(idx, nc, full, joints, h, E, m, flags, minv, ji, jj, ri, rj, jK, jmeff,
-                    joff, jidx, fresh):
+def follow_contacts(idx, nc, full, joints, h, E, m, flags, minv, jt, index):
     """The contact model's constants of the elements ``idx[:nc]``: inverse mass ``minv``
-    [1/kg] (0 for an element that is not free) and the eq. 9 stiffness ``jK`` [Pa] and reduced
-    mass ``jmeff`` [kg] of their joints (lever arms ``ri``, ``rj`` [m]), found through the
-    element-to-joint index ``joff, jidx``. ``full``: of every element and joint instead, in
-    two passes: per element, on vectors, what a joint gathers (``fresh``, two values per
+    [1/kg] (0 for an element that is not free) and the eq. 9 stiffness ``jt.K`` [Pa] and
+    reduced mass ``jt.meff`` [kg] of their joints (lever arms ``jt.ri``, ``jt.rj`` [m]), found
+    through the element-to-joint index ``index.joff, index.jidx``; thickness ``h`` [m],
+    Young's modulus ``E`` [Pa], mass ``m`` [kg], ``flags`` per element. ``jt``, ``index``:
+    the joint table and the element-to-contact index
+    (:mod:`siku_core.contact_tables`). ``full``: of every element and joint instead, in two
+    passes: per element, on vectors, what a joint gathers (``jt.fresh``, two values per
     element: ``h E`` and the inverse mass a joint counts), then per joint
     (:func:`joints_from`), which ``joints = False`` leaves to the joint loop
     (:meth:`~siku_core.contact_model.ContactModel.ice_changed`). (A candidate pair's reduced
     mass is computed by the collision loop from ``minv``.)"""
+    ji = jt.ji
+    jj = jt.jj
+    ri = jt.ri
+    rj = jt.rj
+    jK = jt.K
+    jmeff = jt.meff
+    fresh = jt.fresh
     if full:
         n = m.shape[0]
         for e in range(n):
@@ -149,6 +158,8 @@ def follow_contacts(idx, nc, full, joints, h, E, m, flags, minv, ji, jj, ri, rj,
         if joints:
             joints_from(0, ji.shape[0], fresh, ji, jj, ri, rj, jK, jmeff)
         return
+    joff = index.joff
+    jidx = index.jidx
     for a in range(nc):
         e = idx[a]
         minv[e] = 1.0 / m[e] if flags[e] == FREE else 0.0

@@ -36,6 +36,7 @@ from numba import njit
 from siku_core import DataError, Param, SceneError, hookimpl
 from siku_core.geometry.quat import east_north_row
 from siku_core.interfaces import ForcingSource
+from siku_core.records import record_type
 from siku_core.state import FREE
 from siku_forcing.drag import drag_stability_limit, quadratic_drag
 from siku_forcing.waves import WATER_DRAG_PARAMS, drag_coefficient
@@ -130,11 +131,53 @@ def cell_gradient(grid: Grid, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return gx, gy
 
 
+#: the element–cell pairs of the exchange grid (:meth:`Exchange.refresh`, their producer)
+CellOverlap = record_type("CellOverlap", __name__, [
+    ("el", "i", 1, "element of each pair"),
+    ("cell", "i", 1, "flat cell index (row-major over (ny, nx)) of each pair"),
+    ("frac", "f", 1, "share of the element's area in the cell [1]"),
+    ("ca", "f", 1, "cosine of the grid's x axis from east at the element's centre [1]"),
+    ("sa", "f", 1, "sine of that angle [1]"),
+], "The element–cell pairs of the exchange grid.")
+
+#: the per-cell fields the pair forces read and the per-cell force record they add to
+#: (:meth:`Exchange.add`, their producer), flat ``ny * nx`` arrays each
+CellFields = record_type("CellFields", __name__, [
+    ("gx", "f", 1, "slope of the sea surface along x [1]"),
+    ("gy", "f", 1, "slope along y [1]"),
+    ("wu", "f", 1, "water velocity along x [m/s]"),
+    ("wv", "f", 1, "water velocity along y [m/s]"),
+    ("tx", "f", 1, "force per area on the ice along x [N/m^2]"),
+    ("ty", "f", 1, "force per area along y [N/m^2]"),
+    ("au", "f", 1, "wind velocity along x [m/s]"),
+    ("av", "f", 1, "wind velocity along y [m/s]"),
+    ("fx", "f", 1, "sum of the pair forces on free elements along x [N] (recorded)"),
+    ("fy", "f", 1, "the same along y [N]"),
+], "The per-cell fields of the exchange grid and its per-cell force record.")
+
+
 @njit(cache=True)
-def _pair_forces(q, V, m, area, free, el, cell, frac, ca, sa, gx, gy, wu, wv, tx, ty, au, av,
-                 g, drag_coef, air_coef, F, cfx, cfy, record):
-    """Pair forces of the module docstring (grid components), added to ``F`` (local frames)
-    and, if ``record``, to the per-cell sums ``cfx, cfy``."""
+def _pair_forces(q, V, m, area, free, ov, cf, g, drag_coef, air_coef, F, record):
+    """Pair forces of the module docstring (grid components) of the element–cell pairs ``ov``
+    (:data:`CellOverlap`) from the cell fields ``cf`` (:data:`CellFields`), added to ``F`` [N]
+    (local frames) and, if ``record``, to the per-cell sums ``cf.fx, cf.fy``. Elements:
+    quaternions ``q``, velocities ``V`` [m/s], masses ``m`` [kg], areas ``area`` [m²], ``free``
+    flags; ``g`` [m/s²]; ``drag_coef`` ``rho_w C`` and ``air_coef`` ``rho_a C_a`` [kg/m³]."""
+    el = ov.el
+    cell = ov.cell
+    frac = ov.frac
+    ca = ov.ca
+    sa = ov.sa
+    gx = cf.gx
+    gy = cf.gy
+    wu = cf.wu
+    wv = cf.wv
+    tx = cf.tx
+    ty = cf.ty
+    au = cf.au
+    av = cf.av
+    cfx = cf.fx
+    cfy = cf.fy
     for p in range(el.shape[0]):
         e = el[p]
         c = cell[p]
@@ -214,8 +257,8 @@ class Exchange(ForcingSource):
 
         lat, lon = latlon_of(self.st.q)
         a = self.grid.axes(np.degrees(lon), np.degrees(lat))[el]
-        self.pairs = (np.ascontiguousarray(el), np.ascontiguousarray(cell),
-                      np.ascontiguousarray(frac), np.cos(a), np.sin(a))
+        self.pairs = CellOverlap(el=np.ascontiguousarray(el), cell=np.ascontiguousarray(cell),
+                                 frac=np.ascontiguousarray(frac), ca=np.cos(a), sa=np.sin(a))
         self.cell_force[:] = 0.0
         self.recorded = 0
         self.inputs_changed()
@@ -235,18 +278,19 @@ class Exchange(ForcingSource):
         p = self.p
         f = self.fields
         record = bool(self.ctx.committing)
-        _pair_forces(q, V, self.st.m, self.st.area, self.free, *self.pairs,
-                     self._gx if p["slope"] else np.zeros_like(self._gx),
-                     self._gy if p["slope"] else np.zeros_like(self._gy),
-                     np.ascontiguousarray(f["water_u"].ravel()),
-                     np.ascontiguousarray(f["water_v"].ravel()),
-                     np.ascontiguousarray(f["tau_x"].ravel()),
-                     np.ascontiguousarray(f["tau_y"].ravel()),
-                     np.ascontiguousarray(f["wind_u"].ravel()),
-                     np.ascontiguousarray(f["wind_v"].ravel()), float(p["g"]),
+        cf = CellFields(
+            gx=self._gx if p["slope"] else np.zeros_like(self._gx),
+            gy=self._gy if p["slope"] else np.zeros_like(self._gy),
+            wu=np.ascontiguousarray(f["water_u"].ravel()),
+            wv=np.ascontiguousarray(f["water_v"].ravel()),
+            tx=np.ascontiguousarray(f["tau_x"].ravel()),
+            ty=np.ascontiguousarray(f["tau_y"].ravel()),
+            au=np.ascontiguousarray(f["wind_u"].ravel()),
+            av=np.ascontiguousarray(f["wind_v"].ravel()),
+            fx=self.cell_force[0], fy=self.cell_force[1])
+        _pair_forces(q, V, self.st.m, self.st.area, self.free, self.pairs, cf, float(p["g"]),
                      self.C * p["rho"] if p["drag"] else 0.0, p["rho_air"] * p["C_air"], F,
-                     self.cell_force[0],
-                     self.cell_force[1], record)
+                     record)
         if record:
             self.recorded += 1
 

@@ -51,15 +51,21 @@ MC = MOHR_COULOMB_RECORD.index
 
 
 @njit(cache=True, inline="always")
-def _mc_all_hold(hist, nseg, EL, GL, s1x, s1y, s2x, s2y, nx, ny, tx, ty, sigt, sigc, tanphi):
+def _mc_all_hold(hist, nseg, EL, GL, s, frame, strength):
     """Every segment of a Mohr–Coulomb joint is intact and holds, decided from the two end
-    segments: the displacement, and so ``sigma_n = EL d·n`` and ``sigma_s = GL d·t`` (``EL =
-    E_s / L0``, ``GL = G_s / L0``), are linear in the position ``z`` along the joint, and each
+    segments: the displacement (``s = (s1x, s1y, s2x, s2y)`` [m], at the first and the last
+    end), and so ``sigma_n = EL d·n`` and ``sigma_s = GL d·t`` (``EL = E_s / L0``, ``GL = G_s
+    / L0`` [Pa/m]; ``frame = (nx, ny, tx, ty)``, the joint's unit normal and tangent), are
+    linear in the position ``z`` along the joint, and each
     failure function (``sigma_n - sigma_t``, ``-sigma_n - sigma_c``, ``|sigma_s| -
     tan(phi)(sigma_t - sigma_n)``) is convex in ``z``, so its largest value over the segment
     centres is at the first or the last. A margin of ``1e-9`` of the strength covers the
     round-off between the segments' own arithmetic and the ends'; a joint within that margin
-    of failing takes the segment loop."""
+    of failing takes the segment loop. ``strength``: ``(sigma_t, sigma_c, tan(phi))`` [Pa, Pa,
+    1]."""
+    s1x, s1y, s2x, s2y = s
+    nx, ny, tx, ty = frame
+    sigt, sigc, tanphi = strength
     for k in range(nseg):
         if hist[k] != 0.0:
             return False
@@ -159,8 +165,8 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
     ci = 0.0
     nfailed = 0
     mode = BREAK_STRAIN
-    if _mc_all_hold(hist, nseg, EL, GL, s1x, s1y, s2x, s2y, nx, ny, tx, ty, sigt, sigc,
-                    tanphi):
+    if _mc_all_hold(hist, nseg, EL, GL, (s1x, s1y, s2x, s2y), (nx, ny, tx, ty),
+                    (sigt, sigc, tanphi)):
         # every segment intact and safely inside the criterion: the sums over the segments
         # in closed form (the stresses are linear along the joint; see _mc_all_hold)
         dn1 = s1x * nx + s1y * ny

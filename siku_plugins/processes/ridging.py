@@ -51,22 +51,81 @@ from siku_core.interfaces import Process
 from siku_core.limits import check_count, most_count
 from siku_core.parallel import alone, chunk_bounds, chunks
 from siku_core.params import Param
+from siku_core.records import record_type
 from siku_core.state import MELTED
 
 #: the contact law parameters the process needs (those of the ``ridging`` law)
 LAW_KEYS = ("strength", "raft_thickness", "raft_strength")
 
 
+#: the contact model's candidate pairs as the process reads them (:meth:`Ridging.apply`)
+RidgeContacts = record_type("RidgeContacts", __name__, [
+    ("pairs", "i", 2, "the candidate pairs (i, j)"),
+    ("active", "i", 1, "1 where the pair overlapped at the last evaluation"),
+    ("caps", "i", 1, "1 where the law capped the pair's normal force at the plastic limit"),
+    ("poff", "i", 1, "element e's pairs are pidx[poff[e]:poff[e+1]]"),
+    ("pidx", "i", 1, "pair of each entry"),
+], "The candidate pairs the ridging kernels read.")
+
+#: the pairs the process remembers (:class:`Ridging`, their producer)
+RidgeMemory = record_type("RidgeMemory", __name__, [
+    ("keys", "i", 1, "sorted pair keys min(i, j) N + max(i, j), -1 beyond the count"),
+    ("converted", "f", 1, "overlap area of each already converted [m^2]"),
+], "The pairs being converted.")
+
+#: the candidates of one application (:class:`Ridging`, their producer; one entry per pair)
+RidgeCandidates = record_type("RidgeCandidates", __name__, [
+    ("cand", "i", 1, "the candidate pairs, first ones"),
+    ("known_at", "i", 1, "each candidate's place among the remembered pairs, -1: none"),
+    ("geo", "f", 1, "each candidate's overlap area [m^2] (pair_geometry)"),
+    ("mark", "i", 1, "scratch, -1 between calls"),
+], "The candidates of one application of ridging.")
+
+#: the volume transfers of one application (scratch, one entry per remembered pair)
+RidgeTransfers = record_type("RidgeTransfers", __name__, [
+    ("new_keys", "i", 1, "the keys remembered from now on"),
+    ("new_conv", "f", 1, "their converted areas [m^2]"),
+    ("giver", "i", 1, "element giving ice in each transfer"),
+    ("carrier", "i", 1, "element receiving it"),
+    ("moved", "f", 1, "volume moved [m^3]"),
+    ("rafts", "b", 1, "whether the transfer rafts (else ridges)"),
+], "The ridging kernels' scratch of volume transfers.")
+
+#: the ice the process changes (:meth:`Ridging.apply`, their producer)
+RidgeIce = record_type("RidgeIce", __name__, [
+    ("thickness", "f", 1, "thickness [m] (updated)"),
+    ("area", "f", 1, "area [m^2]"),
+    ("flags", "i", 1, "element flags (siku_core.state)"),
+    ("ridged", "f", 1, "ice volume received by ridging [m^3] (updated)"),
+    ("rafted", "f", 1, "ice volume received by rafting [m^3] (updated)"),
+    ("fraction", "f", 2, "category fractions a_k [1], (n, K); K = 0: no categories"),
+    ("hk", "f", 2, "category thicknesses h_k [m], (n, K) (updated)"),
+    ("loss", "f", 1, "scratch per element [m^3], zero (empty without categories)"),
+    ("gain", "f", 1, "scratch per element [m^3], zero (empty without categories)"),
+    ("row", "f", 1, "scratch, one category row (K)"),
+], "The per-element data ridging reads and changes.")
+
+
 @njit(cache=True)
-def ridge_candidates(pairs, active, caps, flags, keys, count, poff, pidx, q, rm, mark, cand,
-                     known_at):
-    """The colliding pairs (``active[k] == 1``) the process looks at, in ascending ``k``, into
-    ``cand``: the remembered ones (their place in the first ``count`` sorted ``keys`` goes to
-    ``known_at``, -1 for the others, found through the element-to-pair index ``poff, pidx``)
-    and those without a melted element whose normal force the law capped at the plastic limit
-    in the last evaluation (``caps[k] == 1``, kept by the contact model:
-    ``ctx.contacts.keep_caps``); their elements' rotation matrices ``rm`` from ``q``. ``mark``
-    (one per pair, -1) is scratch, left -1. Returns the number of candidates."""
+def ridge_candidates(cp, mem, count, flags, q, rm, cd):
+    """The colliding pairs (``cp.active[k] == 1``; ``cp``: :data:`RidgeContacts`) the process
+    looks at, in ascending ``k``, into ``cd.cand`` (``cd``: :data:`RidgeCandidates`): the
+    remembered ones (their place in the first ``count`` sorted ``mem.keys`` goes to
+    ``cd.known_at``, -1 for the others, found through the element-to-pair index ``cp.poff,
+    cp.pidx``) and those without a melted element (``flags``) whose normal force the law
+    capped at the plastic limit in the last evaluation (``cp.caps[k] == 1``, kept by the
+    contact model: ``ctx.contacts.keep_caps``); their elements' rotation matrices ``rm`` from
+    ``q``. ``cd.mark`` (one per pair, -1) is scratch, left -1. Returns the number of
+    candidates."""
+    pairs = cp.pairs
+    active = cp.active
+    caps = cp.caps
+    poff = cp.poff
+    pidx = cp.pidx
+    keys = mem.keys
+    mark = cd.mark
+    cand = cd.cand
+    known_at = cd.known_at
     n = flags.shape[0]
     for r in range(count):
         i = keys[r] // n
@@ -122,23 +181,44 @@ def pair_geometry(rm, offsets, verts, pairs, cand, nc, R, nmax, geo, nch):
 
 
 @njit(cache=True)
-def ridge_pairs(pairs, caps, cand, known_at, nc, geo, thickness, area, flags, raft_h, keys,
-                converted, count, new_keys, new_conv, giver, carrier, moved, rafts, ridged, rafted,
-                fraction, hk, loss, gain, scratch):
-    """One application of the process (module docstring) to the candidate pairs ``cand[:nc]``
-    of the contact model (:func:`ridge_candidates`; ``known_at``: their place among the
-    remembered ones or -1), their overlap areas in ``geo`` (:func:`pair_geometry`), ``caps``
-    whether the law capped each pair's normal force in the last evaluation, in place:
-    ``thickness``, ``ridged``, ``rafted`` and the remembered pairs (sorted ``keys``,
-    ``converted``, the first ``count``); ice thinner than ``raft_h`` (the law's
-    ``raft_thickness``, m) rafts. Returns the number of pairs remembered now, or minus it (and
-    nothing changed) when that exceeds ``len(keys)``.
+def ridge_pairs(cp, cd, nc, ice, raft_h, mem, count, tr):
+    """One application of the process (module docstring) to the candidate pairs
+    ``cd.cand[:nc]`` of the contact model ``cp`` (:func:`ridge_candidates`; ``cd.known_at``:
+    their place among the remembered ones or -1), their overlap areas in ``cd.geo``
+    (:func:`pair_geometry`), ``cp.caps`` whether the law capped each pair's normal force in
+    the last evaluation, in place: ``ice.thickness``, ``ice.ridged``, ``ice.rafted``
+    (:data:`RidgeIce`) and the remembered pairs (sorted ``mem.keys``, ``mem.converted``, the
+    first ``count``); ice thinner than ``raft_h`` (the law's ``raft_thickness``, m) rafts.
+    Returns the number of pairs remembered now, or minus it (and nothing changed) when that
+    exceeds ``len(mem.keys)``.
 
     The transfers apply in pair order, every loss first, then every gain (the order of the
-    former ``np.subtract.at`` and ``np.add.at``). With thickness categories (``fraction``,
-    ``hk`` ``(n, K)``; ``K = 0``: none) each element that gave or carried has its categories
-    changed by :func:`_ridge_categories`. ``new_keys`` ... ``rafts`` (``len(keys)`` each),
-    ``loss``, ``gain`` (``n``, zero) and ``scratch`` (``K``) are scratch."""
+    former ``np.subtract.at`` and ``np.add.at``). With thickness categories (``ice.fraction``,
+    ``ice.hk`` ``(n, K)``; ``K = 0``: none) each element that gave or carried has its
+    categories changed by :func:`_ridge_categories`. ``tr`` (:data:`RidgeTransfers`,
+    ``len(mem.keys)`` each), ``ice.loss``, ``ice.gain`` (``n``, zero) and ``ice.row`` (``K``)
+    are scratch."""
+    pairs = cp.pairs
+    caps = cp.caps
+    cand = cd.cand
+    known_at = cd.known_at
+    geo = cd.geo
+    thickness = ice.thickness
+    area = ice.area
+    flags = ice.flags
+    ridged = ice.ridged
+    rafted = ice.rafted
+    fraction = ice.fraction
+    hk = ice.hk
+    scratch = ice.row
+    keys = mem.keys
+    converted = mem.converted
+    new_keys = tr.new_keys
+    new_conv = tr.new_conv
+    giver = tr.giver
+    carrier = tr.carrier
+    moved = tr.moved
+    rafts = tr.rafts
     cap = keys.shape[0]
     n = thickness.shape[0]
     m = 0  # pairs remembered from now on
@@ -196,8 +276,7 @@ def ridge_pairs(pairs, caps, cand, known_at, nc, geo, thickness, area, flags, ra
         else:
             ridged[carrier[t]] += moved[t]
     if hk.shape[1]:
-        _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, loss, gain,
-                          scratch)
+        _ridge_categories(tr, nt, ice)
     if not ordered:
         order = np.argsort(new_keys[:m])
         new_keys[:m] = new_keys[:m][order]
@@ -210,14 +289,24 @@ def ridge_pairs(pairs, caps, cand, known_at, nc, geo, thickness, area, flags, ra
 
 
 @njit(cache=True)
-def _ridge_categories(giver, carrier, moved, nt, thickness, area, fraction, hk, loss, gain,
-                      scratch):
-    """The categories of the elements of the first ``nt`` transfers (module docstring): a
+def _ridge_categories(tr, nt, ice):
+    """The categories of the elements of the first ``nt`` transfers ``tr`` (module docstring;
+    ``ice``: :data:`RidgeIce`): a
     giver's ice thins in proportion, ``h_k *= (v - L / A) / v`` (``L`` [m³] all it gave, ``v =
     sum a_k h_k``), a carrier's gain ``G`` [m³] piles onto its thickest category ``m`` (the
     largest ``h_k`` with ``a_k > 0``), ``h_m += G / (a_m A)``, so that the element's volume
     ``A sum(a_k h_k)`` changes by exactly ``G - L``; the fractions do not change. The thickness
-    becomes the categories' mean. ``loss``, ``gain`` are left zero."""
+    becomes the categories' mean. ``ice.loss``, ``ice.gain`` are left zero."""
+    giver = tr.giver
+    carrier = tr.carrier
+    moved = tr.moved
+    thickness = ice.thickness
+    area = ice.area
+    fraction = ice.fraction
+    hk = ice.hk
+    loss = ice.loss
+    gain = ice.gain
+    scratch = ice.row
     for t in range(nt):
         loss[giver[t]] += moved[t]
         gain[carrier[t]] += moved[t]
@@ -294,8 +383,10 @@ class Ridging(Process):
         self._none = np.zeros((st.n, 0))
         self._empty = np.zeros(0)
         self._loss = self._gain = self._row = None
-        self._scratch = (np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.int64),
-                         np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.bool_))
+        self._scratch = RidgeTransfers(
+            new_keys=np.empty(n, dtype=np.int64), new_conv=np.empty(n),
+            giver=np.empty(n, dtype=np.int64), carrier=np.empty(n, dtype=np.int64),
+            moved=np.empty(n), rafts=np.empty(n, dtype=np.bool_))
 
     def apply(self, ctx, dt: float) -> None:
         if dt <= 0.0:
@@ -310,19 +401,22 @@ class Ridging(Process):
             self._mark = np.full(size, -1, dtype=np.int64)
             self._cand = np.empty(size, dtype=np.int64)
             self._known_at = np.empty(size, dtype=np.int64)
-        nc = ridge_candidates(cm.pairs, cm.pair_active, cm.pair_capped, st.flags, self.keys,
-                              self.count, cm.pair_offsets, cm.pair_index, st.q, self._rm,
-                              self._mark, self._cand, self._known_at)
+        cp = RidgeContacts(pairs=cm.pairs, active=cm.pair_active, caps=cm.pair_capped,
+                           poff=cm.pair_offsets, pidx=cm.pair_index)
+        mem = RidgeMemory(keys=self.keys, converted=self.converted)
+        cd = RidgeCandidates(cand=self._cand, known_at=self._known_at, geo=self._geo,
+                             mark=self._mark)
+        nc = ridge_candidates(cp, mem, self.count, st.flags, st.q, self._rm, cd)
         if nc:
             nch = chunks(nc)
             with alone(nch):
                 pair_geometry(self._rm, st.vert_offsets, st.verts, cm.pairs, self._cand, nc,
                               float(ctx.radius), self._nmax, self._geo, nch)
-        m = ridge_pairs(cm.pairs, cm.pair_capped, self._cand, self._known_at, nc, self._geo,
-                        st.thickness, st.area, st.flags, self.raft_h, self.keys,
-                        self.converted, self.count, *self._scratch,
-                        ctx.fields["ridged_volume"], ctx.fields["rafted_volume"],
-                        *self._categories(ctx))
+        fraction, hk, loss, gain, row = self._categories(ctx)
+        ice = RidgeIce(thickness=st.thickness, area=st.area, flags=st.flags,
+                       ridged=ctx.fields["ridged_volume"], rafted=ctx.fields["rafted_volume"],
+                       fraction=fraction, hk=hk, loss=loss, gain=gain, row=row)
+        m = ridge_pairs(cp, cd, nc, ice, self.raft_h, mem, self.count, self._scratch)
         if m < 0:
             raise SceneError(f"{ctx.where(self.table)}: more than {len(self.keys)} ridging pairs; "
                              "raise the process's capacity" + most_count(64.0, st.n))

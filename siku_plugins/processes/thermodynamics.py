@@ -62,6 +62,7 @@ from siku_core.errors import DataError, SceneError
 from siku_core.ice import ElementField
 from siku_core.interfaces import Process
 from siku_core.params import Param
+from siku_core.records import record_type
 from siku_core.state import MELTED
 
 #: temperature units a file may declare, by what they mean
@@ -96,14 +97,61 @@ def _grow_one(h0, dT, dt, rho, F, L, hs, ki, ks):
     return (-b + np.sqrt(b * b + 4.0 * a * c)) / (2.0 * a) - melt
 
 
+#: the element data of the process (:meth:`Thermodynamics.apply`, their producer)
+ThermoIce = record_type("ThermoIce", __name__, [
+    ("h", "f", 1, "thickness [m] (updated)"),
+    ("flags", "i", 1, "element flags (siku_core.state)"),
+    ("area", "f", 1, "area [m^2]"),
+    ("rho", "f", 1, "density [kg/m^3]"),
+    ("fraction", "f", 2, "category fractions a_k [1], (n, K); K = 0: no categories "
+                         "(updated by lateral growth)"),
+    ("hk", "f", 2, "category thicknesses h_k [m], (n, K) (updated)"),
+    ("grown", "f", 1, "ice volume grown since the start [m^3] (updated)"),
+    ("rate", "f", 1, "growth rate of the last step [m/s] (written)"),
+    ("lateral_volume", "f", 1, "ice volume grown in open water [m^3] (updated; empty "
+                               "without lateral growth)"),
+], "The per-element data the thermodynamics kernels read and write.")
+
+#: the law's constants (scalars), :meth:`Thermodynamics.apply`
+SemtnerParams = record_type("SemtnerParams", __name__, [
+    ("F", "n", 0, "ocean heat flux F_w [W/m^2]"),
+    ("L", "n", 0, "latent heat of fusion L_f [J/kg]"),
+    ("hs", "n", 0, "snow depth h_s [m]"),
+    ("ki", "n", 0, "ice conductivity k_i [W/(m K)]"),
+    ("ks", "n", 0, "snow conductivity k_s [W/(m K)]"),
+    ("hmin", "n", 0, "thickness below which an element has melted away [m]"),
+], "The constants of zero-layer growth and melt.")
+
+#: the kernels' scratch and results (allocated once by the process, their producer)
+ThermoWork = record_type("ThermoWork", __name__, [
+    ("gone", "i", 1, "the elements that melted away in the step, first ones (n)"),
+    ("new", "f", 1, "a category row of new thicknesses [m] (K)"),
+    ("scratch", "f", 1, "a category row [m] (K)"),
+    ("grow", "f", 1, "new thickness of every element without categories [m] (n; K > 0: "
+                     "empty)"),
+], "The thermodynamics kernels' scratch.")
+
+
 @njit(cache=True, error_model="numpy")
-def _grow_all(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, grown, rate, out):
+def _grow_all(ice, dT, dt, par, out):
     """Every element without categories in one pass without branches, on vectors of elements
-    (the arithmetic of :func:`semtner_step` per element): thickness ``h`` [m], ``grown``
-    [m³] and ``rate`` [m/s] of the elements that are not melted (``rate`` 0 for those that
-    are); an element thinner than ``hmin`` [m] after the step keeps its thickness and counts
-    ``-A h`` as grown. ``out[e]``: the new thickness before that test. Returns how many melted
-    away now."""
+    (the arithmetic of :func:`semtner_step` per element): thickness ``ice.h`` [m],
+    ``ice.grown`` [m³] and ``ice.rate`` [m/s] of the elements that are not melted (``rate`` 0
+    for those that are); an element thinner than ``par.hmin`` [m] after the step keeps its
+    thickness and counts ``-A h`` as grown. ``out[e]``: the new thickness before that test.
+    Returns how many melted away now."""
+    h = ice.h
+    flags = ice.flags
+    area = ice.area
+    rho = ice.rho
+    grown = ice.grown
+    rate = ice.rate
+    F = par.F
+    L = par.L
+    hs = par.hs
+    ki = par.ki
+    ks = par.ks
+    hmin = par.hmin
     ng = 0
     s = 1 if dT.shape[0] > 1 else 0  # dT per element, or one for all
     for e in range(h.shape[0]):
@@ -121,19 +169,37 @@ def _grow_all(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, grown, rate, 
 
 
 @njit(cache=True, error_model="numpy")
-def semtner_step(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, fraction, hk, grown,
-                 rate, gone, new, scratch, lateral, lateral_volume, grow):
-    """One application of the process (module docstring) to every element, in place:
-    thickness ``h`` [m], category thicknesses ``hk`` (``(n, K)``; ``(n, 0)``: no categories),
-    ``grown`` [m³] and ``rate`` [m/s]; ``dT`` [K] per element (or one for all); ``gone`` gets the
-    elements that melted away, their number returned. ``new``, ``scratch``: ``K`` values each.
-    ``lateral``: ``(C_o, h_0, n)`` of the open-water growth (empty: none), which changes
-    ``fraction`` and adds to ``lateral_volume`` [m³]. ``grow``: ``n`` values (without
-    categories, :func:`_grow_all`).
+def semtner_step(ice, dT, dt, par, lateral, work):
+    """One application of the process (module docstring) to every element of ``ice``
+    (:data:`ThermoIce`), in place: thickness ``ice.h`` [m], category thicknesses ``ice.hk``
+    (``(n, K)``; ``(n, 0)``: no categories), ``ice.grown`` [m³] and ``ice.rate`` [m/s]; ``dT``
+    [K] per element (or one for all); ``dt`` [s]; ``par``: the constants
+    (:data:`SemtnerParams`); ``work.gone`` (:data:`ThermoWork`) gets the elements that melted
+    away, their number returned. ``lateral``: ``(C_o, h_0, n)`` of the open-water growth
+    (empty: none), which changes ``ice.fraction`` and adds to ``ice.lateral_volume`` [m³].
     """
+    h = ice.h
+    flags = ice.flags
+    area = ice.area
+    rho = ice.rho
+    fraction = ice.fraction
+    hk = ice.hk
+    grown = ice.grown
+    rate = ice.rate
+    lateral_volume = ice.lateral_volume
+    gone = work.gone
+    new = work.new
+    scratch = work.scratch
+    grow = work.grow
+    F = par.F
+    L = par.L
+    hs = par.hs
+    ki = par.ki
+    ks = par.ks
+    hmin = par.hmin
     K = hk.shape[1]
     if K == 0:
-        ng = _grow_all(h, flags, area, rho, dT, dt, F, L, hs, ki, ks, hmin, grown, rate, grow)
+        ng = _grow_all(ice, dT, dt, par, grow)
         if ng:  # the elements that melted away, in order
             ng = 0
             for e in range(h.shape[0]):
@@ -262,12 +328,10 @@ class Thermodynamics(Process):
         K = 0 if ctx.categories is None else ctx.categories.K
         self._none = np.zeros((st.n, 0))
         self._empty = np.zeros(0)
-        self._gone = np.empty(st.n, dtype=np.int64)
         self._dT = np.zeros(1)
-        self._rows = (np.empty(K), np.empty(K))
         self._lateral = self._lateral_vector(ctx, K)
-        #: the new thickness of every element without categories (:func:`_grow_all`)
-        self._grow = np.empty(st.n if K == 0 else 0)
+        self._work = ThermoWork(gone=np.empty(st.n, dtype=np.int64), new=np.empty(K),
+                                scratch=np.empty(K), grow=np.empty(st.n if K == 0 else 0))
         bad = st.thickness < self.p["min_thickness"]
         if bad.any():
             i = int(np.argmax(bad))
@@ -344,16 +408,17 @@ class Thermodynamics(Process):
             dT[0] = max(p["freezing_temperature"] - Ts, 0.0)
         cats = ctx.categories
         a, hk = (self._none, self._none) if cats is None else (cats.fraction, cats.thickness)
-        ng = semtner_step(st.thickness, st.flags, st.area, self.rho, dT, float(dt),
-                          float(p["ocean_heat_flux"]), float(p["latent_heat"]),
-                          float(p["snow_thickness"]), float(p["conductivity"]),
-                          float(p["snow_conductivity"]), float(p["min_thickness"]), a, hk,
-                          ctx.fields["grown_volume"], ctx.fields["growth_rate"], self._gone,
-                          *self._rows, self._lateral,
-                          ctx.fields["lateral_volume"] if len(self._lateral) else self._empty,
-                          self._grow)
+        ice = ThermoIce(
+            h=st.thickness, flags=st.flags, area=st.area, rho=self.rho, fraction=a, hk=hk,
+            grown=ctx.fields["grown_volume"], rate=ctx.fields["growth_rate"],
+            lateral_volume=ctx.fields["lateral_volume"] if len(self._lateral) else self._empty)
+        par = SemtnerParams(
+            F=float(p["ocean_heat_flux"]), L=float(p["latent_heat"]),
+            hs=float(p["snow_thickness"]), ki=float(p["conductivity"]),
+            ks=float(p["snow_conductivity"]), hmin=float(p["min_thickness"]))
+        ng = semtner_step(ice, dT, float(dt), par, self._lateral, self._work)
         if ng:
-            ctx.melt(self._gone[:ng])
+            ctx.melt(self._work.gone[:ng])
 
     def budget(self, ctx) -> float:
         return math.fsum(ctx.fields["grown_volume"])
