@@ -440,8 +440,8 @@ class Floating(Process):
                 acell=fld.amplitudes()[0], cell=fld.element_cells(ctx.state.q), kap=self.kap,
                 ext=ext)
         rec = self._wave_rec
-        w = fld.plane_waves() if fld is not None else None
-        if rec is None or rec.cell.shape[0] != n or (w is not None and rec.amp is not w.amp):
+        if rec is None or rec.cell.shape[0] != n or (fld is not None and rec.amp is not fld.amp):
+            w = fld.plane_waves() if fld is not None else None
             if w is None:
                 none = np.zeros(0)
                 rec = FloatingWave(lat0=0.0, lon0=0.0, R=1.0, depth=math.inf, ramp=0.0,
