@@ -10,6 +10,7 @@ and component; element evaluations per second of the local sea (slope, orbital v
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -39,6 +40,7 @@ def local_sea_cost(n_elements: int, nc: int, repeat: int = 5) -> float:
     """Element evaluations per second of the local sea (``Spectral._sums``) for ``nc``
     components on a 40 × 40 grid."""
     from siku_forcing.spectral import _cell_sums
+    from siku_forcing.waves import PlaneWaves
 
     rng = np.random.default_rng(1)
     ncell = 1600
@@ -49,11 +51,12 @@ def local_sea_cost(n_elements: int, nc: int, repeat: int = 5) -> float:
     lon = rng.uniform(-1e-4, 1e-4, n_elements)
     cell = rng.integers(0, ncell, n_elements)
     z = np.zeros(n_elements)
-    _cell_sums(0.0, lat, lon, cell, 0.0, 0.0, 6.371e6, amp, kx, ky, om, ph, uo, z, z, False)
+    w = PlaneWaves(lat0=0.0, lon0=0.0, R=6.371e6, depth=math.inf, amp=amp[0], kx=kx, ky=ky,
+                   omega=om, phase=ph, k=np.hypot(kx, ky), uo=uo[0])
+    _cell_sums(0.0, lat, lon, cell, w, amp, uo, z, z, False)
     t0 = time.perf_counter()
     for r in range(repeat):
-        _cell_sums(float(r), lat, lon, cell, 0.0, 0.0, 6.371e6, amp, kx, ky, om, ph, uo, z, z,
-                   False)
+        _cell_sums(float(r), lat, lon, cell, w, amp, uo, z, z, False)
     return n_elements * repeat / (time.perf_counter() - t0)
 
 

@@ -87,6 +87,7 @@ from siku_core import Param, hookimpl
 from siku_core.errors import DataError, SceneError
 from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Field
+from siku_core.records import record_type
 
 from .cf import SPEED_UNITS, classic_size, iso_seconds
 from .gridded_drag import gridded_stress
@@ -95,7 +96,28 @@ from .gridded_reader import ComponentReader, KernelGrid
 
 # the reader, the kernels and the CF rules live in .gridded_reader, .gridded_kernel and .cf;
 # names of this module's former contents that callers import from here
-__all__ = ["SPEED_UNITS", "Gridded", "classic_size", "pole_vector", "siku_register_fields"]
+__all__ = ["SPEED_UNITS", "GridSample", "Gridded", "classic_size", "pole_vector",
+           "siku_register_fields"]
+
+#: the grid and the two records around a time, as the kernels take them
+#: (:func:`siku_forcing.gridded_kernel.interpolate`, ``Gridded._records_at``)
+GridSample = record_type("GridSample", __name__, [
+    ("ylat", "f", 1, "(ny,) ascending latitudes of the grid [rad]"),
+    ("xoff", "f", 1, "(nx,) ascending longitude offsets from lon0, in [0, 2 pi) [rad]"),
+    ("lon0", "n", 0, "the grid's first longitude [rad]"),
+    ("periodic", "n", 0, "the longitudes go round the globe (the last column wraps to the "
+     "first)"),
+    ("cap_s", "n", 0, "a pole cap below the southernmost row"),
+    ("cap_n", "n", 0, "a pole cap above the northernmost row"),
+    ("U0", "f", 2, "(ny, nx) east component of the first record [m/s]"),
+    ("V0", "f", 2, "(ny, nx) north component of the first record [m/s]"),
+    ("P0", "f", 2, "(2, 2) pole vectors (W_x, W_y) of the first record, south [0] and north "
+     "[1] [m/s]"),
+    ("U1", "f", 2, "(ny, nx) east component of the second record [m/s]"),
+    ("V1", "f", 2, "(ny, nx) north component of the second record [m/s]"),
+    ("P1", "f", 2, "(2, 2) pole vectors of the second record [m/s]"),
+    ("alpha", "n", 0, "weight of the second record (1 - alpha: the first's) [1]"),
+], doc="A gridded field's grid and its two records around a time (:class:`Gridded`).")
 
 
 # --------------------------------------------------------------------------- the field
@@ -288,8 +310,9 @@ class Gridded(Field):
                 if key not in (k0, k1):
                     del self._cache[key]
         g = self.grid
-        return (g.ylat, g.xoff, math.radians(g.lon0_deg), g.periodic, g.cap_s, g.cap_n,
-                U0, V0, P0, U1, V1, P1, float(alpha))
+        return GridSample(ylat=g.ylat, xoff=g.xoff, lon0=math.radians(g.lon0_deg),
+                          periodic=g.periodic, cap_s=g.cap_s, cap_n=g.cap_n, U0=U0, V0=V0, P0=P0,
+                          U1=U1, V1=V1, P1=P1, alpha=float(alpha))
 
     def _warn_outside(self, nout, t, lat, lon) -> None:
         if nout and not self._warned:
@@ -306,7 +329,7 @@ class Gridded(Field):
         n = lat.shape[0]
         u = np.empty(n)
         v = np.empty(n)
-        nout, first = interpolate(lat, lon, *self._records_at(t), u, v)
+        nout, first = interpolate(lat, lon, self._records_at(t), u, v)
         if nout:
             self._warn_outside(nout, t, lat[first], lon[first])
         return u, v
@@ -317,8 +340,8 @@ class Gridded(Field):
         field at the centres, bit for bit); the drag sources call it."""
         nout = np.zeros(nch, dtype=np.int64)
         first = np.full(nch, -1, dtype=np.int64)
-        gridded_stress(q, V, area, rho, C, theta, subtract_ice, *self._records_at(t), F, nch,
-                       nout, first)
+        gridded_stress(q, V, area, rho, C, theta, subtract_ice, self._records_at(t), F, nch, nout,
+                       first)
         if nout.any():
             k = int(first[np.flatnonzero(nout)[0]])
             lat, lon = latlon_of(q[k:k + 1])

@@ -21,11 +21,11 @@ from .gridded_kernel import interpolate_one
 
 
 @njit(cache=True, parallel=True)
-def gridded_stress(q, V, area, rho, C, theta, subtract_ice, ylat, xoff, lon0, periodic, cap_s,
-                   cap_n, U0, V0, P0, U1, V1, P1, alpha, F, nch, nout, first):
+def gridded_stress(q, V, area, rho, C, theta, subtract_ice, g, F, nch, nout, first):
     """Add the drag ``S rho C |D| (D cos th + k × D sin th)``, ``D = U_field - subtract_ice U``
-    [N], of the field interpolated at each element's centre (records ``U0, V0`` and ``U1, V1``
-    [m/s] with weights ``1 - alpha`` and ``alpha``; grid as :func:`interpolate_one`).
+    [N], of the field interpolated at each element's centre (``g``: the grid and records
+    ``U0, V0`` and ``U1, V1`` [m/s] with weights ``1 - alpha`` and ``alpha``, a
+    :data:`siku_forcing.gridded.GridSample`; as :func:`interpolate_one`).
 
     ``nout[c]``, ``first[c]``: points of chunk ``c`` outside the grid (field zero there) and the
     first of them (-1: none).
@@ -43,8 +43,7 @@ def gridded_stress(q, V, area, rho, C, theta, subtract_ice, ylat, xoff, lon0, pe
             cz = 1 - 2 * (x * x + y * y)
             lat = math.atan2(cz, math.hypot(cx, cy))
             lon = math.atan2(cy, cx)
-            u, v, inside = interpolate_one(lat, lon, ylat, xoff, lon0, periodic, cap_s, cap_n,
-                                           U0, V0, P0, U1, V1, P1, alpha)
+            u, v, inside = interpolate_one(lat, lon, g)
             if not inside:
                 if no == 0:
                     fi = i

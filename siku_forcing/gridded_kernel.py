@@ -32,10 +32,12 @@ def locate(a, x):
 
 
 @njit(cache=True, inline="always")
-def interpolate_one(y, lon_k, ylat, xoff, lon0, periodic, cap_s, cap_n, U0, V0, P0, U1, V1, P1,
-                    alpha):
+def interpolate_one(y, lon_k, g):
     """The field at one point, latitude ``y`` and longitude ``lon_k`` [rad]: ``(u, v, inside)``
-    (``0, 0, False`` outside the grid). Arguments as :func:`interpolate`."""
+    (``0, 0, False`` outside the grid). ``g``: the grid and records, as :func:`interpolate`."""
+    ylat, xoff, lon0, periodic, cap_s, cap_n = (g.ylat, g.xoff, g.lon0, g.periodic, g.cap_s,
+                                                g.cap_n)
+    U0, V0, P0, U1, V1, P1, alpha = g.U0, g.V0, g.P0, g.U1, g.V1, g.P1, g.alpha
     twopi = 2.0 * math.pi
     halfpi = 0.5 * math.pi
     ny = ylat.shape[0]
@@ -119,21 +121,21 @@ def interpolate_one(y, lon_k, ylat, xoff, lon0, periodic, cap_s, cap_n, U0, V0, 
 
 
 @njit(cache=True)
-def interpolate(lat, lon, ylat, xoff, lon0, periodic, cap_s, cap_n, U0, V0, P0, U1, V1, P1, alpha,
-                u, v):
-    """Bilinear-in-space, linear-in-time interpolation; returns (points outside, first one).
+def interpolate(lat, lon, g, u, v):
+    """Bilinear-in-space, linear-in-time interpolation at the points ``lat, lon`` [rad] into
+    ``u, v`` [m/s]; returns (points outside, first one).
 
-    ``ylat (ny)`` ascending latitudes [rad]; ``xoff (nx)`` ascending longitude offsets from
-    ``lon0`` in ``[0, 2 pi)`` [rad]; ``U0, V0 (ny, nx)`` / ``U1, V1`` the two records, weights
-    ``1 - alpha`` and ``alpha``; ``P0, P1 (2, 2)`` pole vectors ``(W_x, W_y)`` south [0], north [1].
-    Each point is :func:`interpolate_one` (inlined: the same arithmetic as the fused drag
-    kernel of :mod:`siku_forcing.gridded_drag`, bit for bit).
+    ``g``: a :data:`siku_forcing.gridded.GridSample` record: ``ylat (ny)`` ascending latitudes
+    [rad]; ``xoff (nx)`` ascending longitude offsets from ``lon0`` in ``[0, 2 pi)`` [rad];
+    ``U0, V0 (ny, nx)`` / ``U1, V1`` the two records, weights ``1 - alpha`` and ``alpha``;
+    ``P0, P1 (2, 2)`` pole vectors ``(W_x, W_y)`` south [0], north [1]. Each point is
+    :func:`interpolate_one` (inlined: the same arithmetic as the fused drag kernel of
+    :mod:`siku_forcing.gridded_drag`, bit for bit).
     """
     nout = 0
     first = -1
     for k in range(lat.shape[0]):
-        a, b, inside = interpolate_one(lat[k], lon[k], ylat, xoff, lon0, periodic, cap_s, cap_n,
-                                       U0, V0, P0, U1, V1, P1, alpha)
+        a, b, inside = interpolate_one(lat[k], lon[k], g)
         u[k] = a
         v[k] = b
         if not inside:

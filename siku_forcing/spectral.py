@@ -53,10 +53,14 @@ RHO_WATER = 1025.0
 
 
 @njit(cache=True)
-def _cell_sums(t, lat, lon, cell, lat0, lon0, R, amp, kx, ky, om, ph, uo, se, sn, curv):
+def _cell_sums(t, lat, lon, cell, w, amp, uo, se, sn, curv):
     """Per point: eta, slope east/north, orbital u east/north (``curv`` False), or the
-    curvature along ``(se, sn)`` (``curv`` True), with the amplitudes ``amp[cell[i], j]`` and
-    orbital speeds ``uo[cell[i], j]``."""
+    curvature along ``(se, sn)`` (``curv`` True), of the sea ``w``
+    (:data:`siku_forcing.waves.PlaneWaves`: its plane, wavenumbers, frequencies and phases)
+    with the amplitudes ``amp[cell[i], j]`` [m] and orbital speeds ``uo[cell[i], j]`` [m/s]
+    of each point's cell."""
+    lat0, lon0, R = w.lat0, w.lon0, w.R
+    kx, ky, om, ph = w.kx, w.ky, w.omega, w.phase
     n = lat.shape[0]
     out = np.zeros((n, 5))
     c0 = math.cos(lat0)
@@ -112,7 +116,7 @@ class Spectral(WaveField):
     name = "spectral"
     #: the sea differs from cell to cell: a ``floating`` process shares this instance (the run's,
     #: ``Context.forcing_field``) and loads each element with its cell's amplitudes
-    #: (:meth:`_amplitudes`, :meth:`cells`)
+    #: (:meth:`amplitudes`, :meth:`cells`)
     local_sea = True
     #: the spectrum on its grid takes the drag of every element and each element reads its
     #: cell: not a function of each element by itself
@@ -341,7 +345,10 @@ class Spectral(WaveField):
         """Significant wave height ``4 sqrt(sum_j E_j)`` [m] per cell, ``(ny, nx)``."""
         return 4.0 * np.sqrt(np.maximum(self.E.sum(axis=0), 0.0))
 
-    def _amplitudes(self):
+    def amplitudes(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(amp, uo)``, ``(C, M)`` each: the amplitude ``sqrt(2 E_j)`` [m] and the orbital
+        speed [m/s] of every component in every cell (``C = nx ny``, row ``iy nx + ix``), as
+        the spectrum is now."""
         if getattr(self, "_amp_cells", None) is None:
             nc = self.nx * self.ny
             a = np.sqrt(2.0 * np.maximum(self.E, 0.0)).reshape(len(self.amp), nc).T
@@ -358,11 +365,10 @@ class Spectral(WaveField):
         lat = np.ascontiguousarray(lat, float)
         lon = np.ascontiguousarray(lon, float)
         cell, _ = self.cells(lat, lon)
-        amp, uo = self._amplitudes()
+        amp, uo = self.amplitudes()
         curv = se is not None
         z = np.zeros(len(lat))
-        return _cell_sums(float(t), lat, lon, cell, self.lat0, self.lon0, self.radius, amp,
-                          self.kx, self.ky, self.omega, self.phase, uo,
+        return _cell_sums(float(t), lat, lon, cell, self.plane_waves(), amp, uo,
                           z if se is None else np.ascontiguousarray(se, float),
                           z if sn is None else np.ascontiguousarray(sn, float), curv)
 

@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit, prange
 
 from siku_core import Param, SceneError, hookimpl
+from siku_core.records import record_type
 
 from .wave_kernels import add_slope_drag, local_plane, wrap_phase
 from .waves import Jonswap
@@ -36,12 +37,33 @@ from .waves import Jonswap
 #: compiler can vectorise (the points are independent; the order of every sum is unchanged)
 BLOCK = 64
 
+#: the regular grid of the components and their recurrences (:meth:`FastJonswap.grid`);
+#: component ``j = n N_d + d``
+FastGrid = record_type("FastGrid", __name__, [
+    ("GX", "f", 1, "(M,) amplitude times kx [1]"),
+    ("GY", "f", 1, "(M,) amplitude times ky [1]"),
+    ("UE", "f", 1, "(M,) orbital speed times sin(direction) [m/s]"),
+    ("UN", "f", 1, "(M,) orbital speed times cos(direction) [m/s]"),
+    ("nf", "n", 0, "frequencies N_f"),
+    ("nd", "n", 0, "directions N_d"),
+    ("sin_d", "f", 1, "(N_d,) sin of each direction of travel [1]"),
+    ("cos_d", "f", 1, "(N_d,) cos of each direction [1]"),
+    ("K0", "n", 0, "k_n = K0 + K1 n + K2 n²: K0 [rad/m]"),
+    ("K1", "n", 0, "K1 [rad/m]"),
+    ("K2", "n", 0, "K2 [rad/m]"),
+], doc="The ``fast_jonswap`` sea's grid of components (module docstring).")
+
 
 @njit(cache=True, parallel=True)
-def _sums(lat, lon, lat0, lon0, R, A, GX, GY, UE, UN, nf, nd, sin_d, cos_d, K0, K1, K2, pc, ps):
-    """Per point: eta, slope east/north, orbital u east/north. Per component ``j``: ``A`` =
-    amplitude, ``GX``, ``GY`` = amplitude times ``kx``, ``ky``, ``UE``, ``UN`` = orbital speed
-    times ``sin``, ``cos`` of the direction; ``pc + i ps = exp(i (phi_j - omega_j t))``."""
+def _sums(lat, lon, w, fg, pc, ps):
+    """Per point: eta, slope east/north, orbital u east/north of the sea ``w``
+    (:data:`siku_forcing.waves.PlaneWaves`: its plane and amplitudes ``A``) on the grid ``fg``
+    (:data:`FastGrid`). Per component ``j``: ``GX``, ``GY`` = amplitude times ``kx``, ``ky``,
+    ``UE``, ``UN`` = orbital speed times ``sin``, ``cos`` of the direction; ``pc + i ps =
+    exp(i (phi_j - omega_j t))``."""
+    lat0, lon0, R, A = w.lat0, w.lon0, w.R, w.amp
+    GX, GY, UE, UN, nf, nd = fg.GX, fg.GY, fg.UE, fg.UN, fg.nf, fg.nd
+    sin_d, cos_d, K0, K1, K2 = fg.sin_d, fg.cos_d, fg.K0, fg.K1, fg.K2
     n = lat.shape[0]
     nb = (n + BLOCK - 1) // BLOCK
     out = np.zeros((n, 5))
@@ -101,9 +123,11 @@ def _sums(lat, lon, lat0, lon0, R, A, GX, GY, UE, UN, nf, nd, sin_d, cos_d, K0, 
 
 
 @njit(cache=True, parallel=True)
-def _curvature(lat, lon, se, sn, lat0, lon0, R, A, k, nf, nd, sin_d, cos_d, K0, K1, K2, pc,
-               ps):
-    """Curvature ``d²eta/ds²`` [1/m] along unit directions ``(se, sn)`` at the points."""
+def _curvature(lat, lon, se, sn, w, fg, pc, ps):
+    """Curvature ``d²eta/ds²`` [1/m] of the sea ``w`` on the grid ``fg`` (as :func:`_sums`)
+    along unit directions ``(se, sn)`` at the points."""
+    lat0, lon0, R, A, k = w.lat0, w.lon0, w.R, w.amp, w.k
+    nf, nd, sin_d, cos_d, K0, K1, K2 = fg.nf, fg.nd, fg.sin_d, fg.cos_d, fg.K0, fg.K1, fg.K2
     n = lat.shape[0]
     out = np.zeros(n)
     c0 = math.cos(lat0)
@@ -158,30 +182,32 @@ class FastJonswap(Jonswap):
         a = self.phase - self.omega * float(t)
         return np.cos(a), np.sin(a)
 
-    def _consts(self):
-        self._args()
-        if not hasattr(self, "_GX"):
+    def grid(self):
+        """The components' grid and recurrences as the kernels take them, a
+        :data:`FastGrid` record (built once)."""
+        w = self.plane_waves()
+        fg = getattr(self, "_grid", None)
+        if fg is None:
             sd, cd = np.tile(self.sin_d, self.nf), np.tile(self.cos_d, self.nf)
-            self._GX = self.amp * self.k * sd
-            self._GY = self.amp * self.k * cd
-            self._UE, self._UN = self.u_orbital * sd, self.u_orbital * cd
-        return (self.lat0, self.lon0, self.radius)
+            fg = self._grid = FastGrid(
+                GX=w.amp * w.k * sd, GY=w.amp * w.k * cd, UE=w.uo * sd, UN=w.uo * cd,
+                nf=self.nf, nd=self.nd, sin_d=self.sin_d, cos_d=self.cos_d, K0=self.K[0],
+                K1=self.K[1], K2=self.K[2])
+        return w, fg
 
     def evaluate(self, t, lat, lon):
-        geo = self._consts()
+        w, fg = self.grid()
         pc, ps = self._phasors(t)
-        r = _sums(np.ascontiguousarray(lat, float), np.ascontiguousarray(lon, float), *geo,
-                  self.amp, self._GX, self._GY, self._UE, self._UN, self.nf, self.nd,
-                  self.sin_d, self.cos_d, *self.K, pc, ps)
+        r = _sums(np.ascontiguousarray(lat, float), np.ascontiguousarray(lon, float), w, fg,
+                  pc, ps)
         return {"eta": r[:, 0], "eta_e": r[:, 1], "eta_n": r[:, 2], "u": r[:, 3], "v": r[:, 4]}
 
     def curvature(self, t, lat, lon, se, sn):
-        geo = self._consts()
+        w, fg = self.grid()
         pc, ps = self._phasors(t)
         f = np.ascontiguousarray
         return _curvature(f(lat, dtype=float), f(lon, dtype=float), f(se, dtype=float),
-                          f(sn, dtype=float), *geo, self.amp, self.k, self.nf, self.nd,
-                          self.sin_d, self.cos_d, *self.K, pc, ps)
+                          f(sn, dtype=float), w, fg, pc, ps)
 
     def add_forces(self, t, q, V, st, free, g, slope, drag, F) -> None:
         """The ``waves`` forcing with this sum: slope force and drag on the free elements."""

@@ -6,7 +6,9 @@ force and drag on the free elements (:func:`wave_forces`, from the wave sums;
 that use them, so that neither imports the other for a kernel.
 
 Units: latitudes, longitudes and phases in radians, lengths in metres, times in seconds,
-forces in newtons.
+forces in newtons. A sea reaches the kernels as one record, ``w``: a
+:data:`siku_forcing.waves.PlaneWaves` (the field's origin, the model sphere's radius and its
+components), built by the field (``WaveField.plane_waves``).
 """
 from __future__ import annotations
 
@@ -55,9 +57,11 @@ def plane_coords(lat, lon, lat0, lon0, R):
 
 
 @njit(cache=True, inline="always")
-def _at(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo, out):
-    """eta, d eta/d east, d eta/d north, u east, u north at one point into ``out[0:5]``."""
-    x, y, m = local_plane(lat, lon, lat0, lon0, math.cos(lat0), R)
+def _at(t, lat, lon, w, out):
+    """eta, d eta/d east, d eta/d north, u east, u north at one point of the sea ``w``
+    (``PlaneWaves``) into ``out[0:5]``."""
+    amp, kx, ky, om, ph, uo = w.amp, w.kx, w.ky, w.omega, w.phase, w.uo
+    x, y, m = local_plane(lat, lon, w.lat0, w.lon0, math.cos(w.lat0), w.R)
     eta = 0.0
     gx = 0.0
     gy = 0.0
@@ -81,17 +85,21 @@ def _at(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo, out):
 
 
 @njit(cache=True)
-def plane_evaluate(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo):
+def plane_evaluate(t, lat, lon, w):
+    """:func:`_at` of the sea ``w`` at every point ``(lat, lon)``: an ``(n, 5)`` array."""
     n = lat.shape[0]
     res = np.empty((n, 5))
     for i in range(n):
-        _at(t, lat[i], lon[i], lat0, lon0, R, amp, kx, ky, om, ph, uo, res[i])
+        _at(t, lat[i], lon[i], w, res[i])
     return res
 
 
 @njit(cache=True)
-def plane_curvature(t, lat, lon, se, sn, lat0, lon0, R, amp, kx, ky, om, ph):
-    """d²eta/ds² [1/m] at points along unit directions ``(se, sn)`` (east, north)."""
+def plane_curvature(t, lat, lon, se, sn, w):
+    """d²eta/ds² [1/m] of the sea ``w`` (``PlaneWaves``) at points along unit directions
+    ``(se, sn)`` (east, north)."""
+    lat0, lon0, R = w.lat0, w.lon0, w.R
+    amp, kx, ky, om, ph = w.amp, w.kx, w.ky, w.omega, w.phase
     n = lat.shape[0]
     out = np.zeros(n)
     c0 = math.cos(lat0)
@@ -106,10 +114,10 @@ def plane_curvature(t, lat, lon, se, sn, lat0, lon0, R, amp, kx, ky, om, ph):
 
 
 @njit(cache=True)
-def wave_forces(t, q, V, m, area, free, lat0, lon0, R, amp, kx, ky, om, ph, uo, g, slope,
-                 drag_coef, F):
+def wave_forces(t, q, V, m, area, free, w, g, slope, drag_coef, F):
     """Add ``-m g grad eta`` (if ``slope``) and ``S drag_coef |u - U| (u - U)`` with
-    ``drag_coef = rho_w C_d`` to the free elements (local frames)."""
+    ``drag_coef = rho_w C_d`` of the sea ``w`` (``PlaneWaves``) to the free elements (local
+    frames)."""
     buf = np.empty(5)
     for i in range(q.shape[0]):
         if not free[i]:
@@ -119,7 +127,7 @@ def wave_forces(t, q, V, m, area, free, lat0, lon0, R, amp, kx, ky, om, ph, uo, 
         y3 = 2.0 * (q[i, 2] * q[i, 3] - q[i, 0] * q[i, 1])
         lat = math.asin(max(-1.0, min(1.0, z)))
         lon = math.atan2(y3, x3)
-        _at(t, lat, lon, lat0, lon0, R, amp, kx, ky, om, ph, uo, buf)
+        _at(t, lat, lon, w, buf)
         ex, ey, nx, ny = east_north_row(q, i)
         fe = 0.0
         fn = 0.0

@@ -290,7 +290,7 @@ class LineSea:
             r = _interpolate(lat, lon, f.lat0, f.lon0, f.radius, self.sin_d, self.cos_d,
                              self.s0, self.h, self.T, self.Q)
         else:
-            r = plane_evaluate(t, lat, lon, *f._args(), f.u_orbital)
+            r = plane_evaluate(t, lat, lon, f.plane_waves())
         return r
 
     def curvature(self, t, lat, lon, se, sn):
@@ -301,4 +301,4 @@ class LineSea:
         if self._tables(t, lat, lon, True):
             return _interpolate_curvature(lat, lon, se, sn, f.lat0, f.lon0, f.radius,
                                           self.sin_d, self.cos_d, self.s0, self.h, self.T)
-        return plane_curvature(t, lat, lon, se, sn, *f._args())
+        return plane_curvature(t, lat, lon, se, sn, f.plane_waves())

@@ -62,9 +62,8 @@ class LinesMixin:
 
         lines = self._lines()
         if lines is None:
-            wave_forces(float(t), q, V, st.m, st.area, free, self.lat0, self.lon0,
-                         self.radius, self.amp, self.kx, self.ky, self.omega, self.phase,
-                         self.u_orbital, g, slope, drag, F)
+            wave_forces(float(t), q, V, st.m, st.area, free, self.plane_waves(), g, slope,
+                        drag, F)
             return
         r = lines.evaluate(t, *latlon_of(q))
         add_slope_drag(q, V, st.m, st.area, free, r, g, slope, drag, F, np.zeros(len(q)))

@@ -34,6 +34,7 @@ import numpy as np
 
 from siku_core import Param, SceneError, hookimpl
 from siku_core.interfaces import Field, ForcingSource
+from siku_core.records import record_type
 from siku_core.state import FREE
 
 from .drag import drag_stability_limit
@@ -128,6 +129,22 @@ def jonswap(f, hs: float, tp: float, gamma: float = 3.3, g: float = 9.81):
 
 
 # ------------------------------------------------------- kernels: siku_forcing.wave_kernels
+#: a sea of plane waves as the kernels take it (:meth:`WaveField.plane_waves`)
+PlaneWaves = record_type("PlaneWaves", __name__, [
+    ("lat0", "n", 0, "latitude of the field's origin, where x = y = 0 [rad]"),
+    ("lon0", "n", 0, "longitude of the origin [rad]"),
+    ("R", "n", 0, "radius of the model sphere [m]"),
+    ("depth", "n", 0, "water depth h [m] (inf: deep water)"),
+    ("amp", "f", 1, "(M,) amplitude a_j of each component [m]"),
+    ("kx", "f", 1, "(M,) wavenumber east [rad/m]"),
+    ("ky", "f", 1, "(M,) wavenumber north [rad/m]"),
+    ("omega", "f", 1, "(M,) angular frequency [rad/s]"),
+    ("phase", "f", 1, "(M,) phase at the origin at t = 0 [rad]"),
+    ("k", "f", 1, "(M,) wavenumber's magnitude [rad/m]"),
+    ("uo", "f", 1, "(M,) surface orbital speed a omega coth(k h) [m/s]"),
+], doc="A sea of plane waves: the field's plane and its components (module docstring).")
+
+
 class WaveField(Field):
     """Base of wave fields: components ``amp, kx, ky, omega, phase`` (arrays) and the methods
     of the module docstring. Subclasses fill the components in :meth:`components`."""
@@ -185,6 +202,14 @@ class WaveField(Field):
         return (self.lat0, self.lon0, self.radius, self.amp, self.kx, self.ky, self.omega,
                 self.phase)
 
+    def plane_waves(self):
+        """The sea now as the kernels take it: a :data:`PlaneWaves` record of this field's
+        arrays (built first if need be; the record holds them, it copies nothing)."""
+        self._args()
+        return PlaneWaves(lat0=self.lat0, lon0=self.lon0, R=self.radius, depth=self.h,
+                          amp=self.amp, kx=self.kx, ky=self.ky, omega=self.omega,
+                          phase=self.phase, k=self.k, uo=self.u_orbital)
+
     def plane(self, lat, lon):
         """East and north distances [m] of points ``lat, lon`` [rad] from the origin."""
         a = self._args()
@@ -195,7 +220,7 @@ class WaveField(Field):
         """``eta`` [m], slope ``eta_e``, ``eta_n`` [1] (east, north), orbital velocity ``u``,
         ``v`` [m/s] at ``lat, lon`` [rad] and time ``t`` [s]."""
         r = plane_evaluate(float(t), np.ascontiguousarray(lat, dtype=float),
-                      np.ascontiguousarray(lon, dtype=float), *self._args(), self.u_orbital)
+                      np.ascontiguousarray(lon, dtype=float), self.plane_waves())
         return {"eta": r[:, 0], "eta_e": r[:, 1], "eta_n": r[:, 2], "u": r[:, 3], "v": r[:, 4]}
 
     def sample(self, t, lat, lon):
@@ -206,7 +231,7 @@ class WaveField(Field):
         """Curvature ``d²eta/ds²`` [1/m] along unit directions ``(se, sn)`` (east, north)."""
         f = np.ascontiguousarray
         return plane_curvature(float(t), f(lat, dtype=float), f(lon, dtype=float),
-                          f(se, dtype=float), f(sn, dtype=float), *self._args())
+                          f(se, dtype=float), f(sn, dtype=float), self.plane_waves())
 
     def variance(self) -> float:
         """Variance of the elevation [m²], ``sum a_j² / 2``."""
@@ -339,7 +364,7 @@ class Waves(ForcingSource):
 
     def add(self, t, q, V, w, F, T):
         f = self.field
-        f._args()
+        w = f.plane_waves()
         if self.breaker is not None and self.ctx.committing:
             self.breaker.check(t, q)
         drag = self.C * self.p["rho"] if self.p["drag"] else 0.0
@@ -348,9 +373,8 @@ class Waves(ForcingSource):
             return
         if drag == 0.0 and not self.p["slope"]:
             return
-        wave_forces(float(t), q, V, self.st.m, self.st.area, self.free, f.lat0, f.lon0,
-                     f.radius, f.amp, f.kx, f.ky, f.omega, f.phase, f.u_orbital, self.g,
-                     bool(self.p["slope"]), drag, F)
+        wave_forces(float(t), q, V, self.st.m, self.st.area, self.free, w, self.g,
+                    bool(self.p["slope"]), drag, F)
 
     def stability_limit(self, ctx):
         """Drag: ``dt < m / (S rho_w C_d |dU|)`` with ``|dU|`` the largest orbital speed plus

@@ -89,18 +89,15 @@ def test_the_loads_from_the_vertices_are_the_pointwise_sums(n):
     from siku_plugins.floating.geometry import lattice_arrays
 
     @njit
-    def both(t, xc, yc, e0, e1, lattice, qa, qb, qu, qv, qw, amp, kx, ky, om, ph, att, kap):
-        voff, vx, vy, m6a, ia, ib, zsize = lattice
+    def both(t, xc, yc, e0, e1, pts, wav, att):
+        amp = wav.amp
         S = np.empty((amp.shape[0], 6))
-        Z = np.empty(zsize)
-        ext = np.zeros((0, 3))
-        kn._sums_lattice(e0, e1, 0, 0, qa.shape[0], voff, vx, vy, m6a, ia, ib, qu, qv, qw,
-                         amp, kx, ky, att, S, Z)
-        kn._turn(xc, yc, kx, ky, ph, S)
-        E, r = kn.clock(t, 0.0, 0, om, 0.0)
-        new = kn._load(0, 0, S, E, r, kap, ext)
-        old = kn.excite(t, 0, xc, yc, e0, e1, 0, qa.shape[0], qa, qb, qu, qv, qw, amp, kx, ky,
-                         om, ph, att, kap, 0.0, ext)
+        Z = np.empty(pts.zsize)
+        kn._sums_lattice(e0, e1, 0, pts, amp, att, wav, S, Z)
+        kn._turn(xc, yc, wav.kx, wav.ky, wav.phase, S)
+        E, r = kn.clock(t, 0.0, 0, wav.omega, 0.0)
+        new = kn._load(0, 0, S, E, r, wav.kap, wav.ext)
+        old = kn.excite(t, 0, xc, yc, e0, e1, pts, amp, att, wav)
         return new, old
 
     rng = np.random.default_rng(n)
@@ -114,12 +111,18 @@ def test_the_loads_from_the_vertices_are_the_pointwise_sums(n):
         th = rng.uniform(0, 2 * np.pi, 3)
         amp = rng.uniform(0.1, 1.0, 3)
         th0 = rng.uniform(0, 2 * np.pi)
+        voff, vx, vy, m6, ia, ib, zsize = lattice_arrays([(poly, n)])
+        points = kn.FloatingPoints(
+            qoff=np.array([0, len(w)]), qa=pts[:, 0], qb=pts[:, 1], qu=qu, qv=qv, qw=w,
+            voff=voff, m6=m6, vx=vx, vy=vy, ia=ia, ib=ib, zsize=zsize).check()
         for kap in (np.zeros((0, 0, 3, 2)), rng.uniform(-1, 1, (1, 3, 3, 2))):
-            new, old = both(rng.uniform(0, 1e4), rng.uniform(-3e4, 3e4),
-                            rng.uniform(-3e4, 3e4), math.cos(th0), math.sin(th0),
-                            lattice_arrays([(poly, n)]), pts[:, 0], pts[:, 1], qu, qv, w, amp,
-                            kk * np.sin(th), kk * np.cos(th), np.sqrt(G * kk),
-                            rng.uniform(0, 6, 3), np.ones(3), kap)
+            t, xc, yc = rng.uniform(0, 1e4), rng.uniform(-3e4, 3e4), rng.uniform(-3e4, 3e4)
+            wav = kn.FloatingWave(
+                lat0=0.0, lon0=0.0, R=1.0, depth=math.inf, ramp=0.0, amp=amp,
+                kx=kk * np.sin(th), ky=kk * np.cos(th), omega=np.sqrt(G * kk),
+                phase=rng.uniform(0, 6, 3), k=kk, acell=amp[None], cell=np.zeros(1, np.int64),
+                kap=kap, ext=np.zeros((0, 3))).check()
+            new, old = both(t, xc, yc, math.cos(th0), math.sin(th0), points, wav, np.ones(3))
             scale = amp.sum() * w.sum() * np.array([1.0, 8.0, 8.0])
             np.testing.assert_allclose(new, old, rtol=0, atol=1e-12 * scale.max())
 

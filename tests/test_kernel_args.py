@@ -21,24 +21,8 @@ PACKAGES = ("siku_core", "siku_plugins", "siku_forcing", "siku_io")
 #: the most positional arguments a compiled kernel may take
 LIMIT = 12
 
-#: kernels over the limit that are being converted to records (``path:function``)
-PENDING = frozenset({
-    "siku_plugins/floating/bending.py:advance_bonded",
-    "siku_plugins/floating/memory.py:advance_modes",
-    "siku_plugins/floating/kernels.py:_advance_range",
-    "siku_plugins/floating/kernels.py:_advance_parallel",
-    "siku_plugins/floating/kernels.py:excite",
-    "siku_plugins/floating/kernels.py:_sums_lattice",
-    "siku_forcing/gridded_drag.py:gridded_stress",
-    "siku_forcing/gridded_kernel.py:interpolate",
-    "siku_forcing/gridded_kernel.py:interpolate_one",
-    "siku_forcing/spectral.py:_cell_sums",
-    "siku_forcing/spectral_fast.py:_sums",
-    "siku_forcing/spectral_fast.py:_curvature",
-    "siku_forcing/wave_kernels.py:wave_forces",
-    "siku_forcing/wave_kernels.py:_at",
-    "siku_forcing/wave_kernels.py:plane_curvature",
-})
+#: kernels over the limit that are being converted to records (``path:function``): none
+PENDING: frozenset[str] = frozenset()
 
 NUMBA_DECORATORS = {"njit", "jit"}
 

@@ -30,9 +30,17 @@ import numpy as np
 from numba import njit
 
 from siku_core.contact_law import BreakMode
+from siku_core.records import record_type
 
-from .kernels import attenuation, excite
-from .memory import lagged
+from .kernels import Frames, attenuation, centres_and_frames, excite
+from .memory import RadiationMemory, lagged
+
+#: the beams' stiffness over the ``3 n`` degrees of freedom (:meth:`Beams.stiffness`)
+BeamStiffness = record_type("BeamStiffness", __name__, [
+    ("indptr", "i", 1, "(3 n + 1,) CSR row offsets"),
+    ("indices", "i", 1, "CSR column of each entry"),
+    ("data", "f", 1, "CSR entries [N/m, N, N m: force or moment per heave or slope]"),
+], doc="The intact joints' beams as a CSR matrix over ``(ζ, s_1, s_2)`` of every element.")
 
 
 class Beams:
@@ -40,7 +48,7 @@ class Beams:
     degrees of freedom ``(ζ, s_1, s_2)`` per element (index ``3 i + mode``, slopes along the
     principal axes) as a CSR matrix, and the joints' bending stresses."""
 
-    def __init__(self, proc, ctx):
+    def __init__(self, bodies, ctx):
         cm = ctx.contacts
         st = ctx.state
         self.cm = cm
@@ -57,7 +65,7 @@ class Beams:
             flip = a < 0
             nrm[flip] *= -1
             a = np.abs(a)
-            c, s = proc.cphi[elem], proc.sphi[elem]
+            c, s = bodies.cphi[elem], bodies.sphi[elem]
             # in principal coordinates of the element
             return np.column_stack([nrm[:, 0] * c + nrm[:, 1] * s,
                                     -nrm[:, 0] * s + nrm[:, 1] * c]), a
@@ -74,7 +82,7 @@ class Beams:
         self.w = cm.width
         self.EI = self.D * self.w
         self.ji, self.jj, self.n = ji, jj, n
-        self.assemble(proc)
+        self.assemble(bodies)
 
     def _t(self):
         """Per joint, the 4 × 6 map from ``(ζ_i, s1_i, s2_i, ζ_j, s1_j, s2_j)`` to the beam's
@@ -96,9 +104,18 @@ class Beams:
                 [-12 * one, -6 * L, 12 * one, -6 * L], [6 * L, 2 * L**2, -6 * L, 4 * L**2]]
         return k * np.stack([np.stack(r, axis=-1) for r in rows], axis=1)
 
-    def assemble(self, proc) -> None:
+    def stale(self) -> bool:
+        """Whether joints broke (the law, a restart) since the stiffness was assembled."""
+        return not np.array_equal(self.seen, self.cm.intact)
+
+    def stiffness(self) -> tuple:
+        """The :data:`BeamStiffness` record of the intact joints now."""
+        return BeamStiffness(self.indptr, self.indices, self.data)
+
+    def assemble(self, bodies) -> None:
         """The CSR stiffness of the intact joints, and the highest frequency it allows
-        (Gershgorin's bound on the mass-normalised stiffness with the hydrostatic one)."""
+        (Gershgorin's bound on the mass-normalised stiffness with the hydrostatic one) with
+        the masses and stiffnesses of ``bodies`` (``FloatingBodies``)."""
         from scipy.sparse import coo_matrix
 
         keep = np.flatnonzero(self.cm.intact)
@@ -115,13 +132,13 @@ class Beams:
         self.indptr = K.indptr.astype(np.int64)
         self.indices = K.indices.astype(np.int64)
         self.data = K.data.astype(float)
-        M = np.column_stack([proc.M3, proc.M1, proc.M2]).ravel()
-        C = np.column_stack([proc.C3, proc.C1, proc.C2]).ravel()
+        M = np.column_stack([bodies.M3, bodies.M1, bodies.M2]).ravel()
+        C = np.column_stack([bodies.C3, bodies.C1, bodies.C2]).ravel()
         rs = np.sqrt(M)
         rows = np.repeat(np.arange(3 * self.n), np.diff(self.indptr))
         bound = np.zeros(3 * self.n)
         np.add.at(bound, rows, np.abs(self.data) / (rs[rows] * rs[self.indices]))
-        free3 = np.repeat(proc.free, 3)
+        free3 = np.repeat(bodies.free, 3)
         w2 = np.max(((C / M) + bound)[free3]) if free3.any() else 0.0
         self.period_min = 2 * math.pi / math.sqrt(w2) if w2 > 0 else math.inf
 
@@ -139,31 +156,37 @@ class Beams:
         M = self.EI * curv
         return 6.0 * M / (self.w * self.h**2)
 
-    def break_overstressed(self, proc, u: np.ndarray, strength: float, t: float) -> int:
+    def break_overstressed(self, bodies, u: np.ndarray, strength: float, t: float) -> int:
         """Break (mode ``flexure``) the intact joints whose ``|σ|`` exceeds ``strength``."""
         sig = np.abs(self.stress(u))
         k = np.flatnonzero(self.cm.intact & (sig > strength))
         if not len(k):
             return 0
         n = self.cm.break_joints(k, BreakMode.FLEXURE, t)
-        self.assemble(proc)
+        self.assemble(bodies)
         return n
 
 
 @njit(cache=True, error_model="numpy")
-def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw, acell, cell,
-                   kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area, M3, B3, M1,
-                   C1, B1, M2, C2, B2, load, indptr, indices, data, K, kidx, hist, head, u, v,
-                   pw):
-    """:func:`siku_plugins.floating.kernels.advance` with the beams' stiffness (CSR over the
-    ``3 n`` degrees of freedom ``u``, velocities ``v``, both in place) and constant vertical
-    loads ``load`` [N]: the same velocity Verlet, every element at once per sub-step. With
-    ``K`` not empty (``radiation = "memory"``: kernels ``(S, 3, L)``, ``kidx``, ring buffers
-    ``hist (n, 3, L)`` whose latest rates are at ``head``) the damping ``B v`` is the memory
-    force of ``siku_plugins.floating.memory.advance_modes`` (same scheme). ``pw`` [W m-2]
-    receives each element's damping (or memory force) power per area averaged over the
-    sub-steps (trapezoid of ``B v²`` or ``mu v``). Element ``i`` feels the amplitudes
-    ``acell[cell[i]]`` [m] (``kernels.advance``)."""
+def advance_bonded(n_sub, dt, t0, frames, bod, pts, wav, stiff, mem, u, v, pw):
+    """:func:`siku_plugins.floating.kernels.advance` with the beams' stiffness ``stiff``
+    (:data:`BeamStiffness`, over the ``3 n`` degrees of freedom ``u``, velocities ``v``, both
+    in place) and the constant vertical loads ``bod.load`` [N]: the same velocity Verlet,
+    every element at once per sub-step, each at ``frames`` (``kernels.Frames``). With
+    ``mem.K`` not empty (``radiation = "memory"``: ``siku_plugins.floating.memory
+    .RadiationMemory``) the damping ``B v`` is the memory force of
+    ``siku_plugins.floating.memory.advance_modes`` (same scheme). ``pw`` [W m-2] receives
+    each element's damping (or memory force) power per area averaged over the sub-steps
+    (trapezoid of ``B v²`` or ``mu v``). Element ``i`` feels the amplitudes
+    ``wav.acell[wav.cell[i]]`` [m] (``kernels.advance``)."""
+    free, rho_g, draft, h, area = bod.free, bod.rho_g, bod.draft, bod.h, bod.area
+    M3, B3, M1, C1, B1, M2, C2, B2 = (bod.M3, bod.B3, bod.M1, bod.C1, bod.B1, bod.M2, bod.C2,
+                                      bod.B2)
+    load = bod.load
+    xc, yc, e0, e1 = frames.xc, frames.yc, frames.e0, frames.e1
+    kx, kk, depth, acell, cell = wav.kx, wav.k, wav.depth, wav.acell, wav.cell
+    indptr, indices, data = stiff.indptr, stiff.indices, stiff.data
+    K, kidx, hist, head = mem.K, mem.kidx, mem.hist, mem.head
     n = free.shape[0]
     natt = kx.shape[0]
     att = np.empty((n, natt))
@@ -196,9 +219,8 @@ def advance_bonded(n_sub, dt, t0, free, xc, yc, e0, e1, qoff, qa, qb, qu, qv, qw
         for i in range(n):
             if not free[i]:
                 continue
-            f, g1, g2 = excite(t, i, xc[i], yc[i], e0[i], e1[i], qoff[i], qoff[i + 1], qa,
-                                qb, qu, qv, qw, acell[cell[i]], kx, ky, om, ph, att[i], kap,
-                                ramp, ext)
+            f, g1, g2 = excite(t, i, xc[i], yc[i], e0[i], e1[i], pts, acell[cell[i]], att[i],
+                               wav)
             d = draft[i]
             ka = rho_g * area[i]
             F[3 * i] = ka * (min(max(d - u[3 * i] + f / area[i], 0.0), h[i]) - d) + load[i]
@@ -255,66 +277,57 @@ def _damping_work(n, free, mem, mu, B, v, w, pw):
             pw[r // 3] += w * (mu[r] if mem else B[r] * v[r]) * v[r]
 
 
-def equilibrium(proc, n: int) -> np.ndarray:
-    """The static state ``(n, 3)`` (heave [m], principal slopes) of the ``floating`` process
-    ``proc`` under its ``loads`` in still water, linear: ``(K_beams + C) u = F`` (scipy's
-    sparse solver)."""
+def equilibrium(bodies, beams, n: int) -> np.ndarray:
+    """The static state ``(n, 3)`` (heave [m], principal slopes) of the floating elements
+    ``bodies`` (``FloatingBodies``) joined by ``beams`` (:class:`Beams` or None) under their
+    ``load`` in still water, linear: ``(K_beams + C) u = F`` (scipy's sparse solver)."""
     from scipy.sparse import csr_matrix, diags
     from scipy.sparse.linalg import spsolve
 
-    C = np.column_stack([proc.C3, proc.C1, proc.C2]).ravel()
+    C = np.column_stack([bodies.C3, bodies.C1, bodies.C2]).ravel()
     K = diags(C)
-    if proc.beams is not None:
-        b = proc.beams
+    if beams is not None:
+        b = beams
         K = K + csr_matrix((b.data, b.indices, b.indptr), shape=(3 * n, 3 * n))
-    F = np.column_stack([proc.load, np.zeros(n), np.zeros(n)]).ravel()
-    keep = np.repeat(proc.free, 3)
+    F = np.column_stack([bodies.load, np.zeros(n), np.zeros(n)]).ravel()
+    keep = np.repeat(bodies.free, 3)
     u = np.zeros(3 * n)
     u[keep] = spsolve(K.tocsr()[keep][:, keep].tocsc(), F[keep])
     return u.reshape(n, 3)
 
 
-def apply_coupled(proc, ctx, dt: float) -> None:
-    """The ``floating`` process ``proc``'s ``apply`` with beams between jointed elements or
-    loads: all elements together in each sub-step (:func:`advance_bonded`)."""
-    from .kernels import centres_and_frames
-
-    st = ctx.state
-    f = ctx.fields
-    bm = proc.beams
-    if bm is not None and not np.array_equal(bm.seen, bm.cm.intact):
-        bm.assemble(proc)       # joints broke (the law, a restart) since the last step
-        proc.period_min = min(proc.period_min, bm.period_min)
-    n_sub = proc._n_sub(ctx, dt)
-    fld = proc.field
-    wave = proc._wave_args(ctx)
-    if fld is not None:
-        lat, lon, e0, e1 = centres_and_frames(st.q)
-        xc, yc = fld.plane(lat, lon)
+def advance_jointed(n_sub, dt, t0, q, field, bodies, points, wave, beams, memory, f):
+    """``n_sub`` sub-steps of ``dt`` [s] from ``t0`` of the floating elements ``bodies`` with
+    beams between jointed elements (``beams``, or None) or loads: all elements together in
+    each sub-step (:func:`advance_bonded`), at their centres on the plane of ``field`` (the
+    wave field, or None) at orientations ``q``, in the wave ``wave`` (``kernels.FloatingWave``)
+    with the radiation ``memory`` (``siku_plugins.floating.memory.Memory``, or None). The
+    per-element fields ``f`` (heave, roll, pitch, their rates, ``wave_radiated_power``) are
+    advanced in place; returns the state ``u`` (``3 n``: heave and principal slopes) at the
+    end, from which :meth:`Beams.break_overstressed` finds the joints that break."""
+    n = q.shape[0]
+    if field is not None:
+        lat, lon, e0, e1 = centres_and_frames(q)
+        xc, yc = field.plane(lat, lon)
     else:
-        xc = yc = e1 = np.zeros(st.n)
-        e0 = np.ones(st.n)
-    if bm is not None:
-        csr = (bm.indptr, bm.indices, bm.data)
+        xc = yc = e1 = np.zeros(n)
+        e0 = np.ones(n)
+    if beams is not None:
+        stiff = beams.stiffness()
     else:
-        csr = (np.zeros(3 * st.n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
-               np.zeros(0))
-    c, s = proc.cphi, proc.sphi
+        stiff = BeamStiffness(np.zeros(3 * n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+                              np.zeros(0))
+    c, s = bodies.cphi, bodies.sphi
     sx, sy = -f["pitch"], f["roll"]
     wx, wy = -f["pitch_rate"], f["roll_rate"]
     u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
     v = np.column_stack([f["heave_rate"], wx * c + wy * s, -wx * s + wy * c]).ravel()
-    mem = proc.memory
-    hist = ((mem.K, mem.kidx, mem.hist, mem.head) if mem is not None else
-            (np.zeros((0, 3, 1)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)), 0))
-    advance_bonded(n_sub, dt / n_sub, float(ctx.time - dt), proc.free, xc, yc, e0, e1,
-                   proc.qoff, proc.qa, proc.qb, proc.qu, proc.qv, proc.qw, *proc._local(ctx),
-                   *wave[1:],
-                   proc.rho_g, proc.draft, proc.h, proc.area, proc.M3, proc.B3, proc.M1,
-                   proc.C1, proc.B1, proc.M2, proc.C2, proc.B2, proc.load, *csr, *hist, u, v,
-                   f["wave_radiated_power"])
-    if mem is not None:
-        mem.head = (mem.head + n_sub) % mem.K.shape[2]
+    mem = memory.kernels() if memory is not None else RadiationMemory(
+        np.zeros((0, 3, 1)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)), 0)
+    advance_bonded(n_sub, dt, t0, Frames(xc, yc, e0, e1), bodies, points, wave, stiff, mem, u,
+                   v, f["wave_radiated_power"])
+    if memory is not None:
+        memory.head = (memory.head + n_sub) % memory.K.shape[2]
     U, W = u.reshape(-1, 3), v.reshape(-1, 3)
     f["heave"][:] = U[:, 0]
     f["heave_rate"][:] = W[:, 0]
@@ -322,29 +335,29 @@ def apply_coupled(proc, ctx, dt: float) -> None:
     f["roll"][:] = U[:, 1] * s + U[:, 2] * c
     f["pitch_rate"][:] = -(W[:, 1] * c - W[:, 2] * s)
     f["roll_rate"][:] = W[:, 1] * s + W[:, 2] * c
-    if bm is not None:
-        if bm.break_overstressed(proc, u, proc.p["flexural_strength"], ctx.time):
-            proc.period_min = min(proc.period_min, bm.period_min)
+    return u
 
 
-def shortest_period(proc) -> float:
+def shortest_period(bodies, beams=None) -> float:
     """Shortest natural period [s] of any free element's heave, roll and pitch modes of the
-    floating process ``proc`` and of its beams (``inf`` without a free element)."""
-    free = proc.free
+    floating elements ``bodies`` (``FloatingBodies``) and of their ``beams`` (``inf``
+    without a free element)."""
+    free = bodies.free
     out = math.inf
     if free.any():
-        w2 = np.concatenate([(proc.C3 / proc.M3)[free], (proc.C1 / proc.M1)[free],
-                             (proc.C2 / proc.M2)[free]])
+        w2 = np.concatenate([(bodies.C3 / bodies.M3)[free], (bodies.C1 / bodies.M1)[free],
+                             (bodies.C2 / bodies.M2)[free]])
         out = float(2 * math.pi / math.sqrt(w2.max()))
-    if getattr(proc, "beams", None) is not None:
-        out = min(out, proc.beams.period_min)
+    if beams is not None:
+        out = min(out, beams.period_min)
     return out
 
 
-def joint_stresses(proc, f) -> np.ndarray:
-    """Bending stress [Pa] at every joint line of the floating process ``proc`` from its
-    per-element fields ``f`` (heave, roll, pitch)."""
-    c, s = proc.cphi, proc.sphi
+def joint_stresses(bodies, beams, f) -> np.ndarray:
+    """Bending stress [Pa] at every joint line of ``beams`` between the floating elements
+    ``bodies`` (``FloatingBodies``) from their per-element fields ``f`` (heave, roll,
+    pitch)."""
+    c, s = bodies.cphi, bodies.sphi
     sx, sy = -f["pitch"], f["roll"]
     u = np.column_stack([f["heave"], sx * c + sy * s, -sx * s + sy * c]).ravel()
-    return proc.beams.stress(u)
+    return beams.stress(u)

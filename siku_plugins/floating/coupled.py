@@ -26,9 +26,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def exchange_load(proc, ctx, ex) -> np.ndarray:
-    """``(n, 3)`` loads of the module docstring for the process ``proc`` from the exchange
-    source ``ex``."""
+def exchange_load(bodies, ctx, ex) -> np.ndarray:
+    """``(n, 3)`` loads of the module docstring for the floating elements ``bodies``
+    (``siku_plugins.floating.kernels.FloatingBodies``) from the exchange source ``ex``."""
     from siku_io.coupling.exchange import cell_gradient
 
     from .kernels import centres_and_frames
@@ -36,7 +36,7 @@ def exchange_load(proc, ctx, ex) -> np.ndarray:
     n = ctx.state.n
     fields = ex.fields
     if "pressure" in getattr(ex, "given", ()):
-        head = fields["pressure"] / proc.rho_g
+        head = fields["pressure"] / bodies.rho_g
     else:
         head = fields["eta"]
     gx, gy = cell_gradient(ex.grid, head)
@@ -48,8 +48,8 @@ def exchange_load(proc, ctx, ex) -> np.ndarray:
     _, _, e0, e1 = centres_and_frames(ctx.state.q)
     gl_x = ge * e0 - gn * e1                                 # the element's local axes
     gl_y = ge * e1 + gn * e0
-    c, s = proc.cphi, proc.sphi
-    out = np.column_stack([proc.area * eta, proc.J1 * (gl_x * c + gl_y * s),
-                           proc.J2 * (-gl_x * s + gl_y * c)])
-    out[~proc.free] = 0.0
+    c, s = bodies.cphi, bodies.sphi
+    out = np.column_stack([bodies.area * eta, bodies.J1 * (gl_x * c + gl_y * s),
+                           bodies.J2 * (-gl_x * s + gl_y * c)])
+    out[~bodies.free] = 0.0
     return np.ascontiguousarray(out)

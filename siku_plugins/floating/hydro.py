@@ -233,48 +233,48 @@ def shape_excitation(poly, h, d, rho, g, size, omega, beta, depth, cache_dir, wh
 MAX_DIFFRACTION = 64
 
 
-def diffraction_factors(proc, ctx, rho, g, where) -> np.ndarray:
-    """``kap (n, M, 3, 2)``: per free element, wave component and mode, capytaine's excitation
-    over the model's Froude–Krylov integral (real, imaginary), at the element's heading at the
-    start (``siku_plugins.floating.kernels.excite``). A mode the wave does not load (an
-    integral below 1e-9 of ``rho g A sqrt(A)``) keeps the factor 1."""
+def diffraction_factors(bodies, points, fld, p, ctx, rho, g, where) -> np.ndarray:
+    """``kap (n, M, 3, 2)``: per free element of ``bodies`` (``kernels.FloatingBodies``, its
+    quadrature ``points``, ``kernels.FloatingPoints``), component of the wave field ``fld`` and
+    mode, capytaine's excitation over the model's Froude–Krylov integral (real, imaginary), at
+    the element's heading at the start (``siku_plugins.floating.kernels.excite``); ``p``: the
+    process's parameters. A mode the wave does not load (an integral below 1e-9 of ``rho g A
+    sqrt(A)``) keeps the factor 1."""
     from .kernels import attenuation, centres_and_frames
 
     st = ctx.state
-    fld = proc.field
-    p = proc.p
     _, _, e0, e1 = centres_and_frames(st.q)
     cache_dir = hydro_cache_dir(p["hydro_cache"], ctx.scene.base_dir, where)
     nm = len(fld.amp)
     kap = np.zeros((st.n, nm, 3, 2))
     kap[..., 0] = 1.0
     done: dict = {}
-    for i in np.flatnonzero(proc.free):
-        c, s = math.cos(proc.phi[i]), math.sin(proc.phi[i])
+    for i in np.flatnonzero(bodies.free):
+        c, s = math.cos(bodies.phi[i]), math.sin(bodies.phi[i])
         poly = st.polygon(i) @ np.array([[c, -s], [s, c]])
         width = 2 * float(np.min(np.abs(poly).max(axis=0)))
         sz = p["mesh_size"] if p["mesh_size"] > 0 else width / 16.0
-        lo, hi = proc.qoff[i], proc.qoff[i + 1]
-        u, v, w = proc.qu[lo:hi], proc.qv[lo:hi], proc.qw[lo:hi]
+        lo, hi = points.qoff[i], points.qoff[i + 1]
+        u, v, w = points.qu[lo:hi], points.qv[lo:hi], points.qw[lo:hi]
         for j in range(nm):
             ka = fld.kx[j] * e0[i] - fld.ky[j] * e1[i]   # wavenumber in local axes
             kb = fld.kx[j] * e1[i] + fld.ky[j] * e0[i]
             ku, kv = ka * c + kb * s, -ka * s + kb * c
             beta = math.atan2(kv, ku)
-            key = (tuple(np.round(poly, 3).ravel()), round(proc.h[i], 6),
-                   round(proc.draft[i], 6), float(fld.omega[j]), round(beta, 9))
+            key = (tuple(np.round(poly, 3).ravel()), round(bodies.h[i], 6),
+                   round(bodies.draft[i], 6), float(fld.omega[j]), round(beta, 9))
             if key not in done:
                 if len(done) >= MAX_DIFFRACTION:
                     raise SceneError(f"{where}: diffraction = true needs capytaine for more "
                                      f"than {MAX_DIFFRACTION} (shape, wave component) pairs; "
                                      "use it with monochromatic waves and few shapes")
-                done[key] = shape_excitation(poly, proc.h[i], proc.draft[i], rho, g, sz,
+                done[key] = shape_excitation(poly, bodies.h[i], bodies.draft[i], rho, g, sz,
                                              fld.omega[j], beta, float(fld.h), cache_dir,
                                              where)
             tot = done[key]
             e = np.exp(1j * (ku * u + kv * v))
-            att = attenuation(fld.k[j], proc.draft[i], float(fld.h))
-            small = 1e-9 * rho * g * proc.area[i] ** 1.5
+            att = attenuation(fld.k[j], bodies.draft[i], float(fld.h))
+            small = 1e-9 * rho * g * bodies.area[i] ** 1.5
             for mode, lever in enumerate((np.ones_like(u), u, v)):
                 model = rho * g * att * np.sum(w * lever * e)
                 if abs(model) > small:

@@ -39,8 +39,18 @@ import numpy as np
 from numba import njit
 
 from siku_core.errors import SceneError
+from siku_core.records import record_type
 
 from .kernels import attenuation, excite, wave_frame
+
+#: the kernels and ring buffers of the memory force (:meth:`Memory.kernels`)
+RadiationMemory = record_type("RadiationMemory", __name__, [
+    ("K", "f", 3, "(S, 3, L) retardation kernel per shape and mode, sampled on the sub-steps "
+     "[kg/s², kg m²/s²]"),
+    ("kidx", "i", 1, "(n,) each element's shape"),
+    ("hist", "f", 3, "(n, 3, L) ring buffers of the modes' rates [m/s, 1/s]"),
+    ("head", "n", 0, "where the latest rates are in the ring buffers"),
+], doc="Cummins' memory force of ``radiation = \"memory\"`` (empty arrays without it).")
 
 
 def taper_bins(n: int) -> int:
@@ -113,18 +123,23 @@ def lagged(Ki, row, hp, L):
 
 
 @njit(cache=True, error_model="numpy")
-def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, qb, qu, qv, qw,
-                  acell, cell, kx, ky, om, ph, kk, depth, kap, ramp, ext, rho_g, draft, h, area,
-                  M3, M1, C1, M2, C2, K, kidx, hist, head, z, vz, roll, roll_rate, pitch,
-                  pitch_rate, pw):
+def advance_modes(n_sub, dt, t0, q, bod, pts, wav, mem, mot):
     """``n_sub`` sub-steps of ``dt`` [s] from ``t0`` of heave and the two principal slopes of
     every free element, each mode with its memory force ``mu = dt Σ_j w_j K_j x'_{n-j}``
-    (velocity Verlet as ``siku_plugins.floating.kernels.advance``; ``mu`` explicit in the
-    first half kick, its ``K_0`` term implicit in the second). ``K (S, 3, L)`` per shape and
-    mode (heave, slope 1, slope 2), ``kidx`` each element's shape; ``hist (n, 3, L)`` the ring
-    buffers of the rates, ``hist[i, k, head]`` the latest. ``pw`` [W m-2] receives the memory
+    (velocity Verlet as ``siku_plugins.floating.kernels.advance``, whose records ``bod, pts,
+    wav, mot`` it takes; ``mu`` explicit in the first half kick, its ``K_0`` term implicit in
+    the second). ``mem`` (:data:`RadiationMemory`): ``K (S, 3, L)`` per shape and mode (heave,
+    slope 1, slope 2), ``kidx`` each element's shape; ``hist (n, 3, L)`` the ring buffers of
+    the rates, ``hist[i, k, head]`` the latest. ``mot.power`` [W m-2] receives the memory
     force's power per area averaged over the sub-steps (trapezoid of ``mu x'``). Element ``i``
-    feels the amplitudes ``acell[cell[i]]`` [m] (``kernels.advance``)."""
+    feels the amplitudes ``wav.acell[wav.cell[i]]`` [m] (``kernels.advance``)."""
+    lat0, lon0, R, depth, rho_g = wav.lat0, wav.lon0, wav.R, wav.depth, bod.rho_g
+    free, cphi, sphi, draft, h, area = bod.free, bod.cphi, bod.sphi, bod.draft, bod.h, bod.area
+    M3, M1, C1, M2, C2 = bod.M3, bod.M1, bod.C1, bod.M2, bod.C2
+    kx, kk, acell, cell = wav.kx, wav.k, wav.acell, wav.cell
+    K, kidx, hist, head = mem.K, mem.kidx, mem.hist, mem.head
+    z, vz, roll, roll_rate = mot.heave, mot.heave_rate, mot.roll, mot.roll_rate
+    pitch, pitch_rate, pw = mot.pitch, mot.pitch_rate, mot.power
     L = K.shape[2]
     natt = kx.shape[0]
     wave = natt > 0
@@ -146,11 +161,9 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
         d = draft[i]
         for j in range(natt):
             att[j] = attenuation(kk[j], d, depth)
-        lo, hi = qoff[i], qoff[i + 1]
         ka = rho_g * area[i]
         amp = acell[cell[i]]
-        f, g1, g2 = excite(t0, i, xc, yc, e0, e1, lo, hi, qa, qb, qu, qv, qw, amp, kx, ky,
-                            om, ph, att, kap, ramp, ext)
+        f, g1, g2 = excite(t0, i, xc, yc, e0, e1, pts, amp, att, wav)
         c = cphi[i]
         s = sphi[i]
         sx = -pitch[i]
@@ -186,8 +199,7 @@ def advance_modes(n_sub, dt, t0, q, free, lat0, lon0, R, cphi, sphi, qoff, qa, q
                 vh[m] = v[m] + hd * (fk[m] - mu[m]) / mm[m]
                 x[m] += dt * vh[m]
             if wave:
-                f, g1, g2 = excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, lo, hi, qa, qb, qu,
-                                    qv, qw, amp, kx, ky, om, ph, att, kap, ramp, ext)
+                f, g1, g2 = excite(t0 + (k + 1) * dt, i, xc, yc, e0, e1, pts, amp, att, wav)
             fk[0] = ka * (min(max(d - x[0] + f / area[i], 0.0), h[i]) - d)
             fk[1] = -cc[1] * x[1] + rho_g * g1
             fk[2] = -cc[2] * x[2] + rho_g * g2
@@ -237,10 +249,11 @@ class Memory:
     """The per-shape kernels, each element's shape and the ring buffers of the ``floating``
     process with ``radiation = "memory"`` (module docstring)."""
 
-    def __init__(self, proc, ctx, masses, stiffnesses, where):
+    def __init__(self, p, bodies, ctx, masses, stiffnesses, where):
+        """``p``: the process's parameters; ``bodies``: its ``FloatingBodies``; ``masses``,
+        ``stiffnesses``: the modes' masses without added mass and their stiffnesses."""
         from . import hydro
 
-        p = proc.p
         st = ctx.state
         if p["coefficients"] != "capytaine":
             raise SceneError(f"{where}: radiation = 'memory' needs coefficients = 'capytaine' "
@@ -251,20 +264,20 @@ class Memory:
         self.kidx = np.zeros(n, dtype=np.int64)
         shapes: dict[tuple, int] = {}
         bands = []
-        for i in np.flatnonzero(proc.free):
-            c, s = math.cos(proc.phi[i]), math.sin(proc.phi[i])
+        for i in np.flatnonzero(bodies.free):
+            c, s = math.cos(bodies.phi[i]), math.sin(bodies.phi[i])
             poly = st.polygon(i) @ np.array([[c, -s], [s, c]])
             width = 2 * float(np.min(np.abs(poly).max(axis=0)))
             sz = p["mesh_size"] if p["mesh_size"] > 0 else width / 16.0
-            key = (tuple(np.round(poly, 3).ravel()), round(proc.h[i], 6),
-                   round(proc.draft[i], 6))
+            key = (tuple(np.round(poly, 3).ravel()), round(bodies.h[i], 6),
+                   round(bodies.draft[i], 6))
             if key not in shapes:
                 wmax = p["memory_omega_max"] or math.sqrt(2 * math.pi * float(p["g"]) /
                                                           (6 * sz))
                 nb = int(p["memory_bins"])
                 omega = wmax * np.arange(1, nb + 1) / nb
                 try:
-                    A, B = shape_band(poly, proc.h[i], proc.draft[i], float(p["rho_water"]),
+                    A, B = shape_band(poly, bodies.h[i], bodies.draft[i], float(p["rho_water"]),
                                       float(p["g"]), sz, omega, cache_dir, where)
                 except SceneError:
                     raise
@@ -278,14 +291,14 @@ class Memory:
         #: ``(3, n)`` the modes' masses without added mass and their stiffnesses
         self.m, self.C = np.array(masses), np.array(stiffnesses)
 
-    def build(self, proc, dt_sub: float, tol: float, where: str):
+    def build(self, bodies, dt_sub: float, tol: float, where: str):
         """Kernels at the sub-step ``dt_sub`` [s], ``A_inf (S, 3)``, the modes' masses
-        ``proc.M3, M1, M2`` and the ring buffers."""
+        ``bodies.M3, M1, M2`` (in place) and the ring buffers."""
         S = len(self.bands)
         Ks, self.a_inf, self.bound = [], np.zeros((S, 3)), np.zeros((S, 3))
-        masses = (proc.M3, proc.M1, proc.M2)
+        masses = (bodies.M3, bodies.M1, bodies.M2)
         for s, (omega, A, B, i) in enumerate(self.bands):
-            sel = (self.kidx == s) & proc.free
+            sel = (self.kidx == s) & bodies.free
             row = []
             for k, (mode, _) in enumerate(MODES):
                 K, bound = kernel(omega, B[k], dt_sub, tol)
@@ -311,5 +324,9 @@ class Memory:
             for k, K in enumerate(row):
                 self.K[s, k, :len(K)] = K
         self.dt = dt_sub
-        self.hist = np.zeros((len(proc.M3), 3, L))
+        self.hist = np.zeros((len(bodies.M3), 3, L))
         self.head = 0
+
+    def kernels(self) -> tuple:
+        """The :data:`RadiationMemory` record now (the ring buffers' head moves each step)."""
+        return RadiationMemory(self.K, self.kidx, self.hist, self.head)

@@ -74,12 +74,12 @@ from siku_core.params import Param
 from siku_core.state import FREE
 
 from .geometry import lattice_arrays, principal, quadrature, second_moments
-from .bending import equilibrium, joint_stresses, shortest_period
-from .kernels import advance, pack
+from .bending import advance_jointed, equilibrium, joint_stresses, shortest_period
+from .kernels import FloatingBodies, FloatingPoints, FloatingWave, advance, motion
 
 #: one element's load and sub-step [ns, one thread]: its chunks (``siku_core.parallel.chunks``)
 FLOAT_NS = 150.0
-_NO_EXT, _NO_KAP, _NO_AMP = np.zeros((0, 3)), np.zeros((0, 0, 3, 2)), np.zeros(0)
+_NO_EXT, _NO_KAP = np.zeros((0, 3)), np.zeros((0, 0, 3, 2))
 
 FIELDS = (
     ElementField("heave", "m", "rise of the element's centre of mass above its floating "
@@ -179,10 +179,9 @@ class Floating(Process):
         n = st.n
         mats = list(ctx.scene.cfg.materials.items())
         rho_w, g = float(p["rho_water"]), float(p["g"])
-        self.free = st.flags == FREE
-        self.rho_g = rho_w * g
+        free = st.flags == FREE
         rho_i = np.array([mats[k][1].density for k in st.material], dtype=float)
-        for k in np.unique(st.material[self.free]) if n else ():
+        for k in np.unique(st.material[free]) if n else ():
             name, mat = mats[k]
             if not mat.density < rho_w:
                 raise SceneError(f"{where}: material '{name}' has density {mat.density:g} "
@@ -191,24 +190,23 @@ class Floating(Process):
         cats = ctx.categories
         if cats is not None:  # a floe's mass rho_i h A: its ice must cover it whole
             c = cats.fraction.sum(axis=1)
-            bad = self.free & (c < 1.0 - SUM_TOLERANCE)
+            bad = free & (c < 1.0 - SUM_TOLERANCE)
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
                 raise SceneError(f"{where}: element {i} has ice on {c[i]:.6g} of its area "
                                  "(thickness categories); a floating element is a floe that "
                                  "its ice covers whole")
         h = st.thickness.astype(float)
-        self.h = h
-        self.draft = h * rho_i / rho_w
-        if np.any(self.free & ~(self.draft > 0)):
-            i = int(np.flatnonzero(self.free & ~(self.draft > 0))[0])
-            raise SceneError(f"{where}: element {i} has draft {self.draft[i]:g} m; a floating "
+        draft = h * rho_i / rho_w
+        if np.any(free & ~(draft > 0)):
+            i = int(np.flatnonzero(free & ~(draft > 0))[0])
+            raise SceneError(f"{where}: element {i} has draft {draft[i]:g} m; a floating "
                              "element needs a positive thickness and density")
         # waterplane: principal axes and second moments, quadrature points
-        self.area = st.area.astype(float)
-        self.phi = np.zeros(n)
-        self.J1 = np.zeros(n)
-        self.J2 = np.zeros(n)
+        area = st.area.astype(float)
+        phi = np.zeros(n)
+        J1 = np.zeros(n)
+        J2 = np.zeros(n)
         qa, qb, qw, off, lat = [], [], [], [0], []
         # the wave field first: the quadrature follows its shortest wave
         self._wave(ctx)
@@ -217,8 +215,8 @@ class Floating(Process):
         for i in range(n):
             poly = st.polygon(i)
             _, ixx, iyy, ixy = second_moments(poly)
-            self.phi[i], self.J1[i], self.J2[i] = principal(ixx, iyy, ixy)
-            if self.free[i]:
+            phi[i], J1[i], J2[i] = principal(ixx, iyy, ixy)
+            if free[i]:
                 nq = int(p["quadrature"]) or min(64, max(1, math.ceil(
                     kmax * float(st.radius[i]) / 0.7 - 1e-9)))
                 pts, w = quadrature(poly, nq)
@@ -228,17 +226,22 @@ class Floating(Process):
                 off.append(off[-1] + len(w))
             else:
                 off.append(off[-1])
-            lat.append((poly, nq) if self.free[i] else None)
-        self.lattice = lattice_arrays(lat)      # the points on the vertices (kernels.advance)
-        self.qa, self.qb, self.qw = (np.concatenate(x) if x else np.zeros(0)
-                                     for x in (qa, qb, qw))
-        self.qoff = np.array(off, dtype=np.int64)
-        c, s = np.cos(self.phi), np.sin(self.phi)
-        self.cphi, self.sphi = c, s
-        elem = np.repeat(np.arange(n), np.diff(self.qoff))
-        self.qu = self.qa * c[elem] + self.qb * s[elem]
-        self.qv = -self.qa * s[elem] + self.qb * c[elem]
-        self._coefficients(ctx, rho_i, rho_w, g, where)
+            lat.append((poly, nq) if free[i] else None)
+        voff, vx, vy, m6, ia, ib, zsize = lattice_arrays(lat)   # the points on the vertices
+        qa, qb, qw = (np.concatenate(x) if x else np.zeros(0) for x in (qa, qb, qw))
+        qoff = np.array(off, dtype=np.int64)
+        c, s = np.cos(phi), np.sin(phi)
+        elem = np.repeat(np.arange(n), np.diff(qoff))
+        self.points = FloatingPoints(
+            qoff=qoff, qa=qa, qb=qb, qu=qa * c[elem] + qb * s[elem],
+            qv=-qa * s[elem] + qb * c[elem], qw=qw, voff=voff, m6=m6, vx=vx, vy=vy, ia=ia,
+            ib=ib, zsize=int(zsize))
+        self.bodies = FloatingBodies(free=free, phi=phi, cphi=c, sphi=s, h=h, draft=draft,
+                                     area=area, J1=J1, J2=J2, load=np.zeros(n),
+                                     rho_g=rho_w * g,
+                                     **self._coefficients(ctx, free, phi, h, draft, area, J1,
+                                                          J2, rho_i, rho_w, g, where))
+        self._periods()
         self.kap = np.zeros((0, 0, 3, 2))
         if p["diffraction"]:
             if p["coefficients"] != "capytaine" or self.field is None:
@@ -246,15 +249,15 @@ class Floating(Process):
                                  "'capytaine' and a wave field in a [[forcing]] table")
             from .hydro import diffraction_factors
 
-            self.kap = diffraction_factors(self, ctx, rho_w, g, where)
-        self.load = np.zeros(n)
+            self.kap = diffraction_factors(self.bodies, self.points, self.field, p, ctx,
+                                           rho_w, g, where)
         for item in p["loads"]:
             ok = (isinstance(item, list) and len(item) == 2 and isinstance(item[0], int)
                   and 0 <= item[0] < n and isinstance(item[1], (int, float)))
             if not ok:
                 raise SceneError(f"{where}: loads: each item is [element index, force in N] "
                                  f"with an index below {n}; got {item!r}")
-            self.load[item[0]] += float(item[1])
+            self.bodies.load[item[0]] += float(item[1])
         self.beams = None
         if p["bending"]:
             if ctx.contacts is None or not ctx.contacts.n_joints:
@@ -266,7 +269,7 @@ class Floating(Process):
                                  "use one or the other")
             from .bending import Beams
 
-            self.beams = Beams(self, ctx)
+            self.beams = Beams(self.bodies, ctx)
             self._periods()
         self.memory = None
         if p["radiation"] == "memory":
@@ -274,7 +277,8 @@ class Floating(Process):
 
             from .memory import Memory
 
-            self.memory = Memory(self, ctx, self._inertia, (self.C3, self.C1, self.C2), where)
+            bod = self.bodies
+            self.memory = Memory(p, bod, ctx, self._inertia, (bod.C3, bod.C1, bod.C2), where)
             every = 1
             tab = str(getattr(self, "table", ""))
             if tab.startswith("process[") and tab.endswith("]"):
@@ -282,15 +286,15 @@ class Floating(Process):
                                          ctx.dt, where)
             dt_p = every * ctx.dt
             # A_inf (so the period) first from a fine kernel, then the kernel of the sub-steps
-            self.memory.build(self, math.pi / (4 * self.memory.bands[0][0][-1]),
+            self.memory.build(self.bodies, math.pi / (4 * self.memory.bands[0][0][-1]),
                               p["memory_tol"], where)
             self._periods()
             n_sub = max(1, math.ceil(dt_p * p["steps_per_period"] / self.period_min - 1e-9))
-            self.memory.build(self, dt_p / n_sub, p["memory_tol"], where)
+            self.memory.build(self.bodies, dt_p / n_sub, p["memory_tol"], where)
             self.memory.n_sub, self.memory.dt_p = n_sub, dt_p
             self._periods()
-        if self.free.any():
-            n_sub = self.memory.n_sub if self.memory is not None else self._n_sub(ctx, ctx.dt)
+        if free.any():
+            n_sub = self.memory.n_sub if self.memory is not None else self.substeps(ctx, ctx.dt)
             span = self.memory.dt_p if self.memory is not None else ctx.dt  # one step [s]
 
             def per_step(spp: float) -> int:  # sub-steps in one step with spp of them a period
@@ -300,29 +304,29 @@ class Floating(Process):
 
             check_work(where, "steps_per_period", p["steps_per_period"], per_step, ctx.n_steps,
                        least=self.params["steps_per_period"].min, dt=ctx.dt)
-        self._floats, self._loaded = bool(self.free.any()), bool(self.load.any())
-        self._pack = self._uniform = None
+        self._floats, self._loaded = bool(free.any()), bool(self.bodies.load.any())
+        self._wave_rec = None
         # the start: every free element at the scene's initial heave and tilts
         f = ctx.fields
         for key in ("heave", "roll", "pitch"):
-            f[key][self.free] = p[f"initial_{key}"]
+            f[key][free] = p[f"initial_{key}"]
 
-    def _coefficients(self, ctx, rho_i, rho_w, g, where) -> None:
+    def _coefficients(self, ctx, free, phi, h, d, A, J1, J2, rho_i, rho_w, g, where) -> dict:
+        """The masses, damping and stiffnesses of :data:`FloatingBodies` (by name)."""
         p = self.p
         st = ctx.state
-        A, h, d = self.area, self.h, self.draft
         m = rho_i * h * A
         C3 = rho_w * g * A
-        C1 = rho_w * g * (self.J1 - A * d * (h - d) / 2.0)
-        C2 = rho_w * g * (self.J2 - A * d * (h - d) / 2.0)
-        bad = self.free & ~((C1 > 0) & (C2 > 0))
+        C1 = rho_w * g * (J1 - A * d * (h - d) / 2.0)
+        C2 = rho_w * g * (J2 - A * d * (h - d) / 2.0)
+        bad = free & ~((C1 > 0) & (C2 > 0))
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise SceneError(f"{where}: element {i} (thickness {h[i]:g} m, area {A[i]:g} m2) "
                              "would capsize alone: its metacentric height is not positive; "
                              "use elements wider than about twice their thickness")
-        I1 = rho_i * h * self.J1 + m * h * h / 12.0
-        I2 = rho_i * h * self.J2 + m * h * h / 12.0
+        I1 = rho_i * h * J1 + m * h * h / 12.0
+        I2 = rho_i * h * J2 + m * h * h / 12.0
         self._inertia = (m, I1, I2)
         if p["coefficients"] == "capytaine":
             from .hydro import element_coefficients
@@ -334,23 +338,20 @@ class Floating(Process):
                                      "[[forcing]] table")
                 omega = float(self.field.omega[np.argmax(self.field.amp)])
             A33, B33, A1, B1, A2, B2 = element_coefficients(
-                st, self.free, self.phi, h, d, m, I1, I2, C3, C1, C2, rho_w, g,
+                st, free, phi, h, d, m, I1, I2, C3, C1, C2, rho_w, g,
                 p["hydro_cache"], p["mesh_size"], omega, ctx.scene.base_dir, where)
         else:
             A33 = p["added_mass"] * rho_w * A ** 1.5
-            A1 = p["added_inertia"] * rho_w * np.sqrt(A) * self.J1
-            A2 = p["added_inertia"] * rho_w * np.sqrt(A) * self.J2
+            A1 = p["added_inertia"] * rho_w * np.sqrt(A) * J1
+            A2 = p["added_inertia"] * rho_w * np.sqrt(A) * J2
             B33 = 2 * p["damping_ratio"] * np.sqrt((m + A33) * C3)
             B1 = 2 * p["tilt_damping_ratio"] * np.sqrt((I1 + A1) * C1)
             B2 = 2 * p["tilt_damping_ratio"] * np.sqrt((I2 + A2) * C2)
-        self.M3, self.B3 = m + A33, B33
-        self.M1, self.C1, self.B1 = I1 + A1, C1, B1
-        self.M2, self.C2, self.B2 = I2 + A2, C2, B2
-        self.C3 = C3
-        self._periods()
+        return {"M3": m + A33, "B3": B33, "C3": C3, "M1": I1 + A1, "B1": B1, "C1": C1,
+                "M2": I2 + A2, "B2": B2, "C2": C2}
 
     def _periods(self) -> None:
-        self.period_min = shortest_period(self)
+        self.period_min = shortest_period(self.bodies, getattr(self, "beams", None))
 
     def _wave(self, ctx) -> None:
         """The wave field of the first ``[[forcing]]`` table that has one (module docstring),
@@ -398,7 +399,7 @@ class Floating(Process):
             return _NO_EXT
         from .coupled import exchange_load
 
-        return exchange_load(self, ctx, ex)
+        return exchange_load(self.bodies, ctx, ex)
 
     # ------------------------------------------------------------------ the step
     def apply(self, ctx, dt: float) -> None:
@@ -406,74 +407,72 @@ class Floating(Process):
             return
         f = ctx.fields
         f["wave_radiated_power"][:] = 0.0     # the kernels write the free elements'
-        if self.beams is not None or self._loaded:
-            from .bending import apply_coupled
-
-            return apply_coupled(self, ctx, dt)
-        n_sub = self._n_sub(ctx, dt)
-        mem = self.memory
         st = ctx.state
+        t0 = float(ctx.time - dt)
+        if self.beams is not None or self._loaded:
+            bm = self.beams
+            if bm is not None and bm.stale():
+                bm.assemble(self.bodies)   # joints broke (the law, a restart) since the last step
+                self.period_min = min(self.period_min, bm.period_min)
+            n_sub = self.substeps(ctx, dt)
+            u = advance_jointed(n_sub, dt / n_sub, t0, st.q, self.field, self.bodies,
+                                self.points, self.wave(ctx), bm, self.memory, f)
+            if bm is not None and bm.break_overstressed(self.bodies, u,
+                                                        self.p["flexural_strength"], ctx.time):
+                self.period_min = min(self.period_min, bm.period_min)
+            return
+        n_sub = self.substeps(ctx, dt)
+        mem = self.memory
         if mem is not None:
             from .memory import advance_modes
 
-            wave = self._wave_args(ctx)
-            advance_modes(n_sub, mem.dt, float(ctx.time - dt), st.q, self.free, *self._geo(),
-                          self.cphi, self.sphi, self.qoff, self.qa, self.qb, self.qu, self.qv,
-                          self.qw, *self._local(ctx), *wave[1:], self.rho_g, self.draft,
-                          self.h, self.area, self.M3, self.M1, self.C1, self.M2, self.C2,
-                          mem.K, mem.kidx, mem.hist, mem.head, f["heave"], f["heave_rate"],
-                          f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"],
-                          f["wave_radiated_power"])
+            advance_modes(n_sub, mem.dt, t0, st.q, self.bodies, self.points, self.wave(ctx),
+                          mem.kernels(), motion(f))
             mem.head = (mem.head + n_sub) % mem.K.shape[2]
             return
         work = FLOAT_NS * (n_sub + 1)     # per element; below PARALLEL_MIN: one chunk
         nch = chunks(st.n, work) if st.n * work >= PARALLEL_MIN * ITEM_NS else 1
-        packed = self._pack
-        if packed is None or (self.field is not None and packed[0] is not self.field.amp):
-            packed = self._pack = self._packed(ctx)
-        advance(nch, n_sub, dt / n_sub, float(ctx.time - dt), st.q, self.free, *packed[1],
-                *self._local(ctx), packed[2], self.exchange_load(ctx), f["heave"],
-                f["heave_rate"], f["roll"], f["roll_rate"], f["pitch"], f["pitch_rate"],
-                f["wave_radiated_power"])
+        advance(nch, n_sub, dt / n_sub, t0, st.q, self.bodies, self.points, self.wave(ctx),
+                motion(f))
 
-    def _geo(self) -> tuple:
+    def wave(self, ctx) -> tuple:
+        """The incident wave now as the kernels take it, a :data:`FloatingWave` record: the
+        wave field's components (none in still water), the amplitudes each element feels (a
+        ``spectral`` field's ``sqrt(2 E_j)`` of the cell of its centre now, as the field's
+        forces and breaking check use; else the incident ``amp``), the diffraction factors and
+        the coupled model's loads (:meth:`exchange_load`)."""
         fld = self.field
-        return (fld.lat0, fld.lon0, float(fld.radius)) if fld is not None else (0.0, 0.0, 1.0)
-
-    def _packed(self, ctx) -> tuple:
-        """``(amp, (par, ..., wv), kap)``: ``kernels.advance``'s arguments that do not change
-        between steps (``kernels.pack``; built again should the field rebuild its ``amp``)."""
-        wave = self._wave_args(ctx)
-        args = pack(*self._geo(), wave[6], wave[8], self.rho_g, self.cphi, self.sphi, self.draft,
-                    self.h, self.area, self.M3, self.B3, self.M1, self.C1, self.B1, self.M2,
-                    self.C2, self.B2, self.qoff, self.lattice, self.qu, self.qv, self.qw,
-                    *wave[:6])
-        return wave[0], args, wave[7]
-
-    def _local(self, ctx) -> tuple:
-        """``(acell (C, M) [m], cell (n,))``, the amplitudes the kernels load element ``i``
-        with, ``acell[cell[i]]``: a ``spectral`` field's ``sqrt(2 E_j)`` per cell and the cells
-        of the centres now (as its forces and breaking check use); else the incident ``amp``."""
-        fld = self.field
+        ext = self.exchange_load(ctx)
+        n = ctx.state.n
         if fld is not None and getattr(fld, "local_sea", False):
-            return fld._amplitudes()[0], fld.element_cells(ctx.state.q)
-        uni = self._uniform
-        amp = fld._args()[3] if fld is not None else _NO_AMP
-        if uni is None or uni[1].shape[0] != ctx.state.n or uni[2] is not amp:
-            uni = self._uniform = (np.ascontiguousarray(amp, dtype=float).reshape(1, -1).copy(),
-                                   np.zeros(ctx.state.n, dtype=np.int64), amp)
-        return uni[0], uni[1]
+            w = fld.plane_waves()
+            return FloatingWave(
+                lat0=w.lat0, lon0=w.lon0, R=w.R, depth=w.depth, ramp=float(self.p["ramp"]),
+                amp=w.amp, kx=w.kx, ky=w.ky, omega=w.omega, phase=w.phase, k=w.k,
+                acell=fld.amplitudes()[0], cell=fld.element_cells(ctx.state.q), kap=self.kap,
+                ext=ext)
+        rec = self._wave_rec
+        if rec is None or rec.cell.shape[0] != n or (fld is not None and rec.amp is not fld.amp):
+            w = fld.plane_waves() if fld is not None else None
+            if w is None:
+                none = np.zeros(0)
+                rec = FloatingWave(lat0=0.0, lon0=0.0, R=1.0, depth=math.inf, ramp=0.0,
+                                   amp=none, kx=none, ky=none, omega=none, phase=none, k=none,
+                                   acell=np.zeros((1, 0)), cell=np.zeros(n, dtype=np.int64),
+                                   kap=_NO_KAP, ext=ext)
+            else:
+                rec = FloatingWave(
+                    lat0=w.lat0, lon0=w.lon0, R=w.R, depth=w.depth,
+                    ramp=float(self.p["ramp"]), amp=w.amp, kx=w.kx, ky=w.ky, omega=w.omega,
+                    phase=w.phase, k=w.k,
+                    acell=np.ascontiguousarray(w.amp, dtype=float).reshape(1, -1).copy(),
+                    cell=np.zeros(n, dtype=np.int64), kap=self.kap, ext=ext)
+            self._wave_rec = rec
+        return rec if rec.ext is ext else rec._replace(ext=ext)
 
-    def _wave_args(self, ctx) -> tuple:
-        """The kernels' arguments of the wave (``amp`` to ``ext``)."""
-        fld = self.field
-        if fld is None:
-            return (np.zeros(0),) * 6 + (math.inf, _NO_KAP, 0.0, self.exchange_load(ctx))
-        fld._args()
-        return (fld.amp, fld.kx, fld.ky, fld.omega, fld.phase, fld.k, float(fld.h), self.kap,
-                float(self.p["ramp"]), self.exchange_load(ctx))
-
-    def _n_sub(self, ctx, dt: float) -> int:
+    def substeps(self, ctx, dt: float) -> int:
+        """The sub-steps of a step of ``dt`` [s]: at most ``T_min / steps_per_period`` each
+        (module docstring), or those ``radiation = "memory"`` was set up for."""
         mem = self.memory
         if mem is None:
             return max(1, math.ceil(dt * self.p["steps_per_period"] / self.period_min - 1e-9))
@@ -485,7 +484,7 @@ class Floating(Process):
     def diagnostics(self, ctx):
         """``wave_radiated_power`` [W]: the radiation damping's power over all elements."""
         return {"wave_radiated_power": float(np.sum(ctx.fields["wave_radiated_power"]
-                                                    * self.area))}
+                                                    * self.bodies.area))}
 
     def history(self):
         mem = self.memory
@@ -499,13 +498,27 @@ class Floating(Process):
     def equilibrium(self, ctx) -> np.ndarray:
         """The static state ``(n, 3)`` under the scene's ``loads`` in still water
         (``siku_plugins.floating.bending.equilibrium``): what a damped run settles to."""
-        return equilibrium(self, ctx.state.n)
+        return equilibrium(self.bodies, self.beams, ctx.state.n)
 
     def stresses(self, ctx) -> np.ndarray:
         """Bending stress [Pa] at every joint line now (``bending = true``)."""
-        return joint_stresses(self, ctx.fields)
+        return joint_stresses(self.bodies, self.beams, ctx.fields)
 
     def describe(self):
         out = super().describe()
         out["period_min"] = self.period_min if hasattr(self, "period_min") else None
         return out
+
+
+def _field_of(record: str, name: str, kind: str) -> property:
+    return property(lambda self: getattr(getattr(self, record), name),
+                    doc=f"``{record}.{name}`` (:data:`{kind}`), read-only")
+
+
+# the records' fields by name, read-only, as the process's attributes of old
+for _name in FloatingBodies._fields:
+    setattr(Floating, _name, _field_of("bodies", _name,
+                                       "siku_plugins.floating.kernels.FloatingBodies"))
+for _name in ("qoff", "qa", "qb", "qu", "qv", "qw"):
+    setattr(Floating, _name, _field_of("points", _name,
+                                       "siku_plugins.floating.kernels.FloatingPoints"))

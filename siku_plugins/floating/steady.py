@@ -78,6 +78,7 @@ class Steady:
         from .kernels import attenuation, centres_and_frames
 
         fld = proc.field
+        bod, pts = proc.bodies, proc.points
         if (fld is None or len(fld.amp) != 1 or proc.beams is None or proc.memory is not None
                 or proc.kap.shape[0] or getattr(fld, "local_sea", False)):
             raise ValueError("Steady needs a floating process with bending = true, constant "
@@ -89,23 +90,23 @@ class Steady:
         xc, yc = fld.plane(lat, lon)
         self.omega = w = float(fld.omega[0])
         self.k = float(fld.k[0])
-        att = np.array([attenuation(self.k, d, float(fld.h)) for d in proc.draft])
+        att = np.array([attenuation(self.k, d, float(fld.h)) for d in bod.draft])
         F = np.zeros(3 * n, dtype=complex)
-        for i in np.flatnonzero(proc.free):
-            lo, hi = proc.qoff[i], proc.qoff[i + 1]
-            qa, qb = proc.qa[lo:hi], proc.qb[lo:hi]
+        for i in np.flatnonzero(bod.free):
+            lo, hi = pts.qoff[i], pts.qoff[i + 1]
+            qa, qb = pts.qa[lo:hi], pts.qb[lo:hi]
             xe = xc[i] + qa * e0[i] + qb * e1[i]
             yn = yc[i] - qa * e1[i] + qb * e0[i]
-            wz = proc.qw[lo:hi] * np.exp(1j * (fld.kx[0] * xe + fld.ky[0] * yn + fld.phase[0]))
-            s = proc.rho_g * fld.amp[0] * att[i]
-            F[3 * i:3 * i + 3] = s * np.array([wz.sum(), (proc.qu[lo:hi] * wz).sum(),
-                                               (proc.qv[lo:hi] * wz).sum()])
-        M = np.column_stack([proc.M3, proc.M1, proc.M2]).ravel()
-        B = np.column_stack([proc.B3, proc.B1, proc.B2]).ravel()
-        C = np.column_stack([proc.C3, proc.C1, proc.C2]).ravel()
+            wz = pts.qw[lo:hi] * np.exp(1j * (fld.kx[0] * xe + fld.ky[0] * yn + fld.phase[0]))
+            s = bod.rho_g * fld.amp[0] * att[i]
+            F[3 * i:3 * i + 3] = s * np.array([wz.sum(), (pts.qu[lo:hi] * wz).sum(),
+                                               (pts.qv[lo:hi] * wz).sum()])
+        M = np.column_stack([bod.M3, bod.M1, bod.M2]).ravel()
+        B = np.column_stack([bod.B3, bod.B1, bod.B2]).ravel()
+        C = np.column_stack([bod.C3, bod.C1, bod.C2]).ravel()
         bm = proc.beams
         K = csr_matrix((bm.data, bm.indices, bm.indptr), shape=(3 * n, 3 * n))
-        keep = np.repeat(proc.free, 3)
+        keep = np.repeat(bod.free, 3)
         Z = (K + diags(C - w * w * M - 1j * w * B)).tocsc()[keep][:, keep]
         lu = splu(Z.tocsc())
         z1 = (-2 * w * M - 1j * B)[keep]
@@ -117,10 +118,10 @@ class Steady:
             us.append(-lu.solve(rhs))
         u0 = us[0]
         hv = np.zeros(n, dtype=complex)
-        hv[proc.free] = u0[0::3]
+        hv[bod.free] = u0[0::3]
         #: complex heave [m] of the steady state and the wave's head ∫ eta_d dA / A [m] per
         #: element: the buoyancy's clamp is not reached while |heave - head| < min(d, h - d)
-        self.heave, self.head = hv, F[0::3] / (proc.rho_g * proc.area)
+        self.heave, self.head = hv, F[0::3] / (bod.rho_g * bod.area)
         self.S = []
         for v in us:
             full = np.zeros(3 * n, dtype=complex)
