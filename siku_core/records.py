@@ -20,13 +20,11 @@ own (a record holds references, copies nothing): a kernel may write into them.
 :class:`~siku_core.contact_law.ParameterRecord` is the same idea for a law's parameter vector
 (scalars, packed into one float64 array whose indices numba folds to constants).
 
-The record types of the engine and of the shipped plugins are declared next to their
-producers: the contact loops' element, joint and pair tables and element-to-contact index
-(:mod:`siku_core.contact_tables`), the floating bodies and wave arguments
-(:mod:`siku_plugins.floating.kernels`), ridging's and thermodynamics' element data
-(:mod:`siku_plugins.processes`), the exchange grid's pairs and cell fields
-(:mod:`siku_io.coupling.exchange`). No compiled kernel takes more than 12 positional
-arguments (``tests/test_kernel_args.py``).
+The engine's record types are declared next to their producers (the contact loops' element,
+joint and pair tables and element-to-contact index: :mod:`siku_core.contact_tables`); each
+plugin declares its own beside the code that builds them (docs/explanation/design.md lists the
+shipped ones). No compiled kernel takes more than 12 positional arguments
+(``tests/test_kernel_args.py``).
 """
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """``siku export``: an output file in another format (CF-NetCDF, or the same trajectory layout
-as a Zarr store); ``siku info``: a run's summary from its output file. This module also
-registers the Zarr writer (``siku_io.output.zarr_store``)."""
+as a Zarr store); ``siku info``: a run's summary from its output file."""
 from __future__ import annotations
 
 from siku_core import hookimpl
@@ -33,10 +32,3 @@ def siku_register_commands(subparsers):
     from siku_io.output.info import add_info_command
 
     add_info_command(subparsers)
-
-
-@hookimpl
-def siku_register_writers():
-    from siku_io.output.zarr_store import ZarrWriter
-
-    return [ZarrWriter]

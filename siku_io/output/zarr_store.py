@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from siku_core import PLUGIN_API_VERSION, DataError, Param, __version__
+from siku_core import PLUGIN_API_VERSION, DataError, Param, __version__, hookimpl
 from siku_core.outputs import RunLock, is_disk_full, partial_path
 
 from .hdf5 import HDF5Writer
@@ -315,3 +315,8 @@ def export_zarr(path, target=None, overwrite: bool = False) -> Path:
                         "existing store is untouched)") from None
     fsync_path(target)
     return target
+
+
+@hookimpl
+def siku_register_writers():
+    return [ZarrWriter]

@@ -80,7 +80,12 @@ def test_one_and_two_threads_give_identical_states(many_chunks, law):
     sc = pulled_pack(law)
     one = run_with(sc, 1, 30)
     two = run_with(sc, 2, 30)
-    assert parallel.chunks(1000) > 1  # the loops really were cut into chunks
+    old = numba.get_num_threads()
+    numba.set_num_threads(2)
+    try:
+        assert parallel.chunks(1000) > 1  # the loops really were cut into chunks on two threads
+    finally:
+        numba.set_num_threads(old)
     cm1, cm2 = one.contacts, two.contacts
     assert cm1.n_overlap > 0
     if law != "collision":
