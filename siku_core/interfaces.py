@@ -143,6 +143,10 @@ class Writer(Component):
     #: the file to write, set by the engine before :meth:`open` (``[output] file`` or
     #: ``--out``); the writer never chooses another path
     path: "Path | None" = None
+    #: whether the user asked to replace an existing output (``--overwrite``,
+    #: ``Simulation(overwrite=True)``), set by the engine before :meth:`open`; the engine has
+    #: already checked that an existing file at :attr:`path` is this writer's own (``owns``)
+    overwrite: bool = False
     #: whether :meth:`open` continues its own file on a restart (``ctx.restarted_from`` set):
     #: the engine then lets a restart write to an existing file of this writer
     appends: ClassVar[bool] = False

@@ -159,6 +159,8 @@ class Simulation:
             w = self._component("writer", x.writer, x.params, f"output.extra[{k}]")
             w.path = path  # type: ignore[attr-defined]
             self.writers.append(w)  # type: ignore[arg-type]
+        for w in self.writers:
+            w.overwrite = bool(overwrite)  # what --overwrite allows, told to every writer
         self.state_schedule = StepInterval.snapshots(cfg.output.every, self.dt, self.n_steps)
         self.diag_schedule = StepInterval.diagnostics(cfg.output.diagnostics_every, self.dt,
                                                       self.n_steps)

@@ -139,3 +139,26 @@ def test_a_netcdf_file_of_another_layout_is_not_continued(tmp_path, monkeypatch)
                    force=True).run()
     assert "\n" not in str(ei.value)
     assert (tmp_path / "run.nc").read_bytes() == before
+
+
+def test_every_writer_learns_whether_overwrite_was_given(tmp_path, monkeypatch):
+    """``Writer.overwrite`` is set on the file's writer and every further writer before they
+    open: False by default, True with ``overwrite=True`` (``--overwrite``)."""
+    monkeypatch.chdir(tmp_path)
+    reg = registry_with(guide_writer())
+    for flag in (False, True):
+        seen = []
+        for name in ("hdf5", "centres_csv"):
+            cls = reg.get("writer", name)
+
+            def spy(self, ctx, _open=cls.open):
+                seen.append((self.name, self.overwrite))
+                return _open(self, ctx)
+
+            monkeypatch.setattr(cls, "open", spy)
+        Simulation(scene(tmp_path, steps=5), out=tmp_path / "run.h5", progress=False,
+                   registry=reg, overwrite=flag).run()
+        monkeypatch.undo()
+        monkeypatch.chdir(tmp_path)
+        assert {n for n, _ in seen} >= {"hdf5", "centres_csv"}
+        assert all(o is flag for _, o in seen), seen
