@@ -204,6 +204,15 @@ def test_region_box_across_the_antimeridian_and_full_circle():
         Region.box([0, 1], [70, 60])
 
 
+@pytest.mark.parametrize("lon", [[-1500.0, -149.5], [-180.0, 180.5], [0.0, math.inf],
+                                 [math.nan, 10.0]])
+def test_a_box_wider_than_the_full_circle_is_refused(lon):
+    # [-1500, -149.5] spans 1350.5 degrees: taken before as the full circle without a word
+    with pytest.raises(ValueError, match=r"east - west <= 360"):
+        Region.box(lon, [72.0, 72.2])
+    assert Region.box([-180.0, 180.0], [72.0, 72.2]).full_lon  # the full circle itself holds
+
+
 def test_mesh_across_the_antimeridian_builds_elements():
     mesh = build_mesh(lon=[175.0, -175.0], lat=[70.0, 72.0], spacing=15e3, land="none", seed=1)
     assert mesh.n > 50

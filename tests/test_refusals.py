@@ -49,6 +49,15 @@ def test_13_mesh_spacings_the_region_cannot_hold(here, capsys, spacing, says):
     assert f"m.toml {says}" in one_error(capsys)
 
 
+def test_13_a_mesh_box_wider_than_the_full_circle(here, capsys):
+    text = MESH.format("6e3").replace("[-150.0, -149.0]", "[-1500.0, -149.5]")
+    (here / "m.toml").write_text(text, encoding="utf-8")
+    assert main(["run", "m.toml", "--no-progress", "--out", "o.h5"]) == 2
+    assert "m.toml [elements.mesh]: lon = [-1500, -149.5]: need east - west <= 360" in \
+        one_error(capsys)
+    assert not (here / "o.h5").exists()
+
+
 @pytest.mark.parametrize("text", ["a = " + "[" * 3000 + "]" * 3000,
                                   "x = " + "{a = " * 2000 + "1" + "}" * 2000,
                                   '[integrator]\nparams = {x = ' + "[" * 600 + "]" * 600 + "}"])

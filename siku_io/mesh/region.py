@@ -26,11 +26,16 @@ class Region:
     @classmethod
     def box(cls, lon: Sequence[float], lat: Sequence[float]) -> Region:
         """From ``[west, east]`` and ``[south, north]`` (degrees); east <= west wraps eastward
-        across the antimeridian, ``[-180, 180]`` is the full circle."""
+        across the antimeridian, ``[-180, 180]`` is the full circle. A box wider than the full
+        circle (``east - west > 360``, a typing slip such as ``[-1500, -149.5]``) is refused:
+        it would silently become the full circle."""
         w, e = float(lon[0]), float(lon[1])
         s, n = float(lat[0]), float(lat[1])
         if not (-90.0 <= s < n <= 90.0):
             raise ValueError(f"lat = [{s:g}, {n:g}]: need -90 <= south < north <= 90")
+        if not (math.isfinite(w) and math.isfinite(e)) or e - w > 360.0:
+            raise ValueError(f"lon = [{w:g}, {e:g}]: need east - west <= 360 (the full circle "
+                             "is [-180, 180]; east < west wraps across the antimeridian)")
         width = e - w
         if width <= 0:
             width += 360.0
