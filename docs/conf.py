@@ -1,7 +1,7 @@
 """Sphinx configuration of siku's documentation site.
 
 Sphinx with MyST: the pages are the Markdown files of this folder as they read on the
-repository (MyST renders them unchanged), autodoc and napoleon render the public docstrings
+repository (MyST renders them unchanged; MyST-NB runs the tutorial notebook at build), autodoc and napoleon render the public docstrings
 (numpy style, units in brackets) into the API reference, and the small extension
 ``_ext/siku_docs.py`` keeps the Markdown pages valid for both readers (HTML anchors of the
 references page as targets, links that leave docs/ to the repository). Build:
@@ -11,6 +11,7 @@ references page as targets, links that leave docs/ to the repository). Build:
 """
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -21,10 +22,20 @@ sys.path.insert(0, str(HERE.parent))
 project = "siku"
 author = "The siku developers"
 copyright = "the siku developers, GPL-3.0-or-later"
-extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "siku_docs"]
-source_suffix = {".md": "markdown"}
+extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "siku_docs"]
+# MyST-NB reads every page with the MyST parser and runs the notebooks among them (a page whose
+# top matter says ``file_format: mystnb``: tutorial.md) at every build, in a Jupyter kernel
+source_suffix = {".md": "myst-nb"}
+nb_execution_mode = "force"
+nb_execution_raise_on_error = True  # a cell that fails fails the build
+nb_execution_show_tb = True
+nb_execution_timeout = 600  # [s] per cell: the first run on a machine compiles siku's kernels
+# the kernel imports the siku of this tree (the one documented), whatever is installed
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    [str(HERE.parent), *filter(None, [os.environ.get("PYTHONPATH")])])
+os.environ.pop("MPLBACKEND", None)  # the kernel's own (inline): the notebook's plots are shown
 root_doc = "index"
-exclude_patterns = ["_build", "_ext", "gallery/make_gallery.py"]
+exclude_patterns = ["_build", "_ext", "gallery/make_gallery.py", "jupyter_execute"]
 myst_enable_extensions = ["colon_fence"]
 myst_heading_anchors = 3
 # the generated table page of bench.accuracy (explanation/speed_accuracy_table.md) starts at H3

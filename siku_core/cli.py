@@ -21,6 +21,7 @@ from pathlib import Path
 
 from .versions import __version__
 from .errors import SceneError, SikuError, shown
+from .outputs import command_line
 
 DEFAULT_SCENE = "default_scene.toml"
 _KIND_TITLES = {
@@ -418,7 +419,8 @@ def main(argv: list[str] | None = None) -> int:
             except SystemExit as exc:  # --help, --version
                 return int(exc.code or 0)
             args.argv = argv
-            return args.func(args)
+            with command_line():  # refusals name the flags, not the Python arguments
+                return args.func(args)
     except SikuError as exc:
         msg = " | ".join(str(exc).splitlines())
         here = str(Path.cwd()).rstrip("/\\") + "/"

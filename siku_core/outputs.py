@@ -23,15 +23,68 @@ or a folder given as a file.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import fcntl
 import os
 import shlex
 import stat
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from .errors import DataError, SceneError
+
+@dataclass(frozen=True)
+class Options:
+    """How a refusal names the caller's settings: the command line's flags (``siku run
+    --overwrite``) or the Python API's arguments (``Simulation(overwrite=True)``), so that the
+    advice of one shared rule is something the caller can do."""
+
+    out: str
+    overwrite: str
+    restart: str
+    force: str
+    #: the setting that lengthens a finished run, written before its value
+    extend: str
+    #: what its value is, and an example (6 hours)
+    duration: str
+    duration_example: str
+
+    def restart_with(self, path: Path | str) -> str:
+        """The setting that continues the output file ``path``."""
+        if self.restart.startswith("--"):
+            return f"{self.restart} {shlex.quote(str(path))}"
+        return f"{self.restart}{str(path)!r}"
+
+
+#: the command line's wording (``siku run``)
+COMMAND_LINE = Options(out="--out", overwrite="--overwrite", restart="--restart",
+                       force="--force", extend="--extend ", duration="DURATION",
+                       duration_example="6h")
+#: the Python API's wording (``Simulation``, ``SceneBuilder``), the default
+PYTHON_API = Options(out="out=", overwrite="overwrite=True", restart="restart=",
+                     force="force=True", extend="extend=", duration="SECONDS",
+                     duration_example="21600")
+_OPTIONS: contextvars.ContextVar[Options] = contextvars.ContextVar("siku_options",
+                                                                   default=PYTHON_API)
+
+
+def options() -> Options:
+    """The wording of the caller's settings: :data:`PYTHON_API` unless the caller is the
+    command line (:func:`command_line`)."""
+    return _OPTIONS.get()
+
+
+@contextlib.contextmanager
+def command_line():
+    """Within this block refusals name the command line's flags (:data:`COMMAND_LINE`)."""
+    token = _OPTIONS.set(COMMAND_LINE)
+    try:
+        yield
+    finally:
+        _OPTIONS.reset(token)
+
 
 #: errno values that mean "the disk (or the quota, or the file-size limit) is full"
 DISK_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
@@ -86,7 +139,7 @@ def _same(a: Path, b: Path) -> bool:
 def check_target(path: str | Path, *, what: str = "output file",
                  ours: Callable[[Path], bool] | None = None, overwrite: bool = False,
                  inputs: Iterable[tuple[str, Path]] = (), appending_to: Path | None = None,
-                 option: str = "--out", overwrite_option: str = "--overwrite",
+                 option: str | None = None, overwrite_option: str | None = None,
                  follow_links: bool = True, continue_option: str = "",
                  folder: bool = False) -> Path:
     """May siku write ``path``? The one rule for every file siku writes; refused with a
@@ -100,7 +153,9 @@ def check_target(path: str | Path, *, what: str = "output file",
     * a file another process holds (:func:`in_use`).
 
     ``option`` names the setting that chose the path in the messages, ``overwrite_option``
-    the one that allows replacing (the Python API's ``overwrite=True``); with
+    the one that allows replacing (both by default as the caller names them, :func:`options`:
+    ``--out`` and ``--overwrite`` on the command line, ``out=`` and ``overwrite=True`` in
+    Python); with
     ``overwrite_option=""``: the command replaces its own files without being asked (no
     option to name); ``continue_option`` (e.g. ``--restart``) is advised for an existing file
     of siku's own; with
@@ -109,6 +164,9 @@ def check_target(path: str | Path, *, what: str = "output file",
     the file is a folder (a Zarr store): an existing folder is the existing file, under the
     same rules."""
     path = Path(path)
+    said = options()
+    option = said.out if option is None else option
+    overwrite_option = said.overwrite if overwrite_option is None else overwrite_option
     if "\x00" in str(path):
         raise DataError(f"{str(path)!r}: a file name cannot hold a NUL character")
     if not follow_links and path.is_symlink():
@@ -139,8 +197,7 @@ def check_target(path: str | Path, *, what: str = "output file",
     elif not overwrite:
         again = ""
         if continue_option and ours is not None and ours(path):
-            again = (f"; it is {_a(what)} siku wrote: continue it with {continue_option} "
-                     f"{shlex.quote(str(path))}")
+            again = f"; it is {_a(what)} siku wrote: continue it with {continue_option}"
         raise DataError(f"{path}: exists; choose another {option}, or pass "
                         f"{overwrite_option} to replace it (the old file stays whole until the "
                         f"new one is complete){again}")
@@ -163,13 +220,15 @@ def _a(noun: str) -> str:
 def check_output_path(path: Path, inputs: list[tuple[str, Path]], *, overwrite: bool,
                       appending_to: Path | None = None,
                       ours: Callable[[Path], bool] | None = None,
-                      continue_option: str = "--restart", folder: bool = False) -> None:
+                      folder: bool = False) -> None:
     """The run's output path under :func:`check_target`: ``ours`` is the writer's
     :meth:`~siku_core.interfaces.Writer.owns`; an existing output of the writer is refused
-    with the advice to continue it (``continue_option``, e.g. ``--restart``); ``folder``: the
-    writer's output is a folder (:attr:`~siku_core.interfaces.Writer.folder`)."""
+    with the advice to continue it (``--restart PATH`` on the command line, ``restart=PATH``
+    in Python: :func:`options`); ``folder``: the writer's output is a folder
+    (:attr:`~siku_core.interfaces.Writer.folder`)."""
     check_target(path, what="output file", ours=ours, overwrite=overwrite, inputs=inputs,
-                 appending_to=appending_to, continue_option=continue_option, folder=folder)
+                 appending_to=appending_to, continue_option=options().restart_with(path),
+                 folder=folder)
 
 
 def partial_path(target: Path) -> Path:
@@ -391,6 +450,7 @@ def extra_output_paths(scene: Any, primary: Path | None, overwrite: bool, restar
     return paths
 
 
-__all__ = ["check_output_path", "check_target", "extra_output_paths", "input_paths",
+__all__ = ["check_output_path", "check_target", "Options", "COMMAND_LINE", "PYTHON_API",
+           "options", "command_line", "extra_output_paths", "input_paths",
            "partial_path", "publish", "exchange", "RunLock", "in_use",
            "is_disk_full", "restart_differences", "fsync_path", "settle", "DISK_FULL"]

@@ -18,7 +18,7 @@ import numpy as np
 
 from .errors import SceneError
 from .limits import check_limits
-from .outputs import restart_differences
+from .outputs import options, restart_differences
 from .scene import Scene
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -47,6 +47,7 @@ def restart(sim: "Run", path: Path, force: bool = False,
         "writer", sim.scene.cfg.output.writer
     )
     data = writer_cls.read_restart(path, sim.context)
+    said = options()  # the caller's wording: --force on the command line, force=True in Python
     restore(sim, path, data)
     sim.restarted_from = data["step"]
     record = data.get("record")
@@ -63,9 +64,9 @@ def restart(sim: "Run", path: Path, force: bool = False,
             raise SceneError(
                 f"{path}: restart refused: this scene differs from the run that wrote the "
                 f"file ({'; '.join(diffs[:4])}{more}); restart with the same scene, or pass "
-                "--force to continue anyway (results will not match an uninterrupted run)")
+                f"{said.force} to continue anyway (results will not match an uninterrupted run)")
         if diffs:
-            warnings.warn(f"{path}: restarting with a different scene (--force): "
+            warnings.warn(f"{path}: restarting with a different scene ({said.force}): "
                           f"{'; '.join(diffs)}", stacklevel=2)
     stored_steps = int(data.get("n_steps", sim.n_steps))
     base = data.get("extended_from")
@@ -74,7 +75,8 @@ def restart(sim: "Run", path: Path, force: bool = False,
     cut_short = base is not None and data["step"] < stored_steps
     if extend is not None:
         if not (math.isfinite(extend) and extend > 0):
-            raise SceneError(f"--extend {extend!r}: give a positive duration, e.g. 6h")
+            raise SceneError(f"{said.extend}{extend!r}: give a positive duration, e.g. "
+                             f"{said.extend}{said.duration_example}")
         if cut_short:
             stored_steps = int(base)
         sim.n_steps = stored_steps + max(1, round(extend / sim.dt))
@@ -88,7 +90,7 @@ def restart(sim: "Run", path: Path, force: bool = False,
         raise SceneError(
             f"{path}: the scene's duration {sim.scene.cfg.time.total:g} s ends before the "
             f"file's last snapshot (step {sim.step_index}, t = {sim.time:g} s); give a "
-            "duration past it, or lengthen the run with --extend DURATION")
+            f"duration past it, or lengthen the run with {said.extend}{said.duration}")
     elif (sim.step_index >= sim.n_steps and stored_steps > sim.n_steps
           and sim.time_origin == (0, 0.0)):  # steps of another dt say nothing here
         # a run extended beyond its scene's end: go on to the end the file records
@@ -101,8 +103,8 @@ def restart(sim: "Run", path: Path, force: bool = False,
     if sim.step_index >= sim.n_steps:
         raise SceneError(
             f"{path}: the run is already complete (step {sim.step_index} of "
-            f"{sim.n_steps}, t = {sim.time:g} s); to run longer, add --extend DURATION "
-            "(e.g. --extend 6h)")
+            f"{sim.n_steps}, t = {sim.time:g} s); to run longer, add "
+            f"{said.extend}{said.duration} (e.g. {said.extend}{said.duration_example})")
 
 
 def restore(sim: "Run", path: Path, data: dict[str, Any]) -> None:

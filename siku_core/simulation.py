@@ -29,7 +29,7 @@ from .errors import SceneError, check_argument, is_path
 from .ice import IceBook, apply_processes, process_schedule
 from .interfaces import Component, Field, ForcingSource, Integrator, Process, Writer
 from .limits import check_limits
-from .outputs import check_output_path, extra_output_paths, input_paths
+from .outputs import check_output_path, extra_output_paths, input_paths, options
 from .params import validate_params
 from .plugins import Registry, get_plugin_manager, get_registry, package_of
 from .scene import Scene, load_scene
@@ -93,7 +93,9 @@ class Simulation:
         cfg = scene.cfg
         check_limits(scene)
         if extend is not None and restart is None:
-            raise SceneError("--extend continues a finished run: give the file with --restart")
+            said = options()
+            raise SceneError(f"{said.extend.rstrip(' =')} continues a finished run: give the "
+                             f"file with {said.restart.rstrip(' =')}")
         self.registry = registry or get_registry()
         self.output_path: Path | None = None
         #: the snapshots are kept in memory (``out="memory"``), not written

@@ -13,7 +13,8 @@ the page is rendered):
 - ``<!-- network -->``: the block downloads; it runs against stand-ins (``wget`` writes a
   stand-in file of the layout the page describes, ``cdsapi`` a stand-in ERA5 file).
 
-Blocks of language ``text`` are listings and output, not commands; ``toml`` blocks without a
+A notebook page's code cells (MyST-NB's ``{code-cell} ipython3``, run again when the site is
+built) are ``python`` blocks. Blocks of language ``text`` are listings and output, not commands; ``toml`` blocks without a
 ``file`` comment are checked by parsing (``test_toml_examples_in_the_docs_parse``). Every other
 block is run: ``bash`` through bash (``set -e``), ``python`` in one namespace per page.
 
@@ -34,7 +35,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-FENCE = re.compile(r"^```(\w*)[^\n]*\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
+FENCE = re.compile(r"^```(\{code-cell\}|\w*)[^\n]*\n(.*?)^```[ \t]*$",
+                   re.MULTILINE | re.DOTALL)
+#: a notebook page's code cell (MyST-NB: ```{code-cell} ipython3) is a python block here too
+CELL = "{code-cell}"
 NOTE = re.compile(r"<!--\s*(file|not run|stand-in|network)\s*:?\s*(.*?)\s*-->")
 
 
@@ -67,8 +71,9 @@ def blocks(page: Path) -> list[Block]:
     for m in FENCE.finditer(text):
         before = text[: m.start()].rstrip("\n").rsplit("\n", 1)[-1]
         notes = {k: v for k, v in NOTE.findall(before)}
+        lang = "python" if m.group(1) == CELL else m.group(1)
         out.append(Block(page.relative_to(ROOT).as_posix(), text[: m.start()].count("\n") + 1,
-                         m.group(1), m.group(2), notes))
+                         lang, m.group(2), notes))
     return out
 
 

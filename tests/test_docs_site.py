@@ -1,8 +1,10 @@
 """The documentation site builds from the pages and the docstrings with warnings as errors
-(a missing target, a broken cross-reference or a docstring autodoc cannot render fails), and
-its internal links check (the README's command)."""
+(a missing target, a broken cross-reference or a docstring autodoc cannot render fails), its
+tutorial notebook runs at the build (a failing cell fails it), and its internal links check
+(the README's command)."""
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -12,6 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 pytest.importorskip("sphinx")
 pytest.importorskip("myst_parser")
+pytest.importorskip("myst_nb")
 
 
 def _sphinx(builder: str, out: Path, fresh: bool = True) -> subprocess.CompletedProcess:
@@ -33,6 +36,14 @@ def test_the_site_builds_with_warnings_as_errors_and_its_links_resolve(tmp_path)
     api = (html / "reference" / "python_api.html").read_text(encoding="utf-8")
     for name in ("Simulation", "ContactLaw", "check_contact_law", "collision_geometry"):
         assert name in api, name
+    # the tutorial notebook ran at this build: its printed drift and its plot are in the page
+    tut = (html / "tutorial.html").read_text(encoding="utf-8")
+    m = re.search(r"speed after 12 h: ([0-9.]+) m/s, ([0-9.]+) % of the wind", tut)
+    assert m, "the tutorial's cells did not run"
+    # free drift in a 10 m/s wind: a few per cent of it (Nansen's rule of thumb, about 2 %)
+    assert 1.0 < float(m.group(2)) < 4.0, m.group(0)
+    images = re.findall(r'<img[^>]*src="(_images/[0-9a-f]{16,}\.png)"', tut)
+    assert images and all((html / i).stat().st_size > 10_000 for i in images)
     # the references page's HTML anchors are targets of the site
     assert 'id="kulchitsky-et-al-2017"' in (html / "reference" / "references.html").read_text(
         encoding="utf-8")

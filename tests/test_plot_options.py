@@ -139,6 +139,37 @@ def test_map_options_reach_the_map(small):
     matplotlib.pyplot.close(q.fig)
 
 
+def test_element_and_grid_maps_draw_into_the_callers_cartopy_axes(small, tmp_path):
+    """``ax=``: both painters draw in the caller's panels, in the axes' projection, and add no
+    figure and (``colorbar=False``) no colour bar of their own."""
+    import cartopy.crs as ccrs
+    import matplotlib.pyplot as plt
+
+    from siku_io.analysis.gridded_fields import grid_output
+    from siku_io.analysis.regular_grid import GridCfg
+    from siku_io.output.netcdf import write_netcdf
+    from siku_io.plot.element_maps import MapPainter, Output
+    from siku_io.plot.grid_maps import GridPainter
+
+    cfg = GridCfg(kind="lonlat", lon=(-150.4, -149.4), lat=(74.9, 75.2), resolution=0.05)
+    grid = write_netcdf(grid_output(small, cfg), tmp_path / "run.grid.nc")
+    proj = ccrs.NorthPolarStereo(central_longitude=-150)
+    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": proj})
+    figures = plt.get_fignums()
+    p = MapPainter(Output(small), "speed", ax=axes[0], colorbar=False)
+    p.draw(-1)
+    g = GridPainter(grid, "concentration", ax=axes[1], colorbar=False)
+    g.draw(-1)
+    assert plt.get_fignums() == figures  # no figure of their own
+    assert (p.ax, p.fig, g.ax, g.fig) == (axes[0], fig, axes[1], fig)
+    assert p.proj is proj and g.proj is proj and len(fig.axes) == 2  # no colour bar added
+    assert p.coll in axes[0].collections and g.mesh in axes[1].collections
+    assert np.isfinite(g.values).any() and g.colorbar is None
+    fig.colorbar(g.mesh, ax=axes[1])  # the caller's own colour bar takes the painter's mappable
+    assert len(fig.axes) == 3
+    plt.close(fig)
+
+
 @pytest.mark.parametrize("args, says", [
     (["--time", "9"], "snapshot index out of range"),
     (["--time", "5h"], "no snapshot at 18000 s"),

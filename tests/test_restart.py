@@ -145,7 +145,7 @@ def test_restart_with_a_different_scene_is_refused_with_the_differences(tmp_path
     with pytest.raises(SceneError, match="restart refused: this scene differs from the run "
                                          "that wrote the file") as ei:
         Simulation(other, out=part, restart=part, progress=False)
-    assert difference in str(ei.value) and "--force" in str(ei.value)
+    assert difference in str(ei.value) and "pass force=True to continue" in str(ei.value)
     assert part.read_bytes() == before
     with pytest.warns(UserWarning, match="restarting with a different scene"):
         sim = Simulation(other, out=part, restart=part, progress=False, force=True)

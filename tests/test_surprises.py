@@ -79,6 +79,35 @@ def test_a_second_run_over_a_stopped_one_advises_restart(stopped):
     assert line.endswith("; it is an output file siku wrote: continue it with --restart o.h5")
 
 
+def test_the_python_api_names_its_own_arguments_not_the_flags(stopped, monkeypatch):
+    """The same refusals through ``Simulation``: the advice names ``out=``,
+    ``overwrite=True``, ``restart=``, ``force=True`` and ``extend=``, arguments the caller
+    has, never a flag of ``siku run``; and the advice works."""
+    from siku_core.errors import SikuError
+
+    monkeypatch.chdir(stopped)
+    scene = load_scene("s.toml")
+    with pytest.raises(SikuError) as e:
+        Simulation(scene, progress=False)
+    msg = str(e.value)
+    assert "o.h5: exists; choose another out=, or pass overwrite=True" in msg
+    assert msg.endswith("continue it with restart='o.h5'") and "--" not in msg
+    other = load_scene("s.toml", {"time.dt": "30s"})
+    with pytest.raises(SikuError) as e:
+        Simulation(other, restart="o.h5", progress=False)
+    assert "pass force=True to continue anyway" in str(e.value) and "--" not in str(e.value)
+    with pytest.raises(SikuError) as e:
+        Simulation(scene, extend=600.0, progress=False)
+    assert "extend continues a finished run: give the file with restart" == str(e.value)
+    Simulation(scene, restart="o.h5", progress=False).run()  # the advice works
+    with pytest.raises(SikuError) as e:
+        Simulation(scene, restart="o.h5", progress=False)
+    msg = str(e.value)
+    assert "to run longer, add extend=SECONDS (e.g. extend=21600)" in msg and "--" not in msg
+    Simulation(scene, restart="o.h5", extend=120.0, progress=False).run()
+    assert np.array_equal(times(stopped / "o.h5"), np.arange(0.0, 721.0, 60.0))
+
+
 def test_ctrl_c_says_how_to_continue_and_the_advice_works(stopped, monkeypatch, capsys):
     run = Simulation.run
 

@@ -47,15 +47,19 @@ class GridPainter:
 
     ``vmin``, ``vmax`` [the field's units as drawn: strain rates per day] fix the colour
     scale; ``land``, ``extent`` and ``projection`` as for
-    :class:`siku_io.plot.element_maps.MapPainter`."""
+    :class:`siku_io.plot.element_maps.MapPainter`. With ``ax``, a cartopy ``GeoAxes`` of the
+    caller's figure, the map is drawn there in the axes' own projection (a panel of a larger
+    figure); ``colorbar=False`` leaves the colour bar to the caller (``painter.mesh`` is the
+    mappable)."""
 
     def __init__(self, path, field: str, *, vmin: float | None = None,
                  vmax: float | None = None, land: bool | None = None, extent=None,
-                 projection: str = "auto"):
+                 projection: str = "auto", ax=None, colorbar: bool = True):
         import cartopy.crs as ccrs
         import matplotlib
 
-        matplotlib.use("Agg")
+        if ax is None:
+            matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
         from . import mapdeco
@@ -77,10 +81,13 @@ class GridPainter:
         mapdeco.check_limits(vmin, vmax)
         frame_lon, frame_lat = ((self.lon.ravel(), lat.ravel()) if extent is None
                                 else mapdeco.extent_outline(extent))
-        self.proj = mapdeco.projection(float(frame_lat.mean()), float(frame_lon.mean()),
-                                       projection)
-        self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
-        self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
+        if ax is None:
+            self.proj = mapdeco.projection(float(frame_lat.mean()), float(frame_lon.mean()),
+                                           projection)
+            self.fig = plt.figure(figsize=(8, 6.5), dpi=100)
+            self.ax = self.fig.add_subplot(1, 1, 1, projection=self.proj)
+        else:
+            self.ax, self.fig, self.proj = ax, ax.figure, ax.projection
         self.ax.set_facecolor(mapdeco.OCEAN)
         self.box = mapdeco.frame_for(self.ax, self.proj, frame_lon, frame_lat,
                                      pad=0.02 if extent is None else 0.0)
@@ -116,8 +123,10 @@ class GridPainter:
         self.mesh = self.ax.pcolormesh(self.lon, self.lat, np.ma.masked_invalid(values[0]),
                                        cmap=cmap, vmin=lo, vmax=hi,
                                        transform=ccrs.PlateCarree(), zorder=1, shading="flat")
-        self.colorbar = cb = mapdeco.colorbar_beside(self.fig, self.ax, self.mesh)
-        cb.set_label(f"{field} [{self.units}]\n{attrs.get('long_name', '')}", fontsize=8)
+        self.colorbar = None
+        if colorbar:
+            self.colorbar = cb = mapdeco.colorbar_beside(self.fig, self.ax, self.mesh)
+            cb.set_label(f"{field} [{self.units}]\n{attrs.get('long_name', '')}", fontsize=8)
         self.lines = []
 
     def on_land(self) -> np.ndarray:
