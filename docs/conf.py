@@ -1,8 +1,9 @@
 """Sphinx configuration of siku's documentation site.
 
 Sphinx with MyST: the pages are the Markdown files of this folder as they read on the
-repository (MyST renders them unchanged; MyST-NB runs the tutorial notebook at build), autodoc and napoleon render the public docstrings
-(numpy style, units in brackets) into the API reference, and the small extension
+repository (MyST renders them unchanged; MyST-NB runs the tutorial notebook at build),
+autodoc and napoleon render the public docstrings (numpy style, units in brackets) into the
+API reference, and the small extension
 ``_ext/siku_docs.py`` keeps the Markdown pages valid for both readers (HTML anchors of the
 references page as targets, links that leave docs/ to the repository). Build:
 

@@ -14,8 +14,8 @@ the page is rendered):
   stand-in file of the layout the page describes, ``cdsapi`` a stand-in ERA5 file).
 
 A notebook page's code cells (MyST-NB's ``{code-cell} ipython3``, run again when the site is
-built) are ``python`` blocks. Blocks of language ``text`` are listings and output, not commands; ``toml`` blocks without a
-``file`` comment are checked by parsing (``test_toml_examples_in_the_docs_parse``). Every other
+built) are ``python`` blocks. Blocks of language ``text`` are listings and output, not
+commands; ``toml`` blocks without a ``file`` comment are checked by parsing (``test_toml_examples_in_the_docs_parse``). Every other
 block is run: ``bash`` through bash (``set -e``), ``python`` in one namespace per page.
 
 What a block needs is said where the reader sees it, and the runner gives a page nothing more:
