@@ -15,8 +15,9 @@ the page is rendered):
 
 A notebook page's code cells (MyST-NB's ``{code-cell} ipython3``, run again when the site is
 built) are ``python`` blocks. Blocks of language ``text`` are listings and output, not
-commands; ``toml`` blocks without a ``file`` comment are checked by parsing (``test_toml_examples_in_the_docs_parse``). Every other
-block is run: ``bash`` through bash (``set -e``), ``python`` in one namespace per page.
+commands; ``toml`` blocks without a ``file`` comment are checked by parsing
+(``test_toml_examples_in_the_docs_parse``). Every other block is run: ``bash`` through bash
+(``set -e``), ``python`` in one namespace per page.
 
 What a block needs is said where the reader sees it, and the runner gives a page nothing more:
 
