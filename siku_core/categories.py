@@ -18,9 +18,9 @@ polygon's polar second moment of area [m⁴]): an element whose fractions sum to
 weighs ``c`` times what a full cover of its mean thickness would. A scene has
 categories when one of its element sources gives them (an ``[elements.mesh.cover]`` with
 ``category``) or one of its processes needs a concentration per element (one category, all
-ice: :func:`one_category`); an element its source gives no categories (coast and landfast cells, the elements
-of other sources) has all its ice in the first category (``a = (1, 0, ..., 0)``) and every
-category at its thickness. A scene without categories allocates nothing here.
+ice: :func:`one_category`); an element its source gives no categories (coast and landfast
+cells, the elements of other sources) has all its ice in the first category (``a = (1, 0,
+..., 0)``) and every category at its thickness. A scene without categories allocates nothing here.
 """
 from __future__ import annotations
 

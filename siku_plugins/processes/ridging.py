@@ -9,7 +9,7 @@ plastic limit in the last evaluation (the law says so: its collision evaluator w
 ``dA`` [m²] of its overlap area, clipped again in the state after the step, beyond the largest
 one already converted is closed: the pair's footprints now cover ``dA`` twice, and the ice of
 one of them, the giver (the thinner element when the pair is first converted; on equal
-thickness, the first of the pair), leaves that area. As in the thickness redistribution of
+thickness, the second of the pair), leaves that area. As in the thickness redistribution of
 Thorndike et al. (1975) and Hibler (1980), the closing takes open water first and then ice: of
 ``dA``, the giver's free open water ``W = A_g (1 - c_g) - S_g`` (``c_g = sum a_k`` its
 concentration, ``S_g`` the area of its footprint already ceded under its other remembered
@@ -285,7 +285,7 @@ def ridge_pairs(cp, cd, nc, ice, raft_h, mem, count, tr):
             if m and key < new_keys[m - 1]:
                 ordered = False
             g = mgiver[known_at[a]] if known else -1
-            if g < 0 and plastic:  # the thinner element gives (equal: j carries)
+            if g < 0 and plastic:  # the thinner element gives (equal: j gives)
                 g = i if h_i < h_j else j
             new_keys[m] = key
             new_conv[m] = max(done, area_ij if plastic else 0.0)
