@@ -385,7 +385,8 @@ def _ridge_categories(tr, nt, ice):
 
 
 class Ridging(Process):
-    """Overlap of ice pressed beyond its plastic limit becomes ridged (or rafted) ice."""
+    """Overlap of ice pressed beyond its plastic limit becomes ridged (or rafted) ice on the
+    carrier and open water in the giver."""
 
     name = "ridging"
     #: its remembered pairs (by element index) and the ghosts' new thickness would have to
