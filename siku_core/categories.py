@@ -17,9 +17,10 @@ so its mass is ``m = rho V`` and its polar moment ``I = rho J sum_k a_k h_k`` (`
 polygon's polar second moment of area [m⁴]): an element whose fractions sum to ``c < 1``
 weighs ``c`` times what a full cover of its mean thickness would. A scene has
 categories when one of its element sources gives them (an ``[elements.mesh.cover]`` with
-``category``); an element its source gives no categories (coast and landfast cells, the elements
-of other sources) has all its ice in the first category (``a = (1, 0, ..., 0)``) and every
-category at its thickness. A scene without categories allocates nothing here.
+``category``) or one of its processes needs a concentration per element (one category, all
+ice: :func:`one_category`); an element its source gives no categories (coast and landfast
+cells, the elements of other sources) has all its ice in the first category (``a = (1, 0,
+..., 0)``) and every category at its thickness. A scene without categories allocates nothing here.
 """
 from __future__ import annotations
 
@@ -152,6 +153,16 @@ class Categories:
     def mean(self) -> np.ndarray:
         """The element thicknesses they give (:func:`category_mean`) [m]."""
         return category_mean(self.fraction, self.thickness)
+
+
+def one_category(thickness: np.ndarray) -> Categories:
+    """One category per element, all of its area ice of its thickness (``a = 1``, ``h_1 = h``
+    [m]): the categories of a scene whose sources give none but one of whose processes needs
+    an ice concentration per element (:attr:`~siku_core.interfaces.Process.needs_categories`).
+    Mass, inertia and the thickness are those of the scene without categories, to the bit
+    (``1.0 h = h``)."""
+    h = np.asarray(thickness, dtype=float)
+    return Categories(np.ones((len(h), 1)), h[:, None].copy())
 
 
 def categories_of(given: Sequence[tuple[np.ndarray, np.ndarray] | None],

@@ -24,7 +24,8 @@ the next joint loop); mass from thickness is :func:`~siku_core.ice_follow.elemen
 categories every element's mass follows ``v`` in one NumPy pass. A scene with neither declared
 fields nor processes allocates nothing here and runs as before.
 
-Thickness categories (:mod:`siku_core.categories`, a scene whose element sources give them):
+Thickness categories (:mod:`siku_core.categories`, a scene whose element sources give them, or
+one per element when a process ``needs_categories``):
 ``ctx.categories`` holds the fraction ``a_k`` and thickness ``h_k`` of every element's categories,
 which processes change in place. After each process the engine makes the element thickness their
 mean again, ``h = sum a_k h_k / sum a_k``: an element whose categories the process changed gets

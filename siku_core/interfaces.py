@@ -222,6 +222,10 @@ class Process(Component):
     required = {"apply": ("ctx", "dt")}
     #: quantities the process conserves (checked by the conformance suite)
     conserves: ClassVar[tuple[str, ...]] = ()
+    #: whether the process needs an ice concentration per element (``ctx.categories``): a
+    #: scene whose element sources give no thickness categories then gets one per element,
+    #: all of it ice (``siku_core.categories.one_category``; ``ridging``, which opens water)
+    needs_categories: ClassVar[bool] = False
 
     @abstractmethod
     def apply(self, ctx: "Context", dt: float) -> None:

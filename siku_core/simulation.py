@@ -22,6 +22,7 @@ from . import parallel
 from .diagnostics import element_diagnostics, held_forces
 from .contacts_view import ContactsView
 from .context import Context
+from .categories import one_category
 from .elements import build_elements_and_categories
 from .guard import Guard, check_initial_state, check_time_step
 from .versions import __version__
@@ -166,6 +167,8 @@ class Simulation:
         self.state_schedule = StepInterval.snapshots(cfg.output.every, self.dt, self.n_steps)
         self.diag_schedule = StepInterval.diagnostics(cfg.output.diagnostics_every, self.dt,
                                                       self.n_steps)
+        if categories is None and any(p.needs_categories for p in self.processes):
+            categories = one_category(self.state.thickness)  # a concentration per element
         #: declared per-element fields and the changing thickness (siku_core.ice)
         self.ice = IceBook(self, processes=bool(self.processes), categories=categories)
         if self.processes and self.contacts is not None:

@@ -347,8 +347,9 @@ def test_a_negative_category_thickness_is_refused_in_one_line(tmp_path):
 # ---------------------------------------------------------------------------- ridging
 class _RidgeTrio(ElementSource):
     """The ridging test's three squares (tests/test_processes.py: ridging_scene), each with two
-    categories: a static wall (1.5 m), the carrier (2.2 m) pressed on it and thin ice (0.5 m)
-    driven west onto the carrier at 5 cm/s."""
+    categories: a static wall (1.5 m, all ice), the carrier (2.2 m, 90 % ice) pressed on it and
+    thin ice (0.54 m, 99.9 % ice: 4000 m² of open water) driven west onto the carrier at
+    5 cm/s."""
 
     name = "ridge_trio"
 
@@ -357,7 +358,7 @@ class _RidgeTrio(ElementSource):
         dlon = np.degrees(size / 6371000.0) / np.cos(np.radians(80.0))
         given = (("wall", -dlon, "static", None, [0.7, 0.3], [1.2, 2.2]),
                  ("carrier", 0.0, None, None, [0.5, 0.4], [1.0, 3.75]),
-                 ("thin", dlon * 1.0005, "steady", (-0.05, 0.0), [0.6, 0.3], [0.3, 0.9]))
+                 ("thin", dlon * 1.0005, "steady", (-0.05, 0.0), [0.6, 0.399], [0.3, 0.9]))
         return [ElementSpec(np.array(square((lon, 80.0), size)), flag=flag, velocity=vel,
                             label=label, categories=(np.array(a), np.array(h)))
                 for label, lon, flag, vel, a, h in given]
@@ -365,10 +366,12 @@ class _RidgeTrio(ElementSource):
 
 def test_ridged_ice_piles_onto_the_carriers_thickest_category_and_conserves_volume():
     """The carrier's ridged volume ``dV`` goes into its thickest category ``m``: ``h_m``
-    grows by ``dV / (a_m A)`` and its other categories stay as they were; a giver's
-    categories (the thin ice's, the wall's if it gave) thin in proportion; the fractions never
-    change; the volume ``sum A sum_k a_k h_k`` is conserved to round-off and every thickness is
-    its categories' mean."""
+    grows by ``dV / (a_m A)`` and its other categories stay as they were; a giver (the thin
+    ice, 99.9 % covered) first closes its open water, then loses ice area: its fractions shrink
+    in proportion, its category thicknesses stay; the volume ``sum A sum_k a_k h_k`` is
+    conserved to round-off, the givers' lost volume is the ridged volume, their lost ice area
+    is that volume over their ice's mean thickness, and every thickness is its categories'
+    mean."""
     txt = scene_text([], dt=0.25, duration=100.0, extra=(
         '[[elements.source]]\nname = "ridge_trio"\n\n[contact]\nlaw = "ridging"\n'
         'joints = "none"\n\n[[process]]\nname = "ridging"\n'))
@@ -381,20 +384,29 @@ def test_ridged_ice_piles_onto_the_carriers_thickest_category_and_conserves_volu
     ridged = sim.context.fields["ridged_volume"]
     assert ridged[1] > 2e3 and ridged[0] == ridged[2] == 0.0  # m³: a real ridge, on the carrier
     assert ice_volume(sim) == pytest.approx(v0, rel=1e-12)
-    assert np.array_equal(cats.fraction, a0)
     assert np.array_equal(st.thickness, cats.mean())
-    # the carrier: its thin category untouched, its thickest one carries the ridge
-    assert cats.thickness[1, 0] == h0[1, 0]
+    # the carrier: its fractions and thin category untouched, its thickest one carries the ridge
+    assert np.array_equal(cats.fraction[1], a0[1]) and cats.thickness[1, 0] == h0[1, 0]
     grow = ridged[1] / (a0[1, 1] * st.area[1])
     assert cats.thickness[1, 1] == pytest.approx(h0[1, 1] + grow, rel=1e-12)
-    # the givers: every category thinner by the ratio of the element's thickness
+    # the givers: their thicknesses as they were, their fractions smaller in proportion
+    assert np.array_equal(cats.thickness[[0, 2]], h0[[0, 2]])
     for e in (0, 2):
-        np.testing.assert_allclose(cats.thickness[e], st.thickness[e] / t0[e] * h0[e],
-                                   rtol=1e-12)
-    assert st.thickness[2] < t0[2]
+        r = cats.fraction[e].sum() / a0[e].sum()
+        np.testing.assert_allclose(cats.fraction[e], r * a0[e], rtol=1e-12)
+    assert cats.fraction[2].sum() < a0[2].sum()
     v0, v1 = (a0 * h0).sum(1), (cats.fraction * cats.thickness).sum(1)
     lost = st.area[[0, 2]] @ (v0[[0, 2]] - v1[[0, 2]])
     assert lost == pytest.approx(ridged[1], rel=1e-9)
+    cut = st.area * (a0.sum(1) - cats.fraction.sum(1))  # m²: the ice area each lost
+    for e in (0, 2):  # ... carried its volume at its own thickness
+        assert cut[e] * t0[e] == pytest.approx(st.area[e] * (v0[e] - v1[e]), rel=1e-9)
+    assert cut[2] > 1e3  # m²
+    # its open water (0.1 % of it, 4000 m²) closed first: the overlap converted is larger by
+    # that (Hibler's 1979 rule: the ice area shrinks only once no open water is left)
+    ridging = sim.processes[0]
+    closed = ridging.converted[:ridging.count][ridging.keys[:ridging.count] == 1 * 3 + 2]
+    assert closed == pytest.approx(cut[2] + (1.0 - a0[2].sum()) * st.area[2], rel=1e-9)
 
 
 # ---------------------------------------------------------------------------- gridding

@@ -4,7 +4,6 @@ example's pictures are drawn."""
 from __future__ import annotations
 
 import importlib.util
-import math
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +11,7 @@ import pytest
 
 from siku_core.scene import load_scene
 from siku_core.simulation import Simulation
+from siku_core.testing.process_checks import ice_volume
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "ice_life"
@@ -24,22 +24,21 @@ def run(tmp_path_factory):
     d = tmp_path_factory.mktemp("ice_life")
     sim = Simulation(load_scene(EXAMPLE / "cold_snap.toml", SMALL), out=d / "cold_snap.h5",
                      progress=False)
-    v0 = math.fsum(sim.state.area * sim.state.thickness)
+    v0 = ice_volume(sim)
     sim.run()
     return sim, v0, d
 
 
 def test_the_cold_snap_grows_ice_and_the_budget_closes(run):
     sim, v0, _ = run
-    st = sim.state
     thermo, ridging = sim.processes[0], sim.processes[1]
-    live = st.flags != 3
-    v1 = math.fsum(st.area[live] * st.thickness[live])
+    v1 = ice_volume(sim)  # [m³], sum A sum a_k h_k of the elements not melted
     grown = thermo.budget(sim.context)
     assert grown > 0  # 3 h at -40 °C on 0.5 m ice: growth beats the 20 W/m² ocean flux
     assert (v1 - v0) == pytest.approx(grown, rel=1e-10)
     assert ridging.budget(sim.context) == 0.0 and "volume" in ridging.conserves
     assert float(sim.context.fields["ridged_volume"].sum()) > 0  # floes pile up at the coast
+    assert sim.context.categories.fraction.sum(1).min() < 1.0  # ... and open water where they did
 
 
 def test_the_example_draws_its_pictures(run, capsys):

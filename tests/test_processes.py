@@ -558,12 +558,14 @@ def ridging_scene(steps=400, diamond=False):
 def _ridge_by_hand(sim, steps, P=2.75e4):
     """Step ``sim`` (:func:`ridging_scene`) and follow the ridging of the thin ice (2) onto the
     carrier (1) by hand; yields per step ``(force [N], limit [N], width before, width after
-    [m], plastic, ridged [m³], expected [m³], h_thin [m])``. The law caps the normal force at
-    ``P h w`` of the evaluation, which siku2 makes at the state before the step: the pair is
-    plastic when its force (the generalised force on ``i``, equal to the contact force to
-    ``(size / R)² ~ 1e-7``) is at least ``1 - 1e-6`` of ``P h w`` at the width before the step;
-    then the growth of the overlap after the step (clipped here) beyond the largest area
-    converted is ice of thickness ``h_thin`` moved onto the carrier."""
+    [m], plastic, ridged [m³], expected [m³], c_thin [1], converted [m²])``. The law caps the
+    normal force at ``P h w`` of the evaluation, which siku2 makes at the state before the
+    step: the pair is plastic when its force (the generalised force on ``i``, equal to the
+    contact force to ``(size / R)² ~ 1e-7``) is at least ``1 - 1e-6`` of ``P h w`` at the width
+    before the step; then the growth of the overlap after the step (clipped here) beyond the
+    largest area converted is ice of the thin element, which has no open water to close: its
+    area leaves the thin ice (concentration ``c_thin``), its volume (at the thin ice's own
+    thickness, which does not change) moves onto the carrier."""
     from siku_core.contact_frames import rotation_matrices
     from siku_core.contact_overlaps import overlaps, pair_overlaps
 
@@ -572,41 +574,50 @@ def _ridge_by_hand(sim, steps, P=2.75e4):
     nmax = int(np.max(np.diff(st.vert_offsets)))
     expected = converted = 0.0
     h_thin = float(st.thickness[2])
+    c_thin = 1.0
     for _ in range(steps):
         rotation_matrices(st.q, rm, 1)
         w0 = pair_overlaps(rm, st.vert_offsets, st.verts, np.array([[1, 2]]), np.array([0]),
                            float(cm.radius), nmax)[0, 1]
-        h0 = h_thin
         sim.step()
         pairs, _, width, force = overlaps(cm)
         ks = [n for n, (a, b) in enumerate(pairs) if {a, b} == {1, 2}]
         f = float(force[ks[0]]) if ks else 0.0
         w1 = float(width[ks[0]]) if ks else 0.0
-        plastic = f > 0.0 and w0 > 0.0 and f >= (1 - 1e-6) * P * h0 * w0
+        plastic = f > 0.0 and w0 > 0.0 and f >= (1 - 1e-6) * P * h_thin * w0
         A = _overlap_in_plane(sim, 1, 2)
         if plastic and A > converted:
             dV = (A - converted) * h_thin
             expected += dV
-            h_thin -= dV / st.area[2]
+            c_thin -= (A - converted) / st.area[2]
             converted = A
         if A == 0.0:
             converted = 0.0  # apart: forgotten
-        yield (f, P * h0 * w0, w0, w1, plastic, float(sim.context.fields["ridged_volume"][1]),
-               expected, h_thin)
+        yield (f, P * h_thin * w0, w0, w1, plastic,
+               float(sim.context.fields["ridged_volume"][1]), expected, c_thin, converted)
 
 
 def test_ridging_caps_the_force_conserves_volume_and_converts_the_overlap():
+    """Thin ice ridging onto a carrier: the force stays at the plastic limit, the ridged
+    volume is the overlap the test clips itself times the thin ice's thickness, the thin ice
+    keeps its thickness and loses that area (its concentration falls, open water takes its
+    place: its ice covers its footprint less the overlap, none of it counted twice) and the
+    total volume is unchanged."""
     sim = ridging_scene()
-    st = sim.state
+    st, cats = sim.state, sim.context.categories
     v0 = ice_volume(sim)
     plastic_steps = 0
-    for force, limit, _, _, plastic, ridged, expected, h_thin in _ridge_by_hand(sim, 400):
+    for force, limit, _, _, plastic, ridged, expected, c_thin, A in _ridge_by_hand(sim, 400):
         assert ridged == pytest.approx(expected, rel=1e-9)
-        assert st.thickness[2] == pytest.approx(h_thin, rel=1e-12)
+        assert st.thickness[2] == 0.5  # m: the ice that stays is as thick as it was
+        assert cats.fraction[2, 0] == pytest.approx(c_thin, rel=1e-12)
         if plastic_steps:  # once reached, the force stays at the plastic limit P* h w (to 1 %)
             assert force == pytest.approx(limit, rel=0.01)
+        # the thin ice covers its footprint less the overlap converted: no ice counted twice
+        assert cats.fraction[2, 0] * st.area[2] == pytest.approx(st.area[2] - A, rel=1e-12)
         plastic_steps += plastic
     assert plastic_steps > 100 and expected > 2e3  # m3: a real ridge
+    assert 1.0 - c_thin > 1e-3  # a real opening: 4000 m² and more of 4e6
     assert sim.context.fields["ridged_volume"][2] == 0.0  # the thin ice carries nothing
     assert ice_volume(sim) == pytest.approx(v0, rel=1e-12)  # ridging alone conserves volume
     assert st.thickness[1] > 2.0  # the ridge: thicker ice on the carrier
@@ -624,7 +635,7 @@ def test_ridging_converts_a_capped_pair_whose_contact_widens_in_the_step():
     # converted (while the overlap is still a sliver of a few m², more than 1e-9 of it)
     per_step = np.finfo(float).eps * 1000.0**2 * 0.5  # m³
     capped = 0
-    for force, limit, w0, w1, plastic, ridged, expected, _ in _ridge_by_hand(sim, 240):
+    for force, limit, w0, w1, plastic, ridged, expected, _, _ in _ridge_by_hand(sim, 240):
         if plastic:
             capped += 1
             assert force == pytest.approx(limit, rel=1e-6)  # at the limit of the evaluation
@@ -635,6 +646,84 @@ def test_ridging_converts_a_capped_pair_whose_contact_widens_in_the_step():
     assert capped > 100 and expected > 10.0  # m³
     assert ridged == pytest.approx(expected, rel=1e-9)
     assert ice_volume(sim) == pytest.approx(v0, rel=1e-12)
+
+
+def converging_channel(hours=2.0, speed=0.1):
+    """Five rows of seven irregular 5 km elements 1 m thick at the equator (a lon/lat grid is
+    equal-area there to 1e-6): the west column a static coast, the east column a piston driven
+    west at ``speed`` [m/s], static rows 20 m off both sides; ``hours`` of convergence (2 h at
+    10 cm/s: 720 m, 2.9 % of the 25 km of free ice)."""
+    size, dt = 5000.0, 0.6  # m; s, below the safe step of 0.69 s
+    dlat = math.degrees(size / 6371000.0)
+    gap = math.degrees(20.0 / 6371000.0)
+    pack = square_pack(0.0, 0.0, 7, 5, size, jitter=0.2, seed=3, left="static", right="steady",
+                       right_velocity=[-speed, 0.0])
+    sides = [dict(square_pack(0.0, lat, 7, 1, size, flag="static"), lon=pack["lon"])
+             for lat in (-dlat - gap, 5 * dlat + gap)]
+    txt = scene_text([], packs=[pack, *sides], size=size, dt=dt, duration=hours * 3600.0,
+                     thickness=1.0, extra=('[contact]\nlaw = "ridging"\njoints = "none"\n\n'
+                                           '[[process]]\nname = "ridging"\n'))
+    return Simulation(scene_from_text(txt, "<channel>"), out=False, progress=False)
+
+
+def _footprints(sim):
+    """The elements' polygons (shapely) in the Lambert azimuthal equal-area plane about the
+    first element's centre [m]: its vertices' gnomonic coordinates (the model's tangent plane,
+    radius ``R tan t`` at angle ``t`` from the centre) moved to the radius ``2 R sin(t / 2)``,
+    so that the areas are those on the sphere (the edges' curvature aside: 1e-6 over 5 km)."""
+    from shapely.geometry import Polygon
+
+    from siku_core.geometry.quat import from_tangent, to_tangent
+
+    st, R = sim.state, sim.radius
+    out = []
+    for k in range(st.n):
+        xy = np.array([to_tangent(st.q[0], from_tangent(st.q[k], x, y, R), R)
+                       for x, y in st.polygon(k)])
+        rho = np.hypot(xy[:, 0], xy[:, 1])
+        laea = 2 * R * np.sin(0.5 * np.arctan(rho / R))
+        out.append(Polygon(xy * np.where(rho > 0, laea / np.maximum(rho, 1e-300), 1.0)[:, None]))
+    return out
+
+
+def test_ridging_in_a_converging_pack_counts_no_ice_twice():
+    """Two hours of convergence against a coast: the elements' footprints overlap (1.4 % of
+    their area covered twice; before ridging opened water, their ice covered it twice too, 2 %
+    of the free ice), but the ice area ``sum c A`` stays within the union of the footprints
+    (to 0.1 %), the gridded concentration at most 1 (cells of about four elements across, to
+    the gridding's own error on the intact tiling at the start), the volume to 1e-12; the ice
+    area lost carried the ridged volume (at the givers' thickness, 1 m to the thickest ice),
+    and the givers hold open water."""
+    from shapely.ops import unary_union
+
+    from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
+    from siku_io.analysis.regular_grid import Grid, GridCfg
+
+    sim = converging_channel()
+    st, cats = sim.state, sim.context.categories
+    grid = Grid(GridCfg(kind="lonlat", lon=(-0.1, 0.7), lat=(-0.2, 0.6), resolution=0.2),
+                sim.radius)
+    tiling = float(np.nanmax(grid_snapshot(grid, snapshot_of(sim))["concentration"])) - 1.0
+    assert abs(tiling) < 1e-6  # the cells the intact pack covers are full
+    v0, a0 = ice_volume(sim), float(st.area @ cats.fraction.sum(1))
+    sim.run()
+    polys = _footprints(sim)
+    shapes = np.array([p.area for p in polys])
+    np.testing.assert_allclose(shapes, st.area, rtol=1e-6)
+    union = unary_union(polys).area
+    twice = shapes.sum() - union
+    assert twice > 0.01 * union  # m²: a pack that converged
+    ice = float(st.area @ cats.fraction.sum(1))
+    assert ice <= union * (1 + 1e-3)  # no ice counted twice
+    gridded = grid_snapshot(grid, snapshot_of(sim))["concentration"]
+    assert np.nanmax(gridded) <= 1.0 + max(tiling, 0.0)
+    assert ice_volume(sim) == pytest.approx(v0, rel=1e-12)
+    f = sim.context.fields
+    moved = float(f["ridged_volume"].sum() + f["rafted_volume"].sum())  # m³
+    lost = a0 - ice  # m²
+    assert moved / st.thickness.max() * (1 - 1e-9) <= lost <= moved / 1.0 * (1 + 1e-9)
+    assert cats.fraction.sum(1).min() < 0.95  # open water in the givers
+    assert np.array_equal(cats.thickness[:, 0], st.thickness)
 
 
 def test_ridging_needs_the_ridging_law():

@@ -19,14 +19,18 @@ import numpy as np
 
 
 def budget(path) -> dict[str, np.ndarray]:
-    """Per snapshot: model time [h], total ice volume change since the start, volume grown
-    by thermodynamics and volume moved by ridging [m³] (elements not melted)."""
+    """Per snapshot: model time [h], total ice volume change since the start (``area sum_k
+    a_k h_k`` of the elements not melted), volume grown by thermodynamics and volume moved by
+    ridging [m³]."""
     import xarray as xr
 
     ds = xr.open_dataset(path, engine="siku")
     live = ds["flags"].values != 3
+    # ice per area: sum_k a_k h_k (the concentration counted; ridging opens water)
+    per_area = (ds["category_fraction"] * ds["category_thickness"]).sum("category").values \
+        if "category_fraction" in ds else ds["thickness"].values
     vol = np.array([math.fsum(v) for v in
-                    np.where(live, ds["thickness"].values * ds["area"].values, 0.0)])
+                    np.where(live, per_area * ds["area"].values, 0.0)])
     grown = np.array([math.fsum(v) for v in ds["grown_volume"].values])
     ridged = np.array([math.fsum(v) for v in ds["ridged_volume"].values]) + np.array(
         [math.fsum(v) for v in ds["rafted_volume"].values])

@@ -5,8 +5,10 @@ Per cell, at each gridded time (``siku_io.analysis.regular_grid`` gives the over
 each element with each cell and the cell's true area ``A_c``):
 
 * ``concentration`` = sum of ``fraction × area`` over the elements / ``A_c`` [1] (CF
-  ``sea_ice_area_fraction``; overlapping elements may push it above 1; with thickness
-  categories each element counts its ice, ``fraction × area × sum a_k``);
+  ``sea_ice_area_fraction``; overlapping elements may push it above 1, except where the
+  ``ridging`` process has taken the overlap from the giver's ice, to the spread of an
+  element's open water over its footprint; with thickness categories each element counts its
+  ice, ``fraction × area × sum a_k``);
 * ``thickness`` = ice volume / ``A_c`` [m] (the mean thickness of the whole cell; an element's
   volume is ``area × thickness``, with categories ``area × sum a_k h_k``:
   ``siku_core.categories.element_volume``);

@@ -1,4 +1,5 @@
-"""``ridging``: pressed ice that reached its plastic limit turns overlap into thicker ice.
+"""``ridging``: pressed ice that reached its plastic limit turns overlap into thicker ice and
+open water, conserving the ice volume and the area it covers.
 
 With the ``ridging`` contact law, two elements pressed together beyond the plastic limit ``P h
 w`` (the law's module docstring) no longer push harder: they overlap further. This process turns
@@ -6,27 +7,40 @@ that overlap into ridged ice. For every colliding pair whose normal force the la
 plastic limit in the last evaluation (the law says so: its collision evaluator writes the flag
 ``out[3]``, which the contact model keeps per pair, ``ctx.contacts.keep_caps``), the growth
 ``dA`` [m²] of its overlap area, clipped again in the state after the step, beyond the largest
-one already converted is ice of the thinner element (thickness ``h_t``) piled onto the thicker
-one (the carrier; on equal thickness, the second of the pair): the volume ``dV = dA h_t`` [m³]
-moves from the thinner element to the carrier,
+one already converted is closed: the pair's footprints now cover ``dA`` twice, and the ice of
+one of them, the giver (the thinner element when the pair is first converted; on equal
+thickness, the second of the pair), leaves that area. As in the thickness redistribution of
+Thorndike et al. (1975) and Hibler (1980), the closing takes open water first and then ice: of
+``dA``, the giver's free open water ``W = A_g (1 - c_g) - S_g`` (``c_g = sum a_k`` its
+concentration, ``S_g`` the area of its footprint already ceded under its other remembered
+pairs, whose ice left before) closes, and the rest,
 
-    h_t -= dV / A_t,    h_c += dV / A_c,
+    dA_i = dA - min(dA, max(W, 0)),
 
-so the total volume ``sum(A h)`` is unchanged (to round-off) and the ridge shows up as thicker
-ice on the carrier, in the outputs and on grids. Ice thinner than the law's ``raft_thickness``
-rafts rather than ridges: the same transfer, counted in ``rafted_volume``. Pairs with an
-element that has melted away are left alone. A pair that stops overlapping is forgotten (it
-starts from zero if it meets again). Elastic overlaps (below the plastic limit) are never
+is ice of the giver's thickness ``h_g`` that ridges onto the other element (the carrier): the
+volume ``dV = dA_i h_g`` [m³] moves, the giver's ice area shrinks by ``dA_i`` (its fractions
+``a_k`` scale by ``1 - dA_i / (c_g A_g)``, its thicknesses stay) and the carrier's thickest
+category ``m`` (the largest ``h_k`` with ``a_k > 0``) thickens,
+
+    a_k -> a_k (v_g - dV / A_g) / v_g   (giver, v_g = sum a_k h_k),
+    h_m -> h_m + dV / (a_m A_c)        (carrier),
+
+so the total volume ``sum A sum a_k h_k`` is unchanged (to round-off), the ice area ``sum A
+sum a_k`` falls by the area the pack closed (no ice is counted twice, a gridded concentration
+stays at most 1), the giver holds open water where its ice ridged, and the ridge is thicker ice
+on the carrier, in the outputs and on grids. The ridged ice takes no area of its own: it piles
+onto the carrier's ice (the limit of a large ridging ratio ``k``, ridged ice ``k`` times as
+thick on ``1/k`` of the area). Ice thinner than the law's ``raft_thickness`` rafts rather than
+ridges: the same transfer, counted in ``rafted_volume``. A giver keeps at least
+:data:`MIN_COVER` of its area as ice (a concentration that stays a distribution); overlap
+beyond that is not converted. Pairs with an element that has melted away are left alone. A
+pair that stops overlapping is forgotten (its ceded area is open water in the giver again, and
+it starts from zero if it meets again). Elastic overlaps (below the plastic limit) are never
 converted.
 
-With thickness categories (``ctx.categories``, :mod:`siku_core.categories`) an element's ice
-volume is ``A sum(a_k h_k)`` (:func:`~siku_core.categories.element_volume`), so the overlap
-``dA`` of the giver holds ``dV = dA v_t``, ``v_t = sum a_k h_k`` its ice per area (its
-concentration times ``h_t``; the thinner element is still the one of smaller mean thickness
-``h_t``). The carrier's gain piles onto its thickest category ``m`` (the largest ``h_k`` with
-``a_k > 0``), ``h_m += dV / (a_m A_c)``, and the giver's ice thins as a whole, every ``h_k`` by
-the factor ``(v_t - dV / A_t) / v_t``; the fractions do not change and each element volume
-changes by exactly ``dV``.
+The process needs a concentration per element (``needs_categories``): a scene whose sources
+give no thickness categories gets one per element, all ice (``a = 1``,
+:func:`~siku_core.categories.one_category`), which ridging opens.
 
 Declared per-element fields (summed on grids): ``ridged_volume`` and ``rafted_volume`` [m³],
 the volume the element has received by ridging and by rafting since the start.
@@ -34,6 +48,10 @@ the volume the element has received by ridging and by rafting since the start.
 Cost. Only candidates have their overlap clipped again (:func:`ridge_candidates`): the
 remembered pairs and the pairs the law capped, in one pass over the colliding pairs that reads
 the flags.
+
+References: Thorndike, A. S., Rothrock, D. A., Maykut, G. A., Colony, R. (1975), The thickness
+distribution of sea ice, J. Geophys. Res. 80(33), 4501–4513. Hibler, W. D. (1980), Modeling a
+variable thickness sea ice cover, Mon. Weather Rev. 108, 1943–1973.
 """
 from __future__ import annotations
 
@@ -57,6 +75,14 @@ from siku_core.state import MELTED
 #: the contact law parameters the process needs (those of the ``ridging`` law)
 LAW_KEYS = ("strength", "raft_thickness", "raft_strength")
 
+#: bytes the process holds per remembered pair (keys, converted areas, givers and the
+#: kernels' seven scratch arrays)
+PAIR_BYTES = 80.0
+
+#: the share of its area an element keeps as ice however far it is overridden [1]: an
+#: element's concentration stays positive (a category distribution with no ice is refused)
+MIN_COVER = 1e-3
+
 
 #: the contact model's candidate pairs as the process reads them (:meth:`Ridging.apply`)
 RidgeContacts = record_type("RidgeContacts", __name__, [
@@ -71,6 +97,7 @@ RidgeContacts = record_type("RidgeContacts", __name__, [
 RidgeMemory = record_type("RidgeMemory", __name__, [
     ("keys", "i", 1, "sorted pair keys min(i, j) N + max(i, j), -1 beyond the count"),
     ("converted", "f", 1, "overlap area of each already converted [m^2]"),
+    ("giver", "i", 1, "the element of each whose ice the overlap took, -1: not chosen yet"),
 ], "The pairs being converted.")
 
 #: the candidates of one application (:class:`Ridging`, their producer; one entry per pair)
@@ -85,6 +112,7 @@ RidgeCandidates = record_type("RidgeCandidates", __name__, [
 RidgeTransfers = record_type("RidgeTransfers", __name__, [
     ("new_keys", "i", 1, "the keys remembered from now on"),
     ("new_conv", "f", 1, "their converted areas [m^2]"),
+    ("new_giver", "i", 1, "their givers"),
     ("giver", "i", 1, "element giving ice in each transfer"),
     ("carrier", "i", 1, "element receiving it"),
     ("moved", "f", 1, "volume moved [m^3]"),
@@ -98,10 +126,12 @@ RidgeIce = record_type("RidgeIce", __name__, [
     ("flags", "i", 1, "element flags (siku_core.state)"),
     ("ridged", "f", 1, "ice volume received by ridging [m^3] (updated)"),
     ("rafted", "f", 1, "ice volume received by rafting [m^3] (updated)"),
-    ("fraction", "f", 2, "category fractions a_k [1], (n, K); K = 0: no categories"),
+    ("fraction", "f", 2, "category fractions a_k [1], (n, K) (updated)"),
     ("hk", "f", 2, "category thicknesses h_k [m], (n, K) (updated)"),
-    ("loss", "f", 1, "scratch per element [m^3], zero (empty without categories)"),
-    ("gain", "f", 1, "scratch per element [m^3], zero (empty without categories)"),
+    ("loss", "f", 1, "scratch per element [m^3], zero"),
+    ("gain", "f", 1, "scratch per element [m^3], zero"),
+    ("cut", "f", 1, "scratch per element [m^2], zero: ice area taken in this application"),
+    ("ceded", "f", 1, "scratch per element [m^2], zero: its footprint under other elements"),
     ("row", "f", 1, "scratch, one category row (K)"),
 ], "The per-element data ridging reads and changes.")
 
@@ -186,18 +216,19 @@ def ridge_pairs(cp, cd, nc, ice, raft_h, mem, count, tr):
     ``cd.cand[:nc]`` of the contact model ``cp`` (:func:`ridge_candidates`; ``cd.known_at``:
     their place among the remembered ones or -1), their overlap areas in ``cd.geo``
     (:func:`pair_geometry`), ``cp.caps`` whether the law capped each pair's normal force in
-    the last evaluation, in place: ``ice.thickness``, ``ice.ridged``, ``ice.rafted``
-    (:data:`RidgeIce`) and the remembered pairs (sorted ``mem.keys``, ``mem.converted``, the
-    first ``count``); ice thinner than ``raft_h`` (the law's ``raft_thickness``, m) rafts.
-    Returns the number of pairs remembered now, or minus it (and nothing changed) when that
-    exceeds ``len(mem.keys)``.
+    the last evaluation, in place: the categories ``ice.fraction``, ``ice.hk`` ``(n, K)`` and
+    ``ice.thickness`` (their mean), ``ice.ridged``, ``ice.rafted`` (:data:`RidgeIce`) and the
+    remembered pairs (sorted ``mem.keys``, ``mem.converted``, ``mem.giver``, the first
+    ``count``); ice thinner than ``raft_h`` (the law's ``raft_thickness``, m) rafts. Returns
+    the number of pairs remembered now, or minus it (and nothing changed) when that exceeds
+    ``len(mem.keys)``.
 
-    The transfers apply in pair order, every loss first, then every gain (the order of the
-    former ``np.subtract.at`` and ``np.add.at``). With thickness categories (``ice.fraction``,
-    ``ice.hk`` ``(n, K)``; ``K = 0``: none) each element that gave or carried has its
-    categories changed by :func:`_ridge_categories`. ``tr`` (:data:`RidgeTransfers`,
-    ``len(mem.keys)`` each), ``ice.loss``, ``ice.gain`` (``n``, zero) and ``ice.row`` (``K``)
-    are scratch."""
+    The pairs are taken in order, each closing first the giver's free open water and then its
+    ice (against what earlier pairs of the application took); the transfers apply after them,
+    every loss first, then every gain (:func:`_ridge_categories`). ``tr``
+    (:data:`RidgeTransfers`, ``len(mem.keys)`` each), ``ice.loss``, ``ice.gain``,
+    ``ice.cut``, ``ice.ceded`` (``n``, zero, left zero) and ``ice.row`` (``K``) are
+    scratch."""
     pairs = cp.pairs
     caps = cp.caps
     cand = cd.cand
@@ -209,18 +240,26 @@ def ridge_pairs(cp, cd, nc, ice, raft_h, mem, count, tr):
     ridged = ice.ridged
     rafted = ice.rafted
     fraction = ice.fraction
-    hk = ice.hk
+    cut = ice.cut
+    ceded = ice.ceded
     scratch = ice.row
     keys = mem.keys
     converted = mem.converted
+    mgiver = mem.giver
     new_keys = tr.new_keys
     new_conv = tr.new_conv
+    new_giver = tr.new_giver
     giver = tr.giver
     carrier = tr.carrier
     moved = tr.moved
     rafts = tr.rafts
     cap = keys.shape[0]
     n = thickness.shape[0]
+    K = fraction.shape[1]
+    # the footprint each element cedes to the others: the converted overlaps of its pairs
+    for r in range(count):
+        if mgiver[r] >= 0:
+            ceded[mgiver[r]] += converted[r]
     m = 0  # pairs remembered from now on
     nt = 0  # volume transfers (each by a remembered pair)
     ordered = True
@@ -235,8 +274,7 @@ def ridge_pairs(cp, cd, nc, ice, raft_h, mem, count, tr):
         done = converted[known_at[a]] if known else 0.0
         h_i = thickness[i]
         h_j = thickness[j]
-        ht = min(h_i, h_j)
-        raft = ht < raft_h
+        raft = min(h_i, h_j) < raft_h
         # (an element melted in this step by an earlier process still has its pairs here)
         alive = flags[i] != MELTED and flags[j] != MELTED
         plastic = alive and caps[k] != 0
@@ -246,56 +284,68 @@ def ridge_pairs(cp, cd, nc, ice, raft_h, mem, count, tr):
             key = min(i, j) * n + max(i, j)
             if m and key < new_keys[m - 1]:
                 ordered = False
+            g = mgiver[known_at[a]] if known else -1
+            if g < 0 and plastic:  # the thinner element gives (equal: j gives)
+                g = i if h_i < h_j else j
             new_keys[m] = key
             new_conv[m] = max(done, area_ij if plastic else 0.0)
-            dV = max(area_ij - done, 0.0) * ht if plastic else 0.0
-            if dV > 0.0 and hk.shape[1]:  # the giver's ice per area, sum a_k h_k
-                g = i if h_i < h_j else j
-                for q in range(hk.shape[1]):
-                    scratch[q] = fraction[g, q] * hk[g, q]
-                dV = max(area_ij - done, 0.0) * row_sum(scratch)
-            if dV > 0.0:
-                # the thinner element gives, the thicker carries (equal: j carries)
-                giver[nt] = i if h_i < h_j else j
-                carrier[nt] = j if h_i < h_j else i
-                moved[nt] = dV
-                rafts[nt] = raft
-                nt += 1
+            new_giver[m] = g
+            dA = max(area_ij - done, 0.0) if plastic else 0.0
+            if dA > 0.0:
+                A = area[g]
+                for q in range(K):
+                    scratch[q] = fraction[g, q]
+                held = row_sum(scratch) * A - cut[g]  # the giver's ice area [m²]
+                water = A - held - ceded[g]  # its open water not under other elements
+                ceded[g] += dA
+                take = dA - min(dA, max(water, 0.0))  # closed water first, then ice
+                take = min(take, max(held - MIN_COVER * A, 0.0))
+                if take > 0.0:
+                    cut[g] += take
+                    giver[nt] = g
+                    carrier[nt] = j if g == i else i
+                    moved[nt] = take * thickness[g]  # its ice has the mean thickness
+                    rafts[nt] = raft
+                    nt += 1
         m += 1
+    for r in range(count):  # the scratch left zero
+        if mgiver[r] >= 0:
+            ceded[mgiver[r]] = 0.0
+    for t in range(min(m, cap)):
+        if new_giver[t] >= 0:
+            ceded[new_giver[t]] = 0.0
+    for t in range(nt):
+        cut[giver[t]] = 0.0
     if m > cap:
         return -m
-    for t in range(nt):
-        g = giver[t]
-        thickness[g] = thickness[g] - moved[t] / area[g]
-    for t in range(nt):
-        c = carrier[t]
-        thickness[c] = thickness[c] + moved[t] / area[c]
     for t in range(nt):
         if rafts[t]:
             rafted[carrier[t]] += moved[t]
         else:
             ridged[carrier[t]] += moved[t]
-    if hk.shape[1]:
-        _ridge_categories(tr, nt, ice)
+    _ridge_categories(tr, nt, ice)
     if not ordered:
         order = np.argsort(new_keys[:m])
         new_keys[:m] = new_keys[:m][order]
         new_conv[:m] = new_conv[:m][order]
+        new_giver[:m] = new_giver[:m][order]
     keys[:m] = new_keys[:m]
     converted[:m] = new_conv[:m]
+    mgiver[:m] = new_giver[:m]
     keys[m:count] = -1
     converted[m:count] = 0.0
+    mgiver[m:count] = -1
     return m
 
 
 @njit(cache=True)
 def _ridge_categories(tr, nt, ice):
     """The categories of the elements of the first ``nt`` transfers ``tr`` (module docstring;
-    ``ice``: :data:`RidgeIce`): a
-    giver's ice thins in proportion, ``h_k *= (v - L / A) / v`` (``L`` [m³] all it gave, ``v =
-    sum a_k h_k``), a carrier's gain ``G`` [m³] piles onto its thickest category ``m`` (the
-    largest ``h_k`` with ``a_k > 0``), ``h_m += G / (a_m A)``, so that the element's volume
-    ``A sum(a_k h_k)`` changes by exactly ``G - L``; the fractions do not change. The thickness
+    ``ice``: :data:`RidgeIce`): a giver's ice area shrinks in proportion, ``a_k *= (v - L / A)
+    / v`` (``L`` [m³] all it gave, ``v = sum a_k h_k``; its thicknesses unchanged: open water
+    takes the place of the ice that ridged), a carrier's gain ``G`` [m³] piles onto its
+    thickest category ``m`` (the largest ``h_k`` with ``a_k > 0``), ``h_m += G / (a_m A)``, so
+    that the element's volume ``A sum(a_k h_k)`` changes by exactly ``G - L``. The thickness
     becomes the categories' mean. ``ice.loss``, ``ice.gain`` are left zero."""
     giver = tr.giver
     carrier = tr.carrier
@@ -322,7 +372,7 @@ def _ridge_categories(tr, nt, ice):
             v0 = row_sum(scratch)
             r = (v0 - loss[e] / area[e]) / v0
             for k in range(h.shape[0]):
-                h[k] *= r
+                a[k] *= r
         if gain[e] > 0.0:
             m = -1
             for k in range(h.shape[0]):
@@ -335,7 +385,8 @@ def _ridge_categories(tr, nt, ice):
 
 
 class Ridging(Process):
-    """Overlap of ice pressed beyond its plastic limit becomes ridged (or rafted) ice."""
+    """Overlap of ice pressed beyond its plastic limit becomes ridged (or rafted) ice on the
+    carrier and open water in the giver."""
 
     name = "ridging"
     #: its remembered pairs (by element index) and the ghosts' new thickness would have to
@@ -343,6 +394,7 @@ class Ridging(Process):
     ranks_refusal = ("it remembers its ridging pairs from step to step by element index and "
                      "changes both elements of each, which ranks do not carry between them")
     conserves = ("volume",)
+    needs_categories = True  # the ice area an element loses to a ridge becomes open water
     params: ClassVar[dict[str, Param]] = {
         "capacity": Param(8, "1", "pairs remembered per element (a fault names it if a pack "
                           "needs more)", type=int, min=1),
@@ -362,31 +414,32 @@ class Ridging(Process):
                              "'ridging' (its plastic limit); set [contact] law = \"ridging\"")
         self.law = law
         st = ctx.state
-        # keys, converted areas and the kernels' six scratch arrays: 64 bytes per pair
-        check_count(ctx.where(self.table), "capacity", self.p["capacity"], 64.0, st.n,
+        # keys, converted areas, givers and the kernels' seven scratch arrays: 80 bytes per pair
+        check_count(ctx.where(self.table), "capacity", self.p["capacity"], PAIR_BYTES, st.n,
                     " of pairs remembered")
         n = st.n * int(self.p["capacity"])
         #: pairs being converted: sorted keys (min * N + max) and the overlap area already
         #: converted [m²]; -1 / 0 beyond ``self.count``
         self.keys = np.full(n, -1, dtype=np.int64)
         self.converted = np.zeros(n)
+        self.givers = np.full(n, -1, dtype=np.int64)
         self.count = 0
         self.raft_h = float(self.law["raft_thickness"])
         cm.keep_caps()  # whether the law capped each pair, for ridge_candidates and ridge_pairs
         # the kernels' scratch, allocated once (the per-pair ones grow with the pairs)
         self._rm = np.empty((st.n, 3, 3))
+        self._row = None
         self._nmax = int(np.max(np.diff(st.vert_offsets))) if st.n else 3
         self._geo = np.empty(0)
         self._mark = np.empty(0, dtype=np.int64)
         self._cand = np.empty(0, dtype=np.int64)
         self._known_at = np.empty(0, dtype=np.int64)
-        self._none = np.zeros((st.n, 0))
-        self._empty = np.zeros(0)
-        self._loss = self._gain = self._row = None
+        self._per_element = [np.zeros(st.n) for _ in range(4)]  # loss, gain, cut, ceded
         self._scratch = RidgeTransfers(
             new_keys=np.empty(n, dtype=np.int64), new_conv=np.empty(n),
-            giver=np.empty(n, dtype=np.int64), carrier=np.empty(n, dtype=np.int64),
-            moved=np.empty(n), rafts=np.empty(n, dtype=np.bool_))
+            new_giver=np.empty(n, dtype=np.int64), giver=np.empty(n, dtype=np.int64),
+            carrier=np.empty(n, dtype=np.int64), moved=np.empty(n),
+            rafts=np.empty(n, dtype=np.bool_))
 
     def apply(self, ctx, dt: float) -> None:
         if dt <= 0.0:
@@ -403,7 +456,7 @@ class Ridging(Process):
             self._known_at = np.empty(size, dtype=np.int64)
         cp = RidgeContacts(pairs=cm.pairs, active=cm.pair_active, caps=cm.pair_capped,
                            poff=cm.pair_offsets, pidx=cm.pair_index)
-        mem = RidgeMemory(keys=self.keys, converted=self.converted)
+        mem = RidgeMemory(keys=self.keys, converted=self.converted, giver=self.givers)
         cd = RidgeCandidates(cand=self._cand, known_at=self._known_at, geo=self._geo,
                              mark=self._mark)
         nc = ridge_candidates(cp, mem, self.count, st.flags, st.q, self._rm, cd)
@@ -412,37 +465,34 @@ class Ridging(Process):
             with alone(nch):
                 pair_geometry(self._rm, st.vert_offsets, st.verts, cm.pairs, self._cand, nc,
                               float(ctx.radius), self._nmax, self._geo, nch)
-        fraction, hk, loss, gain, row = self._categories(ctx)
+        cats = ctx.categories
+        if self._row is None or len(self._row) != cats.K:
+            self._row = np.empty(cats.K)
+        loss, gain, cut, ceded = self._per_element
         ice = RidgeIce(thickness=st.thickness, area=st.area, flags=st.flags,
                        ridged=ctx.fields["ridged_volume"], rafted=ctx.fields["rafted_volume"],
-                       fraction=fraction, hk=hk, loss=loss, gain=gain, row=row)
+                       fraction=cats.fraction, hk=cats.thickness, loss=loss, gain=gain,
+                       cut=cut, ceded=ceded, row=self._row)
         m = ridge_pairs(cp, cd, nc, ice, self.raft_h, mem, self.count, self._scratch)
         if m < 0:
             raise SceneError(f"{ctx.where(self.table)}: more than {len(self.keys)} ridging pairs; "
-                             "raise the process's capacity" + most_count(64.0, st.n))
+                             "raise the process's capacity" + most_count(PAIR_BYTES, st.n))
         self.count = m
-
-    def _categories(self, ctx) -> tuple:
-        """The kernel's category arguments: fractions, thicknesses and scratch."""
-        cats = ctx.categories
-        if cats is None:
-            return self._none, self._none, self._empty, self._empty, self._empty
-        if self._loss is None:
-            n = ctx.state.n
-            self._loss, self._gain, self._row = np.zeros(n), np.zeros(n), np.empty(cats.K)
-        return cats.fraction, cats.thickness, self._loss, self._gain, self._row
 
     def _forget_all(self) -> None:
         """No colliding pairs: every remembered pair is forgotten."""
         self.keys[:self.count] = -1
         self.converted[:self.count] = 0.0
+        self.givers[:self.count] = -1
         self.count = 0
 
     def history(self):
         return {"keys": self.keys.copy(), "converted": self.converted.copy(),
-                "count": np.array(self.count)}
+                "givers": self.givers.copy(), "count": np.array(self.count)}
 
     def set_history(self, arrays) -> None:
         self.keys[:] = arrays["keys"]
         self.converted[:] = arrays["converted"]
+        # (a file written before the givers were kept: each pair's giver is chosen again)
+        self.givers[:] = arrays["givers"] if "givers" in arrays else -1
         self.count = int(arrays["count"])
