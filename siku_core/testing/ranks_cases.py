@@ -57,6 +57,31 @@ params = {{ surface_temperature = -20.0, ocean_heat_flux = {flux!r} }}
 """
 
 
+def ridge_freeze_text(steps: int = 1000) -> str:
+    """The spring pack under the ``ridging`` law (joints of ``distributed_spring`` with a
+    tensile strain of 8e-5, collisions capped at a plastic limit of 100 Pa × h) with
+    ``thermodynamics`` every second, ``ridging`` and ``refreeze`` (sides within 2 m for 5 s
+    refreeze, at 2 kPa growing over 100 s): within 1000 steps joints between the last two
+    columns break, refreeze and break again, and pressed pairs ridge."""
+    pack = square_pack(30.0, 72.0, 5, 2, 2000.0, jitter=0.2, seed=7, left="static",
+                       right="steady", right_velocity=[0.004, 0.0012])
+    law = {"tensile_strain": 8e-5, "damage_onset": 0.3, "strength": 100.0}
+    return contact_scene_text("ridging", law, packs=[pack], dt=0.1, steps=steps,
+                              run={"progress": False}) + """
+[[process]]
+name = "thermodynamics"
+every = 1.0
+params = { surface_temperature = -20.0, ocean_heat_flux = 50.0 }
+
+[[process]]
+name = "ridging"
+
+[[process]]
+name = "refreeze"
+params = { gap = 2.0, freeze_time = 5.0, strength = 2e3, strength_time = 100.0 }
+"""
+
+
 def _last_column(step: int, c: np.ndarray) -> np.ndarray:
     """Rank 1 owns the last column of the spring pack (elements 8 and 9), rank 0 the rest."""
     return (np.arange(len(c)) >= 8).astype(np.int64)
@@ -81,6 +106,9 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "migrate": (spring_text(600), {"owner": _swapping, "every": 30}),
     "rebalance": (collision_text(), {"margin": 0.0, "min_work": 0.001}),
     "thermo": (thermo_text(), {"owner": _last_column}),
+    "ridge_freeze": (ridge_freeze_text(), {"owner": _last_column}),
+    "ridge_freeze_split": (ridge_freeze_text(), {}),
+    "rf_short": (ridge_freeze_text(200), {"owner": _last_column}),
     "rk4": (spring_text(3000).replace('"siku2"', '"rk4"'), {"owner": _three_columns}),
     "raise": (spring_text(100), {}),
 }
