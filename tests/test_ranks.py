@@ -235,6 +235,45 @@ def test_ridging_and_refreeze_on_two_ranks_same_bits(ridge_freeze_ranks, name):
         assert int(many["ranks_migrated"]) >= 8 * 10
 
 
+@needs_mpi
+@pytest.mark.slow
+def test_ridging_and_refreeze_write_the_same_file_on_two_ranks_and_restart(tmp_path):
+    """``siku run --ranks 2`` of the pack under thermodynamics, ridging and refreezing writes
+    the one-rank file byte for byte (state, joints, breaks, the processes' fields, history and
+    diagnostics); a snapshot written on two ranks continues on one, and one written on one
+    continues on two, as the one-rank run does."""
+    import h5py
+
+    from siku_core.testing.ranks_cases import ridge_freeze_text
+
+    (tmp_path / "scene.toml").write_text(ridge_freeze_text(500).replace(
+        "[run]", '[output]\nevery = 10.0\ndiagnostics_every = 3.0\n\n[run]'),
+        encoding="utf-8")
+    base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",
+            "--no-plots", "--out"]
+
+    def run(*args):
+        p = subprocess.run([*base, *args], cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    run("one.h5")
+    run("two.h5", "--ranks", "2")
+    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+    half = ["--set", "time.duration=30s"]
+    run("part2.h5", "--ranks", "2", *half)
+    run("part1.h5", *half)
+    run("more1.h5", "--restart", "part2.h5", *half, "--extend", "20s")
+    run("more2.h5", "--restart", "part1.h5", *half, "--extend", "20s", "--ranks", "2")
+    with h5py.File(tmp_path / "one.h5", "r") as a:
+        for name in ("more1.h5", "more2.h5"):
+            with h5py.File(tmp_path / name, "r") as b:
+                k = list(a["states/step"][:]).index(int(b["states/step"][-1]))
+                for f in ("fields/thickness", "fields/ridged_volume", "q", "V"):
+                    assert np.array_equal(a[f"states/{f}"][k], b[f"states/{f}"][-1]), (name, f)
+                assert np.array_equal(a["diagnostics/refrozen_joints"][-1],
+                                      b["diagnostics/refrozen_joints"][-1]), name
+
+
 # ---------------------------------------------------------------------- faults, refusals
 @needs_mpi
 def test_a_rank_raising_ends_the_run_with_one_line(tmp_path):
