@@ -220,7 +220,9 @@ def check_process_on_ranks(cls: type, params: Mapping[str, Any] | None = None,
                            **kwargs: Any) -> None:
     """A process that runs on ranks (``runs_on_ranks``) changes every other element, set up
     over those elements alone (``siku_core.ranks.local``), as it changes them among all, bit
-    for bit; a process that declares it cannot is not checked."""
+    for bit; one that reads the contacts (``reads_contacts``) is checked on a rank holding a
+    third of the elements and their ghosts (:func:`_check_contacts_on_ranks`); a process that
+    declares it cannot run on ranks is not checked."""
     from ..ranks.driver import refusal_reason
     from ..ranks.local import local_engine
 
