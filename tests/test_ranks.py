@@ -389,10 +389,11 @@ def test_launch_is_read_from_the_environment_only():
 @needs_mpi
 @pytest.mark.slow
 def test_three_ranks_same_bits(tmp_path):
-    """Three ranks: the spring pack and the collision pack, and the spring pack under RK4
+    """Three ranks: the spring pack and the collision pack, the spring pack under RK4
     with the breaking joints between ranks 1 and 2, beyond rank 0's ghosts (a later force
-    evaluation of the step needs the ghosts' stage states and damper bounds)."""
-    names = ("spring", "collision", "rk4")
+    evaluation of the step needs the ghosts' stage states and damper bounds), and the pack
+    under thermodynamics, ridging and refreezing split by bisection."""
+    names = ("spring", "collision", "rk4", "ridge_freeze_split")
     rc, err = mpirun(3, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), *names],
                      tmp_path)
     assert rc == 0, err
