@@ -30,6 +30,11 @@ False): read it again after the engine may have replaced it (the candidate list 
 during a step; creating joints lengthens the joint table). A component changes contacts only
 through the actions. Reading an attribute of the model that is not a member here still works
 for now, with a :class:`DeprecationWarning` naming the member to use.
+
+On MPI ranks a component sees the view of its rank's engine
+(:class:`siku_core.ranks.local.RankContactsView`): the joints and candidate pairs of the
+elements that rank holds, in local indices; its actions count the joints the rank reports, and
+``create_joints`` and ``floe_labels`` raise there (``docs/howto/processes.md``).
 """
 from __future__ import annotations
 

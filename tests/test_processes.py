@@ -364,6 +364,54 @@ def test_the_ranks_check_passes_local_growth_and_catches_one_reading_all():
         check_process_on_ranks(_GrowsWithTheMean)
 
 
+class _GrowsByItsJoints(_Growth):
+    """Reads the contacts: each element grows by the number of its intact joints, and keeps
+    per joint how often it saw it intact (history the ranks split by joint)."""
+
+    name = "test_by_joints"
+    runs_on_ranks = True
+    reads_contacts = True
+    rank_history = {"seen": "joint"}
+
+    def setup(self, ctx):
+        self.seen = np.zeros(ctx.contacts.joint_slots)
+
+    def apply(self, ctx, dt):
+        cm, st = ctx.contacts, ctx.state
+        k = np.flatnonzero(cm.intact)
+        self.seen[k] += 1.0
+        per = np.bincount(cm.ji[k], minlength=st.n) + np.bincount(cm.jj[k], minlength=st.n)
+        dh = 1e-4 * dt * (1.0 + per)
+        st.thickness += dh
+        ctx.fields["test_grown"] += st.area * dh
+
+    def history(self):
+        return {"seen": self.seen.copy()}
+
+    def set_history(self, arrays):
+        self.seen[:] = arrays["seen"]
+
+
+class _GrowsByTheCount(_GrowsByItsJoints):
+    """Reads the contacts but grows every element by the count of all intact joints: on a
+    rank, which holds some of them, it grows its elements differently."""
+
+    name = "test_by_count"
+
+    def apply(self, ctx, dt):
+        super().apply(ctx, dt)
+        ctx.state.thickness += 1e-6 * ctx.contacts.n_intact
+
+
+def test_the_ranks_check_of_a_process_reading_the_contacts():
+    """A process that reads an element's own joints passes the ranks check (its element's
+    joints are all on the rank that owns it; its per-joint history is split by joint); one
+    that reads all the joints fails it, naming the element; the built-in ones pass."""
+    check_process_on_ranks(_GrowsByItsJoints)
+    with pytest.raises(AssertionError, match="must change an element from its own contacts"):
+        check_process_on_ranks(_GrowsByTheCount)
+
+
 def test_a_correct_growth_process_passes_and_planted_faults_fail(tmp_path):
     check_process(_Growth, None, tmp_path / "ok")
     with pytest.raises((AssertionError, SikuError)):

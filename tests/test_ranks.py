@@ -6,7 +6,9 @@ under a timeout that turns a deadlock into a failure; the run on one rank is the
 joints break with the ranks' boundary across the breaking joints, the pack with
 ``mohr_coulomb``, a collision pack, elements moving to the other rank and back; ``siku run
 --ranks 2`` writes the same output file byte for byte, and a restart from it runs on one rank;
-a rank raising ends the run with one line; a different scene on one rank is refused.
+a rank raising ends the run with one line; a different scene on one rank is refused; the
+pack pulled apart under ``thermodynamics``, ``ridging`` and ``refreeze`` (joints across the
+boundary break and refreeze, pairs across it ridge, elements change rank and back).
 """
 from __future__ import annotations
 
@@ -193,6 +195,85 @@ def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
     assert a == (tmp_path / "ranks_more.h5").read_bytes()  # and a restart on two ranks
 
 
+RIDGE_FREEZE = ("ridge_freeze", "ridge_freeze_split", "ridge_freeze_migrate")
+
+
+@pytest.fixture(scope="module")
+def ridge_freeze_ranks(tmp_path_factory):
+    if not HAVE_MPI:
+        pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
+    d = tmp_path_factory.mktemp("ridge_freeze")
+    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *RIDGE_FREEZE], d,
+                     timeout=TIMEOUT * len(RIDGE_FREEZE))
+    assert rc == 0, err
+    return d
+
+
+@needs_mpi
+@pytest.mark.parametrize("name", RIDGE_FREEZE)
+def test_ridging_and_refreeze_on_two_ranks_same_bits(ridge_freeze_ranks, name):
+    """Thermodynamics, ridging and refreezing on two ranks: state, thickness, the processes'
+    fields and history (ridging pairs, refreeze times and count), every joint's state
+    (broken by the law and by the refrozen strength, refrozen where it stood) and the
+    diagnostics equal one rank's bit for bit; a joint shared by the ranks is in the same state
+    on both. Ranks split by column (the refreezing joints across the boundary), by bisection,
+    and every element changing rank every 60 steps (history carried there and back)."""
+    many = np.load(ridge_freeze_ranks / f"{name}.npz")
+    one = one_rank(name)
+    assert_same_bits(one, many, name)
+    assert bool(many["ranks_joints_agree"])
+    # the scene does what it is for: joints break, refreeze and break again, pairs ridge
+    assert int(one["diag_refrozen_joints"]) >= 2
+    assert int(one["diag_joints_broken_tension"]) >= 1  # a refrozen joint broke again
+    assert int(one["n_broken_total"]) > int(one["diag_refrozen_joints"])
+    assert float(one["field_ridged_volume"].sum()) > 0.0
+    if name == "ridge_freeze":  # the refreezing joints cross the ranks' boundary
+        assert int(many["ranks_shared_joints"]) >= 2
+    if name == "ridge_freeze_split":  # a ridging pair across the boundary
+        assert int(many["ranks_shared_pairs"]) >= 1
+    if name == "ridge_freeze_migrate":  # each element changed rank at steps 60 ... 480
+        assert int(many["ranks_migrated"]) >= 8 * 10
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_ridging_and_refreeze_write_the_same_file_on_two_ranks_and_restart(tmp_path):
+    """``siku run --ranks 2`` of the pack under thermodynamics, ridging and refreezing writes
+    the one-rank file byte for byte (state, joints, breaks, the processes' fields, history and
+    diagnostics); a snapshot written on two ranks continues on one, and one written on one
+    continues on two, as the one-rank run does."""
+    import h5py
+
+    from siku_core.testing.ranks_cases import ridge_freeze_text
+
+    (tmp_path / "scene.toml").write_text(ridge_freeze_text(500).replace(
+        "[run]", '[output]\nevery = 10.0\ndiagnostics_every = 3.0\n\n[run]'),
+        encoding="utf-8")
+    base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",
+            "--no-plots", "--out"]
+
+    def run(*args):
+        p = subprocess.run([*base, *args], cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    run("one.h5")
+    run("two.h5", "--ranks", "2")
+    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+    half = ["--set", "time.duration=30s"]
+    run("part2.h5", "--ranks", "2", *half)
+    run("part1.h5", *half)
+    run("more1.h5", "--restart", "part2.h5", *half, "--extend", "20s")
+    run("more2.h5", "--restart", "part1.h5", *half, "--extend", "20s", "--ranks", "2")
+    with h5py.File(tmp_path / "one.h5", "r") as a:
+        for name in ("more1.h5", "more2.h5"):
+            with h5py.File(tmp_path / name, "r") as b:
+                k = list(a["states/step"][:]).index(int(b["states/step"][-1]))
+                for f in ("fields/thickness", "fields/ridged_volume", "q", "V"):
+                    assert np.array_equal(a[f"states/{f}"][k], b[f"states/{f}"][-1]), (name, f)
+                assert np.array_equal(a["diagnostics/refrozen_joints"][-1],
+                                      b["diagnostics/refrozen_joints"][-1]), name
+
+
 # ---------------------------------------------------------------------- faults, refusals
 @needs_mpi
 def test_a_rank_raising_ends_the_run_with_one_line(tmp_path):
@@ -225,7 +306,8 @@ def test_ranks_given_different_scenes_or_a_process_are_refused(tmp_path):
     assert not (tmp_path / "x.h5").exists()
     # a process that cannot run on ranks: refused in one line naming it and the ranks
     (tmp_path / "c.toml").write_text(spring_text(50) + '\n[[process]]\nname = '
-                                     '"refreeze"\n', encoding="utf-8")
+                                     '"refreeze"\nparams = { weld = true }\n',
+                                     encoding="utf-8")
     p = subprocess.run([*run, "y.h5", "c.toml", "--ranks", "2"], cwd=tmp_path, env=_env(),
                        capture_output=True, text=True, timeout=120)
     lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
@@ -235,8 +317,10 @@ def test_ranks_given_different_scenes_or_a_process_are_refused(tmp_path):
 
 
 def test_components_that_cannot_run_on_ranks_are_named():
-    """A scene with a process that is not element-local is refused on ranks in one line
-    naming it and the ranks; forcing, integrator, contact law and thermodynamics are not."""
+    """A scene with a process that cannot run on ranks (refreeze creating joints, a process
+    keeping history without saying how ranks split it) is refused on ranks in one line naming
+    it and the ranks; forcing, integrator, contact law, thermodynamics, ridging and
+    refreezing are not."""
     from siku_core.ranks.driver import refusals
     from siku_core.scene import scene_from_text
     from siku_core.simulation import Simulation
@@ -244,17 +328,26 @@ def test_components_that_cannot_run_on_ranks_are_named():
 
     plain = Simulation(scene_from_text(spring_text(10), "<a>"), out=False)
     assert refusals(plain, 2) == []
+    from siku_core.testing.ranks_cases import ridge_freeze_text
+
     thermo = spring_text(10) + '\n[[process]]\nname = "thermodynamics"\n'
     assert refusals(Simulation(scene_from_text(thermo, "<t>"), out=False), 2) == []
-    for name in ("ridging", "refreeze"):
-        text = spring_text(10) + f'\n[[process]]\nname = "{name}"\n'
-        if name == "ridging":
-            text = text.replace('law = "distributed_spring"', 'law = "ridging"')
-            text = text.replace("params = { tensile_strain = 0.0002, damage_onset = 0.3 }",
-                                "params = {}")
-        sim = Simulation(scene_from_text(text, f"<{name}>"), out=False)
-        got = refusals(sim, 3)
-        assert len(got) == 1 and f"process '{name}' cannot run on 3 ranks" in got[0], got
+    both = Simulation(scene_from_text(ridge_freeze_text(10), "<r>"), out=False)
+    assert refusals(both, 3) == []
+    weld = spring_text(10) + '\n[[process]]\nname = "refreeze"\nparams = { weld = true }\n'
+    got = refusals(Simulation(scene_from_text(weld, "<w>"), out=False), 3)
+    assert len(got) == 1 and "process 'refreeze' cannot run on 3 ranks" in got[0], got
+    assert "creates joints" in got[0]
+    # a history without its layout: each rank's copy would keep its own part
+    proc = both.processes[1]
+    layout = type(proc).rank_history
+    try:
+        type(proc).rank_history = {k: v for k, v in layout.items() if k != "converted"}
+        got = refusals(both, 2)
+    finally:
+        type(proc).rank_history = layout
+    assert len(got) == 1 and "process 'ridging' cannot run on 2 ranks" in got[0], got
+    assert "converted" in got[0]
 
 
 # ---------------------------------------------------------------------- the parts
@@ -296,10 +389,11 @@ def test_launch_is_read_from_the_environment_only():
 @needs_mpi
 @pytest.mark.slow
 def test_three_ranks_same_bits(tmp_path):
-    """Three ranks: the spring pack and the collision pack, and the spring pack under RK4
+    """Three ranks: the spring pack and the collision pack, the spring pack under RK4
     with the breaking joints between ranks 1 and 2, beyond rank 0's ghosts (a later force
-    evaluation of the step needs the ghosts' stage states and damper bounds)."""
-    names = ("spring", "collision", "rk4")
+    evaluation of the step needs the ghosts' stage states and damper bounds), and the pack
+    under thermodynamics, ridging and refreezing split by bisection."""
+    names = ("spring", "collision", "rk4", "ridge_freeze_split")
     rc, err = mpirun(3, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), *names],
                      tmp_path)
     assert rc == 0, err

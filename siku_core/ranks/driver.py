@@ -43,11 +43,12 @@ from ..categories import ice_per_area
 from ..errors import SceneError, SikuError
 from ..geometry.quat import centers
 from ..guard import RECHECK_JOINTS, integrated_fields
-from ..ice import apply_processes
+from ..state import MELTED
 from ..progress import clock
 from .comm import Comm
 from .decompose import Cuts, bisect, imbalance
 from .ghosts import exchange_plan, local_sets, reach_pairs
+from .history import merge, to_global, to_local, unfit
 from .local import JOINT_STATE, local_engine
 
 #: the element arrays processes change besides the declared fields (``siku_core.ice``)
@@ -63,9 +64,7 @@ def refusal_reason(comp) -> str:
     """Why the component ``comp`` cannot run on more than one rank ("" where it can)."""
     if not getattr(comp, "runs_on_ranks", True):
         return getattr(comp, "ranks_refusal", "") or "it reads the contacts of every element"
-    if comp.history() is not None:  # each rank's copy would keep its own part
-        return "it keeps history of its own for restarts, which ranks do not carry"
-    return ""
+    return unfit(comp)  # its history, split between the ranks by its ``rank_history``
 
 
 def refusals(sim, size: int) -> list[str]:
@@ -163,14 +162,27 @@ class RankRun:
         # joints reported here: those whose first element this rank owns
         self.j_mine = (owner[sim.contacts.ji[self.jg]] == self.rank if gc is not None
                        else np.zeros(0, bool))
-        self._prev_intact = lc.intact.copy() if lc is not None else None
         if lc is not None:
             lc.ghost_dmob = self._ghost_dmob_from_run()
             lc.n_broken_total = 0
+            lc.reports = self.j_mine
+        self._local_histories()
         self.ref = c[self.ids[self.own_rows]]
         self.skin = gc.skin if gc is not None else np.inf
         self.since = sim.step_index
         self.redistributions += 1
+
+    def _local_histories(self) -> None:
+        """Each process of the rank's engine that keeps history takes its part of the run's
+        (:mod:`.history`: its elements, joints and pairs, in local indices)."""
+        sim = self.sim
+        for run_p, loc_p in zip(sim.processes, self.loc.processes):
+            layout = getattr(run_p, "rank_history", None)
+            fresh = loc_p.history()
+            if not layout or fresh is None:
+                continue
+            loc_p.set_history(to_local(layout, run_p.history(), fresh, self.ids, self.jg,
+                                       self.rank, sim.state.n, sim.scene.where(run_p.table)))
 
     def _close_local(self) -> None:
         """Release what the rank's engine's processes opened in their set-up (files)."""
@@ -217,6 +229,15 @@ class RankRun:
                 for k in ICE_STATE:
                     rec[k] = getattr(ls, k)[own]
             rec["cats"] = {k: v[own] for k, v in ice._category_arrays().items()}
+        hist = {}
+        for k, proc in enumerate(self.loc.processes):
+            layout = getattr(proc, "rank_history", None)
+            h = proc.history() if layout else None
+            if h is not None:
+                hist[k] = to_global(layout, h, self.ids, own, self.jg, self.j_mine, self.owner,
+                                    self.rank, self.sim.state.n)
+        if hist:
+            rec["proc_hist"] = hist
         if lc is not None:
             jm = self.j_mine
             rec["jg"] = self.jg[jm]
@@ -259,6 +280,12 @@ class RankRun:
             if gc is not None:
                 for k in JOINT_STATE:
                     getattr(gc, k)[rec["jg"]] = rec[k]
+        for k, proc in enumerate(sim.processes):  # their histories, by global identities
+            layout = getattr(proc, "rank_history", None)
+            if layout and all(k in rec.get("proc_hist", ()) for rec in recs):
+                parts = [(rec["ids"], rec.get("jg", np.zeros(0, np.int64)), rec["proc_hist"][k])
+                         for rec in recs]
+                proc.set_history(merge(layout, proc.history(), parts))
         if gc is None:
             return
         if ice.processes:  # the run's contact model follows the ice (melted elements gone)
@@ -304,15 +331,12 @@ class RankRun:
         sim.step_index += 1
         loc.step_index = sim.step_index
         self._exchange()
+        stepped = lc.take_changes() if lc is not None else None
         failed = self._processes() if loc.processes else None
         breaks = None
         if lc is not None:
             lc._pending = []
-            new = self._prev_intact & ~lc.intact
-            self._prev_intact = lc.intact.copy()
-            mine = new & self.j_mine
-            if mine.any():
-                breaks = (self.jg[mine], lc.break_mode[mine], lc.break_time[mine])
+            breaks = self._joint_news(stepped, lc.take_changes())
         moved = self._moved()
         sound = self._sound()
         due = self.every is not None and sim.step_index - self.since >= self.every
@@ -323,7 +347,7 @@ class RankRun:
         for got in news:  # a process raised on some rank: the same error on every rank
             if got[4] is not None:
                 raise got[4][0](got[4][1])
-        self._take_breaks([n[2] for n in news if n[2] is not None])
+        self._take_joints([n[2] for n in news if n[2] is not None])
         sim.guard.after_step()  # the joints' guard, on the run's joint table (every rank)
         if not all(n[1] for n in news):
             self._sync_all()
@@ -354,14 +378,55 @@ class RankRun:
         if not any(loc.step_index % every == 0 for every in loc._process_every):
             return None
         t0 = clock()
-        try:
-            apply_processes(loc)
-        except SikuError as exc:
-            return type(exc), str(exc)
-        finally:
-            self.work += clock() - t0
+        failed = None
+        ran = []
+        for proc, every in zip(loc.processes, loc._process_every):
+            if loc.step_index % every:
+                continue
+            if failed is None:  # (after an error: the exchanges only, as on every rank)
+                try:
+                    before = loc.ice.before_process()
+                    proc.apply(loc.context, every * loc.dt)
+                    loc.ice.after_process(before, f"process '{proc.name}'")
+                    ran.append(f"process '{proc.name}'")
+                except SikuError as exc:
+                    failed = type(exc), str(exc)
+            if getattr(proc, "reads_contacts", False):
+                # its change of a ghost may lack the ghost's contacts beyond this rank: the
+                # ghosts take their owners' ice before the next process reads it
+                self._exchange_ice()
+        if ran and failed is None:
+            try:
+                loc.ice.after_processes(" and ".join(ran))
+            except SikuError as exc:
+                failed = type(exc), str(exc)
+        self.work += clock() - t0
         self._exchange()
-        return None
+        return failed
+
+    def _exchange_ice(self) -> None:
+        """Owners' ice (thickness, flags, categories, declared fields) to the ranks holding
+        their elements as ghosts; a ghost its owner melted melts here too (its joints break
+        here as there)."""
+        loc = self.loc
+        ls, ice = loc.state, loc.ice
+        arrays = {"thickness": ls.thickness, "flags": ls.flags, **ice._category_arrays(),
+                  **{f"field:{k}": v for k, v in ice.values.items()}}
+        out = []
+        for s, rows in enumerate(self.send_rows):
+            out.append(None if s == self.rank or not len(rows)
+                       else {k: v[rows] for k, v in arrays.items()})
+        got = self.comm.alltoall(out)
+        for s, rows in enumerate(self.recv_rows):
+            rec = got[s]
+            if rec is None or not len(rows):
+                continue
+            melted = rows[(rec["flags"] == MELTED) & (ls.flags[rows] != MELTED)]
+            for k, v in rec.items():
+                if k != "flags":
+                    arrays[k][rows] = v
+            if len(melted):
+                ice.melt(melted)
 
     def _local_check(self, after: str = "") -> None:
         """The rank's engine's stable-step check after its processes changed the ice: noted,
@@ -423,26 +488,52 @@ class RankRun:
                 return False
         return True
 
-    def _take_breaks(self, parts: list[tuple]) -> None:
-        """Apply the ranks' reported breaks to the run's joint table, in joint order."""
+    def _joint_news(self, stepped: tuple[np.ndarray, np.ndarray],
+                    processed: tuple[np.ndarray, np.ndarray]) -> dict[str, Any] | None:
+        """What this rank reports of the step's joint changes: the joints that broke in the
+        step's force evaluations, then those that broke in its processes (global indices),
+        and the new state of every joint that broke or refroze (of those it reports)."""
+        lc = self.loc.contacts
+        rep = self.j_mine
+        b1, c1 = stepped
+        b2, c2 = processed
+        changed = np.union1d(c1, c2)
+        changed = changed[rep[changed]]
+        if not len(changed):
+            return None
+        news: dict[str, Any] = {"broke": (self.jg[b1[rep[b1]]], self.jg[b2[rep[b2]]]),
+                                "jg": self.jg[changed]}
+        for k in JOINT_STATE:
+            news[k] = getattr(lc, k)[changed]
+        return news
+
+    def _take_joints(self, parts: list[dict[str, Any]]) -> None:
+        """Apply the ranks' reported joint changes to the run's joint table: the new state of
+        the joints that broke or refroze, and the breaks in the order one rank records them
+        (those of the force evaluations, then those of the processes, each in joint order)."""
         gc = self.sim.contacts
         if not parts or gc is None:
             return
-        j = np.concatenate([p[0] for p in parts])
-        order = np.argsort(j, kind="stable")
-        j = j[order]
-        gc.intact[j] = False
-        gc.break_mode[j] = np.concatenate([p[1] for p in parts])[order]
-        gc.break_time[j] = np.concatenate([p[2] for p in parts])[order]
-        gc.n_broken_total += len(j)
-        if self.root:
-            gc._pending.extend(j.tolist())
+        j = np.concatenate([p["jg"] for p in parts])
+        refroze = False
+        for k in JOINT_STATE:
+            getattr(gc, k)[j] = np.concatenate([p[k] for p in parts])
+        for phase in (0, 1):
+            b = np.sort(np.concatenate([p["broke"][phase] for p in parts]))
+            gc.n_broken_total += len(b)
+            if self.root:
+                gc._pending.extend(b.tolist())
+        refroze = bool(gc.intact[j].any())
+        if refroze:  # their rest state changed: the run's joint constants follow
+            gc.refresh_joint_constants()
         nw = self.sim.guard.network
         if nw.cm is not None:  # the joints' guard rechecks the step on the run's state
             old = nw._checked
             changed = int(np.count_nonzero(gc.intact[:len(old)] != old))
             if changed > RECHECK_JOINTS * max(nw._n_checked, 1):
                 self._sync_all()
+                if refroze:
+                    gc.refresh_joint_constants()
 
     # ------------------------------------------------------------------ running
     def _write(self, force: bool = False) -> None:

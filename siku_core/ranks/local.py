@@ -28,13 +28,16 @@ import numpy as np
 
 from ..categories import Categories
 from ..contact_model import ContactModel
+from ..contacts_view import ContactsView
 from ..context import Context
+from ..errors import PluginError
 from ..damping import contact_mobility
 from ..ice import IceBook
 from ..state import MELTED, ElementState
 
-#: the joint arrays a rank's engine takes from the run's joint table (the rest it derives)
-JOINT_STATE = ("L0", "width", "intact", "break_mode", "break_time", "hist")
+#: the joint arrays a rank's engine takes from the run's joint table (the rest it derives);
+#: a refrozen joint's rest state (``ends_j``, ``L0``) is where it refroze
+JOINT_STATE = ("L0", "ends_j", "width", "intact", "break_mode", "break_time", "hist")
 
 
 def sub_state(st: ElementState, ids: np.ndarray) -> ElementState:
@@ -69,6 +72,36 @@ class RankContacts(ContactModel):
         #: local rows of the ghosts, and their ``(n/m, n/I) / phi`` from their owners
         self.ghost_rows = ghost_rows
         self.ghost_dmob = np.zeros((len(ghost_rows), 2))
+        #: per local joint: whether this rank reports it (owns its first element)
+        self.reports = np.ones(self.n_joints, dtype=bool)
+        #: the local joints that broke or refroze since the driver last took them, in the
+        #: order they did (:meth:`take_changes`)
+        self._broke: list[np.ndarray] = []
+        self._refroze: list[np.ndarray] = []
+
+    def _record_breaks(self, t: float) -> None:
+        new = np.flatnonzero(~self.intact & np.isnan(self.break_time))
+        super()._record_breaks(t)
+        if len(new):
+            self._broke.append(new)
+
+    def refreeze_joints(self, k: np.ndarray, t: float) -> int:
+        k = np.asarray(k, dtype=np.int64).reshape(-1)
+        was = ~self.intact[k]
+        n = super().refreeze_joints(k, t)
+        done = np.unique(k[was & self.intact[k]])
+        if len(done):
+            self._refroze.append(done)
+        return n
+
+    def take_changes(self) -> tuple[np.ndarray, np.ndarray]:
+        """The local joints that broke since the last call (each once, ascending) and those
+        whose state changed (broke or refroze, ascending)."""
+        broke = np.unique(np.concatenate(self._broke)) if self._broke else np.zeros(0, np.int64)
+        both = self._broke + self._refroze
+        changed = np.unique(np.concatenate(both)) if both else np.zeros(0, np.int64)
+        self._broke, self._refroze = [], []
+        return broke, changed
 
     def _build_joints(self) -> None:
         g = self._given
@@ -87,6 +120,46 @@ class RankContacts(ContactModel):
         """``(n/m, n/I) / phi`` of every local element from the local joints (exact for an
         owned element: all its joints are here)."""
         return contact_mobility(self)
+
+
+class RankContactsView(ContactsView):
+    """The contacts a component sees on a rank (:class:`~siku_core.contacts_view.ContactsView`
+    of the rank's engine): its joints and candidate pairs are those of the elements the rank
+    holds, in local indices (ascending global ones). A joint or pair with an element the rank
+    owns is there with every contact of that element, as on one rank.
+
+    The actions act on the rank's joints, each rank alike on the joints it shares (decided
+    from the same inputs), and the engine applies them once to the run's joint table, in
+    joint order. ``break_joints`` and ``refreeze_joints`` return how many of the joints they
+    acted on this rank *reports* (those whose first element it owns): summed over the ranks,
+    each joint is counted once. Creating joints and labelling floes (which read the joints of
+    every element) do not run on ranks."""
+
+    __slots__ = ()
+
+    def _reported(self, k: np.ndarray, before: np.ndarray, after: np.ndarray) -> int:
+        done = np.unique(k[before != after])
+        return int(np.count_nonzero(self._model.reports[done]))
+
+    def break_joints(self, k: np.ndarray, mode, t: float) -> int:
+        k = np.asarray(k, dtype=np.int64).reshape(-1)
+        before = self._model.intact[k].copy()
+        self._model.break_joints(k, mode, t)
+        return self._reported(k, before, self._model.intact[k])
+
+    def refreeze_joints(self, k: np.ndarray, t: float) -> int:
+        k = np.asarray(k, dtype=np.int64).reshape(-1)
+        before = self._model.intact[k].copy()
+        self._model.refreeze_joints(k, t)
+        return self._reported(k, before, self._model.intact[k])
+
+    def create_joints(self, pairs: np.ndarray, ends_i: np.ndarray) -> np.ndarray:
+        raise PluginError("creating joints does not run on MPI ranks; run the scene on one "
+                          "rank")
+
+    def floe_labels(self) -> tuple[int, np.ndarray]:
+        raise PluginError("floe labels read the joints of every element and do not run on MPI "
+                          "ranks; run the scene on one rank")
 
 
 def local_ice(glob, loc, ids: np.ndarray) -> IceBook:
@@ -114,7 +187,7 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np
     of its joints."""
     loc = copy.copy(glob)
     loc.state = sub_state(glob.state, ids)
-    loc.context = Context(loc)
+    loc.context = Context(loc, RankContactsView)
     loc.writers = []
     loc.pm = None
     loc.forcing = [copy.copy(f) for f in glob.forcing]
@@ -127,7 +200,7 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np
         held[ids] = True
         jg = np.flatnonzero(held[gc.ji] & held[gc.jj])
         at = np.searchsorted(ids, np.stack([gc.ji[jg], gc.jj[jg]], axis=1))
-        joints = {"pairs": at.astype(np.int64), "ends_i": gc.ends_i[jg], "ends_j": gc.ends_j[jg],
+        joints = {"pairs": at.astype(np.int64), "ends_i": gc.ends_i[jg],
                   **{k: getattr(gc, k)[jg] for k in JOINT_STATE}}
         scene = glob.scene
         loc.contacts = RankContacts(
@@ -148,4 +221,5 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np
     return loc, jg
 
 
-__all__ = ["JOINT_STATE", "RankContacts", "local_engine", "local_ice", "sub_state"]
+__all__ = ["JOINT_STATE", "RankContacts", "RankContactsView", "local_engine", "local_ice",
+           "sub_state"]

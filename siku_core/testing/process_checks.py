@@ -26,7 +26,10 @@ failed:
 * :func:`check_process_on_ranks`: a process that declares ``runs_on_ranks = True`` changes
   every other element, set up over those elements alone as an MPI rank sets it up, as it
   changes them among all, bit for bit (thickness, mass, inertia, flags, declared fields,
-  thickness categories).
+  thickness categories); one that also declares ``reads_contacts`` is set up over a third of
+  the elements and their contact partners (its ghosts), with its history split as its
+  ``rank_history`` says, stepped once beside the whole run, and must change those elements,
+  the joints they report and its history of them as among all, bit for bit.
 """
 from __future__ import annotations
 
@@ -217,7 +220,9 @@ def check_process_on_ranks(cls: type, params: Mapping[str, Any] | None = None,
                            **kwargs: Any) -> None:
     """A process that runs on ranks (``runs_on_ranks``) changes every other element, set up
     over those elements alone (``siku_core.ranks.local``), as it changes them among all, bit
-    for bit; a process that declares it cannot is not checked."""
+    for bit; one that reads the contacts (``reads_contacts``) is checked on a rank holding a
+    third of the elements and their ghosts (:func:`_check_contacts_on_ranks`); a process that
+    declares it cannot run on ranks is not checked."""
     from ..ranks.driver import refusal_reason
     from ..ranks.local import local_engine
 
@@ -225,6 +230,8 @@ def check_process_on_ranks(cls: type, params: Mapping[str, Any] | None = None,
     if any(refusal_reason(p) for p in _procs(sim, cls)):
         return
     sim.run(steps=PROCESS_STEPS // 2)  # a state the process has changed
+    if any(getattr(p, "reads_contacts", False) for p in sim.processes):
+        return _check_contacts_on_ranks(cls, sim)
     ids = np.arange(1, sim.state.n, 2)
     loc, _ = local_engine(sim, ids, np.zeros(0, dtype=np.int64))
     loc.check_time_step = lambda after="": None  # (the run's check, below)
@@ -240,6 +247,93 @@ def check_process_on_ranks(cls: type, params: Mapping[str, Any] | None = None,
             f"process '{cls.name}': '{k}' of element {ids[i]} is {b[k][i]!r} when set up over "
             f"a subset of the elements, {np.asarray(a[k])[ids[i]]!r} among all: a process that "
             "runs on ranks must change each element by itself (or set runs_on_ranks = False)")
+
+
+def _check_contacts_on_ranks(cls: type, sim: Any) -> None:
+    """:func:`check_process_on_ranks` for a process that reads the contacts: a rank owning the
+    first third of the elements (of three, by bisection) holds them and their ghosts
+    (``siku_core.ranks.ghosts``), takes its part of the processes' history, and steps once
+    beside the whole run, its ghosts taking the run's state after the integrator and the run's
+    ice after each process that reads the contacts (as the ranks driver does); its owned
+    elements, the joints it reports and its part of the history must then be the run's, bit
+    for bit."""
+    from ..geometry.quat import centers
+    from ..ranks import history as rh
+    from ..ranks.decompose import bisect
+    from ..ranks.ghosts import local_sets, reach_pairs
+    from ..ranks.local import JOINT_STATE, local_engine
+
+    n, gc = sim.state.n, sim.contacts
+    c = centers(sim.state.q)
+    owner = bisect(c, np.ones(n), 3).assign(c)  # this rank (0) owns a third
+    links = [] if gc is None else [reach_pairs(gc, c), np.stack([gc.ji, gc.jj], axis=1)]
+    ids = local_sets(owner, 3, links)[0]
+    own = np.flatnonzero(owner[ids] == 0)
+    ghosts = np.flatnonzero(owner[ids] != 0)
+    loc, jg = local_engine(sim, ids, ghosts)
+    loc.check_time_step = lambda after="": None  # (the run's check)
+    lc = loc.contacts
+    reports = owner[gc.ji[jg]] == 0 if gc is not None else np.zeros(0, bool)
+    if lc is not None:
+        lc.reports = reports
+    for rp, lp in zip(sim.processes, loc.processes):
+        layout = getattr(rp, "rank_history", None)
+        if layout and lp.history() is not None:
+            lp.set_history(rh.to_local(layout, rp.history(), lp.history(), ids, jg, 0, n, ""))
+    t = sim.time
+    for run in (sim, loc):  # one step of the integrator, the ghosts then the run's
+        run._commit = True
+        run._force_time = 0.0
+        run.integrator.step(run.state, t, sim.dt, run.compute_forces)
+    for k in ("q", "V", "w"):
+        getattr(loc.state, k)[ghosts] = getattr(sim.state, k)[ids[ghosts]]
+    sim.step_index += 1
+    loc.step_index = sim.step_index
+    ran = []
+    for rp, lp in zip(sim.processes, loc.processes):
+        for run, proc in ((sim, rp), (loc, lp)):
+            before = run.ice.before_process()
+            proc.apply(run.context, PROCESS_DT)
+            run.ice.after_process(before, f"process '{proc.name}'")
+        ran.append(f"process '{rp.name}'")
+        if getattr(lp, "reads_contacts", False):  # the ghosts take their owners' ice
+            rows = ids[ghosts]
+            loc.state.thickness[ghosts] = sim.state.thickness[rows]
+            for name, arr in loc.ice._category_arrays().items():
+                arr[ghosts] = sim.ice._category_arrays()[name][rows]
+            for name, arr in loc.ice.values.items():
+                arr[ghosts] = sim.ice.values[name][rows]
+    for run in (sim, loc):
+        run.ice.after_processes(" and ".join(ran))
+    what = f"process '{cls.name}' on a rank holding a third of the elements and its ghosts"
+    a, b = _ice(sim), _ice(loc)
+    for k in b:
+        bad = ~(np.asarray(a[k])[ids[own]] == b[k][own]).reshape(len(own), -1).all(axis=1)
+        i = int(np.argmax(bad)) if len(bad) else 0
+        assert not bad.any(), (
+            f"{what}: '{k}' of element {ids[own][i]} is {b[k][own][i]!r}, "
+            f"{np.asarray(a[k])[ids[own][i]]!r} among all: a process that reads the contacts "
+            "must change an element from its own contacts (ctx.contacts) alone")
+    if lc is not None:
+        mine = np.flatnonzero(reports)
+        for k in JOINT_STATE:
+            same = np.asarray(getattr(gc, k))[jg[mine]].tobytes() == np.asarray(
+                getattr(lc, k))[mine].tobytes()
+            assert same, f"{what}: the joints' {k} differ from the run's"
+    for rp, lp in zip(sim.processes, loc.processes):
+        layout = getattr(rp, "rank_history", None)
+        if not layout or lp.history() is None:
+            continue
+        part = rh.to_global(layout, lp.history(), ids, own, jg, reports, owner, 0, n)
+        whole = rh.to_global(layout, rp.history(), np.arange(n), np.flatnonzero(owner == 0),
+                             np.arange(len(gc.ji) if gc is not None else 0),
+                             owner[gc.ji] == 0 if gc is not None else np.zeros(0, bool),
+                             owner, 0, n)
+        for name, kind in layout.items():
+            if kind in ("total", "pair_count"):
+                continue  # (a share of the run's, and the count of the keys compared)
+            assert np.asarray(part[name]).tobytes() == np.asarray(whole[name]).tobytes(), (
+                f"{what}: its history '{name}' ({kind}) differs from the run's")
 
 
 def check_process(cls: type, params: Mapping[str, Any] | None = None,

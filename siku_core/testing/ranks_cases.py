@@ -9,7 +9,10 @@ jittered pack without joints pushed by a moving edge), ``migrate`` (the spring p
 element moving to the other rank and back every 60 steps), ``rebalance`` (the collision pack
 split again whenever the ranks' measured work differs at all), ``rk4`` (on three ranks, the
 spring pack under an integrator that evaluates forces four times a step), ``thermo`` (the
-spring pack thinning and melting under ``thermodynamics``), ``raise`` (rank
+spring pack thinning and melting under ``thermodynamics``), ``ridge_freeze`` (the pack
+pulled apart under ``thermodynamics``, ``ridging`` and ``refreeze``: joints across the ranks'
+boundary break and refreeze), ``ridge_freeze_split`` (the same, split by bisection),
+``ridge_freeze_migrate`` (the same, every element changing rank every 60 steps), ``raise`` (rank
 1's integrator raises at step 10: the run ends on every rank with one line).
 """
 from __future__ import annotations
@@ -57,6 +60,32 @@ params = {{ surface_temperature = -20.0, ocean_heat_flux = {flux!r} }}
 """
 
 
+def ridge_freeze_text(steps: int = 500) -> str:
+    """The spring pack, its right edge pulled three times as fast, under the ``ridging`` law
+    (joints of ``distributed_spring`` with a tensile strain of 8e-5, collisions capped at a
+    plastic limit of 100 Pa × h) with ``thermodynamics`` every second, ``ridging`` and
+    ``refreeze`` (sides within 2 m for 5 s refreeze, at 2 kPa growing over 100 s): within 500
+    steps joints between the last two columns break, refreeze and break again (about ten
+    times), and pressed pairs ridge."""
+    pack = square_pack(30.0, 72.0, 5, 2, 2000.0, jitter=0.2, seed=7, left="static",
+                       right="steady", right_velocity=[0.012, 0.0036])
+    law = {"tensile_strain": 8e-5, "damage_onset": 0.3, "strength": 100.0}
+    return contact_scene_text("ridging", law, packs=[pack], dt=0.1, steps=steps,
+                              run={"progress": False}) + """
+[[process]]
+name = "thermodynamics"
+every = 1.0
+params = { surface_temperature = -20.0, ocean_heat_flux = 50.0 }
+
+[[process]]
+name = "ridging"
+
+[[process]]
+name = "refreeze"
+params = { gap = 2.0, freeze_time = 5.0, strength = 2e3, strength_time = 100.0 }
+"""
+
+
 def _last_column(step: int, c: np.ndarray) -> np.ndarray:
     """Rank 1 owns the last column of the spring pack (elements 8 and 9), rank 0 the rest."""
     return (np.arange(len(c)) >= 8).astype(np.int64)
@@ -81,6 +110,9 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "migrate": (spring_text(600), {"owner": _swapping, "every": 30}),
     "rebalance": (collision_text(), {"margin": 0.0, "min_work": 0.001}),
     "thermo": (thermo_text(), {"owner": _last_column}),
+    "ridge_freeze": (ridge_freeze_text(), {"owner": _last_column}),
+    "ridge_freeze_split": (ridge_freeze_text(), {}),
+    "ridge_freeze_migrate": (ridge_freeze_text(), {"owner": _swapping, "every": 30}),
     "rk4": (spring_text(3000).replace('"siku2"', '"rk4"'), {"owner": _three_columns}),
     "raise": (spring_text(100), {}),
 }
@@ -117,7 +149,23 @@ def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
     out["ranks_shared_joints"] = np.array(_shared(run))
     out["ranks_splits"] = np.array(run.splits)
     out["ranks_migrated"] = np.array(run.migrated)
+    out["ranks_shared_pairs"] = np.array(_shared_pairs(run))
     return out
+
+
+def _shared_pairs(run) -> int:
+    """How many pairs a process remembers (``rank_history`` layout ``pair_keys``) whose two
+    elements different ranks own."""
+    n, own = run.sim.state.n, run.owner
+    count = 0
+    for proc in run.sim.processes:
+        layout = getattr(proc, "rank_history", None) or {}
+        for name, kind in layout.items():
+            if kind == "pair_keys":
+                keys = np.asarray(proc.history()[name])
+                keys = keys[keys >= 0]
+                count += int(np.count_nonzero(own[keys // n] != own[keys % n]))
+    return count
 
 
 def _shared(run) -> int:

@@ -53,9 +53,12 @@ class Refreeze(Process):
     as the square root of the time frozen (module docstring)."""
 
     name = "refreeze"
-    #: it changes and creates joints in the run's joint table and counts them over the run
-    ranks_refusal = ("it refreezes and creates joints in the run's joint table and counts them "
-                     "over the whole run, and ranks carry joint breaks only")
+    #: on ranks: each rank decides for the joints it holds, from their two elements alone;
+    #: the count adds what ``refreeze_joints`` returns (on ranks: the joints a rank reports)
+    runs_on_ranks = True
+    reads_contacts = True
+    rank_history: ClassVar[dict[str, str]] = {"closed_since": "joint", "refrozen_at": "joint",
+                                              "refrozen_total": "total"}
     params: ClassVar[dict[str, Param]] = {
         "gap": Param(1.0, "m", "largest distance between the two sides of a broken joint that "
                      "counts as closed", min=0.0),
@@ -84,6 +87,9 @@ class Refreeze(Process):
     def setup(self, ctx) -> None:
         self.ctx = ctx
         cm = ctx.contacts
+        if self.p["weld"]:  # (new joints would need numbers agreed between the ranks)
+            self.runs_on_ranks = False
+            self.ranks_refusal = "with weld = true it creates joints, which ranks do not number"
         if self.p["weld"] and (cm is None or not cm.law_uses_joints):
             raise SceneError(f"{ctx.where(self.table)}: process 'refreeze' with weld = true "
                              "needs a contact law with joints (distributed_spring, "

@@ -389,10 +389,12 @@ class Ridging(Process):
     carrier and open water in the giver."""
 
     name = "ridging"
-    #: its remembered pairs (by element index) and the ghosts' new thickness would have to
-    #: move between ranks
-    ranks_refusal = ("it remembers its ridging pairs from step to step by element index and "
-                     "changes both elements of each, which ranks do not carry between them")
+    #: on ranks: each rank ridges the pairs of the elements it holds (an owned element has all
+    #: its pairs there); the remembered pairs go between ranks by their elements' identities
+    runs_on_ranks = True
+    reads_contacts = True
+    rank_history: ClassVar[dict[str, str]] = {"keys": "pair_keys", "converted": "pair_rows",
+                                              "givers": "pair_elements", "count": "pair_count"}
     conserves = ("volume",)
     needs_categories = True  # the ice area an element loses to a ridge becomes open water
     params: ClassVar[dict[str, Param]] = {
