@@ -306,7 +306,7 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
             for f in e.cls.owned_fields:
                 print(f"      per-element field {f.name}  [{f.units}]  {plain(f.long_name)} "
                       f"(on grids: {f.grid})")
-            for f in getattr(e.cls, "optional_fields", ()):  # declared by some parameters
+            for f in e.cls.optional_fields:  # declared when a parameter asks for them
                 print(f"      per-element field {f.name}  [{f.units}]  {plain(f.long_name)} "
                       f"(on grids: {f.grid}; declared when a parameter asks for it)")
             model = getattr(e.cls, "table_model", None)
