@@ -66,6 +66,8 @@ class Component(ABC):
     #: its ``setup``), and a scene using it on more than one rank is refused before the first
     #: step, in one line naming the component (``ranks_refusal`` may say why)
     runs_on_ranks: ClassVar[bool] = True
+    #: why a component that does not run on ranks refuses them, one line for the refusal
+    #: message (``""``: "it reads the contacts of every element")
     ranks_refusal: ClassVar[str] = ""
 
     def __init__(self, params: Mapping[str, Any] | None = None):

@@ -243,7 +243,7 @@ def _check_params(kind: str, cls: Any, package: str) -> None:
     """Every entry of ``params`` a :class:`Param` with a known type and, unless it is a
     ``bool`` or ``str``, a unit."""
     head = f"{kind.replace('_', ' ')} '{cls.name}' from package '{package}'"
-    params = getattr(cls, "params", None)
+    params = cls.params
     if not isinstance(params, Mapping):
         raise PluginError(f"{head}: 'params' is {type(params).__name__}, not a mapping of "
                           "parameter names to siku_core.Param")

@@ -61,8 +61,8 @@ MIN_WORK = 1.0
 
 def refusal_reason(comp) -> str:
     """Why the component ``comp`` cannot run on more than one rank ("" where it can)."""
-    if not getattr(comp, "runs_on_ranks", True):
-        return getattr(comp, "ranks_refusal", "") or "it reads the contacts of every element"
+    if not comp.runs_on_ranks:
+        return comp.ranks_refusal or "it reads the contacts of every element"
     if comp.history() is not None:  # each rank's copy would keep its own part
         return "it keeps history of its own for restarts, which ranks do not carry"
     return ""

@@ -231,6 +231,8 @@ class NetCDFWriter(Writer):
 
     name = "netcdf"
     appends = True  # a restart continues the file (NetCDFWriter.continued)
+    #: the open NetCDF dataset (``None``: none open)
+    nc = None
     params = {
         "outlines": Param(True, "", "write the polygon outlines at every snapshot "
                           "(node_lon_t, node_lat_t)", type=bool),
@@ -518,7 +520,7 @@ class NetCDFWriter(Writer):
     def close(self, ctx) -> None:
         from siku_core.outputs import settle
 
-        if getattr(self, "nc", None) is not None:
+        if self.nc is not None:
             self._seal()
         settle(self)
 
