@@ -2,7 +2,8 @@
 thickness (mass, inertia, joint stiffness, the stable step).
 
 A component declares the per-element fields it owns in ``owned_fields`` (a tuple of
-:class:`ElementField`: name, units, long name, dtype, initial value, how a grid reduces it).
+:class:`~siku_core.fields.ElementField`: name, units, long name, dtype, initial value, how a grid
+reduces it; the catalogue of every per-element field is :mod:`siku_core.fields`).
 The engine allocates them once (:class:`IceBook`), hands them out by name
 (``ctx.fields[name]``, a numpy array of one value per element that the owner changes in place)
 and writes, restarts and grids them without further code: every writer writes them with their
@@ -48,15 +49,16 @@ import numpy as np
 
 from .categories import Categories, category_mean, category_problem, ice_per_area
 from .errors import SceneError, StabilityError
-from .fields import ENGINE_FIELDS
+from .deprecation import moved_names
 from .fields import CHANGING as CHANGING_FIELDS
-from .fields import (  # noqa: F401 - their home was here; these names are public as before
-    GRID_REDUCTIONS, RESERVED_FIELDS, STANDARD_NAMES, ElementField)
+from .fields import ENGINE_FIELDS
+from .fields import STANDARD_NAMES as ENGINE_STANDARD_NAMES
 from .ice_follow import few, follow_elements, scan_ice
 from .state import MELTED
 
 if TYPE_CHECKING:  # pragma: no cover
     from .context import Run
+    from .fields import ElementField
 
 #: relative change of an element's thickness since the last stable-step check that triggers the
 #: next one (the limits scale with the thickness at most linearly, so between checks the
@@ -164,14 +166,14 @@ class IceBook:
         """``{name: CF standard_name}`` of the per-element fields that have one: the engine's
         own (:data:`~siku_core.fields.STANDARD_NAMES`) and every declared field's
         ``standard_name``."""
-        out = dict(STANDARD_NAMES)
+        out = dict(ENGINE_STANDARD_NAMES)
         out.update({n: f.standard_name for n, (_, f) in self.specs.items() if f.standard_name})
         return out
 
     # ------------------------------------------------------------------ history (restart)
     def _restarted(self) -> dict[str, np.ndarray]:
         """The arrays a restart carries, by name: every declared field and the engine's fields
-        held here that are not computed from the state (:attr:`ElementField.restart`)."""
+        held here that are not computed from the state (:attr:`~siku_core.fields.ElementField.restart`)."""
         out = dict(self.values)
         out.update({k: v for k, v in self._engine_arrays().items() if ENGINE_FIELDS[k].restart})
         return out
@@ -329,3 +331,8 @@ def process_schedule(every: float | None, dt: float, where: str) -> int:
         raise SceneError(f"{where}: every = {every:g} s is not a whole number of steps of "
                          f"dt = {dt:g} s; give a multiple of dt")
     return n
+
+
+#: the per-element field declarations lived here before the catalogue (siku_core.fields)
+__getattr__ = moved_names(__name__, dict.fromkeys(
+    ("ElementField", "GRID_REDUCTIONS", "RESERVED_FIELDS", "STANDARD_NAMES"), "siku_core.fields"))
