@@ -173,7 +173,8 @@ class IceBook:
     # ------------------------------------------------------------------ history (restart)
     def _restarted(self) -> dict[str, np.ndarray]:
         """The arrays a restart carries, by name: every declared field and the engine's fields
-        held here that are not computed from the state (:attr:`~siku_core.fields.ElementField.restart`)."""
+        held here that are not computed from the state
+        (:attr:`~siku_core.fields.ElementField.restart`)."""
         out = dict(self.values)
         out.update({k: v for k, v in self._engine_arrays().items() if ENGINE_FIELDS[k].restart})
         return out
