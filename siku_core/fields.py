@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable
 
 import numpy as np
 
@@ -184,13 +184,6 @@ def field_attrs(spec: ElementField) -> dict[str, str]:
     return out
 
 
-def units_of(name: str, specs: Mapping[str, ElementField] | None = None) -> str | None:
-    """The units of the field ``name`` in ``specs`` (default: the engine's catalogue), ``None``
-    for a field it does not hold."""
-    spec = (catalogue() if specs is None else specs).get(name)
-    return None if spec is None else spec.units
-
-
 __all__ = ["CATEGORIES", "CHANGING", "ENGINE_FIELDS", "GRID_REDUCTIONS", "RESERVED_FIELDS",
            "STANDARD_NAMES", "STATE_FIELDS", "STRESS", "ElementField", "catalogue",
-           "declarations", "field_attrs", "units_label", "units_of"]
+           "declarations", "field_attrs", "units_label"]
