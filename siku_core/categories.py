@@ -31,16 +31,13 @@ import numpy as np
 from numba import njit
 
 from .errors import SceneError
+from .fields import CATEGORIES
 
 #: how far the fractions of one element may sum above 1 (single-precision data rounded)
 SUM_TOLERANCE = 1e-6
 
 #: name -> (units, long name) of the per-element, per-category fields (dimension ``category``)
-CATEGORY_FIELDS = {
-    "category_fraction": ("1", "area fraction of the element covered by ice of each "
-                          "thickness category"),
-    "category_thickness": ("m", "ice thickness of each thickness category"),
-}
+CATEGORY_FIELDS = {n: (f.units, f.long_name) for n, f in CATEGORIES.items()}
 
 
 def ice_per_area(thickness: np.ndarray, categories: Categories | None = None) -> np.ndarray:

@@ -307,10 +307,10 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
             for f in e.cls.owned_fields:
                 print(f"      per-element field {f.name}  [{f.units}]  {plain(f.long_name)} "
                       f"(on grids: {f.grid})")
-            for f in getattr(e.cls, "optional_fields", ()):  # declared by some parameters
+            for f in e.cls.optional_fields:  # declared when a parameter asks for them
                 print(f"      per-element field {f.name}  [{f.units}]  {plain(f.long_name)} "
                       f"(on grids: {f.grid}; declared when a parameter asks for it)")
-            model = getattr(e.cls, "table_model", None)
+            model = e.cls.table_model if kind == "element_source" else None
             if model is not None:
                 keys = ", ".join(model.model_fields)
                 print(f"      keys of the scene table: {keys} (docs/reference/scene.md)")

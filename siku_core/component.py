@@ -16,7 +16,7 @@ from .params import Param
 
 if TYPE_CHECKING:  # pragma: no cover
     from .context import Context
-    from .ice import ElementField
+    from .fields import ElementField
 
 
 class Component(ABC):
@@ -39,11 +39,15 @@ class Component(ABC):
     #: groups of parameters of which one must be given (e.g. ``(("file",), ("u_file",
     #: "v_file"))``); the conformance suite reads them
     required_one_of: ClassVar[tuple[tuple[str, ...], ...]] = ()
-    #: per-element fields this component owns (:class:`~siku_core.ice.ElementField`: name,
+    #: per-element fields this component owns (:class:`~siku_core.fields.ElementField`: name,
     #: units, long name, dtype, initial value, grid reduction): the engine allocates them,
     #: hands them out as ``ctx.fields[name]`` and every writer, the xarray engine, ``siku grid``
     #: and restarts carry them
     owned_fields: ClassVar[tuple["ElementField", ...]] = ()
+    #: per-element fields the component owns only when a parameter asks for them: it adds
+    #: them to its instance's ``owned_fields`` (in ``__init__``); ``siku plugins`` lists them
+    #: and the field catalogue (:func:`siku_core.fields.catalogue`) knows their units
+    optional_fields: ClassVar[tuple["ElementField", ...]] = ()
     #: the plugin API versions the component works with (``"1.x"``: any 1.*; ``"1.2"``: 1.2 or
     #: a later 1.*; ``None``: any): one that this siku's ``siku_core.PLUGIN_API_VERSION`` does
     #: not satisfy is refused when it registers (:func:`siku_core.versions.api_mismatch`)
@@ -62,6 +66,8 @@ class Component(ABC):
     #: its ``setup``), and a scene using it on more than one rank is refused before the first
     #: step, in one line naming the component (``ranks_refusal`` may say why)
     runs_on_ranks: ClassVar[bool] = True
+    #: why a component that does not run on ranks refuses them, one line for the refusal
+    #: message (``""``: "it reads the contacts of every element")
     ranks_refusal: ClassVar[str] = ""
 
     def __init__(self, params: Mapping[str, Any] | None = None):

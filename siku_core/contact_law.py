@@ -224,8 +224,12 @@ class ContactLaw(Component):
     """
 
     kind = "contact_law"
+    #: whether the law has frozen joints (and so a ``joint_evaluator``)
     uses_joints: ClassVar[bool] = False
+    #: columns of each joint's history row (``hist`` of the joint evaluator)
     history_names: ClassVar[tuple[str, ...]] = ()
+    #: how the joint history changes: ``"state"`` (a function of the geometry the joint has
+    #: seen) or ``"rate"`` (integrated over the step)
     history_update: ClassVar[str] = "state"
     #: columns of the per-contact history row of the collision evaluator (``()``: none, and the
     #: evaluator takes ``(g, pars, out)``)
@@ -234,6 +238,17 @@ class ContactLaw(Component):
     collision_record: ClassVar[ParameterRecord | None] = None
     #: names of the joint evaluator's ``pars`` entries (``None``: no parameters)
     joint_record: ClassVar[ParameterRecord | None] = None
+    #: the collision evaluator, an ``@njit`` function ``(g, pars, out)`` (``(g, pars, hist,
+    #: out)`` with ``contact_history_names``): every law defines one (``None`` here: a law
+    #: without one is refused when it registers)
+    collision_evaluator: ClassVar[Any] = None
+    #: the joint evaluator, an ``@njit`` function ``(g, pars, hist, out)``, of a law with
+    #: ``uses_joints = True`` (``None``: none, a law without joints)
+    joint_evaluator: ClassVar[Any] = None
+    #: the joint's stored elastic energy [J], an optional ``@njit`` function ``(g, pars,
+    #: hist)`` the conformance suite checks the joint force against (``None``: not declared,
+    #: the check is passed by)
+    joint_energy: ClassVar[Any] = None
     required: ClassVar[Mapping[str, tuple[str, ...]]] = {
         "collision_parameters": (), "joint_parameters": ()}
     #: whether the law's dampers act through :func:`siku_core.damping.step_damper` with the
@@ -336,7 +351,7 @@ COLLISION_WITH_HISTORY = ("g", "pars", "hist", "out")
 def evaluator_parameters(cls: Any, attr: str) -> tuple[str, ...]:
     """The reference parameters of evaluator ``attr`` of law class ``cls`` (the collision
     evaluator takes a history row when the law declares ``contact_history_names``)."""
-    if attr == "collision_evaluator" and getattr(cls, "contact_history_names", ()):
+    if attr == "collision_evaluator" and cls.contact_history_names:
         return COLLISION_WITH_HISTORY
     return EVALUATORS[attr]
 
@@ -360,12 +375,12 @@ def check_contact_law(cls: Any, package: str) -> None:
     records are :class:`ParameterRecord`; its ``history_names`` and ``contact_history_names``
     are tuples of distinct strings (at registration)."""
     head = law_head(cls, package)
-    _check_names(head, "contact_history_names", getattr(cls, "contact_history_names", ()))
+    _check_names(head, "contact_history_names", cls.contact_history_names)
     for attr in EVALUATORS:
         if attr == "joint_evaluator" and not cls.uses_joints:
             continue
         expected = evaluator_parameters(cls, attr)
-        ev = getattr(cls, attr, None)
+        ev = cls.collision_evaluator if attr == "collision_evaluator" else cls.joint_evaluator
         if ev is None:
             hint = (" (reuse the built-in one by subclassing the law registered as "
                     "'collision': siku_core.plugins.get_registry().get('contact_law', 'collision'))"
@@ -386,13 +401,13 @@ def check_contact_law(cls: Any, package: str) -> None:
                 f"{head}: {attr} {fn.__name__}({', '.join(got)}) takes {len(got)} "
                 f"parameters, expected {len(expected)}: ({', '.join(expected)}){why}"
             )
-    for attr in ("collision_record", "joint_record"):
-        rec = getattr(cls, attr, None)
+    for attr, rec in (("collision_record", cls.collision_record),
+                      ("joint_record", cls.joint_record)):
         if rec is not None and not isinstance(rec, ParameterRecord):
             raise PluginError(f"{head}: {attr} is {rec!r}, not a "
                               "siku_core.contact_law.ParameterRecord(name, ...)")
     _check_names(head, "history_names", cls.history_names)
-    if getattr(cls, "history_update", "state") not in ("state", "rate"):
+    if cls.history_update not in ("state", "rate"):
         raise PluginError(f"{head}: history_update is {cls.history_update!r}; allowed: "
                           "'state', 'rate'")
 

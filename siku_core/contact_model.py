@@ -73,7 +73,7 @@ class ContactModel(ContactTables, JointBook):
         self.broad = broad
         #: columns of the law's per-contact history (``contact_history_names``); without any,
         #: no array of the per-contact history has a nonzero size
-        self.n_contact_hist = len(getattr(law, "contact_history_names", ()))
+        self.n_contact_hist = len(law.contact_history_names)
         #: restored per-contact history waiting for the next rebuild: ``(keys, rows)``
         self._chist_pending: tuple[np.ndarray, np.ndarray] | None = None
         self.time_step = time_step

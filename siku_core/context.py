@@ -204,8 +204,8 @@ class Context:
 
     def standard_names(self) -> dict[str, str]:
         """``{name: CF standard_name}`` of the per-element fields that have one: the engine's
-        own (``siku_core.ice.STANDARD_NAMES``: ``speed``, ``thickness``) and every declared
-        field's :attr:`~siku_core.ice.ElementField.standard_name`; writers label the fields with
+        own (``siku_core.fields.STANDARD_NAMES``: ``speed``, ``thickness``) and every declared
+        field's :attr:`~siku_core.fields.ElementField.standard_name`; writers label the fields with
         them."""
         return self._sim.ice.standard_names()
 

@@ -118,7 +118,7 @@ def catalogue(registry=None) -> dict[str, tuple[str, str]]:
     reg = registry or get_registry()
     for table in reg.entries.values():
         for entry in table.values():
-            for name, unit in getattr(entry.cls, "diagnostic_units", {}).items():
+            for name, unit in entry.cls.diagnostic_units.items():
                 out.setdefault(name, (unit, f"reported by {entry.cls.kind} '{entry.cls.name}'"))
     return out
 

@@ -49,7 +49,7 @@ def scene_sources(scene: Scene, registry: "Registry | None" = None) -> list[tupl
         where = scene.where(key)
         cls = reg.get("element_source", table.name, where=f"{where}: ")
         pwhere = scene.where(key + ".params")
-        model = getattr(cls, "table_model", None)
+        model = cls.table_model
         if model is not None:  # a source whose keys are a scene table's ([[elements.pack]])
             try:
                 full = model.model_validate(table.params).model_dump()

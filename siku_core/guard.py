@@ -141,7 +141,7 @@ class Guard:
         sim.step_index = self._good_step
         saved = ""
         if sim._opened and sim.writers:
-            if all(getattr(w, "published", True) for w in sim.writers):
+            if all(w.published for w in sim.writers):
                 saved = (f"; {sim.output_path} holds the snapshots to the last good state "
                          f"(step {self._good_step}, t = {sim.time:g} s)")
             else:  # stopped before its first snapshot: the writer left nothing
@@ -161,7 +161,7 @@ def integrated_fields(sim: "Run") -> list[tuple[str, str, np.ndarray, str]]:
     for comp in sim.components():
         owner = f"{comp.kind} '{comp.name}'"
         owned = {f.name for f in comp.owned_fields}
-        for name, bound in dict(getattr(comp, "integrates", {}) or {}).items():
+        for name, bound in dict(comp.integrates or {}).items():
             if name not in owned or bound not in BOUNDS:
                 raise PluginError(f"{owner}: integrates {name!r} as {bound!r}; it must name a "
                                   f"field of its owned_fields and one of {', '.join(BOUNDS)}")

@@ -2,7 +2,8 @@
 thickness (mass, inertia, joint stiffness, the stable step).
 
 A component declares the per-element fields it owns in ``owned_fields`` (a tuple of
-:class:`ElementField`: name, units, long name, dtype, initial value, how a grid reduces it).
+:class:`~siku_core.fields.ElementField`: name, units, long name, dtype, initial value, how a grid
+reduces it; the catalogue of every per-element field is :mod:`siku_core.fields`).
 The engine allocates them once (:class:`IceBook`), hands them out by name
 (``ctx.fields[name]``, a numpy array of one value per element that the owner changes in place)
 and writes, restarts and grids them without further code: every writer writes them with their
@@ -43,80 +44,27 @@ its mass stays positive.
 """
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Iterable
 
 import numpy as np
 
-from .categories import (CATEGORY_FIELDS, Categories, category_mean, category_problem,
-                         ice_per_area)
-from .errors import PluginError, SceneError, StabilityError
+from .categories import Categories, category_mean, category_problem, ice_per_area
+from .errors import SceneError, StabilityError
+from .deprecation import moved_names
+from .fields import CHANGING as CHANGING_FIELDS
+from .fields import ENGINE_FIELDS
+from .fields import STANDARD_NAMES as ENGINE_STANDARD_NAMES
 from .ice_follow import few, follow_elements, scan_ice
 from .state import MELTED
-from .stress import STRESS_FIELDS
 
 if TYPE_CHECKING:  # pragma: no cover
     from .context import Run
-
-#: how a grid reduces a declared field over the elements in a cell: ``mean`` (weighted by the
-#: ice area in the cell: intensive quantities, e.g. a temperature), ``sum`` (weighted by the
-#: share of each element in the cell: extensive quantities, e.g. a volume), ``none`` (not
-#: gridded)
-GRID_REDUCTIONS = ("mean", "sum", "none")
+    from .fields import ElementField
 
 #: relative change of an element's thickness since the last stable-step check that triggers the
 #: next one (the limits scale with the thickness at most linearly, so between checks the
 #: critical step moves by less than this share: well inside the safety factor ``dt_safety``)
 RECHECK = 0.01
-
-#: per-element names the engine and its writers use themselves: no component may declare them
-RESERVED_FIELDS = frozenset({"speed", "damage", *STRESS_FIELDS, "thickness", "mass", "flags", "lon",
-                      "lat", "u", "v", "spin", "q", "V", "w", "area", "moment_of_inertia",
-                      "material", "floe", "bounding_radius", "time", "step", "element",
-                      *CATEGORY_FIELDS})
-
-_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-
-
-@dataclass(frozen=True)
-class ElementField:
-    """A per-element field a component owns.
-
-    ``name`` (a Python identifier, unique in a run), ``units`` (a UDUNITS string, ``"1"`` for
-    none), ``long_name`` (what it is, for files and plots), ``dtype`` (numpy dtype name,
-    ``float64`` by default), ``initial`` (value of every element at the start), ``grid`` (one of
-    :data:`GRID_REDUCTIONS`) and an optional CF ``standard_name``.
-    """
-
-    name: str
-    units: str
-    long_name: str
-    dtype: str = "float64"
-    initial: float = 0.0
-    grid: str = "mean"
-    standard_name: str = ""
-
-    def check(self, owner: str) -> None:
-        """Refuse a declaration that cannot be written (:class:`PluginError`, one line)."""
-        what = f"{owner}: declared field {self.name!r}"
-        if not isinstance(self.name, str) or not _NAME.match(self.name):
-            raise PluginError(f"{what}: the name must be an identifier (letters, digits, _)")
-        if self.name in RESERVED_FIELDS:
-            raise PluginError(f"{what}: the name is siku's own; choose another")
-        if not isinstance(self.units, str) or not self.units:
-            raise PluginError(f"{what}: give its units (a UDUNITS string, '1' for none)")
-        if not isinstance(self.long_name, str) or not self.long_name:
-            raise PluginError(f"{what}: give a long_name saying what it is")
-        if self.grid not in GRID_REDUCTIONS:
-            raise PluginError(f"{what}: grid = {self.grid!r}; one of "
-                              f"{', '.join(GRID_REDUCTIONS)}")
-        try:
-            dt = np.dtype(self.dtype)
-        except TypeError:
-            raise PluginError(f"{what}: unknown dtype {self.dtype!r}") from None
-        if dt.kind not in "fiub":
-            raise PluginError(f"{what}: dtype {self.dtype!r} is not numeric")
 
 
 def declared_fields(components: Iterable[Any]) -> dict[str, tuple[str, ElementField]]:
@@ -137,21 +85,8 @@ def declared_fields(components: Iterable[Any]) -> dict[str, tuple[str, ElementFi
 
 
 #: the fields the engine writes itself for a scene with processes: name -> (units, long name,
-#: grid reduction)
-CHANGING = {
-    "thickness": ("m", "ice thickness (changed by the scene's processes)", "none"),
-    "mass": ("kg", "element mass (follows its thickness)", "none"),
-    "flags": ("1", "element kind (free, static, steady, melted)", "none"),
-}
-
-
-#: CF standard names of the engine's own per-element fields (``Simulation.element_fields``;
-#: ``thickness``: the elements' fixed thickness, or the changing one under processes); a
-#: declared field's is its :attr:`ElementField.standard_name`
-STANDARD_NAMES = {
-    "speed": "sea_ice_speed",
-    "thickness": "sea_ice_thickness",
-}
+#: grid reduction), from the catalogue (:data:`siku_core.fields.CHANGING`)
+CHANGING = {n: (f.units, f.long_name, f.grid) for n, f in CHANGING_FIELDS.items()}
 
 
 class IceBook:
@@ -197,6 +132,14 @@ class IceBook:
     def element_fields(self) -> dict[str, np.ndarray]:
         """The declared fields and, with processes, ``thickness``, ``mass`` and ``flags``."""
         out = dict(self.values)
+        out.update(self._engine_arrays())
+        return out
+
+    def _engine_arrays(self) -> dict[str, np.ndarray]:
+        """The engine's own fields of this run held here (names of
+        :data:`~siku_core.fields.ENGINE_FIELDS`): with processes the changing thickness, mass
+        and flags, with categories their fractions and thicknesses."""
+        out: dict[str, np.ndarray] = {}
         if self.processes:
             st = self._sim.state
             out.update(thickness=st.thickness, mass=st.m, flags=st.flags)
@@ -209,54 +152,51 @@ class IceBook:
             return {}
         return {"category_fraction": c.fraction, "category_thickness": c.thickness}
 
+    def field_specs(self) -> dict[str, ElementField]:
+        """``{name: ElementField}`` of every field :meth:`element_fields` gives: the declared
+        ones and the engine's (:data:`~siku_core.fields.ENGINE_FIELDS`)."""
+        out = {n: f for n, (_, f) in self.specs.items()}
+        out.update({n: ENGINE_FIELDS[n] for n in self._engine_arrays()})
+        return out
+
     def catalogue(self) -> dict[str, tuple[str, str, str]]:
         """``{name: (units, long_name, grid)}`` of every field :meth:`element_fields` gives."""
-        out = {n: (f.units, f.long_name, f.grid) for n, (_, f) in self.specs.items()}
-        if self.processes:
-            out.update(CHANGING)
-        if self.categories is not None:
-            out.update({k: (u, ln, "none") for k, (u, ln) in CATEGORY_FIELDS.items()})
-        return out
+        return {n: (f.units, f.long_name, f.grid) for n, f in self.field_specs().items()}
 
     def standard_names(self) -> dict[str, str]:
         """``{name: CF standard_name}`` of the per-element fields that have one: the engine's
-        own (:data:`STANDARD_NAMES`) and every declared field's ``standard_name``."""
-        out = dict(STANDARD_NAMES)
+        own (:data:`~siku_core.fields.STANDARD_NAMES`) and every declared field's
+        ``standard_name``."""
+        out = dict(ENGINE_STANDARD_NAMES)
         out.update({n: f.standard_name for n, (_, f) in self.specs.items() if f.standard_name})
         return out
 
     # ------------------------------------------------------------------ history (restart)
+    def _restarted(self) -> dict[str, np.ndarray]:
+        """The arrays a restart carries, by name: every declared field and the engine's fields
+        held here that are not computed from the state
+        (:attr:`~siku_core.fields.ElementField.restart`)."""
+        out = dict(self.values)
+        out.update({k: v for k, v in self._engine_arrays().items() if ENGINE_FIELDS[k].restart})
+        return out
+
     def history(self) -> dict[str, np.ndarray] | None:
         if not self.active:
             return None
-        out = {k: v.copy() for k, v in self.values.items()}
-        if self.processes:
-            st = self._sim.state
-            out["thickness"] = st.thickness.copy()
-            out["flags"] = st.flags.copy()
-        out.update({k: v.copy() for k, v in self._category_arrays().items()})
-        return out
+        return {k: v.copy() for k, v in self._restarted().items()}
 
     def set_history(self, arrays: dict[str, np.ndarray]) -> None:
-        st = self._sim.state
-        cats = self._category_arrays()
+        held = self._restarted()
         for name, arr in arrays.items():
+            if name not in held:
+                raise SceneError(f"restart holds per-element '{name}', which this scene does "
+                                 "not declare; restart with the scene that wrote the file")
             arr = np.asarray(arr)
-            want = cats[name].shape if name in cats else (st.n,)
+            want = held[name].shape
             if arr.shape != want:
                 raise SceneError(f"restart holds per-element '{name}' of shape {arr.shape}; "
                                  f"the scene builds {want}")
-            if name in cats:
-                cats[name][:] = arr
-            elif name in self.values:
-                self.values[name][:] = arr
-            elif name == "thickness" and self.processes:
-                st.thickness[:] = arr
-            elif name == "flags" and self.processes:
-                st.flags[:] = arr
-            else:
-                raise SceneError(f"restart holds per-element '{name}', which this scene does "
-                                 "not declare; restart with the scene that wrote the file")
+            held[name][:] = arr
         if self.processes:
             self.refresh(check=False)
 
@@ -393,3 +333,8 @@ def process_schedule(every: float | None, dt: float, where: str) -> int:
         raise SceneError(f"{where}: every = {every:g} s is not a whole number of steps of "
                          f"dt = {dt:g} s; give a multiple of dt")
     return n
+
+
+#: the per-element field declarations lived here before the catalogue (siku_core.fields)
+__getattr__ = moved_names(__name__, dict.fromkeys(
+    ("ElementField", "GRID_REDUCTIONS", "RESERVED_FIELDS", "STANDARD_NAMES"), "siku_core.fields"))

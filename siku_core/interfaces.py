@@ -10,9 +10,15 @@ and ``dt``, scene, registry look-ups, joints, diagnostics), never the run loop i
 optional capability is declared here with its default, so the engine calls it on every
 component without looking for it: ``setup(ctx)``, ``stability_limit(ctx)`` (no limit),
 ``history()`` / ``set_history(arrays)`` (no history), ``diagnostics(ctx)`` (none declared in
-``diagnostic_units``), ``scene_tables``, ``required_one_of`` and ``owned_fields`` (none);
-per kind: a forcing source's ``field``, ``field_required`` and ``py_add``; a writer's ``path``
-and ``read_restart``; a process's ``conserves`` and ``budget``.
+``diagnostic_units``), ``scene_tables``, ``required_one_of``, ``owned_fields`` and
+``optional_fields`` (none), ``integrates`` (nothing), ``runs_on_ranks`` and
+``ranks_refusal``; per kind: a forcing source's ``field``, ``field_required`` and ``py_add``;
+an element source's ``table_model``; a writer's ``path``, ``overwrite``, ``appends``,
+``read_restart``, ``owns``, ``folder``, ``in_memory``, ``holds_snapshots``, ``target``,
+``published`` and ``lock``; a process's ``conserves``, ``budget``, ``joints_to_create`` and
+``couple_exchange``; a contact law's (:mod:`siku_core.contact_law`) evaluators, records,
+history names and ``joint_energy``. The engine and siku's writers read them as attributes
+(``tests/test_capabilities.py`` holds them to it).
 
 Kinds and their entry points:
 
@@ -153,6 +159,22 @@ class Writer(Component):
     #: whether the output is a folder (a Zarr store) rather than one file: the engine then
     #: treats an existing folder at :attr:`path` as the existing output (``owns`` decides)
     folder: ClassVar[bool] = False
+    #: whether the writer keeps the snapshots in memory rather than in a file
+    #: (``Simulation(scene, out="memory")``): it writes no file, the conformance suite's file
+    #: checks pass it by, and ``Simulation.to_xarray`` reads its snapshots (``dataset``) once
+    #: :meth:`holds_snapshots`
+    in_memory: ClassVar[bool] = False
+    #: the file the writer puts in place (a writer that writes to a partial file first and
+    #: publishes it: ``siku_core.outputs.publish``), synced to the disk when it closes; ``None``:
+    #: the writer writes :attr:`path` directly, nothing to sync
+    target: "Path | None" = None
+    #: whether the output is in place: ``False`` while a publishing writer has written no
+    #: snapshot yet (the engine then says that nothing was written, and the writer's partial
+    #: file is removed when it closes: ``siku_core.outputs.settle``)
+    published: bool = True
+    #: the lock the writer holds on its output while it writes (``siku_core.outputs.RunLock``),
+    #: released when it closes; ``None``: it holds none
+    lock: Any = None
 
     @abstractmethod
     def open(self, ctx: "Context") -> None:
@@ -168,6 +190,17 @@ class Writer(Component):
     @abstractmethod
     def close(self, ctx: "Context") -> None:
         """Flush and close."""
+
+    def _discard(self) -> None:  # noqa: B027 - optional hook
+        """Remove what a publishing writer wrote aside when it closes without having put its
+        output in place (:attr:`published` still ``False``: the run stopped before its first
+        snapshot), called by ``siku_core.outputs.settle``; the default has nothing to
+        remove."""
+
+    def holds_snapshots(self) -> bool:
+        """Whether an :attr:`in_memory` writer keeps snapshots to read; ``False`` (the
+        default) for a writer of files."""
+        return False
 
     @classmethod
     def owns(cls, path: "Path") -> bool:
@@ -254,6 +287,12 @@ class Process(Component):
 
     def close(self) -> None:  # noqa: B027 - optional hook
         """Release files (called when the run ends)."""
+
+    def couple_exchange(self, exchange: Any) -> None:  # noqa: B027 - optional hook
+        """Take what a coupled model hands over (a run driven through the BMI,
+        ``siku_io.coupling``): ``exchange`` is the run's exchange forcing source, whose grid
+        fields (e.g. the waves a floating process follows) the process may read from now on.
+        The default takes nothing."""
 
 
 @dataclass

@@ -382,11 +382,11 @@ def settle(writer: Any) -> None:
     """A writer's file after the writer closed it: a file never put in place (the run stopped
     before its first snapshot) is removed (``writer._discard()``), a published one is synced to
     the disk, and the run's lock on it is released."""
-    if not getattr(writer, "published", True):
+    if not writer.published:
         writer._discard()  # stopped before its first new snapshot: an old file stays
-    elif hasattr(writer, "target"):
+    elif writer.target is not None:
         fsync_path(writer.target)
-    if getattr(writer, "lock", None) is not None:
+    if writer.lock is not None:
         writer.lock.release()
         writer.lock = None
 
@@ -445,7 +445,7 @@ def extra_output_paths(scene: Any, primary: Path | None, overwrite: bool, restar
                             "'...'); the old file keeps the rows before the restart")
         check_output_path(p, input_paths(scene), overwrite=overwrite,
                           appending_to=p if cont else None, ours=cls.owns,
-                          folder=getattr(cls, "folder", False))
+                          folder=cls.folder)
         paths.append(p)
     return paths
 

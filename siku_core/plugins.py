@@ -37,6 +37,7 @@ import pluggy
 
 from .deprecation import warn_deprecated
 from .errors import PluginError
+from .fields import ElementField, catalogue
 from .interfaces import KINDS, Component
 from .params import Param
 from .versions import api_mismatch
@@ -188,6 +189,15 @@ class Registry:
     def names(self, kind: str) -> list[str]:
         return sorted(self.entries[kind])
 
+    def components(self) -> list[type[Component]]:
+        """Every registered component class, kind by kind, by name."""
+        return [self.entries[k][n].cls for k in self.entries for n in sorted(self.entries[k])]
+
+    def field_catalogue(self) -> dict[str, ElementField]:
+        """``{name: ElementField}`` of every per-element field siku knows: the engine's and
+        those the registered components declare (:func:`siku_core.fields.catalogue`)."""
+        return catalogue(self.components())
+
     def get(self, kind: str, name: str, where: str = "") -> type[Component]:
         """Look up a component by registered name or by ``package.module:Class`` path."""
         if ":" in name:
@@ -233,7 +243,7 @@ def _check_params(kind: str, cls: Any, package: str) -> None:
     """Every entry of ``params`` a :class:`Param` with a known type and, unless it is a
     ``bool`` or ``str``, a unit."""
     head = f"{kind.replace('_', ' ')} '{cls.name}' from package '{package}'"
-    params = getattr(cls, "params", None)
+    params = cls.params
     if not isinstance(params, Mapping):
         raise PluginError(f"{head}: 'params' is {type(params).__name__}, not a mapping of "
                           "parameter names to siku_core.Param")

@@ -507,8 +507,8 @@ class Simulation:
         kept; any other (``out=False``, or one writing a file) the state now, as one snapshot
         (the file's last after :meth:`run`). ``group``: ``None`` (the elements),
         ``"diagnostics"`` or ``"breaks"``."""
-        kept = next((w for w in self.writers if getattr(w, "in_memory", False)), None)
-        if kept is not None and getattr(kept, "f", None) is not None:
+        kept = next((w for w in self.writers if w.in_memory), None)
+        if kept is not None and kept.holds_snapshots():
             return kept.dataset(group, outlines, decode_times)  # type: ignore[attr-defined]
         now = self._component("writer", "memory", {}, "output")
         now.open(self.context)

@@ -26,18 +26,13 @@ from numba import njit, prange
 from .contact_frames import (
     ROW_FIX, ROW_FIY, ROW_FJX, ROW_FJY, ROW_PX, ROW_PY, i_to_j, relative_matrix,
 )
+from .fields import STRESS
 from .geometry.quat import east_north_row
 from .parallel import chunk_bounds, chunks
 
-#: the element stress fields: name -> (unit, meaning)
-STRESS_FIELDS = {
-    "stress_ee": ("N m-1", "element mean stress, east-east component (tension positive), "
-                  "vertically integrated"),
-    "stress_nn": ("N m-1", "element mean stress, north-north component (tension positive), "
-                  "vertically integrated"),
-    "stress_en": ("N m-1", "element mean stress, east-north (shear) component, vertically "
-                  "integrated"),
-}
+#: the element stress fields: name -> (unit, meaning), from the catalogue
+#: (:data:`siku_core.fields.STRESS`)
+STRESS_FIELDS = {n: (f.units, f.long_name) for n, f in STRESS.items()}
 
 
 @njit(cache=True, parallel=True)

@@ -43,7 +43,7 @@ from numba import njit
 
 from siku_core import Param, SceneError, hookimpl
 from siku_core.limits import physical_memory
-from siku_core.ice import ElementField
+from siku_core.fields import ElementField
 
 from .spectral_transport import absorb, transport
 from .wave_kernels import add_slope_drag, plane_coords, wrap_phase  # noqa: F401 - re-exported

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from siku_core.errors import PluginError, SceneError, SikuError, StabilityError
-from siku_core.ice import ElementField
+from siku_core.fields import ElementField
 from siku_core.interfaces import Process
 from siku_core.scene import scene_from_text
 from siku_core.simulation import Simulation

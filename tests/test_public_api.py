@@ -100,9 +100,12 @@ siku_core.contacts                    J_W                 siku_core.contact_law
 siku_core.diagnostics                 catalogue           -
 siku_core.errors                      InputError          -
 siku_core.errors                      SikuError           -
+siku_core.fields                      ENGINE_FIELDS       -
+siku_core.fields                      ElementField        -
+siku_core.fields                      catalogue           -
 siku_core.geometry.quat               east_north_local    -
 siku_core.geometry.quat               latlon_of           -
-siku_core.ice                         ElementField        -
+siku_core.ice                         ElementField        siku_core.fields
 siku_core.interfaces                  AttenuationLaw      -
 siku_core.interfaces                  ElementSource       -
 siku_core.interfaces                  ElementSpec         -

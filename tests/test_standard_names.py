@@ -1,8 +1,8 @@
 """Every declared CF ``standard_name`` reaches every output: the HDF5 file's attributes, the
 Zarr store's, the NetCDF writer's variables, both exports (NetCDF, Zarr) and the xarray engine.
 
-The declarations: a component's :class:`~siku_core.ice.ElementField` ``standard_name`` and the
-engine's own catalogue (``siku_core.ice.STANDARD_NAMES``). A tiny scene with a process that
+The declarations: a component's :class:`~siku_core.fields.ElementField` ``standard_name`` and the
+engine's own catalogue (``siku_core.fields.STANDARD_NAMES``). A tiny scene with a process that
 declares one field with a standard name (and so writes the changing thickness too) is run once
 with the three writers; each output is read and compared with the declarations.
 """
@@ -14,7 +14,7 @@ import pytest
 import xarray as xr
 import zarr
 
-from siku_core.ice import STANDARD_NAMES, ElementField
+from siku_core.fields import STANDARD_NAMES, ElementField
 from siku_core.interfaces import Process
 from siku_core.simulation import Simulation
 from siku_core.testing import scene_text

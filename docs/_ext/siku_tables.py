@@ -18,7 +18,8 @@ they read on the site). Rewrite the pages after a change of the code with::
 The tables (``TABLES``): ``collision-layout``, ``joint-layout``, ``out-layout`` (the contact
 evaluators' vectors, ``siku_core.contact_law``), ``break-modes``, ``contact-law-parameters``
 (every registered law's parameters with their units), ``declared-fields`` (the units of every
-per-element field a registered component declares)
+per-element field a registered component declares), ``engine-fields`` (the engine's own
+per-element fields, ``siku_core.fields.ENGINE_FIELDS``)
 The scene reference's key tables are checked against the scene model by ``tests/test_docs.py``.
 """
 from __future__ import annotations
@@ -90,11 +91,24 @@ def _declared_fields() -> str:
     found = []
     for kind in KINDS:
         for name, cls in _builtin(kind):
-            for f in getattr(cls, "owned_fields", ()):
-                found.append((f.name, f.units, f.grid, f"{kind.replace('_', ' ')} `{name}`",
+            owner = f"{kind.replace('_', ' ')} `{name}`"
+            for f in cls.owned_fields:
+                found.append((f.name, f.units, f.grid, owner, f.long_name))
+            for f in cls.optional_fields:
+                found.append((f.name, f.units, f.grid, f"{owner} (when a parameter asks)",
                               f.long_name))
     for fname, units, grid, owner, meaning in sorted(found):
         rows.append(f"| `{fname}` | `{units}` | {grid} | {owner} | {_cell(meaning)} |")
+    return "\n".join(rows)
+
+
+def _engine_fields() -> str:
+    from siku_core.fields import ENGINE_FIELDS
+
+    rows = ["| name | units | standard name | restarted | meaning |", "|---|---|---|---|---|"]
+    for f in ENGINE_FIELDS.values():
+        rows.append(f"| `{f.name}` | `{f.units}` | {f.standard_name or '—'} | "
+                    f"{'yes' if f.restart else 'no'} | {_cell(f.long_name)} |")
     return "\n".join(rows)
 
 
@@ -105,6 +119,7 @@ TABLES = {
     "break-modes": _break_modes,
     "contact-law-parameters": _law_parameters,
     "declared-fields": _declared_fields,
+    "engine-fields": _engine_fields,
 }
 
 

@@ -62,8 +62,8 @@ MIN_WORK = 1.0
 
 def refusal_reason(comp) -> str:
     """Why the component ``comp`` cannot run on more than one rank ("" where it can)."""
-    if not getattr(comp, "runs_on_ranks", True):
-        return getattr(comp, "ranks_refusal", "") or "it reads the contacts of every element"
+    if not comp.runs_on_ranks:
+        return comp.ranks_refusal or "it reads the contacts of every element"
     return unfit(comp)  # its history, split between the ranks by its ``rank_history``
 
 

@@ -231,8 +231,8 @@ def call_law(law_cls: type, check: str, which: str, fn: Any, g: np.ndarray, *arg
 
 def law_evaluators(law_cls: type) -> tuple[Any, Any]:
     """The law's evaluators as stored on the class (numba dispatchers, not bound methods)."""
-    coll = getattr(law_cls, "collision_evaluator", None)
-    joint = getattr(law_cls, "joint_evaluator", None) if law_cls.uses_joints else None
+    coll = law_cls.collision_evaluator
+    joint = law_cls.joint_evaluator if law_cls.uses_joints else None
     return coll, joint
 
 
@@ -336,7 +336,7 @@ def contact_history_row(law: Any) -> tuple[np.ndarray, ...]:
     """``(hist,)``, a zero row of the law's ``contact_history_names`` columns, to pass to its
     collision evaluator ``(g, pars, hist, out)``; ``()`` for a law without them
     (``(g, pars, out)``)."""
-    n = len(getattr(law, "contact_history_names", ()))
+    n = len(law.contact_history_names)
     return (np.zeros(n),) if n else ()
 
 

@@ -185,7 +185,7 @@ def check_energy(law_cls: type, params: Mapping[str, Any] | None = None, n: int 
     the force acts, within ``|f| |d|`` (``d`` the midpoint's displacement: the couple of the
     force about the displaced midpoint, which a law may leave out) plus 1e-6 of ``|f| w``."""
     check = "energy"
-    energy = getattr(law_cls, "joint_energy", None)
+    energy = law_cls.joint_energy
     if energy is None or not law_cls.uses_joints:
         return
     energy = getattr(energy, "__func__", energy)
@@ -242,7 +242,7 @@ def check_energy(law_cls: type, params: Mapping[str, Any] | None = None, n: int 
 def _check_contact_history(law_cls: type, law: Any, n: int, seed: int) -> None:
     """A law with ``contact_history_names``: its collision evaluator writes no column past
     them and leaves its row finite."""
-    nch = len(getattr(law, "contact_history_names", ()))
+    nch = len(law.contact_history_names)
     if not nch:
         return
     coll = law_cls.collision_evaluator
@@ -276,7 +276,7 @@ def check_history(law_cls: type, params: Mapping[str, Any] | None = None, n: int
     joint = law_cls.joint_evaluator
     jpars = np.ascontiguousarray(law.joint_parameters(), dtype=float)
     nh = len(law.history_names)
-    rate = getattr(law, "history_update", "state") == "rate"
+    rate = law.history_update == "rate"
     rng = np.random.default_rng(seed)
     guard = 1234.5678
     for _ in range(n):

@@ -315,7 +315,7 @@ def shipped_writers(registry: Registry | None = None) -> list[str]:
     """The names of every registered writer of files (for ``pytest.mark.parametrize``): a
     writer whose class says ``in_memory = True`` writes no file and is not checked here."""
     entries = (registry or get_registry()).entries.get("writer", {})
-    return sorted(n for n, e in entries.items() if not getattr(e.cls, "in_memory", False))
+    return sorted(n for n, e in entries.items() if not e.cls.in_memory)
 
 
 __all__ = ["STEPS", "DT", "EVERY", "StopBeforeFirstSnapshot", "check_writer",

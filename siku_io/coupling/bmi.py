@@ -124,8 +124,7 @@ class SikuBmi(Bmi):
                              "\"exchange\" to receive the other model's fields")
         self.exchange: Exchange = ex[0]
         for proc in self.sim.processes:     # a floating process takes its wave from the grid
-            if hasattr(proc, "couple_exchange"):
-                proc.couple_exchange(self.exchange)
+            proc.couple_exchange(self.exchange)
         from .waves import WaveCoupling, spectral_field
 
         field = spectral_field(self.sim)

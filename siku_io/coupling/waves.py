@@ -47,7 +47,7 @@ def spectral_field(sim):
     from siku_forcing.spectral import Spectral
 
     for f in sim.forcing:
-        if isinstance(getattr(f, "field", None), Spectral):
+        if isinstance(f.field, Spectral):
             return f.field
     return None
 

@@ -138,6 +138,11 @@ class HDF5Writer(Writer):
 
     name = "hdf5"
     appends = True  # a restart continues the file
+    #: the open HDF5 file (``None``: none open)
+    f = None
+    #: the inode of the file this writer made in an earlier ``run()`` of the same simulation
+    #: (``None``: none), which a second ``run()`` continues
+    _ino: int | None = None
     params = {
         "compression": Param("none", "", "compression of the per-snapshot datasets (gzip, lzf: "
                              "smaller files, slower writes)", type=str,
@@ -150,7 +155,7 @@ class HDF5Writer(Writer):
 
         self.target = Path(self.path)
         # a second run() of the same simulation continues the file this writer made
-        again = getattr(self, "_ino", None)
+        again = self._ino
         self._again = again is not None and self.target.exists() and (
             self.target.stat().st_ino == again)
         self.partial = partial_path(self.target)
@@ -454,7 +459,7 @@ class HDF5Writer(Writer):
             pass
 
     def close(self, ctx) -> None:
-        f = getattr(self, "f", None)
+        f = self.f
         if f is not None and f.id.valid:
             try:
                 f.close()
@@ -509,14 +514,14 @@ class MemoryWriter(HDF5Writer):
         if self.path is not None:
             from siku_core.errors import SceneError
 
-            raise SceneError(f"{ctx.scene.where(getattr(self, 'table', 'output'))}: writer "
+            raise SceneError(f"{ctx.scene.where(self.table)}: writer "
                              "'memory' keeps a run's snapshots for Python "
                              "(Simulation(scene, out=\"memory\")); a file is written by "
                              "'hdf5' or 'netcdf'")
         self.target = Path("<memory>")
         self.published, self.lock, self._copied = True, None, False
         self.comp = None if self.p["compression"] == "none" else self.p["compression"]
-        if getattr(self, "f", None) is not None:  # a second run() continues the snapshots,
+        if self.f is not None:  # a second run() continues the snapshots,
             self._last_state = (ctx.step_index, ctx.time)  # as HDF5Writer continues its file
             return
         self.buffer = io.BytesIO()
@@ -529,12 +534,16 @@ class MemoryWriter(HDF5Writer):
     def _publish(self) -> None:
         self.published = True
 
+    def holds_snapshots(self) -> bool:
+        """Whether the run has kept snapshots here (:meth:`dataset` reads them)."""
+        return self.f is not None
+
     def _abandon(self, exc: BaseException, what: str) -> None:
         raise DataError(f"the run's snapshots held in memory: {what} failed ({exc})") from None
 
     def close(self, ctx) -> None:
         """The snapshots stay (in memory, open): a later ``run()`` continues them."""
-        if getattr(self, "f", None) is not None:
+        if self.f is not None:
             self.f.flush()
 
     @classmethod
@@ -552,7 +561,7 @@ class MemoryWriter(HDF5Writer):
         ``"breaks"``."""
         from siku_io.output.xr import dataset_of
 
-        if getattr(self, "f", None) is None:
+        if self.f is None:
             raise DataError("the run keeps no snapshot in memory yet (run or advance it first)")
         self.f.flush()
         return dataset_of(self.f, "<memory>", group, outlines, decode_times,

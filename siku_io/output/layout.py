@@ -3,13 +3,14 @@ CF uses them) and a description. The writer stores them as ``units`` and ``long_
 attributes; ``docs/reference/output.md`` is the same catalogue as a page (a test checks that
 every dataset of a real file is on it and carries these attributes).
 
-Patterns: ``states/fields/NAME`` (per-element fields: :data:`ELEMENT_FIELDS`),
+Patterns: ``states/fields/NAME`` (per-element fields: the catalogue
+:mod:`siku_core.fields`),
 ``states/history/KEY/NAME`` (a component's history for an exact restart), ``diagnostics/NAME``
 (``siku_core.diagnostics.catalogue``).
 """
 from __future__ import annotations
 
-from siku_core.stress import STRESS_FIELDS
+from siku_core.fields import ENGINE_FIELDS, STATE_FIELDS
 
 #: root attributes of the file: name -> (units, meaning)
 ROOT_ATTRS: dict[str, tuple[str, str]] = {
@@ -27,13 +28,6 @@ ROOT_ATTRS: dict[str, tuple[str, str]] = {
     "seed": ("1", "random seed of the run"),
     "n_elements": ("1", "number of elements N"),
     "radius": ("m", "radius of the model Earth (a sphere)"),
-}
-
-#: per-element fields written to ``/states/fields``: name -> (units, meaning)
-ELEMENT_FIELDS: dict[str, tuple[str, str]] = {
-    "speed": ("m s-1", "speed of the element centroid"),
-    "damage": ("1", "share of the element's frozen joints that have broken"),
-    **STRESS_FIELDS,
 }
 
 #: fixed datasets: path -> (units, meaning); "" units: text
@@ -59,9 +53,8 @@ DATASETS: dict[str, tuple[str, str]] = {
     "states/q": ("1", "unit quaternion (w, x, y, z) rotating the element's local frame onto the "
                  "Earth-fixed frame (z to the north pole, x through 0 deg E)"),
     "states/V": ("m s-1", "velocity of the centroid in the element's local frame (x, y)"),
-    "states/w": ("rad s-1", "spin about the local vertical (counter-clockwise positive)"),
-    "states/lat": ("degrees_north", "latitude of the element centroid"),
-    "states/lon": ("degrees_east", "longitude of the element centroid"),
+    **{f"states/{k}": (STATE_FIELDS[n].units, STATE_FIELDS[n].long_name)
+       for k, n in (("w", "spin"), ("lat", "lat"), ("lon", "lon"))},
     "diagnostics/step": ("1", "step index of the diagnostics row; its length counts the rows"),
     "diagnostics/time": ("s", "model time of the diagnostics row"),
     "breaks/time": ("s", "model time of the state that broke the joint; its length counts "
@@ -104,8 +97,9 @@ def describe(path: str, diagnostics: dict[str, tuple[str, str]] | None = None
         return DATASETS[path]
     parts = path.split("/")
     if parts[:2] == ["states", "fields"] and len(parts) == 3:
-        return ELEMENT_FIELDS.get(parts[2], ("1", f"per-element field '{parts[2]}' reported by a "
-                                     "component"))
+        spec = ENGINE_FIELDS.get(parts[2])
+        return ((spec.units, spec.long_name) if spec is not None else
+                ("1", f"per-element field '{parts[2]}' reported by a component"))
     if parts[:2] == ["states", "history"] and len(parts) == 4:
         if parts[2] == "contacts" and parts[3] in CONTACT_HISTORY:
             return CONTACT_HISTORY[parts[3]]

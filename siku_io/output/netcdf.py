@@ -44,17 +44,12 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError, Param, hookimpl
+from siku_core.fields import ENGINE_FIELDS, STATE_FIELDS
 from siku_core.interfaces import Writer
 
 FILL_INT = np.int32(-2147483647)
 #: files given up after a failed write that the library could not close (kept to the end)
 _SEALED: list = []
-#: per-element data variables: name in the siku dataset -> CF attributes added
-_STANDARD = {
-    "u": {"standard_name": "eastward_sea_ice_velocity"},
-    "v": {"standard_name": "northward_sea_ice_velocity"},
-    "speed": {"standard_name": "sea_ice_speed"},
-}
 _STATIC = {"area": "area", "thickness": "thickness", "mass": "mass",
            "moment_of_inertia": "moment_of_inertia", "flags": "flags", "material": "material",
            "floe": "floe"}
@@ -125,13 +120,14 @@ def cf_dataset(path):
             "long_name": "step index of the snapshot", "units": "1",
             "_FillValue": FILL_INT}),
     }
+    std = {k: f.standard_name for k, f in {**STATE_FIELDS, **ENGINE_FIELDS}.items()
+           if f.standard_name}
     per = ["u", "v", "spin"] + [k for k in src.data_vars if src[k].dims[:2] == (T, E)
                                 and k not in ("u", "v", "spin", "q", "V")]
     for k in per:
         a = dict(src[k].attrs)
-        a.update(_STANDARD.get(k, {}))
-        if k == "thickness":  # changed by processes: time-dependent
-            a["standard_name"] = "sea_ice_thickness"
+        if k in std:  # the catalogue's (thickness: changed by processes, time-dependent)
+            a["standard_name"] = std[k]
         if "flag_values" in a:
             a["flag_values"] = np.asarray(a["flag_values"], dtype=src[k].dtype)
         a["coordinates"] = "time lat lon"
@@ -235,6 +231,8 @@ class NetCDFWriter(Writer):
 
     name = "netcdf"
     appends = True  # a restart continues the file (NetCDFWriter.continued)
+    #: the open NetCDF dataset (``None``: none open)
+    nc = None
     params = {
         "outlines": Param(True, "", "write the polygon outlines at every snapshot "
                           "(node_lon_t, node_lat_t)", type=bool),
@@ -354,24 +352,19 @@ class NetCDFWriter(Writer):
         """The per-snapshot variables ``(time, element)``: centroid lon/lat [degrees], velocity
         ``u, v`` [m/s], ``spin`` [rad/s] and the run's per-element fields; one contiguous block
         per variable and record."""
-        from siku_io.output.layout import ELEMENT_FIELDS
-
         self.fields = list(fields := ctx.element_fields())
         if cats := {np.shape(a)[1] for a in fields.values() if np.ndim(a) == 2}:
             self.nc.createDimension("category", cats.pop())  # thickness categories
-        per = {"lon": ("degrees_east", "longitude", "longitude of the element centroid"),
-               "lat": ("degrees_north", "latitude", "latitude of the element centroid"),
-               "u": ("m s-1", "eastward_sea_ice_velocity", "eastward velocity of the centroid"),
-               "v": ("m s-1", "northward_sea_ice_velocity",
-                     "northward velocity of the centroid"),
-               "spin": ("rad s-1", "", "spin about the local vertical")}
-        declared = ctx.field_catalogue()
+        # the catalogue's (siku_core.fields): the centroid's position and motion, then the
+        # engine's fields and those components declare (the run's own declarations)
+        per = {k: (f.units, f.standard_name, f.long_name) for k, f in STATE_FIELDS.items()}
+        declared, standard = ctx.field_catalogue(), ctx.standard_names()
         for k in self.fields:
-            u, ln = ELEMENT_FIELDS.get(k, ("1", f"per-element field '{k}'"))
+            spec = ENGINE_FIELDS.get(k)
+            u, ln = (spec.units, spec.long_name) if spec else ("1", f"per-element field '{k}'")
             if k in declared:  # declared by a component, or changed by processes
                 u, ln = declared[k][:2]
-            per[k] = (u, ctx.standard_names().get(
-                k, _STANDARD.get(k, {}).get("standard_name", "")), ln)
+            per[k] = (u, standard.get(k, ""), ln)
         for k, (u, std, ln) in per.items():
             dims = ("time", "element", "category")[:1 + max(1, np.ndim(fields.get(k, 0)))]
             if k == "flags":  # changed by processes (an element melted away)
@@ -527,7 +520,7 @@ class NetCDFWriter(Writer):
     def close(self, ctx) -> None:
         from siku_core.outputs import settle
 
-        if getattr(self, "nc", None) is not None:
+        if self.nc is not None:
             self._seal()
         settle(self)
 

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
+from siku_core.fields import STATE_FIELDS, field_attrs
 from siku_io.output.element_geometry import east_north, polygons_lonlat
 
 GROUPS = (None, "states", "diagnostics", "breaks")
@@ -145,12 +146,9 @@ def _state_variables(s, q: np.ndarray, n: int) -> dict:
     V = s["V"][:n]
     u, v = east_north(q, V)
     te = ("time", "element")
-    vel = {"units": "m s-1"}
     data = {
-        "u": xr.Variable(te, u, {**vel, "standard_name": "eastward_sea_ice_velocity",
-                                 "long_name": "eastward velocity of the element centroid"}),
-        "v": xr.Variable(te, v, {**vel, "standard_name": "northward_sea_ice_velocity",
-                                 "long_name": "northward velocity of the element centroid"}),
+        "u": xr.Variable(te, u, field_attrs(STATE_FIELDS["u"])),  # the catalogue's
+        "v": xr.Variable(te, v, field_attrs(STATE_FIELDS["v"])),
         "spin": xr.Variable(te, s["w"][:n], _attrs(s["w"])),
         "q": xr.Variable((*te, "quaternion"), q, _attrs(s["q"])),
         "V": xr.Variable((*te, "local_axis"), V, _attrs(s["V"])),

@@ -95,7 +95,7 @@ class ZarrWriter(HDF5Writer):
         from zarr.storage import LocalStore
 
         self.target = Path(self.path)
-        again = getattr(self, "_ino", None)
+        again = self._ino
         self._again = again is not None and self.target.exists() and (
             self.target.stat().st_ino == again)
         self.partial = partial_path(self.target)

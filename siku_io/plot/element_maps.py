@@ -14,12 +14,22 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
+from siku_core.fields import units_label
 from siku_core.state import STATIC
 from siku_io.output.element_geometry import polygons_lonlat
 
-#: units on the colour bar, worded for a reader (the file's UDUNITS: ELEMENT_FIELDS)
-COLORBAR_UNITS = {"speed": "m/s", "damage": "1 (share of joints broken)", "stress_ee": "N/m",
-                  "stress_nn": "N/m", "stress_en": "N/m"}
+
+def field_units(out: "Output", field: str) -> str:
+    """The units of ``field`` for its colour bar: the field catalogue's
+    (:meth:`siku_core.plugins.Registry.field_catalogue`: the engine's fields and every
+    registered component's), else the file's own ``units`` attribute (a field of a component
+    not installed here), else ``"1"``."""
+    from siku_core.plugins import get_registry
+
+    spec = get_registry().field_catalogue().get(field)
+    if spec is not None:
+        return spec.units
+    return out.units.get(field) or "1"
 
 
 class Output:
@@ -47,6 +57,9 @@ class Output:
             self.q = f["states/q"][:n]
             self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()
                            if v.ndim == 2}  # one value per element (not per category)
+            #: the fields' ``units`` attributes as the file holds them (empty: none)
+            self.units = {k: _text(v.attrs.get("units", ""))
+                          for k, v in f["states"].get("fields", {}).items() if v.ndim == 2}
             scene = f["scene"][()] if "scene" in f else b""
         from siku_io.plot.mapdeco import scene_has_coast
 
@@ -59,6 +72,10 @@ class Output:
                 f"{self.path}: no field '{name}'; available: {', '.join(sorted(self.fields))}"
             )
         return self.fields[name]
+
+
+def _text(value) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def _projection(lat_mean: float, lon_mean: float):
@@ -172,7 +189,7 @@ class MapPainter:
         if colorbar:
             self.colorbar = cb = mapdeco.colorbar_beside(self.fig, self.ax, self.coll,
                                                          ticks=levels[::2])
-            cb.set_label(f"{field} [{COLORBAR_UNITS.get(field, '')}]")
+            cb.set_label(units_label(field, field_units(out, field)))
 
     def draw(self, index: int) -> None:
         import cartopy.crs as ccrs

@@ -64,7 +64,7 @@ from siku_core.categories import row_mean, row_sum
 from siku_core.contact_frames import rotation_row, j_to_i, relative_matrix
 from siku_core.errors import SceneError
 from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
-from siku_core.ice import ElementField
+from siku_core.fields import ElementField
 from siku_core.interfaces import Process
 from siku_core.limits import check_count, most_count
 from siku_core.parallel import alone, chunk_bounds, chunks

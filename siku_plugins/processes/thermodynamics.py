@@ -59,7 +59,7 @@ from numba import njit
 
 from siku_core.categories import row_mean, row_sum
 from siku_core.errors import DataError, SceneError
-from siku_core.ice import ElementField
+from siku_core.fields import ElementField
 from siku_core.interfaces import Process
 from siku_core.params import Param
 from siku_core.records import record_type
