@@ -69,6 +69,12 @@ class Component(ABC):
     #: why a component that does not run on ranks refuses them, one line for the refusal
     #: message (``""``: "it reads the contacts of every element")
     ranks_refusal: ClassVar[str] = ""
+    #: whether it reads other elements through ``ctx.contacts`` on ranks (processes:
+    #: :class:`siku_core.interfaces.Process`)
+    reads_contacts: ClassVar[bool] = False
+    #: how each array of its ``history()`` is indexed on ranks (``{name: layout}``, layouts
+    #: of ``siku_core.ranks.history``; empty: it keeps none that ranks carry)
+    rank_history: ClassVar[Mapping[str, str]] = {}
 
     def __init__(self, params: Mapping[str, Any] | None = None):
         full = {k: p.default for k, p in self.params.items()}

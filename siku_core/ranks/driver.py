@@ -177,7 +177,7 @@ class RankRun:
         (:mod:`.history`: its elements, joints and pairs, in local indices)."""
         sim = self.sim
         for run_p, loc_p in zip(sim.processes, self.loc.processes):
-            layout = getattr(run_p, "rank_history", None)
+            layout = run_p.rank_history
             fresh = loc_p.history()
             if not layout or fresh is None:
                 continue
@@ -231,7 +231,7 @@ class RankRun:
             rec["cats"] = {k: v[own] for k, v in ice._category_arrays().items()}
         hist = {}
         for k, proc in enumerate(self.loc.processes):
-            layout = getattr(proc, "rank_history", None)
+            layout = proc.rank_history
             h = proc.history() if layout else None
             if h is not None:
                 hist[k] = to_global(layout, h, self.ids, own, self.jg, self.j_mine, self.owner,
@@ -391,7 +391,7 @@ class RankRun:
                     ran.append(f"process '{proc.name}'")
                 except SikuError as exc:
                     failed = type(exc), str(exc)
-            if getattr(proc, "reads_contacts", False):
+            if proc.reads_contacts:
                 # its change of a ghost may lack the ghost's contacts beyond this rank: the
                 # ghosts take their owners' ice before the next process reads it
                 self._exchange_ice()

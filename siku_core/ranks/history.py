@@ -50,7 +50,7 @@ def unfit(comp) -> str:
     hist = comp.history()
     if hist is None:
         return ""
-    layout = dict(getattr(comp, "rank_history", None) or {})
+    layout = dict(comp.rank_history or {})
     missing = sorted(set(hist) - set(layout))
     if missing:
         return ("it keeps history of its own for restarts that ranks do not carry (no "

@@ -230,7 +230,7 @@ def check_process_on_ranks(cls: type, params: Mapping[str, Any] | None = None,
     if any(refusal_reason(p) for p in _procs(sim, cls)):
         return
     sim.run(steps=PROCESS_STEPS // 2)  # a state the process has changed
-    if any(getattr(p, "reads_contacts", False) for p in sim.processes):
+    if any(p.reads_contacts for p in sim.processes):
         return _check_contacts_on_ranks(cls, sim)
     ids = np.arange(1, sim.state.n, 2)
     loc, _ = local_engine(sim, ids, np.zeros(0, dtype=np.int64))
@@ -277,7 +277,7 @@ def _check_contacts_on_ranks(cls: type, sim: Any) -> None:
     if lc is not None:
         lc.reports = reports
     for rp, lp in zip(sim.processes, loc.processes):
-        layout = getattr(rp, "rank_history", None)
+        layout = rp.rank_history
         if layout and lp.history() is not None:
             lp.set_history(rh.to_local(layout, rp.history(), lp.history(), ids, jg, 0, n, ""))
     t = sim.time
@@ -296,7 +296,7 @@ def _check_contacts_on_ranks(cls: type, sim: Any) -> None:
             proc.apply(run.context, PROCESS_DT)
             run.ice.after_process(before, f"process '{proc.name}'")
         ran.append(f"process '{rp.name}'")
-        if getattr(lp, "reads_contacts", False):  # the ghosts take their owners' ice
+        if lp.reads_contacts:  # the ghosts take their owners' ice
             rows = ids[ghosts]
             loc.state.thickness[ghosts] = sim.state.thickness[rows]
             for name, arr in loc.ice._category_arrays().items():
@@ -321,7 +321,7 @@ def _check_contacts_on_ranks(cls: type, sim: Any) -> None:
                 getattr(lc, k))[mine].tobytes()
             assert same, f"{what}: the joints' {k} differ from the run's"
     for rp, lp in zip(sim.processes, loc.processes):
-        layout = getattr(rp, "rank_history", None)
+        layout = rp.rank_history
         if not layout or lp.history() is None:
             continue
         part = rh.to_global(layout, lp.history(), ids, own, jg, reports, owner, 0, n)

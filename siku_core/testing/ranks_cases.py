@@ -159,7 +159,7 @@ def _shared_pairs(run) -> int:
     n, own = run.sim.state.n, run.owner
     count = 0
     for proc in run.sim.processes:
-        layout = getattr(proc, "rank_history", None) or {}
+        layout = proc.rank_history or {}
         for name, kind in layout.items():
             if kind == "pair_keys":
                 keys = np.asarray(proc.history()[name])
