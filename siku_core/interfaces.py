@@ -259,8 +259,8 @@ class Process(Component):
     reads_contacts: ClassVar[bool] = False
     #: how each array of its ``history()`` is indexed (``{name: layout}``, layouts of
     #: ``siku_core.ranks.history``: ``"element"``, ``"joint"``, ``"pair_keys"``,
-    #: ``"pair_rows"``, ``"pair_elements"``, ``"pair_count"``, ``"total"``), so that ranks carry it; a process that
-    #: keeps history without it is refused on ranks
+    #: ``"pair_rows"``, ``"pair_elements"``, ``"pair_count"``, ``"total"``), so that ranks
+    #: carry it; a process that keeps history without it is refused on ranks
     rank_history: ClassVar[dict[str, str]] = {}
     required = {"apply": ("ctx", "dt")}
     #: quantities the process conserves (checked by the conformance suite)

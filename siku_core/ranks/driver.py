@@ -281,7 +281,7 @@ class RankRun:
                 for k in JOINT_STATE:
                     getattr(gc, k)[rec["jg"]] = rec[k]
         for k, proc in enumerate(sim.processes):  # their histories, by global identities
-            layout = getattr(proc, "rank_history", None)
+            layout = proc.rank_history
             if layout and all(k in rec.get("proc_hist", ()) for rec in recs):
                 parts = [(rec["ids"], rec.get("jg", np.zeros(0, np.int64)), rec["proc_hist"][k])
                          for rec in recs]
