@@ -19,6 +19,7 @@ folders are safe to delete; one is added per edited state of the sources.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from pathlib import Path
@@ -46,6 +47,12 @@ def sources_key(root: Path = ROOT, packages: tuple[str, ...] = PACKAGES) -> str:
     return h.hexdigest()[:16]
 
 
+@functools.lru_cache(maxsize=None)
+def _file_hash(path: str, mtime_ns: int, size: int) -> str:
+    """The hash of the text of ``path`` (memoised while its time and size stay)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
 def _relative(py_file: str) -> Path | None:
     """``py_file``'s path relative to :data:`ROOT` where it is a module of :data:`PACKAGES`."""
     try:
@@ -58,7 +65,8 @@ def _relative(py_file: str) -> Path | None:
 class SourcesKeyedLocator(caching.UserProvidedCacheLocator):
     """numba's cache locator for the functions of siku's packages: the folder
     ``user_cache_dir("numba") / key / <the module's folder relative to the packages' root>``.
-    The index of each function is still checked against its file's text (numba's own stamp)."""
+    The index of each function is checked against a hash of its file's text (not the file's
+    time, which a fresh clone changes)."""
 
     def __init__(self, py_func, py_file):
         self._py_file = py_file
@@ -67,6 +75,10 @@ class SourcesKeyedLocator(caching.UserProvidedCacheLocator):
             _KEY.append(sources_key())
         rel = _relative(py_file)
         self._cache_path = str(user_cache_dir("numba") / _KEY[0] / rel.parent)
+
+    def get_source_stamp(self):
+        st = os.stat(self._py_file)
+        return _file_hash(self._py_file, st.st_mtime_ns, st.st_size)
 
     @classmethod
     def from_function(cls, py_func, py_file):
