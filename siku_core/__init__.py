@@ -17,6 +17,11 @@ from .errors import (  # noqa: E402
 from .params import Param  # noqa: E402
 from .plugins import hookimpl, hookspec  # noqa: E402
 from .versions import PLUGIN_API_VERSION, __version__  # noqa: E402
+from .numba_cache import install as _install_numba_cache  # noqa: E402
+
+# numba caches siku's compiled functions by the hash of siku's sources (siku_core.numba_cache),
+# from the first one on: a fresh clone of sources compiled before reads them compiled
+_install_numba_cache()
 
 __all__ = [
     "__version__", "PLUGIN_API_VERSION", "hookimpl", "hookspec", "Param", "Simulation",

@@ -3,8 +3,9 @@
 The first run of a scene compiles the numba kernels it uses (about four minutes for the default
 scene on a 2-core machine the first time after installing, more when the machine is busy:
 ``bench/RESULTS.md``, "The first compile"; later runs load them
-from the caches in a second or two: numba's cache beside the installed modules or in
-``NUMBA_CACHE_DIR``, generated kernels in ``SIKU_KERNEL_CACHE``).
+from the caches in a second or two: siku's numba functions keyed by siku's sources
+(:mod:`siku_core.numba_cache`, or ``NUMBA_CACHE_DIR``), generated kernels in
+``SIKU_KERNEL_CACHE``).
 
 :data:`COMPILING` (a :class:`CompileClock`, listening to numba's ``numba:compile`` event from
 the import of this module on) counts the seconds numba spends compiling. :func:`clock` is

@@ -1,11 +1,10 @@
 """The contact-law guide (docs/howto/contact_laws.md) is true: its layout tables are the ones the
-engine defines, its code is the example package's, and the law it shows, taken from the page's
-own code blocks, installs, runs its scene with the predicted breaks and passes the conformance
-suite."""
+engine defines, its code is the example package's, and the law it shows (its laws.py block, the
+example package's file, with the page's own hook) installs, runs its scene with the predicted
+breaks and passes the conformance suite."""
 from __future__ import annotations
 
 import re
-import sys
 import types
 from pathlib import Path
 
@@ -70,23 +69,26 @@ def test_the_guide_shows_the_example_law_scene_and_tests_verbatim():
 
 
 @pytest.fixture
-def law_from_the_guide(tmp_path, monkeypatch):
+def law_from_the_guide(monkeypatch):
     """The guide's laws.py and hook, as a plugin module registered like an installed package
-    (entry points off, so an installed copy of the example plugin does not collide)."""
+    (entry points off, so an installed copy of the example plugin does not collide). The
+    guide's laws.py is the example package's file, checked here as in the test above; the law
+    is imported from that file, so that its contact loop is the one the example's own tests
+    compile (a copy under another module name would compile a loop of its own)."""
     monkeypatch.setenv("SIKU_DISABLE_PLUGIN_AUTOLOAD", "1")
-    (tmp_path / "guide_brittle_laws.py").write_text(
-        block_after("The whole of\n`siku_example_plugin/laws.py`:", "python"))
-    monkeypatch.syspath_prepend(str(tmp_path))
-    import guide_brittle_laws
+    monkeypatch.syspath_prepend(str(PKG))
+    import siku_example_plugin.laws as laws
 
+    assert Path(laws.__file__).resolve() == (PKG / "siku_example_plugin" / "laws.py").resolve()
+    assert block_after("The whole of\n`siku_example_plugin/laws.py`:", "python") == \
+        Path(laws.__file__).read_text(encoding="utf-8")
     plugin = types.ModuleType("guide_brittle_plugin")
-    code = ("from siku_core import hookimpl\nfrom guide_brittle_laws import BrittleBond\n\n"
+    code = ("from siku_core import hookimpl\nfrom siku_example_plugin.laws import BrittleBond\n\n"
             + block_after("Its hook, in `siku_example_plugin/plugin.py`:", "python"))
     exec(compile(code, "guide_brittle_plugin", "exec"), plugin.__dict__)
     register_module(plugin)
-    yield guide_brittle_laws.BrittleBond
+    yield laws.BrittleBond
     unregister_module(plugin)
-    sys.modules.pop("guide_brittle_laws", None)
 
 
 def test_the_guides_law_runs_its_scene_with_the_predicted_breaks(law_from_the_guide):
