@@ -51,7 +51,6 @@ import numpy as np
 from .categories import Categories, category_mean, category_problem, ice_per_area
 from .errors import SceneError, StabilityError
 from .deprecation import moved_names
-from .fields import CHANGING as CHANGING_FIELDS
 from .fields import ENGINE_FIELDS
 from .fields import STANDARD_NAMES as ENGINE_STANDARD_NAMES
 from .ice_follow import few, follow_elements, scan_ice
@@ -82,11 +81,6 @@ def declared_fields(components: Iterable[Any]) -> dict[str, tuple[str, ElementFi
                                  f"{out[f.name][0]} and {owner}; a field has one owner")
             out[f.name] = (owner, f)
     return out
-
-
-#: the fields the engine writes itself for a scene with processes: name -> (units, long name,
-#: grid reduction), from the catalogue (:data:`siku_core.fields.CHANGING`)
-CHANGING = {n: (f.units, f.long_name, f.grid) for n, f in CHANGING_FIELDS.items()}
 
 
 class IceBook:

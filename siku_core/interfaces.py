@@ -289,8 +289,8 @@ class Process(Component):
         """Release files (called when the run ends)."""
 
     def couple_exchange(self, exchange: Any) -> None:  # noqa: B027 - optional hook
-        """Take what a coupled model hands over (a run driven through the BMI,
-        ``siku_io.coupling``): ``exchange`` is the run's exchange forcing source, whose grid
+        """Take what a coupled model hands over (a run driven through the BMI):
+        ``exchange`` is the run's exchange forcing source, whose grid
         fields (e.g. the waves a floating process follows) the process may read from now on.
         The default takes nothing."""
 

@@ -4,8 +4,8 @@ numba caches a ``cache=True`` function beside its module (``__pycache__``) or, w
 ``NUMBA_CACHE_DIR``, in a folder named after the module's directory: a fresh clone or a second
 checkout of the same sources compiles everything again, and a cache written before an edit of
 a module that a function *calls* is read after it (numba checks only the function's own file).
-Here the functions of siku's packages (``siku_core``, ``siku_plugins``, ``siku_forcing``,
-``siku_io``) are cached instead in ``$XDG_CACHE_HOME/siku/numba/<key>/<package path>`` (see
+Here the functions of siku's packages (``siku_core`` and the ``siku_*`` packages beside it) are
+cached instead in ``$XDG_CACHE_HOME/siku/numba/<key>/<package path>`` (see
 :func:`siku_core.kernel_cache.user_cache_dir`), where ``key`` is a hash of the text of every
 module of those packages: the same sources, wherever they lie, read the same compiled code;
 any edit of any of them starts a fresh folder, so no compiled function outlives a change of a
@@ -28,10 +28,11 @@ from numba.core import caching, config
 
 from .kernel_cache import user_cache_dir
 
-#: the packages whose compiled functions are cached by the hash of their sources
-PACKAGES = ("siku_core", "siku_plugins", "siku_forcing", "siku_io")
 #: the folder holding the packages (an install's ``site-packages``, a source tree's root)
 ROOT = Path(__file__).resolve().parents[1]
+#: the packages whose compiled functions are cached by the hash of their sources: the engine
+#: and siku's packages beside it (``siku_*`` folders with an ``__init__.py``)
+PACKAGES = tuple(sorted(p.name for p in ROOT.glob("siku_*") if (p / "__init__.py").is_file()))
 #: the sources' hash, computed at the first compiled function that asks for it
 _KEY: list[str] = []
 

@@ -33,6 +33,8 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("siku_core/kernel_cache.py", "py_func"): "module members that are numba dispatchers",
     ("siku_core/kernel_cache.py", "__module__"): "the module of a dispatcher's function",
     ("siku_core/progress.py", "py_func"): "a numba dispatcher",
+    ("siku_core/numba_cache.py", "CACHE_LOCATOR_CLASSES"): "numba's cache locators (its version)",
+    ("siku_core/numba_cache.py", "_locator_classes"): "numba's cache locators (its version)",
     ("siku_core/parallel.py", "_get_num_threads"): "numba's threading layer",
     ("siku_core/plugins.py", "name"): "a registered object refused before it is known to be a "
                                       "component class (it may subclass nothing)",

@@ -170,6 +170,7 @@ siku_io.plot.element_maps             MapPainter          -
 siku_io.plot.element_maps             Output              -
 siku_io.plot.element_maps             draw_map            -
 siku_io.plot.grid_maps                draw_grid_map       -
+siku_io.plot.grid_maps                GridPainter         -
 siku_io.xr                            east_north          siku_io.output.xr
 siku_plugins.contact_laws             Collision           -
 siku_plugins.contact_laws             collision_evaluator -
