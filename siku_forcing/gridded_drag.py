@@ -20,6 +20,17 @@ from .drag import stress_one
 from .gridded_kernel import interpolate_one, interpolate_records, mix_records
 
 
+@njit(cache=True, inline="always")
+def centre_latlon(q, i):
+    """Latitude and longitude [rad] of element ``i``'s centre (quaternion ``q[i]``), the
+    arithmetic of :func:`siku_core.geometry.quat.latlon_of`."""
+    w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+    cx = 2 * (x * z + w * y)
+    cy = 2 * (y * z - w * x)
+    cz = 1 - 2 * (x * x + y * y)
+    return math.atan2(cz, math.hypot(cx, cy)), math.atan2(cy, cx)
+
+
 @njit(cache=True, parallel=True)
 def gridded_stress(q, V, area, rho, C, theta, subtract_ice, g, F, nch, nout, first):
     """Add the drag ``S rho C |D| (D cos th + k × D sin th)``, ``D = U_field - subtract_ice U``
@@ -37,12 +48,7 @@ def gridded_stress(q, V, area, rho, C, theta, subtract_ice, g, F, nch, nout, fir
         no = 0
         fi = -1
         for i in range(lo, hi):
-            w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-            cx = 2 * (x * z + w * y)  # as siku_core.geometry.quat.latlon_of
-            cy = 2 * (y * z - w * x)
-            cz = 1 - 2 * (x * x + y * y)
-            lat = math.atan2(cz, math.hypot(cx, cy))
-            lon = math.atan2(cy, cx)
+            lat, lon = centre_latlon(q, i)
             u, v, inside = interpolate_one(lat, lon, g)
             if not inside:
                 if no == 0:
@@ -65,12 +71,7 @@ def gridded_values(q, g, ab, nch, nout, first):
         no = 0
         fi = -1
         for i in range(lo, hi):
-            w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
-            cx = 2 * (x * z + w * y)  # as siku_core.geometry.quat.latlon_of
-            cy = 2 * (y * z - w * x)
-            cz = 1 - 2 * (x * x + y * y)
-            lat = math.atan2(cz, math.hypot(cx, cy))
-            lon = math.atan2(cy, cx)
+            lat, lon = centre_latlon(q, i)
             a0, b0, a1, b1, inside = interpolate_records(lat, lon, g)
             if not inside:
                 if no == 0:
