@@ -35,9 +35,31 @@ def locate(a, x):
 def interpolate_one(y, lon_k, g):
     """The field at one point, latitude ``y`` and longitude ``lon_k`` [rad]: ``(u, v, inside)``
     (``0, 0, False`` outside the grid). ``g``: the grid and records, as :func:`interpolate`."""
+    a0, b0, a1, b1, inside = interpolate_records(y, lon_k, g)
+    if not inside:
+        return 0.0, 0.0, False
+    return mix_records(a0, b0, a1, b1, g.alpha)
+
+
+@njit(cache=True, inline="always")
+def mix_records(a0, b0, a1, b1, alpha):
+    """``(u, v, True)`` [m/s] at weight ``alpha`` of the second record, from one point's values
+    ``(a0, b0)`` of the first record and ``(a1, b1)`` of the second (the time interpolation of
+    :func:`interpolate_one`, the same arithmetic)."""
+    if alpha == 0.0:
+        return a0, b0, True
+    return (1.0 - alpha) * a0 + alpha * a1, (1.0 - alpha) * b0 + alpha * b1, True
+
+
+@njit(cache=True, inline="always")
+def interpolate_records(y, lon_k, g):
+    """Both records of ``g`` interpolated in space at latitude ``y`` and longitude ``lon_k``
+    [rad]: ``(a0, b0, a1, b1, inside)`` [m/s], the east and north components of the first
+    record and of the second (zeros and ``False`` outside the grid); :func:`mix_records`
+    weighs them in time."""
     ylat, xoff, lon0, periodic, cap_s, cap_n = (g.ylat, g.xoff, g.lon0, g.periodic, g.cap_s,
                                                 g.cap_n)
-    U0, V0, P0, U1, V1, P1, alpha = g.U0, g.V0, g.P0, g.U1, g.V1, g.P1, g.alpha
+    U0, V0, P0, U1, V1, P1 = g.U0, g.V0, g.P0, g.U1, g.V1, g.P1
     twopi = 2.0 * math.pi
     halfpi = 0.5 * math.pi
     ny = ylat.shape[0]
@@ -86,7 +108,7 @@ def interpolate_one(y, lon_k, g):
             else:
                 inside = False
     if not inside:
-        return 0.0, 0.0, False
+        return 0.0, 0.0, 0.0, 0.0, False
     if cap == 0:
         i0 = locate(ylat, y)
         fy = (y - ylat[i0]) / (ylat[i0 + 1] - ylat[i0])
@@ -115,9 +137,7 @@ def interpolate_one(y, lon_k, g):
         b0 = (1.0 - s) * ((1.0 - fx) * V0[r, j0] + fx * V0[r, j1]) + s * pv0
         a1 = (1.0 - s) * ((1.0 - fx) * U1[r, j0] + fx * U1[r, j1]) + s * pu1
         b1 = (1.0 - s) * ((1.0 - fx) * V1[r, j0] + fx * V1[r, j1]) + s * pv1
-    if alpha == 0.0:
-        return a0, b0, True
-    return (1.0 - alpha) * a0 + alpha * a1, (1.0 - alpha) * b0 + alpha * b1, True
+    return a0, b0, a1, b1, True
 
 
 @njit(cache=True)

@@ -676,3 +676,53 @@ def test_drag_in_one_pass_is_sampling_then_drag_bit_for_bit(tmp_path, grid):
         f._warned = False
     if grid == "regional":
         assert rec_s, "the regional case must put points outside the grid"
+
+
+def test_resampled_drag_holds_each_elements_records_between_resamples(tmp_path):
+    """``resample``: the drag at a later time of the same interval is the exact drag of the
+    field at the positions of the last resample, weighed in time at the later time, in the
+    elements' present frames (bit for bit); a new interval, a new pair of records or a step
+    back in time takes the field at the present positions again (the exact path's forces)."""
+    from siku_core.geometry.quat import latlon_of, q_from_latlon
+    from siku_forcing.drag import _stress
+
+    ncep_pair(tmp_path)
+    exact = field(tmp_path, u_file="uwnd.nc", v_file="vwnd.nc")
+    held = field(tmp_path, u_file="uwnd.nc", v_file="vwnd.nc", resample=600.0)
+    rng = np.random.default_rng(3)
+    n = 500
+    lat0 = rng.uniform(60.0, 80.0, n)
+    lon0 = rng.uniform(-180.0, 180.0, n)
+    q0 = np.array([q_from_latlon(math.radians(a), math.radians(b)) for a, b in zip(lat0, lon0)])
+    q1 = np.array([q_from_latlon(math.radians(a + 0.3), math.radians(b - 0.5))
+                   for a, b in zip(lat0, lon0)])  # moved 30-40 km: a different wind
+    V = rng.normal(0, 0.3, (n, 2))
+    area = rng.uniform(1e6, 1e8, n)
+    args = (area, 1.3, 0.0016, math.radians(20.0), 1.0)
+
+    def drag(f, t, q, nch=1):
+        out = np.zeros((n, 2))
+        f.add_drag(t, q, V, *args, out, nch)
+        return out
+
+    def held_drag(t, q_then, q_now):
+        u, v = exact.sample(t, *latlon_of(q_then))
+        out = np.zeros((n, 2))
+        _stress(q_now, V, u, v, *args, out, 1)
+        return out
+
+    t0 = 1000.0
+    np.testing.assert_array_equal(drag(held, t0, q0), drag(exact, t0, q0))
+    for t in (t0 + 300.0, t0 + 599.0):  # same interval: the records held at q0, weighed at t
+        for nch in (1, 3):
+            got = drag(held, t, q1, nch)
+            np.testing.assert_array_equal(got, held_drag(t, q0, q1))
+            assert not np.array_equal(got, drag(exact, t, q1))
+    # a new interval resamples at q1; a step back in time resamples too
+    np.testing.assert_array_equal(drag(held, t0 + 600.0, q1), drag(exact, t0 + 600.0, q1))
+    np.testing.assert_array_equal(drag(held, t0 + 100.0, q0), drag(exact, t0 + 100.0, q0))
+    # a new pair of records (6 h) inside the interval resamples at once
+    held2 = field(tmp_path, u_file="uwnd.nc", v_file="vwnd.nc", resample=3600.0)
+    drag(held2, 6 * HOUR - 100.0, q0)
+    np.testing.assert_array_equal(drag(held2, 6 * HOUR + 100.0, q1),
+                                  drag(exact, 6 * HOUR + 100.0, q1))

@@ -47,7 +47,9 @@ SP = SPRING_RECORD.index
 def _factor(hist):
     """The joint's strength factor ``exp(hist[1])``; 1 for a history row of one column (a law
     that wraps this evaluator with ``history_names = ("max_strain",)``)."""
-    return math.exp(hist[1]) if hist.shape[0] > 1 else 1.0
+    if hist.shape[0] < 2 or hist[1] == 0.0:
+        return 1.0  # exp(0) = 1 exactly: the exponential only where a process set a factor
+    return math.exp(hist[1])
 
 
 @njit(cache=True)
