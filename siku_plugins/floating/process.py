@@ -119,10 +119,10 @@ class Floating(Process):
         "coefficients": Param("auto", "", "added mass and damping: from these parameters "
                               "('scene'), from capytaine, cached ('capytaine'), from the "
                               "long-wave limit at the wave's frequency ('small_body'), or "
-                              "'auto': 'scene' when the scene gives added_mass, "
-                              "damping_ratio, added_inertia or tilt_damping_ratio or has no "
-                              "wave field, else capytaine's at the wave's frequency where it "
-                              "is installed and the free elements have at most "
+                              "'auto': 'scene' when the scene sets added_mass, "
+                              "damping_ratio, added_inertia or tilt_damping_ratio to other "
+                              "than its default or has no wave field, else "
+                              "capytaine's at the wave's frequency where it is installed and the free elements have at most "
                               "AUTO_CAPYTAINE_SHAPES shapes, else 'small_body'", type=str,
                               choices=("auto", "scene", "capytaine", "small_body")),
         "added_mass": Param(0.244, "1", "heave added mass A33 / (rho_w A^1.5)", min=0.0),
@@ -180,12 +180,8 @@ class Floating(Process):
                            "the element's smallest width)", min=0.0),
     }
 
-    def __init__(self, params=None):
-        super().__init__(params)
-        #: the parameters the scene gave (``coefficients = "auto"`` keeps given ones)
-        self._given = frozenset(params or ())
-        #: the coefficients set up: "scene", "capytaine" or "small_body"
-        self.coefficients_used = ""
+    #: the coefficients set up: "scene", "capytaine" or "small_body"
+    coefficients_used = ""
 
     # ------------------------------------------------------------------ set-up
     def setup(self, ctx) -> None:
@@ -387,8 +383,9 @@ class Floating(Process):
         kind = self.p["coefficients"]
         if kind != "auto":
             return kind
-        if self._given & {"added_mass", "damping_ratio", "added_inertia",
-                          "tilt_damping_ratio"} or self.field is None or not free.any() \
+        given = any(self.p[k] != self.params[k].default for k in (
+            "added_mass", "damping_ratio", "added_inertia", "tilt_damping_ratio"))
+        if given or self.field is None or not free.any() \
                 or not len(self.field.amp):
             return "scene"
         try:
