@@ -22,8 +22,8 @@ def box(s=2.0, h=0.3):
     d = h * RHO_I / RHO
     A, J = s * s, s ** 4 / 12
     m = RHO_I * h * A
-    I = RHO_I * h * J + m * h * h / 12
-    return dict(s=s, h=h, d=d, A=A, J=J, m=m, I=I, C3=RHO * G * A,
+    inertia = RHO_I * h * J + m * h * h / 12
+    return dict(s=s, h=h, d=d, A=A, J=J, m=m, I=inertia, C3=RHO * G * A,
                 C1=RHO * G * (J - A * d * (h - d) / 2))
 
 

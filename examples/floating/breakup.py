@@ -73,7 +73,8 @@ type = "linear_wave"
 params = {{ amplitude = {AMP}, period = {PERIOD}, direction = 90.0, origin = [0.0, 0.0] }}
 [[process]]
 name = "floating"
-params = {{ bending = true, ramp = {ramp}, flexural_strength = {strength}, steps_per_period = 8 }}
+params = {{ bending = true, ramp = {ramp}, flexural_strength = {strength}, steps_per_period = 8,
+           coefficients = "scene" }}
 """
     with warnings.catch_warnings():     # dt is above the in-plane joints' step: never stepped
         warnings.filterwarnings("ignore", message=".*allow_unstable_dt = true")

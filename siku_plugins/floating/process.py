@@ -37,7 +37,13 @@ ice damps) ``a_j = sqrt(2 E_j)`` of the cell of the element's centre (:meth:`Flo
 ``wave = "exchange"``: a coupled model's elevation and dynamic pressure through the BMI
 (``siku_plugins.floating.coupled``). The wave's load is Froude–Krylov only.
 
-Added mass and damping: with ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
+Added mass and damping: ``coefficients = "auto"`` (the default) takes the scene's (below) when
+the scene sets any of their four parameters or has no wave field, else capytaine's at the
+frequency of the wave field's largest component where capytaine is installed and the free
+elements have at most :data:`AUTO_CAPYTAINE_SHAPES` shapes, else the long-wave approximation
+of a floe small against the wavelength at that frequency (``coefficients = "small_body"``,
+``siku_plugins.floating.small_body``; an element not small against it keeps the scene's).
+With ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
 ``A_k = added_inertia rho_w A^{1/2} J_k``, ``B33 = 2 damping_ratio sqrt((m + A33) rho_w g A)``,
 ``B_k = 2 tilt_damping_ratio sqrt(M_k C_k)``; defaults: capytaine's for a 10 × 10 × 1 m block.
 With ``coefficients = "capytaine"`` (the optional extra ``siku[hydro]``) they are capytaine's
@@ -122,8 +128,9 @@ class Floating(Process):
                               "'auto': 'scene' when the scene sets added_mass, "
                               "damping_ratio, added_inertia or tilt_damping_ratio to other "
                               "than its default or has no wave field, else "
-                              "capytaine's at the wave's frequency where it is installed and the free elements have at most "
-                              "AUTO_CAPYTAINE_SHAPES shapes, else 'small_body'", type=str,
+                              "capytaine's at the wave's frequency where it is installed "
+                              "and the free elements have at most 16 shapes, else "
+                              "'small_body'", type=str,
                               choices=("auto", "scene", "capytaine", "small_body")),
         "added_mass": Param(0.244, "1", "heave added mass A33 / (rho_w A^1.5)", min=0.0),
         "damping_ratio": Param(0.172, "1", "heave radiation damping as a fraction of "

@@ -13,14 +13,14 @@ with ``K a`` small:
   ``(rho / 2 pi) ∫∫ n n' / R dS dS'``. For the disc (with the Fourier transform of the disc
   and ``∫_0^∞ J_nu(t)² t^-2 dt``, Gradshteyn & Ryzhik 6.574.2):
 
-      A33 = (8/3) rho a³ = 0.4789 rho A^{3/2}     (the baffled piston; Lamb 1932, §302)
+      A33 = (8/3) rho a³ = 0.4789 rho A^{3/2}     (the piston in a rigid wall; Rayleigh 1896)
       A_k = (4/15) rho a⁵ = (16 / 15 pi) rho a J_k  (the rocking piston, J_k = pi a⁴ / 4)
 
   (a square's baffled piston: 0.4732 rho A^{3/2}, 1.2 % below the disc's). Capytaine gives
   0.45–0.47 rho A^{3/2} and 0.25–0.26 rho a⁵ for boxes 2 m and 10 m wide at ``K a`` below
   0.2 (the boxes' draft and their corners).
 * **Radiation damping**, from the Haskind relation ``B_jj = k / (8 pi rho g c_g) ∫ |X_j(θ)|²
-  dθ`` (Newman 1977, §6.18), with the long-wave exciting force of a small body, the
+  dθ`` (Newman 1977, ch. 6), with the long-wave exciting force of a small body, the
   hydrostatic load less the inertia of the displaced water and the added mass accelerated by
   the wave, ``X_j = C_j - omega² (M_j + A_j)`` times the wave's heave (``a``) or slope
   (``i k a cos θ``): ``X = C (1 - omega² / omega_j²)`` with ``omega_j² = C_j / (M_j + A_j)``
