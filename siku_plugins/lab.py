@@ -494,6 +494,52 @@ def strength_table(test: str, strengths: list[float], progress: bool = False,
     return StrengthTable(test, results, float(slope), float(intercept), r2)
 
 
+@dataclass
+class PackingSpread:
+    """One test at one bond strength over several packings (seeds): the ratio macro / bond
+    strength [1] of each and their spread."""
+
+    test: str
+    sigma_crit: float  # bond strength [Pa]
+    seeds: list[int]
+    results: list[LabResult]
+
+    @property
+    def ratios(self) -> np.ndarray:
+        return np.array([r.ratio for r in self.results])
+
+    @property
+    def mean(self) -> float:
+        return float(self.ratios.mean())
+
+    @property
+    def sd(self) -> float:
+        """Sample standard deviation of the ratios (``ddof = 1``)."""
+        return float(self.ratios.std(ddof=1)) if len(self.results) > 1 else math.nan
+
+    def rows(self) -> list[str]:
+        r = self.ratios
+        return [f"{self.test} at bond strength {self.sigma_crit / 1e6:g} MPa over "
+                f"{len(r)} packings (seeds {', '.join(map(str, self.seeds))}): ratios "
+                + " ".join(f"{x:.3f}" for x in r),
+                f"  mean {self.mean:.3f}, standard deviation {self.sd:.3f}, range "
+                f"{r.min():.3f}–{r.max():.3f}"]
+
+
+def packing_spread(test: str, seeds, sigma_crit: float = 1e6, progress: bool = False,
+                   **kwargs: Any) -> PackingSpread:
+    """:func:`virtual_test` of ``test`` at ``sigma_crit`` [Pa] on the packing of each seed of
+    ``seeds``: the disorder's share of a ratio (``siku lab --packings N``)."""
+    seeds = [int(x) for x in seeds]
+    results = []
+    for seed in seeds:
+        if progress:
+            print(f"siku lab: {test} at bond strength {sigma_crit / 1e6:g} MPa, packing "
+                  f"{seed} ...", file=sys.stderr)
+        results.append(virtual_test(test, sigma_crit, seed=seed, **kwargs))
+    return PackingSpread(test, sigma_crit, seeds, results)
+
+
 def plot_curves(tables: list[StrengthTable], path: Path) -> Path:
     """Stress–strain curves of every run (one panel per test) and the strength lines."""
     import matplotlib
@@ -649,11 +695,22 @@ def _cmd_lab(args) -> int:
                         "by commas, e.g. 0.1,0.5,1,2") from None
     if not strengths or any(not (0 < s < 1e12) for s in strengths):
         raise SikuError(f"--strength {args.strength!r}: strengths must be positive MPa")
+    if not 1 <= args.packings <= 1000:
+        raise SikuError(f"--packings {args.packings}: give 1 to 1000 packings")
     if not 0 < args.element_size < 1e5:
         raise SikuError(f"--element-size {args.element_size}: must be in (0, 1e5) m")
     if args.test == "calibrate":
         return cmd_calibrate(args)
     tests = TESTS if args.test == "all" else (args.test,)
+    if args.packings > 1:    # the ratios' spread over packings; no curves
+        for test in tests:
+            length, width = block_extent(test, args.element_size, args.length, args.width)
+            for s in strengths:
+                sp = packing_spread(test, range(args.seed, args.seed + args.packings), s,
+                                    progress=True, element_size=args.element_size,
+                                    length=length, width=width, jointed=args.jointed)
+                print("\n".join(sp.rows()))
+        return 0
     tables = []
     for test in tests:
         length, width = block_extent(test, args.element_size, args.length, args.width)
@@ -689,6 +746,9 @@ def siku_register_commands(subparsers):
     p.add_argument("--length", type=float, help="block length [m] (default 24; flexure 30)")
     p.add_argument("--width", type=float, help="block width [m] (default 12; flexure 8)")
     p.add_argument("--seed", type=int, default=0, help="seed of the packing")
+    p.add_argument("--packings", type=int, default=1, help="run each test on this many "
+                   "packings (seeds --seed, --seed + 1, ...) and print the ratios' mean and "
+                   "spread instead of the curves (default 1)")
     p.add_argument("--jointed", choices=("collide", "exclude"), default="collide",
                    help="bonded neighbours also collide (collide, the default) or only their "
                         "bond acts until it breaks (exclude): contact.jointed")

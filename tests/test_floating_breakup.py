@@ -8,10 +8,11 @@ rho_w g)^{1/4}`` = 9.77 m, so the strip is 46 l long and an element 0.31 l) alon
 10 s deep-water waves (wavelength 157 m, ``k l`` = 0.39: long against l; the elements' heave
 period, 2.6 s, is short against 10 s) whose load rises as ``(1 - cos(pi t / T_r)) / 2`` over
 ``T_r`` = 100 s (ten periods) to amplitude 0.5 m; flexural strength 200 kPa, reached at about
-47 s. The ``floating`` process moves the elements in heave and pitch with the default constant
-added mass and damping, in steps of ``dt`` = 0.02 s (T / 500) of 8 sub-steps per shortest
-period (its stiffest beam mode, 17 ms), and checks the joints' stress after every step. The
-ice is held still in the plane (only the process is stepped, the horizontal forces being off,
+47 s. The ``floating`` process moves the elements in heave and pitch with the constant
+added mass and damping of ``coefficients = "scene"`` (the natural-frequency fit), in steps of
+``dt`` = 0.02 s (T / 500) of 8 sub-steps per shortest period (its stiffest beam mode, 17 ms),
+and checks the joints' stress after every step. The ice is held still in the plane (only the
+process is stepped, the horizontal forces being off,
 as ``examples/waves/breaking.py`` does for the quasi-static criterion): in linear theory the
 vertical motion does not move the elements horizontally, and the engine's stable step for the
 1 GPa in-plane joints (6e-4 s) would take 30 times as many steps (the last test checks, on a

@@ -17,6 +17,7 @@ from siku_io.analysis.fsd import (
     mean_calipers,
     output_floes,
     power_law,
+    tail_fit,
 )
 
 
@@ -334,3 +335,20 @@ def test_no_power_law_is_fitted_to_a_tail_within_too_few_bins():
     rng = np.random.default_rng(5)
     ds = distribution([sample_power_law(2.0, 1e6, 400, rng)], [0.0])
     assert np.isfinite(ds["alpha"].values[0])
+
+
+def test_a_power_law_is_refused_on_too_few_floes_or_bins_in_one_line():
+    from siku_core import DataError
+
+    rng = np.random.default_rng(7)
+    x = sample_power_law(2.0, 1e4, 400, rng)
+    fit = tail_fit(x)
+    assert fit.alpha == power_law(x).alpha
+    # nine floes: fewer than the tail needs
+    with pytest.raises(DataError, match="9 floes: a power law needs at least 10") as exc:
+        tail_fit(x[:9])
+    assert "\n" not in str(exc.value)
+    # forty floes within 10 % of each other: a tail in one or two bins
+    with pytest.raises(DataError, match="area bin") as exc:
+        tail_fit(1e6 * (1 + 0.1 * np.linspace(0, 1, 40) ** 2))
+    assert "\n" not in str(exc.value)

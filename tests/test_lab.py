@@ -165,6 +165,29 @@ def test_a_smaller_element_size_refines_the_same_block(monkeypatch):
     assert main(["lab", "tension", "--strength", "1", "--element-size", "5"]) == 2
 
 
+def test_lab_packings_runs_each_seed_and_reports_the_spread(monkeypatch, capsys):
+    """``siku lab TEST --packings N --seed S``: the test on the packings of seeds S … S + N − 1
+    at each strength, and the ratios' mean and sample standard deviation."""
+    import siku_plugins.lab as lab
+
+    seen = []
+
+    def fake_test(test, sigma, seed, **kw):
+        seen.append((test, sigma, seed, kw["length"], kw["width"]))
+        return lab.LabResult(test, sigma, sigma, 1.0, np.zeros(1), np.zeros(1), 1e9,
+                             sigma * (0.6 + 0.05 * seed), 1e-3)
+
+    monkeypatch.setattr(lab, "virtual_test", fake_test)
+    assert main(["lab", "tension", "--strength", "1", "--packings", "3", "--seed", "2"]) == 0
+    assert seen == [("tension", 1e6, s, 24.0, 12.0) for s in (2, 3, 4)]
+    out = capsys.readouterr().out
+    ratios = 0.6 + 0.05 * np.arange(2, 5)
+    assert "over 3 packings (seeds 2, 3, 4)" in out
+    assert f"mean {ratios.mean():.3f}, standard deviation {ratios.std(ddof=1):.3f}" in out
+    assert main(["lab", "tension", "--packings", "0"]) == 2
+    assert "--packings" in capsys.readouterr().err
+
+
 # ------------------------------------------------------------------ calibration
 SMALL = {"tension": (18.0, 9.0), "compression": (18.0, 9.0), "flexure": (24.0, 6.0)}
 

@@ -5,7 +5,8 @@ A strip of 150 square elements of 3 m (450 m; ice 1 m thick, E = 1 GPa, nu = 0.3
 characteristic length ``l = (D / rho_w g)^(1/4)`` = 9.8 m) lies along the path of 10 s
 deep-water waves (wavelength 157 m, ``k l`` = 0.39) whose load grows as ``(1 - cos(pi t /
 T_r)) / 2`` over ``T_r`` = 100 s to amplitude 0.5 m. The ``floating`` process (``bending =
-true``) moves every element in heave and pitch and breaks a joint in flexure when its bending
+true``, the scene's added mass and damping: ``coefficients = "scene"``) moves every element
+in heave and pitch and breaks a joint in flexure when its bending
 stress ``6 M / (w h²)`` exceeds 200 kPa. The ice is held still in the plane (the horizontal
 forces are off and only the process is stepped, as ``examples/waves/breaking.py`` does for the
 quasi-static criterion).
@@ -73,7 +74,12 @@ type = "linear_wave"
 params = {{ amplitude = {AMP}, period = {PERIOD}, direction = 90.0, origin = [0.0, 0.0] }}
 [[process]]
 name = "floating"
-params = {{ bending = true, ramp = {ramp}, flexural_strength = {strength}, steps_per_period = 8 }}
+[process.params]
+bending = true
+ramp = {ramp}
+flexural_strength = {strength}
+steps_per_period = 8
+coefficients = "scene"
 """
     with warnings.catch_warnings():     # dt is above the in-plane joints' step: never stepped
         warnings.filterwarnings("ignore", message=".*allow_unstable_dt = true")

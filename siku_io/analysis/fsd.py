@@ -165,6 +165,28 @@ def power_law(x, min_tail: int = MIN_TAIL) -> PowerLaw:
     return best
 
 
+def tail_fit(x, min_tail: int = MIN_TAIL, edges=None, per_decade: int = 5) -> PowerLaw:
+    """The power law of the areas ``x`` [m²] (:func:`power_law`), or :class:`DataError` in
+    one line when the data cannot carry one: fewer than ``min_tail`` floes above any cut-off,
+    or a tail whose floes lie in fewer than :data:`MIN_BINS` of the area bins ``edges`` (by
+    default :func:`log_bins` of ``x`` with ``per_decade`` bins a decade): an exponent needs a
+    range of sizes to be told from the data."""
+    xs = np.asarray(x, float)
+    xs = xs[xs > 0]
+    fit = power_law(xs, min_tail)
+    if not np.isfinite(fit.alpha):
+        raise DataError(f"{len(xs)} floes: a power law needs at least {max(min_tail, 2)} above "
+                        "its cut-off, of more than one area; none fitted")
+    if edges is None:
+        edges = log_bins(xs.min(), xs.max(), per_decade)
+    bins = np.count_nonzero(np.histogram(xs[xs >= fit.xmin], np.asarray(edges, float))[0])
+    if bins < MIN_BINS:
+        raise DataError(f"{fit.n_tail} floes above {fit.xmin:.4g} m2 lie in {bins} area "
+                        f"bin(s): a power law needs a tail over at least {MIN_BINS}; none "
+                        "fitted")
+    return fit
+
+
 # ------------------------------------------------------------------------ distribution
 def log_bins(lo: float, hi: float, per_decade: int = 5) -> np.ndarray:
     """Logarithmic bin edges [units of lo, hi] covering ``[lo, hi]`` with ``per_decade`` bins
@@ -194,11 +216,10 @@ def distribution(areas_per_time: list[np.ndarray], times, edges=None, per_decade
     fits = []
     for t, a in enumerate(areas_per_time):
         count[t] = np.histogram(a, edges)[0]
-        fit = power_law(a, min_tail)
-        if np.isfinite(fit.alpha) and np.count_nonzero(
-                np.histogram(a[a >= fit.xmin], edges)[0]) < MIN_BINS:
-            # a tail within one or two bins: no exponent can be told from it
-            fit = PowerLaw(np.nan, np.nan, np.nan, fit.n_tail, np.nan)
+        try:
+            fit = tail_fit(a, min_tail, edges)
+        except DataError:   # too few floes or bins: no exponent (NaN), the table says why
+            fit = PowerLaw(np.nan, np.nan, np.nan, power_law(a, min_tail).n_tail, np.nan)
         fits.append(fit)
     nfl = np.array([len(a) for a in areas_per_time], float)
     width = np.diff(edges)

@@ -283,6 +283,19 @@ def diffraction_factors(bodies, points, fld, p, ctx, rho, g, where) -> np.ndarra
     return kap
 
 
+def shape_of(st, i, phi, h, d) -> tuple:
+    """The key of element ``i``'s shape: its polygon in its principal axes to 1 mm, thickness
+    and draft to 1 µm (one capytaine computation per key)."""
+    c, s = math.cos(phi[i]), math.sin(phi[i])
+    poly = st.polygon(i) @ np.array([[c, -s], [s, c]])
+    return (tuple(np.round(poly, 3).ravel()), round(h[i], 6), round(d[i], 6))
+
+
+def distinct_shapes(st, free, phi, h, d) -> int:
+    """How many distinct shapes (:func:`shape_of`) the free elements have."""
+    return len({shape_of(st, i, phi, h, d) for i in np.flatnonzero(free)})
+
+
 def element_coefficients(st, free, phi, h, d, m, I1, I2, C3, C1, C2, rho, g, cache, size,
                          omega, base, where):
     """Per element ``(A33, B33, A1, B1, A2, B2)`` arrays for the free elements (zero for the
@@ -299,7 +312,7 @@ def element_coefficients(st, free, phi, h, d, m, I1, I2, C3, C1, C2, rho, g, cac
         sz = size if size > 0 else width / 16.0
         M = (m[i], I1[i], I2[i])
         C = (C3[i], C1[i], C2[i])
-        k = (tuple(np.round(poly, 3).ravel()), round(h[i], 6), round(d[i], 6))
+        k = shape_of(st, i, phi, h, d)
         if k not in done:
             try:
                 done[k] = shape_coefficients(poly, h[i], d[i], M, C, rho, g, sz, omega,

@@ -37,7 +37,13 @@ ice damps) ``a_j = sqrt(2 E_j)`` of the cell of the element's centre (:meth:`Flo
 ``wave = "exchange"``: a coupled model's elevation and dynamic pressure through the BMI
 (``siku_plugins.floating.coupled``). The wave's load is Froude–Krylov only.
 
-Added mass and damping: with ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
+Added mass and damping: ``coefficients = "auto"`` (the default) takes the scene's (below) when
+the scene sets any of their four parameters or has no wave field, else capytaine's at the
+frequency of the wave field's largest component where capytaine is installed and the free
+elements have at most :data:`AUTO_CAPYTAINE_SHAPES` shapes, else the long-wave approximation
+of a floe small against the wavelength at that frequency (``coefficients = "small_body"``,
+``siku_plugins.floating.small_body``; an element not small against it keeps the scene's).
+With ``coefficients = "scene"``, ``A33 = added_mass rho_w A^{3/2}``,
 ``A_k = added_inertia rho_w A^{1/2} J_k``, ``B33 = 2 damping_ratio sqrt((m + A33) rho_w g A)``,
 ``B_k = 2 tilt_damping_ratio sqrt(M_k C_k)``; defaults: capytaine's for a 10 × 10 × 1 m block.
 With ``coefficients = "capytaine"`` (the optional extra ``siku[hydro]``) they are capytaine's
@@ -77,6 +83,9 @@ from .geometry import lattice_arrays, principal, quadrature, second_moments
 from .bending import advance_jointed, equilibrium, joint_stresses, shortest_period
 from .kernels import FloatingBodies, FloatingPoints, FloatingWave, advance, motion
 
+#: the most distinct shapes of free elements for which ``coefficients = "auto"`` solves with
+#: capytaine (three solves a shape, seconds each, cached); more take ``small_body``
+AUTO_CAPYTAINE_SHAPES = 16
 #: one element's load and sub-step [ns, one thread]: its chunks (``siku_core.parallel.chunks``)
 FLOAT_NS = 150.0
 _NO_EXT, _NO_KAP = np.zeros((0, 3)), np.zeros((0, 0, 3, 2))
@@ -113,9 +122,16 @@ class Floating(Process):
     params: ClassVar[dict[str, Param]] = {
         "rho_water": Param(1026.0, "kg/m^3", "water density rho_w", min=1e-6),
         "g": Param(9.81, "m/s^2", "gravitational acceleration", min=0.01, max=100.0),
-        "coefficients": Param("scene", "", "added mass and damping from these parameters "
-                              "('scene') or from capytaine, cached ('capytaine')", type=str,
-                              choices=("scene", "capytaine")),
+        "coefficients": Param("auto", "", "added mass and damping: from these parameters "
+                              "('scene'), from capytaine, cached ('capytaine'), from the "
+                              "long-wave limit at the wave's frequency ('small_body'), or "
+                              "'auto': 'scene' when the scene sets added_mass, "
+                              "damping_ratio, added_inertia or tilt_damping_ratio to other "
+                              "than its default or has no wave field, else "
+                              "capytaine's at the wave's frequency where it is installed "
+                              "and the free elements have at most 16 shapes, else "
+                              "'small_body'", type=str,
+                              choices=("auto", "scene", "capytaine", "small_body")),
         "added_mass": Param(0.244, "1", "heave added mass A33 / (rho_w A^1.5)", min=0.0),
         "damping_ratio": Param(0.172, "1", "heave radiation damping as a fraction of "
                                "critical, B33 / (2 sqrt((m + A33) rho_w g A))", min=0.0),
@@ -170,6 +186,9 @@ class Floating(Process):
         "mesh_size": Param(0.0, "m", "largest panel of capytaine's mesh (0: a sixteenth of "
                            "the element's smallest width)", min=0.0),
     }
+
+    #: the coefficients set up: "scene", "capytaine" or "small_body"
+    coefficients_used = ""
 
     # ------------------------------------------------------------------ set-up
     def setup(self, ctx) -> None:
@@ -244,7 +263,7 @@ class Floating(Process):
         self._periods()
         self.kap = np.zeros((0, 0, 3, 2))
         if p["diffraction"]:
-            if p["coefficients"] != "capytaine" or self.field is None:
+            if self.coefficients_used != "capytaine" or self.field is None:
                 raise SceneError(f"{where}: diffraction = true needs coefficients = "
                                  "'capytaine' and a wave field in a [[forcing]] table")
             from .hydro import diffraction_factors
@@ -328,11 +347,13 @@ class Floating(Process):
         I1 = rho_i * h * J1 + m * h * h / 12.0
         I2 = rho_i * h * J2 + m * h * h / 12.0
         self._inertia = (m, I1, I2)
-        if p["coefficients"] == "capytaine":
+        kind = self._choose(ctx, free, phi, h, d)
+        self.coefficients_used = kind
+        if kind == "capytaine":
             from .hydro import element_coefficients
 
             omega = None
-            if p["frequency"] == "wave":
+            if p["frequency"] == "wave" or p["coefficients"] == "auto":
                 if self.field is None:
                     raise SceneError(f"{where}: frequency = 'wave' needs a wave field in a "
                                      "[[forcing]] table")
@@ -347,8 +368,42 @@ class Floating(Process):
             B33 = 2 * p["damping_ratio"] * np.sqrt((m + A33) * C3)
             B1 = 2 * p["tilt_damping_ratio"] * np.sqrt((I1 + A1) * C1)
             B2 = 2 * p["tilt_damping_ratio"] * np.sqrt((I2 + A2) * C2)
+            if kind == "small_body":
+                from .small_body import KA_MAX, coefficients
+
+                if self.field is None:
+                    raise SceneError(f"{where}: coefficients = 'small_body' needs a wave "
+                                     "field in a [[forcing]] table (its frequency)")
+                fld = self.field
+                omega = float(fld.omega[np.argmax(fld.amp)])
+                *sb, ka = coefficients(A, J1, J2, m, I1, I2, C3, C1, C2, omega, rho_w, g,
+                                       float(getattr(fld, "h", math.inf)))
+                ok = ka <= KA_MAX   # beyond: the natural-frequency fit above
+                for arr, new in zip((A33, B33, A1, B1, A2, B2), sb):
+                    arr[ok] = new[ok]
         return {"M3": m + A33, "B3": B33, "C3": C3, "M1": I1 + A1, "B1": B1, "C1": C1,
                 "M2": I2 + A2, "B2": B2, "C2": C2}
+
+    def _choose(self, ctx, free, phi, h, d) -> str:
+        """The coefficients ``coefficients = "auto"`` stands for (its parameter's help), or
+        the one the scene names."""
+        kind = self.p["coefficients"]
+        if kind != "auto":
+            return kind
+        given = any(self.p[k] != self.params[k].default for k in (
+            "added_mass", "damping_ratio", "added_inertia", "tilt_damping_ratio"))
+        if given or self.field is None or not free.any() \
+                or not len(self.field.amp):
+            return "scene"
+        try:
+            import capytaine  # noqa: F401
+        except ImportError:
+            return "small_body"
+        from .hydro import distinct_shapes
+
+        if distinct_shapes(ctx.state, free, phi, h, d) > AUTO_CAPYTAINE_SHAPES:
+            return "small_body"
+        return "capytaine"
 
     def _periods(self) -> None:
         self.period_min = shortest_period(self.bodies, getattr(self, "beams", None))
