@@ -72,7 +72,7 @@ def _measure(kind: str, n: int, law: str, steps: int, threads: list[int],
              floor: bool = True, spinup: int = 0) -> dict:
     import numba
 
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     from .scenes import scene
 
@@ -141,7 +141,7 @@ def _requires(n: int, steps: int) -> dict:
     import numba
     import numpy as np
 
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     from .scenes import scene
 

@@ -48,8 +48,8 @@ import numpy as np
 from siku_core.errors import NonFiniteError
 from siku_core.geometry.quat import centers, east_north_local, qrotate
 from siku_core.plugins import get_registry
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.state import FREE, STEADY
 from siku_core.testing import make_scene
 from siku_core.testing.contact_conformance import contact_scene_text

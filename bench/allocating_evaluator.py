@@ -2,7 +2,7 @@
 evaluator goes through an allocated temporary (``np.zeros(4)`` per joint and step).
 
 An evaluator that allocates needs numba's reference counting, so siku compiles its joint loop
-with it (``siku_core.kernel_cache``): the loop's array views and calls then pay atomic
+with it (``siku_core.contact.kernel_cache``): the loop's array views and calls then pay atomic
 reference-count operations too. Both laws compute the same forces bit for bit (a test holds
 this); only the time differs.
 
@@ -42,8 +42,8 @@ def _joint_ns(law_cls, n: int, steps: int) -> float:
     """Joint phase [ns] per joint and step on the bonded pack, one thread."""
     import numba
 
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
     from siku_core.testing.contact_conformance import law_registry
 
     from .scenes import bonded_text

@@ -35,7 +35,7 @@ import numba
 import numpy as np
 from numba import njit
 
-from siku_core.contact_frames import j_to_i, relative_matrix
+from siku_core.contact.contact_frames import j_to_i, relative_matrix
 from siku_core.geometry.clip import (
     REL_TOL,
     _unit_or_x,
@@ -284,7 +284,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
     from bench.scenes import scene
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     print("| scene | pairs / element | engine [ns/pair] | engine, one pair repeated | "
           "boundary [ns/pair] | valid | max rel. area diff. | centroid, crossings, normal "

@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
     from bench.scenes import scene
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     sim = Simulation(scene("collision", args.n, None), out=False)
     for _ in range(20):

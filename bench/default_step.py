@@ -24,8 +24,8 @@ import time
 def measure(spinup: int, steps: int, overrides: dict[str, str]) -> dict:
     """CPU milliseconds per step over ``steps`` steps after ``spinup``, with the phases'
     shares [%], the load average before and after, and the overlapping pairs at the end."""
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     path = ir.files("siku_core") / "data" / "default_scene.toml"
     sim = Simulation(load_scene(str(path), overrides), out=False, progress=False)

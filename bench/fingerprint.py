@@ -55,7 +55,7 @@ def fingerprint(sim) -> str:
 def _scene_case(kind: str, law: str | None):
     def run():
         from bench.scenes import scene
-        from siku_core.simulation import Simulation
+        from siku_core.run.simulation import Simulation
 
         sim = Simulation(scene(kind, 3000, law, steps=100), out=False, progress=False)
         sim.run()
@@ -65,8 +65,8 @@ def _scene_case(kind: str, law: str | None):
 
 def _file_case(path: Path, **overrides: str):
     def run():
-        from siku_core.scene import load_scene
-        from siku_core.simulation import Simulation
+        from siku_core.scene.scene_file import load_scene
+        from siku_core.run.simulation import Simulation
 
         sim = Simulation(load_scene(path, overrides), out=False, progress=False)
         sim.run()
@@ -99,7 +99,7 @@ def _coupled():
 
 
 def _default_scene() -> Path:
-    from siku_core.cli import default_scene_path
+    from siku_core.run.cli import default_scene_path
 
     return default_scene_path()
 

@@ -41,8 +41,8 @@ def floe_text(floating: bool, steps: int) -> str:
 
 
 def floe_sim(floating: bool, steps: int):
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
 
     sim = Simulation(scene_from_text(floe_text(floating, steps), "<bench floating>"),
                      out=False, progress=False)
@@ -61,8 +61,8 @@ def time_per_element_step(sim, steps: int) -> tuple[float, float]:
 
 def pack_rate(n: int, repeat: int = 5) -> tuple[float, int]:
     """Element-steps/s of ``Floating.apply`` on ``n`` 10 m elements, and the sub-steps."""
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
 
     side = int(round(n ** 0.5))
     text = f"""

@@ -22,9 +22,9 @@ import time
 import numba
 import numpy as np
 
-from siku_core.cli import default_scene_path
-from siku_core.scene import load_scene
-from siku_core.simulation import Simulation
+from siku_core.run.cli import default_scene_path
+from siku_core.scene.scene_file import load_scene
+from siku_core.run.simulation import Simulation
 
 
 def build(spinup: int) -> Simulation:

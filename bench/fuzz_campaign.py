@@ -231,7 +231,7 @@ def restart_scene(netcdf: bool) -> str:
 
 def siku_cmd(args: list[str], cwd: Path, threads: int) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": str(threads)}
-    return subprocess.run([sys.executable, "-m", "siku_core.cli", *args], cwd=cwd, env=env,
+    return subprocess.run([sys.executable, "-m", "siku_core.run.cli", *args], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=LIMIT - 20)
 
 
@@ -260,7 +260,7 @@ def restart_case(netcdf: bool, delay: float, threads: int, ref: dict[str, Any]) 
         text = restart_scene(netcdf)
         (d / "s.toml").write_text(text, encoding="utf-8")
         env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": str(threads)}
-        p = subprocess.Popen([sys.executable, "-m", "siku_core.cli", "run", "s.toml",
+        p = subprocess.Popen([sys.executable, "-m", "siku_core.run.cli", "run", "s.toml",
                               "--no-progress", "--no-plots"], cwd=d, env=env,
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         t0 = time.monotonic()

@@ -29,7 +29,7 @@ def _rss_mb() -> float:
 def _worker(kind: str, n: int, steps: int, threads: list[int]) -> dict:
     import numba
 
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     from .__main__ import step_times
     from .scenes import scene

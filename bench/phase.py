@@ -2,8 +2,9 @@
 
 ``python -m bench.phase collision`` (from the repository root) builds a scene of
 :mod:`bench.scenes` (10 000 elements by default), runs ``--spinup`` steps, then calls the
-engine's :func:`~siku_core.contacts.collision_forces` and, where the law has joints,
-:func:`~siku_core.contacts.joint_forces` on that state ``--reps`` times each and prints the best
+engine's :func:`~siku_core.contact.contact_forces.collision_forces` and, where the law has joints,
+:func:`~siku_core.contact.contact_forces.joint_forces` on that state ``--reps`` times each and
+prints the best
 time per element (ns per element-step, the unit of the phase table in ``bench/RESULTS.md``),
 per candidate pair and per joint. Joint histories are not committed, so every repetition does
 the same work on the same state; the numbers isolate a kernel from the rest of the step (no
@@ -27,10 +28,10 @@ import time
 import numba
 
 from bench.scenes import KINDS, LAWS, scene
-from siku_core.contact_tables import NO_DMOB, pair_table
-from siku_core.contacts import collision_forces, joint_forces
+from siku_core.contact.contact_tables import NO_DMOB, pair_table
+from siku_core.contact.contact_forces import collision_forces, joint_forces
 from siku_core.parallel import chunks
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import switches
 
 

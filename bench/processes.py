@@ -28,9 +28,9 @@ import time
 import numpy as np
 
 from bench.scenes import text as bench_text
-from siku_core.cli import default_scene_path
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.run.cli import default_scene_path
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 
 #: ridging law parameters on top of the pack's joint parameters
 RIDGING = {"tensile_strain": 0.05, "strength": 2.75e4}

@@ -26,7 +26,7 @@ from siku_core.ranks import launched_ranks, mpiexec
 
 def worker(n: int, warm: int, steps: int) -> None:
     """One run (on the launched ranks if any): a JSON line from rank 0."""
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     sim = Simulation(scene("bonded", n, steps=warm + steps), out=False, progress=False)
     if launched_ranks() > 1:

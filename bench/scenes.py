@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 
-from siku_core.scene import Scene, scene_from_text
+from siku_core.scene.scene_file import Scene, scene_from_text
 from siku_core.testing.scenes import toml_value
 
 #: element side in degrees (the issue's "0.2° squares at the equator")

@@ -2,7 +2,7 @@
 frequencies x 16 directions, deep water) on a 10 000-element pack: the forces of one step
 (``add_forces``: the sea at every element, slope force and drag) for the direct sum
 (``jonswap``, one step: it is slow), the recurrences (``fast_jonswap``) and the interpolated
-sea (``jonswap`` with ``method = "lines"``, siku_forcing.wave_lines), alternated round by
+sea (``jonswap`` with ``method = "lines"``, siku_forcing.waves.wave_lines), alternated round by
 round so that each sees the same stretch of a shared machine; and the largest difference of
 the interpolated sea from the direct sum over the elements, over its stated bound.
 
@@ -43,8 +43,8 @@ def pack(n: int, extent: float, lat0: float = 75.0, lon0: float = -150.0):
 
 
 def fields():
-    from siku_forcing.spectral_fast import FastJonswap
-    from siku_forcing.waves import Jonswap
+    from siku_forcing.waves.spectral_fast import FastJonswap
+    from siku_forcing.waves.wave_field import Jonswap
 
     p = {k: v.default for k, v in Jonswap.params.items()}
     p.update(seed=1, origin=[-150.0, 75.0])
@@ -67,7 +67,7 @@ def rate(field, q, V, st, free, steps: int, dt: float = 0.5, t0: float = 0.0) ->
 
 def error(fs, lat, lon, t: float = 12.5) -> dict[str, float]:
     """Largest difference of the interpolated sea from the direct sum over the elements, over
-    its bound (``siku_forcing.wave_lines``)."""
+    its bound (``siku_forcing.waves.wave_lines``)."""
     a, b = fs["jonswap"], fs["jonswap lines"]
     A, B = a.evaluate(t, lat, lon), b.evaluate(t, lat, lon)
     m = np.cos(a.lat0) / np.cos(lat)

@@ -26,10 +26,10 @@ def _cell_keys(mesh) -> set[bytes]:
 
 def measure(share: float) -> dict:
     """Mesh and run of the default scene with ``min_area_share = share``."""
-    from siku_core.cells import small_cell_report
-    from siku_core.cli import default_scene_path
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.cells import small_cell_report
+    from siku_core.run.cli import default_scene_path
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
     from siku_core.state import FREE
     from siku_io.mesh.cache import mesh_for_scene
 

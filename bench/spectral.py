@@ -1,7 +1,8 @@
-"""Cost of the spectral wave field (siku_forcing.spectral): the transport and absorption of the
+"""Cost of the spectral wave field (siku_forcing.waves.spectral): the transport and absorption of
+the
 spectrum per cell, component and sub-step, and the local sea at the elements per element and
 component; and the 768-component JONSWAP sea at 10 000 points summed directly (``jonswap``)
-and by recurrences (``fast_jonswap``, siku_forcing.spectral_fast).
+and by recurrences (``fast_jonswap``, siku_forcing.waves.spectral_fast).
 
     python -m bench.spectral            # about 20 s
 
@@ -15,7 +16,7 @@ import time
 
 import numpy as np
 
-from siku_forcing.spectral_transport import absorb, transport
+from siku_forcing.waves.spectral_transport import absorb, transport
 
 
 def transport_cost(nx: int, ny: int, nc: int, steps: int = 50) -> float:
@@ -39,8 +40,8 @@ def transport_cost(nx: int, ny: int, nc: int, steps: int = 50) -> float:
 def local_sea_cost(n_elements: int, nc: int, repeat: int = 5) -> float:
     """Element evaluations per second of the local sea (``Spectral._sums``) for ``nc``
     components on a 40 × 40 grid."""
-    from siku_forcing.spectral import _cell_sums
-    from siku_forcing.waves import PlaneWaves
+    from siku_forcing.waves.spectral import _cell_sums
+    from siku_forcing.waves.wave_field import PlaneWaves
 
     rng = np.random.default_rng(1)
     ncell = 1600
@@ -63,8 +64,8 @@ def local_sea_cost(n_elements: int, nc: int, repeat: int = 5) -> float:
 def jonswap_rates(n: int = 10_000, repeat: int = 5) -> dict[str, float]:
     """Element evaluations per second of ``jonswap`` and ``fast_jonswap`` (768 components:
     48 frequencies x 16 directions) at ``n`` points within 1 km of the origin."""
-    from siku_forcing.spectral_fast import FastJonswap
-    from siku_forcing.waves import Jonswap
+    from siku_forcing.waves.spectral_fast import FastJonswap
+    from siku_forcing.waves.wave_field import Jonswap
 
     p = {k: v.default for k, v in Jonswap.params.items()}
     p.update(seed=1, origin=[-150.0, 75.0])

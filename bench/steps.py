@@ -34,7 +34,7 @@ EARTH_RADIUS = 6.371e6
 
 
 def _scene(dt: float, hours: float, extra: dict[str, str] | None = None):
-    from siku_core.scene import load_scene
+    from siku_core.scene.scene_file import load_scene
 
     path = ir.files("siku_core") / "data" / "default_scene.toml"
     over = {"time.dt": f"{dt!r}s", "time.duration": f"{hours!r}h",
@@ -47,7 +47,7 @@ def run(dt: float, hours: float, extra: dict[str, str] | None = None,
     """Run the default scene at ``dt`` [s] for ``hours``; returns the joints' break times [s]
     and midpoints (latitude, longitude [deg]), the lead fraction at every hour, the wall
     seconds of every hour's steps and the critical step [s]."""
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -80,7 +80,7 @@ def run(dt: float, hours: float, extra: dict[str, str] | None = None,
 
 def _warm(dt: float, extra: dict[str, str]) -> None:
     """Compile every kernel of the scene (a few steps), so no run's time counts it."""
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

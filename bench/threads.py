@@ -27,7 +27,7 @@ steps taken on each thread count, and the load averages at the start of each rou
 ``python -m bench.threads --cold`` (``--scene``) builds the scene and takes its first step in
 a fresh process with empty numba and siku kernel caches (``NUMBA_CACHE_DIR``,
 ``SIKU_KERNEL_CACHE`` in a temporary folder): the compile time, the kernels compiled and the
-ten slowest (``siku_core.progress.CompileClock``).
+ten slowest (``siku_core.run.progress.CompileClock``).
 """
 from __future__ import annotations
 
@@ -45,8 +45,8 @@ import numba
 
 from bench.scenes import text
 from siku_core import parallel
-from siku_core.scene import scene_from_text
-from siku_core.simulation import PHASES, Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import PHASES, Simulation
 
 #: timed steps per thread count by size (about a second of work each on this machine)
 STEPS = {24: 2000, 400: 600, 4000: 120, 40000: 40, 400000: 20}
@@ -125,8 +125,8 @@ CLEARED = ("NUMBA_NUM_THREADS", "OMP_WAIT_POLICY", "KMP_BLOCKTIME", "GOMP_SPINCO
 def scene_of(spec: str, steps: int):
     """The scene ``default`` (the shipped one) or ``bonded:N`` (the bonded pack of N)."""
     if spec == "default":
-        from siku_core.cli import default_scene_path
-        from siku_core.scene import load_scene
+        from siku_core.run.cli import default_scene_path
+        from siku_core.scene.scene_file import load_scene
 
         return load_scene(default_scene_path())
     kind, _, n = spec.partition(":")
@@ -192,7 +192,7 @@ def defaults(spec: str, rounds: int, steps: int, warm: int) -> str:
 
 def cold_child(spec: str) -> dict:
     """In a fresh process with empty caches: the scene's build and its first step."""
-    from siku_core.progress import CompileClock
+    from siku_core.run.progress import CompileClock
 
     t0 = time.perf_counter()
     with CompileClock() as clock:

@@ -34,10 +34,10 @@ import time
 import numba
 import numpy as np
 
-from siku_core.cli import default_scene_path
+from siku_core.run.cli import default_scene_path
 from siku_core.geometry.quat import centers
-from siku_core.scene import load_scene
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import load_scene
+from siku_core.run.simulation import Simulation
 from siku_core.testing import switches
 
 #: the compared variants: label -> (``contact.touching``, ``switches.face_path``)
@@ -100,7 +100,7 @@ def _shared(a: np.ndarray, b: np.ndarray) -> float:
 def leads(hours: float) -> list[str]:
     from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
     from siku_io.analysis.leads import detect
-    from siku_io.analysis.regular_grid import Grid, GridCfg
+    from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
     out = {}
     first, second = VARIANTS
@@ -130,7 +130,7 @@ def leads(hours: float) -> list[str]:
 
 
 def pack(n: int, steps: int) -> list[str]:
-    from siku_core.scene import scene_from_text
+    from siku_core.scene.scene_file import scene_from_text
 
     from .scenes import bonded_text
 

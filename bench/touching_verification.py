@@ -23,7 +23,7 @@ import math
 import sys
 from pathlib import Path
 
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 
 TESTS = Path(__file__).resolve().parent.parent / "tests" / "contacts"
 

@@ -33,11 +33,11 @@ __all__ = [
 
 def __getattr__(name: str):
     if name == "Simulation":
-        from .simulation import Simulation
+        from .run.simulation import Simulation
 
         return Simulation
     if name == "load_scene":
-        from .scene import load_scene
+        from .scene.scene_file import load_scene
 
         return load_scene
     raise AttributeError(name)

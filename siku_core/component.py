@@ -56,7 +56,7 @@ class Component(ABC):
     #: degrees of freedom and their rates), each with the bound the engine's guard holds it
     #: to: ``"finite"`` (a number), or ``"speed"`` (a number of m/s at most ``[run]
     #: max_speed``). A value outside stops the run at the last good snapshot like a diverging
-    #: velocity (:class:`siku_core.guard.Guard`): it is never written as a valid state
+    #: velocity (:class:`siku_core.run.guard.Guard`): it is never written as a valid state
     integrates: ClassVar[Mapping[str, str]] = {}
     #: whether the component runs on MPI ranks (``siku_core.ranks``): each rank calls it on
     #: the elements it holds (its own and their ghosts), in ascending element index, with the

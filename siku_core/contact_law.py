@@ -251,7 +251,7 @@ class ContactLaw(Component):
     joint_energy: ClassVar[Any] = None
     required: ClassVar[Mapping[str, tuple[str, ...]]] = {
         "collision_parameters": (), "joint_parameters": ()}
-    #: whether the law's dampers act through :func:`siku_core.damping.step_damper` with the
+    #: whether the law's dampers act through :func:`siku_core.contact.damping.step_damper` with the
     #: engine's ``g[J_DTM]`` / ``g[G_DTM]``: they cannot destabilise the step, and the
     #: stable-step estimate counts them bounded (``False``: explicit dampers, which lower it).
     #: Not inherited: read from the class's own namespace (a subclass with its own evaluator
@@ -288,7 +288,8 @@ class ContactLaw(Component):
         return 1.0
 
     def stability_rates(self) -> dict[str, Any]:
-        """What the engine's stable-step estimate (``siku_core.stable_step``) needs of the law:
+        """What the engine's stable-step estimate (``siku_core.contact.stable_step``) needs of the
+        law:
         ``joint_stiffness`` (:meth:`stiffness_factor`), ``joint_shear`` (the joint's stiffness
         along it relative to across it: a number, or ``"poisson"`` for ``1/(2(1 + nu))``),
         ``joint_damping`` (share of critical damping of a joint on its reduced mass, for its

@@ -6,7 +6,7 @@ writers, ``open``/``write_state``/``write_diagnostics``/``close``/``read_restart
 the reference if it needs it during the step. The context is the whole contract between a
 component and the engine: nothing else of the run loop is reachable from it, so the loop can
 change without breaking plugins. Drivers that own a run (the BMI, ensembles, the virtual ice
-tests) hold the :class:`~siku_core.simulation.Simulation` itself, not a context.
+tests) hold the :class:`~siku_core.run.simulation.Simulation` itself, not a context.
 
 What it offers, by purpose:
 
@@ -17,7 +17,7 @@ clock                     ``dt`` [s], ``time`` [s since start], ``step_index``,
                           ``n_steps``, ``start`` (``datetime`` or ``None``),
                           ``datetime_at(t)``, ``committing`` (the first force
                           evaluation of a step: the one whose joint changes count)
-scene                     ``scene`` (the loaded :class:`~siku_core.scene.Scene`, read
+scene                     ``scene`` (the loaded :class:`~siku_core.scene.scene_file.Scene`, read
                           only), ``seed``, ``where(table)`` (a message prefix naming the
                           file and table)
 registry                  ``registry`` (look-ups by kind and name),
@@ -26,10 +26,10 @@ registry                  ``registry`` (look-ups by kind and name),
                           ``forcing_field(k)`` (the field the run built for
                           ``[[forcing]]`` table ``k``: an evolving sea is shared)
 joints and contacts       ``contacts``: a read-only view of the run's contacts
-                          (:class:`~siku_core.contacts_view.ContactsView`: the joint and
+                          (:class:`~siku_core.contact.contacts_view.ContactsView`: the joint and
                           pair tables, ``break_joints``, ``create_joints``) or ``None``
 diagnostics and fields    ``diagnostics()``, ``element_fields()``, ``timings``
-                          (seconds per phase, :data:`~siku_core.simulation.PHASES`),
+                          (seconds per phase, :data:`~siku_core.run.simulation.PHASES`),
                           ``fields`` (the declared per-element fields by name, arrays
                           their owners change in place), ``field_catalogue()`` (units,
                           long name and grid reduction of every field a writer writes)
@@ -54,13 +54,13 @@ if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
     from .categories import Categories
-    from .scene import Scene
+    from .scene.scene_file import Scene
     from .state import ElementState
 
-#: the running :class:`~siku_core.simulation.Simulation` as the modules it drives and hands
+#: the running :class:`~siku_core.run.simulation.Simulation` as the modules it drives and hands
 #: itself to see it (the context, the guard, the ice book, restarts). Those modules sit below
 #: the simulation in the engine's imports (the simulation imports them), so they name it by
-#: this alias and reach it by its attributes, never by importing :mod:`siku_core.simulation`.
+#: this alias and reach it by its attributes, never by importing :mod:`siku_core.run.simulation`.
 Run = Any
 
 
@@ -71,7 +71,7 @@ class Context:
 
     def __init__(self, sim: Run, contacts_view: Any = None):
         """``sim``: the run; ``contacts_view``: the class of the contacts view
-        (:class:`~siku_core.contacts_view.ContactsView`, given by the simulation, which
+        (:class:`~siku_core.contact.contacts_view.ContactsView`, given by the simulation, which
         stands above both) that :attr:`contacts` builds on the run's contact model."""
         self._sim = sim
         self._view = contacts_view
@@ -171,7 +171,8 @@ class Context:
     @property
     def contacts(self) -> Any:
         """The run's contacts as a component sees them, ``None`` without a ``[contact]`` table:
-        a :class:`~siku_core.contacts_view.ContactsView` (read-only joint and pair tables, the
+        a :class:`~siku_core.contact.contacts_view.ContactsView` (read-only joint and pair tables,
+        the
         law's parameters, and the actions a component may take: break, refreeze and create
         joints, keep the law's cap flags, take the breaks)."""
         model = self._sim.contacts

@@ -83,7 +83,7 @@ def _by_name(*fields: ElementField) -> dict[str, ElementField]:
     return {f.name: f for f in fields}
 
 
-#: the element stress fields (``siku_core.stress``), vertically integrated, tension positive
+#: the element stress fields (``siku_core.contact.stress``), vertically integrated, tension positive
 STRESS = _by_name(
     ElementField("stress_ee", "N m-1", "element mean stress, east-east component (tension "
                  "positive), vertically integrated", grid="none", restart=False),

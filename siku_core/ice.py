@@ -19,9 +19,11 @@ with thickness categories), the contact model's inverse masses and the joints' r
 eq. 9 stiffnesses (from ``E h``), and the stable step (again once some element's thickness, or its
 ice volume per area, has changed by more than :data:`RECHECK` since the last check), which stops the
 run with one line naming the element if ``dt`` is no longer safe. Without categories it does so in
-compiled passes (:mod:`siku_core.ice_follow`) for the elements whose thickness or flag changed and
+compiled passes (:mod:`siku_core.contact.ice_follow`) for the elements whose thickness or flag
+changed and
 their joints only, or for all of them when a quarter or more changed (the joints' constants then in
-the next joint loop); mass from thickness is :func:`~siku_core.ice_follow.element_mass`. With
+the next joint loop); mass from thickness is :func:`~siku_core.contact.ice_follow.element_mass`.
+With
 categories every element's mass follows ``v`` in one NumPy pass. A scene with neither declared
 fields nor processes allocates nothing here and runs as before.
 
@@ -53,7 +55,7 @@ from .errors import SceneError, StabilityError
 from .deprecation import moved_names
 from .fields import ENGINE_FIELDS
 from .fields import STANDARD_NAMES as ENGINE_STANDARD_NAMES
-from .ice_follow import few, follow_elements, scan_ice
+from .contact.ice_follow import few, follow_elements, scan_ice
 from .state import MELTED
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -230,7 +232,7 @@ class IceBook:
     def after_processes(self, who: str) -> None:
         """After processes ran: if a thickness or flag changed, recompute what depends on it
         and check the step (``who`` names the processes for the message). One compiled pass
-        finds the changed elements (:func:`~siku_core.ice_follow.scan_ice`); only they and
+        finds the changed elements (:func:`~siku_core.contact.ice_follow.scan_ice`); only they and
         their joints are recomputed."""
         st = self._sim.state
         nc, h_changed, f_changed, bad, drift = scan_ice(

@@ -165,14 +165,15 @@ class Writer(Component):
     #: :meth:`holds_snapshots`
     in_memory: ClassVar[bool] = False
     #: the file the writer puts in place (a writer that writes to a partial file first and
-    #: publishes it: ``siku_core.outputs.publish``), synced to the disk when it closes; ``None``:
+    #: publishes it: ``siku_core.run.outputs.publish``), synced to the disk when it closes;
+    #: ``None``:
     #: the writer writes :attr:`path` directly, nothing to sync
     target: "Path | None" = None
     #: whether the output is in place: ``False`` while a publishing writer has written no
     #: snapshot yet (the engine then says that nothing was written, and the writer's partial
-    #: file is removed when it closes: ``siku_core.outputs.settle``)
+    #: file is removed when it closes: ``siku_core.run.outputs.settle``)
     published: bool = True
-    #: the lock the writer holds on its output while it writes (``siku_core.outputs.RunLock``),
+    #: the lock the writer holds on its output while it writes (``siku_core.run.outputs.RunLock``),
     #: released when it closes; ``None``: it holds none
     lock: Any = None
 
@@ -194,7 +195,7 @@ class Writer(Component):
     def _discard(self) -> None:  # noqa: B027 - optional hook
         """Remove what a publishing writer wrote aside when it closes without having put its
         output in place (:attr:`published` still ``False``: the run stopped before its first
-        snapshot), called by ``siku_core.outputs.settle``; the default has nothing to
+        snapshot), called by ``siku_core.run.outputs.settle``; the default has nothing to
         remove."""
 
     def holds_snapshots(self) -> bool:
@@ -207,7 +208,7 @@ class Writer(Component):
         """Whether the existing file ``path`` is an output of this writer, identified by the
         marks the writer writes inside it (never by its name), reading it without writing to
         it. ``--overwrite`` replaces only such a file; the default, ``False``, replaces
-        nothing (``siku_core.outputs.check_target``)."""
+        nothing (``siku_core.run.outputs.check_target``)."""
         return False
 
     @classmethod

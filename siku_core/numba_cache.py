@@ -6,11 +6,11 @@ checkout of the same sources compiles everything again, and a cache written befo
 a module that a function *calls* is read after it (numba checks only the function's own file).
 Here the functions of siku's packages (``siku_core`` and the ``siku_*`` packages beside it) are
 cached instead in ``$XDG_CACHE_HOME/siku/numba/<key>/<package path>`` (see
-:func:`siku_core.kernel_cache.user_cache_dir`), where ``key`` is a hash of the text of every
+:func:`siku_core.contact.kernel_cache.user_cache_dir`), where ``key`` is a hash of the text of every
 module of those packages: the same sources, wherever they lie, read the same compiled code;
 any edit of any of them starts a fresh folder, so no compiled function outlives a change of a
 function it calls. (The contact loops generated for a law's evaluator are cached by
-:mod:`siku_core.kernel_cache` with a key of the same kind.) Everything else numba caches
+:mod:`siku_core.contact.kernel_cache` with a key of the same kind.) Everything else numba caches
 (plugins outside siku, the user's own functions) is cached as numba does by default.
 
 ``NUMBA_CACHE_DIR`` (or numba's ``NUMBA_CACHE_LOCATOR_CLASSES``), when set, is obeyed for siku's
@@ -26,7 +26,7 @@ from pathlib import Path
 
 from numba.core import caching, config
 
-from .kernel_cache import user_cache_dir
+from .contact.kernel_cache import user_cache_dir
 
 #: the folder holding the packages (an install's ``site-packages``, a source tree's root)
 ROOT = Path(__file__).resolve().parents[1]

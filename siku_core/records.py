@@ -21,7 +21,7 @@ own (a record holds references, copies nothing): a kernel may write into them.
 (scalars, packed into one float64 array whose indices numba folds to constants).
 
 The engine's record types are declared next to their producers (the contact loops' element,
-joint and pair tables and element-to-contact index: :mod:`siku_core.contact_tables`); each
+joint and pair tables and element-to-contact index: :mod:`siku_core.contact.contact_tables`); each
 plugin declares its own beside the code that builds them (docs/explanation/design.md lists the
 shipped ones). No compiled kernel takes more than 12 positional arguments
 (``tests/test_kernel_args.py``).

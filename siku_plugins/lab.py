@@ -306,8 +306,8 @@ def virtual_test(test: str = "tension", sigma_crit: float = 1e6, tau_crit: float
     [1/s] defaults to reaching ``sigma_crit / E`` in 30 crossing times; ``dt`` is ``dt_share``
     of the critical step; ``touching``, ``jointed``: the ``contact`` options (``jointed =
     "exclude"``: the bonds alone hold the block together while intact)."""
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
     from siku_core.state import STEADY
 
     if test not in TESTS:

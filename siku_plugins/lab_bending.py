@@ -112,8 +112,8 @@ def vertical_flexure(sigma_crit: float = 1e6, *, element_size: float = 1.0,
 
     from siku_core.errors import SikuError
     from siku_core.geometry.quat import centers
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
 
     a = float(element_size)
     nx = max(3, int(round(length / a)))

@@ -10,8 +10,8 @@ import numpy as np
 
 from siku_core import hookimpl
 from siku_core.interfaces import ElementSource, ElementSpec
-from siku_core.packs import rect_pack
-from siku_core.scene import PackCfg, PolygonCfg
+from siku_core.scene.packs import rect_pack
+from siku_core.scene.scene_file import PackCfg, PolygonCfg
 
 
 class PolygonSource(ElementSource):

@@ -1,4 +1,4 @@
-"""Attenuation laws (siku_forcing.attenuation): a plugin kind, and each shipped law against
+"""Attenuation laws (siku_forcing.waves.attenuation): a plugin kind, and each shipped law against
 the value its reference publishes."""
 from __future__ import annotations
 
@@ -10,12 +10,8 @@ import pytest
 from siku_core.errors import PluginError
 from siku_core.interfaces import AttenuationLaw
 from siku_core.plugins import get_registry
-from siku_forcing.attenuation import (
-    Constant,
-    Doble2015,
-    Meylan2014,
-    ViscousLayer,
-    group_velocity,
+from siku_forcing.waves.attenuation import (
+    Constant, Doble2015, Meylan2014, ViscousLayer, group_velocity,
 )
 
 
@@ -93,7 +89,7 @@ def test_viscous_layer_in_deep_water_is_the_closed_form():
 
 
 def test_viscous_layer_in_finite_depth_uses_the_finite_depth_k_and_group_velocity():
-    from siku_forcing.waves import wavenumber
+    from siku_forcing.waves.wave_field import wavenumber
 
     f, h = 0.1, 20.0
     om = 2 * math.pi * f

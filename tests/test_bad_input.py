@@ -5,8 +5,8 @@ from __future__ import annotations
 import h5py
 import pytest
 
-from siku_core.cli import main
-from siku_core.limits import BYTES_PER_ELEMENT, MAX_ELEMENTS, MAX_STEPS, physical_memory
+from siku_core.run.cli import main
+from siku_core.run.limits import BYTES_PER_ELEMENT, MAX_ELEMENTS, MAX_STEPS, physical_memory
 from siku_core.testing import scene_text
 
 BASE = scene_text([(-150.0, 75.0), (-149.7, 75.0)], forcing=[{"source": "water_drag"}],
@@ -105,7 +105,7 @@ def test_a_nul_character_in_a_scene_string(tmp_path, monkeypatch, capsys):
 def test_a_self_crossing_polygon_is_named_as_such(tmp_path, capsys):
     """A bow tie (vertices out of order) is reported as crossing itself, with the two edges,
     not as too large."""
-    from siku_core.cli import main
+    from siku_core.run.cli import main
     from siku_core.testing import scene_text
 
     text = scene_text(elements=[(-150.0, 75.0)], duration=600, dt=60)

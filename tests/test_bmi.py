@@ -1,5 +1,6 @@
 """The Basic Model Interface of a siku run (``siku_io.coupling.bmi``) and its exchange grid
-(``siku_io.coupling.exchange``): the CSDMS bmi-tester suite, set/update/get against the same forcing
+(``siku_forcing.gridded.exchange``): the CSDMS bmi-tester suite, set/update/get against the same
+forcing
 given by a scene, and the momentum handed over through the grid."""
 from __future__ import annotations
 
@@ -12,9 +13,9 @@ import pytest
 
 from siku_core import SceneError
 from siku_core.geometry.quat import centers
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_io.coupling.bmi import INPUT_NAMES, OUTPUT_NAMES, SikuBmi
-from siku_io.output.element_geometry import east_north
+from siku_core.geometry.element_geometry import east_north
 
 HERE = Path(__file__).parent
 R = 6_371_000.0
@@ -244,7 +245,7 @@ def test_bad_coupling_scenes(tmp_path):
 def test_cli_rejects_bad_coupling_grid(tmp_path):
     path = scene(tmp_path, BASE + EXCHANGE + GRID.replace("resolution = 0.01",
                                                           "resolution = 0.007"))
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", path, "--out",
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", path, "--out",
                         str(tmp_path / "o.h5")], capture_output=True, text=True, timeout=300)
     assert r.returncode == 2
     assert "[coupling.grid]" in r.stderr and "Traceback" not in r.stderr

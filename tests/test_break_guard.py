@@ -1,4 +1,4 @@
-"""The guards of the contact network (siku_core.guard): the breaking rate and the stable step
+"""The guards of the contact network (siku_core.run.guard): the breaking rate and the stable step
 rechecked as joints change.
 
 A bonded pack of 6 × 6 cells 2 km across (60 joints, ``tensile_strain = 1e-5``) given random
@@ -21,11 +21,11 @@ import warnings
 import numpy as np
 import pytest
 
-from siku_core import guard as guard_module
+from siku_core.run import guard as guard_module
 from siku_core.contact_law import BreakMode
 from siku_core.errors import StabilityError
-from siku_core.guard import BREAK_SHARE, RECHECK_JOINTS
-from siku_core.simulation import Simulation
+from siku_core.run.guard import BREAK_SHARE, RECHECK_JOINTS
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_cases import contact_scene, square_pack
 
 PARAMS = {"tensile_strain": 1e-5, "damping_ratio": 0.5, "joint_damping_ratio": 0.5}

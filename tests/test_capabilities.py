@@ -22,17 +22,17 @@ PACKAGES = ("siku_core", "siku_io")
 
 #: (file, name) -> what is probed; none of them is a component
 ALLOWED: dict[tuple[str, str], str] = {
-    ("siku_core/contact_joints.py", "arms"): "the joint table's own optional column",
-    ("siku_core/contact_model.py", "ji"): "the contact model before its joints are built",
+    ("siku_core/contact/contact_joints.py", "arms"): "the joint table's own optional column",
+    ("siku_core/contact/contact_model.py", "ji"): "the contact model before its joints are built",
     ("siku_core/ranks/driver.py", "loc"): "the rank driver before its local run exists",
     ("siku_core/contact_law.py", "__func__"): "a staticmethod wrapper of an evaluator",
     ("siku_core/contact_law.py", "py_func"): "whether an evaluator is a numba dispatcher",
     ("siku_core/contact_law.py", "compile"): "whether an evaluator is a numba dispatcher",
     ("siku_core/contact_law.py", "_can_compile"): "a numba dispatcher's explicit signatures",
     ("siku_core/testing/contact_energy_checks.py", "__func__"): "a staticmethod wrapper",
-    ("siku_core/kernel_cache.py", "py_func"): "module members that are numba dispatchers",
-    ("siku_core/kernel_cache.py", "__module__"): "the module of a dispatcher's function",
-    ("siku_core/progress.py", "py_func"): "a numba dispatcher",
+    ("siku_core/contact/kernel_cache.py", "py_func"): "module members that are numba dispatchers",
+    ("siku_core/contact/kernel_cache.py", "__module__"): "the module of a dispatcher's function",
+    ("siku_core/run/progress.py", "py_func"): "a numba dispatcher",
     ("siku_core/numba_cache.py", "CACHE_LOCATOR_CLASSES"): "numba's cache locators (its version)",
     ("siku_core/numba_cache.py", "_locator_classes"): "numba's cache locators (its version)",
     ("siku_core/parallel.py", "_get_num_threads"): "numba's threading layer",
@@ -43,13 +43,13 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("siku_core/plugins.py", "__version__"): "a plugin's top-level module",
     ("siku_core/plugins.py", "__name__"): "a pluggy hook implementation's plugin",
     ("siku_core/records.py", "dtype"): "a value given for a record's field",
-    ("siku_core/scene_api.py", "dtype"): "a numpy scalar in a scene dictionary",
-    ("siku_core/scene_api.py", "ndim"): "a numpy scalar in a scene dictionary",
-    ("siku_core/scene_api.py", "tolist"): "a numpy array in a scene dictionary",
-    ("siku_core/scene_messages.py", "func"): "a pydantic validator",
-    ("siku_core/scene_messages.py", "metadata"): "a typing.Annotated argument",
-    ("siku_core/summary.py", "start"): "the scene's [time] table",
-    ("siku_core/summary.py", "compile_seconds"): "the simulation (not a component)",
+    ("siku_core/scene/scene_api.py", "dtype"): "a numpy scalar in a scene dictionary",
+    ("siku_core/scene/scene_api.py", "ndim"): "a numpy scalar in a scene dictionary",
+    ("siku_core/scene/scene_api.py", "tolist"): "a numpy array in a scene dictionary",
+    ("siku_core/scene/scene_messages.py", "func"): "a pydantic validator",
+    ("siku_core/scene/scene_messages.py", "metadata"): "a typing.Annotated argument",
+    ("siku_core/run/summary.py", "start"): "the scene's [time] table",
+    ("siku_core/run/summary.py", "compile_seconds"): "the simulation (not a component)",
     ("siku_core/testing/element_source_checks.py", "label"): "what a source's build returned",
     ("siku_io/ensemble/runs.py", "sweep_out_dir"): "a NetCDF file's global attributes",
     ("siku_io/ensemble/runs.py", "sweep"): "a NetCDF file's global attributes",
@@ -135,7 +135,7 @@ def test_the_capabilities_the_engine_reads_are_declared_with_typed_defaults_and_
 
 def test_a_component_without_the_optional_capabilities_runs_with_their_defaults():
     """A process that declares none of them: the engine's reads give the base's defaults."""
-    from siku_core.guard import integrated_fields
+    from siku_core.run.guard import integrated_fields
     from siku_core.ranks.driver import refusal_reason
 
     class _Plain(KINDS["process"]):

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siku_core.cli import default_scene_path
-from siku_core.scene import load_scene
-from siku_core.simulation import Simulation
+from siku_core.run.cli import default_scene_path
+from siku_core.scene.scene_file import load_scene
+from siku_core.run.simulation import Simulation
 
 HERE = Path(__file__).resolve().parent.parent / "examples" / "case_studies"
 SMALL = {"elements.mesh.spacing": "30e3", "elements.mesh.coast_spacing": "20e3",

@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from siku_core.cli import main
-from siku_core.elements import build_elements_and_categories
+from siku_core.run.cli import main
+from siku_core.run.elements import build_elements_and_categories
 from siku_core.errors import SceneError, StabilityError
 from siku_core.interfaces import ElementSource, ElementSpec, Process
 from siku_core.params import Param
-from siku_core.scene import load_scene, scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import load_scene, scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.state import MELTED
 from siku_core.testing import scene_text
 from siku_core.testing.scenes import square
@@ -322,7 +322,7 @@ def test_a_scene_without_categories_allocates_nothing_for_them():
 def _refused(tmp_path, share, scale, *words):
     write_cover(tmp_path / "c.nc", share, scale)
     (tmp_path / "s.toml").write_text(cover_text(thermo("surface_temperature = -30.0")))
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", "s.toml", "--out",
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", "s.toml", "--out",
                         "o.h5"], capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 2, r.stderr
     assert "Traceback" not in r.stderr
@@ -431,7 +431,7 @@ def test_gridded_category_fractions_of_a_uniform_cover_equal_the_cover(tmp_path)
     cell with ice, partly covered or not (to round-off), and NaN in cells without; the same
     from the output file (``siku grid``) and from a running simulation."""
     from siku_io.analysis.gridded_fields import grid_output, grid_snapshot, snapshot_of
-    from siku_io.analysis.regular_grid import Grid, GridCfg
+    from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
     txt = scene_text([], dt=60.0, duration=120.0, extra=(
         '[[elements.source]]\nname = "uniform_pack"\n\n[[process]]\nname = "thermodynamics"\n'

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siku_core.simulation import Simulation
-from siku_core.scene import scene_from_text
+from siku_core.run.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
 
 cf_xarray = pytest.importorskip("cf_xarray")
 xr = pytest.importorskip("xarray")

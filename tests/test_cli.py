@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from siku_core import __version__
-from siku_core.cli import default_scene_path, main
+from siku_core.run.cli import default_scene_path, main
 from siku_core.testing import scene_text
 
 GOOD = scene_text([(-150.0, 75.0), (-149.0, 75.0)], dt=60.0, duration=300.0,

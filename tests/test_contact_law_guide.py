@@ -14,8 +14,8 @@ import pytest
 from siku_core import contact_law as contacts
 from siku_core.contact_law import BREAK_TENSION
 from siku_core.plugins import register_module, unregister_module
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import check_contact_law
 
 ROOT = Path(__file__).resolve().parents[1]

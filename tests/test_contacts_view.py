@@ -1,4 +1,5 @@
-"""The contacts view (``ctx.contacts``, :mod:`siku_core.contacts_view`): plugins read the joint
+"""The contacts view (``ctx.contacts``, :mod:`siku_core.contact.contacts_view`): plugins read the
+joint
 and pair tables through it, read only, and change contacts only through its actions; the
 upper packages read nothing else of the contact model; the old reads of the model's internals
 still work, with a warning naming the member to use."""
@@ -12,9 +13,9 @@ import numpy as np
 import pytest
 
 from siku_core.contact_law import BREAK_MODES, BreakMode
-from siku_core.contacts_view import MEMBERS, RENAMED, ContactsView
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.contact.contacts_view import MEMBERS, RENAMED, ContactsView
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -156,7 +157,7 @@ def test_upper_packages_read_contacts_only_through_the_view():
     # the scan saw the readers: the processes, the wave breaking, the writer, the lab
     seen = {p for p, names in scan.names.items() if names}
     for path in ("siku_plugins/processes/ridging.py", "siku_plugins/processes/refreeze.py",
-                 "siku_forcing/wave_breaking.py", "siku_plugins/lab.py",
+                 "siku_forcing/waves/wave_breaking.py", "siku_plugins/lab.py",
                  "siku_plugins/floating/bending.py", "siku_io/output/hdf5.py"):
         assert path in seen, path
     assert "cm" in scan.attrs  # ``self.cm = cm`` of the bending beams and the wave breaking
@@ -164,7 +165,7 @@ def test_upper_packages_read_contacts_only_through_the_view():
 
 def test_upper_packages_import_no_module_of_the_contact_model():
     """Nor do they import the model's modules (``ContactModel``, its ``JointBook``)."""
-    model = {"siku_core.contact_model", "siku_core.contact_joints"}
+    model = {"siku_core.contact.contact_model", "siku_core.contact.contact_joints"}
     bad = []
     for path, text in upper_sources().items():
         for node in ast.walk(ast.parse(text)):
@@ -208,7 +209,7 @@ def f(sim):
     return sim.contacts.ji
 
 def g(ctx):
-    from siku_core.contact_overlaps import contact_lines
+    from siku_core.contact.contact_overlaps import contact_lines
     return contact_lines(ctx.contacts, [0])
 '''
     faults = _Scan({"m.py": bad}).faults()

@@ -13,9 +13,9 @@ from test_floating import block
 from test_spectral import flume_scene
 
 from siku_core.errors import SceneError
-from siku_core.limits import physical_memory
-from siku_core.scene import load_scene, scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.run.limits import physical_memory
+from siku_core.scene.scene_file import load_scene, scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 
 SIZE = 2000.0
@@ -23,7 +23,7 @@ DLON = math.degrees(SIZE / 6371000.0) / math.cos(math.radians(80.0))
 
 
 def one_line_exit_2(path):
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(path),
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", str(path),
                         "--no-progress"], capture_output=True, text=True, cwd=path.parent,
                        timeout=300)
     lines = [ln for ln in r.stderr.strip().splitlines() if ln]
@@ -106,7 +106,7 @@ def test_refreeze_capacities_past_the_memory_are_refused(params, key):
 
 
 def test_a_joint_slot_costs_at_most_the_bytes_the_bound_counts():
-    from siku_core.limits import BYTES_PER_JOINT
+    from siku_core.run.limits import BYTES_PER_JOINT
 
     els = [{"center": (k * DLON, 80.0), "thickness": 1.0} for k in range(3)]
     txt = scene_text(els, size=SIZE, dt=0.25, duration=1.0, extra=(
@@ -147,7 +147,7 @@ def test_absurd_thermodynamics_is_refused_at_load_naming_the_key(key, value, all
 def test_a_tiny_mesh_spacing_with_the_default_land_mask_is_refused_in_one_line(spacing):
     """The land raster's size is counted without squaring the pixel (1e-300² is 0 in floating
     point): a tiny spacing is refused naming the key, never a ZeroDivisionError."""
-    from siku_core.limits import check_limits
+    from siku_core.run.limits import check_limits
 
     txt = ('[time]\ndt = "60s"\nduration = "10min"\n\n[elements.mesh]\nlon = [-10.0, -9.0]\n'
            f'lat = [75.0, 75.5]\nspacing = {spacing!r}\n')

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from siku_core.geometry.quat import centers
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 
 EX = Path(__file__).resolve().parents[1] / "examples" / "coupling"
 R = 6_371_000.0

@@ -11,11 +11,11 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core.cli import default_scene_path, main
+from siku_core.run.cli import default_scene_path, main
 from siku_core.geometry.quat import centers
-from siku_core.joint_metrics import joint_strain_opening
-from siku_core.scene import load_scene
-from siku_core.simulation import Simulation
+from siku_core.contact.joint_metrics import joint_strain_opening
+from siku_core.scene.scene_file import load_scene
+from siku_core.run.simulation import Simulation
 from siku_core.state import FREE, STATIC
 
 SHORT = {"time.duration": "6h"}
@@ -40,7 +40,7 @@ def run6h():
 
 def lead_grid(radius):
     """The 10 km polar stereographic grid of the lead tests (about the element size)."""
-    from siku_io.analysis.regular_grid import Grid, GridCfg
+    from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
     return Grid(GridCfg(kind="polar_stereographic", central_longitude=-155.0,
                         x=(-800e3, 800e3), y=(-2400e3, -1200e3), resolution=10e3), radius)
@@ -66,7 +66,7 @@ def test_default_scene_runs_from_the_command_line_with_pictures(tmp_path, monkey
 def test_the_shipped_default_scene_resolves_the_coast_with_thousands_of_elements():
     """At least 4000 moving ice elements of about 10 km or finer near the coast (the report's
     lead patterns need packs this fine), plus the static coast and landfast cells."""
-    from siku_core.elements import build_elements
+    from siku_core.run.elements import build_elements
 
     scene = load_scene(default_scene_path())
     mesh = scene.cfg.elements.mesh
@@ -174,7 +174,7 @@ def test_the_leads_found_on_the_grid_start_at_the_coast(run6h):
 
     from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
     from siku_io.analysis.leads import detect
-    from siku_io.analysis.regular_grid import Grid, GridCfg
+    from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
     sim = run6h
     cell = 10e3

@@ -11,7 +11,7 @@ import pytest
 from siku_core import Simulation, hookimpl
 from siku_core.interfaces import ForcingSource
 from siku_core.diagnostics import DIAGNOSTICS, catalogue
-from siku_core.scene import scene_from_text
+from siku_core.scene.scene_file import scene_from_text
 from siku_core.state import STATIC, STEADY
 
 RHO_A, C_A, U = 1.3, 0.0016, 10.0

@@ -22,9 +22,9 @@ import pytest
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
-from siku_core.scene import SceneCfg, scene_from_text
+from siku_core.scene.scene_file import SceneCfg, scene_from_text
 from siku_core.testing import toml_value
-from siku_core.units import parse_duration
+from siku_core.scene.units import parse_duration
 
 import doc_blocks  # noqa: E402  (tests/doc_blocks.py)
 
@@ -325,7 +325,7 @@ def test_the_quickstart_scenes_run_as_written():
     contact scene's step is accepted by the stability check); the floes are about 10 km each
     way; the wind (10 m/s westerly) moves them east and the frozen pair moves as one."""
     from siku_core.geometry.quat import centers
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     def lon(s):
         return np.degrees(np.arctan2(*centers(s.state.q)[:, 1::-1].T))
@@ -464,7 +464,7 @@ def test_page_runs_as_written(page, tmp_path, monkeypatch, stand_ins):
 def _cited_texts() -> dict[str, str]:
     texts = {p.relative_to(ROOT).as_posix(): p.read_text(encoding="utf-8")
              for p in [ROOT / "README.md", *doc_blocks.pages()]}
-    from siku_core.cli import main
+    from siku_core.run.cli import main
 
     import contextlib
     import io

@@ -22,7 +22,7 @@ from siku_core import Simulation, hookimpl
 from siku_core.errors import SceneError
 from siku_core.interfaces import ElementSource, ElementSpec
 from siku_core.plugins import register_module, unregister_module
-from siku_core.scene import scene_from_text
+from siku_core.scene.scene_file import scene_from_text
 from siku_plugins.floes import FloeField, fill_outline, outline_polygon, polygon_area
 
 BASE = """
@@ -224,7 +224,7 @@ def test_the_compiled_builder_agrees_with_the_one_element_builder():
     relative (the centre iteration may stop one round earlier or later when its step sits at
     the 1e-9 threshold; most elements come out bit for bit)."""
     from bench.scenes import scene
-    from siku_core.elements import collect_specs
+    from siku_core.run.elements import collect_specs
     from siku_core.geometry.batch import elements_from_lonlat
     from siku_core.geometry.polygon import element_from_lonlat
 

@@ -21,7 +21,7 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core import cli
+from siku_core.run import cli
 from siku_io.ensemble import runs as ensemble
 from siku_io.ensemble.sweep import load_sweep, toml_value
 from siku_io.output.results import run_progress
@@ -216,7 +216,7 @@ def test_interrupted_sweep_resumes_without_rerunning_finished_members(tmp_path,
     sw = load_sweep(sweep)
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     # (SIGINT as a terminal's Ctrl-C delivers it, even where this test runs in the background)
-    proc = subprocess.Popen([sys.executable, "-m", "siku_core.cli", "ensemble", str(sweep),
+    proc = subprocess.Popen([sys.executable, "-m", "siku_core.run.cli", "ensemble", str(sweep),
                              "--workers", "2", "--no-progress"], cwd=tmp_path, env=env,
                             stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))

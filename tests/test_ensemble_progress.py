@@ -5,8 +5,8 @@ from __future__ import annotations
 import io
 from types import SimpleNamespace
 
-from siku_core import cli
-from siku_core.simulation import Simulation
+from siku_core.run import cli
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene, scene_text
 from siku_io.ensemble import runs as ensemble
 from siku_io.ensemble.sweep import toml_value

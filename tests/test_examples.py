@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from siku_core import Simulation
-from siku_core.scene import load_scene
+from siku_core.scene.scene_file import load_scene
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
 STEPS = 5

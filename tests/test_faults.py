@@ -20,7 +20,7 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core.cli import default_scene_path, main
+from siku_core.run.cli import default_scene_path, main
 from siku_core.testing.contact_conformance import contact_scene_text, square_pack
 from siku_io.output.results import open_results
 
@@ -42,7 +42,7 @@ def siku(args, cwd, limit: int | None = None, wait: bool = True, **kw):
     def cap():  # the file-size limit of the child only
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 
-    cmd = [sys.executable, "-m", "siku_core.cli", "run", *args, "--no-progress", "--no-plots"]
+    cmd = [sys.executable, "-m", "siku_core.run.cli", "run", *args, "--no-progress", "--no-plots"]
     p = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                          text=True, preexec_fn=cap if limit else None, **kw)
     if not wait:

@@ -18,8 +18,8 @@ from siku_core.fields import (ENGINE_FIELDS, RESERVED_FIELDS, STATE_FIELDS, Elem
                               catalogue, declarations)
 from siku_core.interfaces import ElementSource, ElementSpec
 from siku_core.plugins import get_registry
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_core.testing.contact_cases import registry_with
 from siku_core.testing.scenes import square

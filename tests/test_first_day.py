@@ -8,7 +8,7 @@ import numpy as np
 
 import pytest
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 
 from test_cli import GOOD, one_line_error, write
 

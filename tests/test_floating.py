@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from siku_core.errors import SceneError
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_plugins.floating.geometry import principal, quadrature, second_moments
 
@@ -264,7 +264,7 @@ def test_bad_input_is_one_line(kw, words):
 def test_bad_input_from_the_command_line_exits_2(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text(block(density=1030.0))
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(scene), "--out",
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", str(scene), "--out",
                         str(tmp_path / "o.h5")], capture_output=True, text=True)
     assert r.returncode == 2, r.stderr
     lines = [x for x in r.stderr.strip().splitlines() if x]

@@ -16,8 +16,8 @@ import pytest
 
 from siku_core import SceneError
 from siku_core.geometry.quat import qmul
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_io.coupling.bmi import SikuBmi
 from siku_plugins.floating.kernels import centres_and_frames
 

@@ -15,8 +15,8 @@ import pytest
 from scipy.integrate import quad
 
 from siku_core.errors import SceneError
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_plugins.floating import memory
 
 sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
@@ -214,7 +214,7 @@ def test_bad_input_is_one_line(band, monkeypatch):
 def test_bad_input_from_the_command_line_exits_2(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text(block('radiation = "memory"'))
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(scene), "--out",
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", str(scene), "--out",
                         str(tmp_path / "o.h5")], capture_output=True, text=True)
     assert r.returncode == 2, r.stderr
     lines = [x for x in r.stderr.strip().splitlines() if x]

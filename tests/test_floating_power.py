@@ -108,8 +108,8 @@ def test_the_mean_radiated_power_in_steady_waves_is_b33_omega2_z2_over_2(T):
 def test_the_field_is_declared_with_units_and_its_total_is_a_diagnostic(tmp_path):
     import xarray as xr
 
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
 
     out = tmp_path / "a.nc"
     txt = block("initial_heave = 0.05", dt=0.05, duration=1.0,

@@ -102,8 +102,8 @@ def test_auto_chooses_by_what_the_scene_gives(tmp_path, monkeypatch):
     small-body approximation where capytaine cannot be imported."""
     import builtins
 
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     p = pancakes()
 

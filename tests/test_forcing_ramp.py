@@ -1,4 +1,4 @@
-"""Forcing ramps (``[[forcing]] ramp``, siku_core.ramp): a source's force grows from zero to
+"""Forcing ramps (``[[forcing]] ramp``, siku_core.run.ramp): a source's force grows from zero to
 full over the ramp time with a stated shape, times its unramped force to round-off; a run
 restarted inside the ramp continues it bit for bit; without a ramp nothing changes."""
 from __future__ import annotations
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from siku_core.errors import SceneError
-from siku_core.ramp import ramp_factor
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.run.ramp import ramp_factor
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_io.output.results import last_snapshot
 

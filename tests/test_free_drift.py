@@ -42,7 +42,7 @@ import numpy as np
 import pytest
 
 from siku_core.geometry.quat import east_north_local, latlon_of
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 
 R_EARTH = 6_371_000.0

@@ -121,8 +121,8 @@ def test_the_distribution_dataset_has_units_and_counts_every_floe():
 def broken_pack(tmp_path_factory):
     """A 6 x 4 pack of bonded 100 m elements whose joints across x = 2|3 columns and y = 1|2
     rows are broken before a two-step run writes its output."""
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
     from siku_core.testing import scene_text
     from siku_core.testing.contact_cases import square_pack
 
@@ -169,7 +169,7 @@ def test_siku_fsd_writes_the_distribution_and_a_picture(broken_pack, tmp_path):
 
     path = broken_pack[0]
     out, png = tmp_path / "pack.fsd.nc", tmp_path / "fsd.png"
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "fsd", str(path), "--out",
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "fsd", str(path), "--out",
                         str(out), "--plot", str(png), "--min-tail", "2"],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
@@ -177,13 +177,13 @@ def test_siku_fsd_writes_the_distribution_and_a_picture(broken_pack, tmp_path):
         assert (ds["n_floes"].values == 4).all()
         assert ds["count"].values.sum(axis=1).tolist() == [4] * ds.sizes["time"]
     assert png.stat().st_size > 1000
-    again = subprocess.run([sys.executable, "-m", "siku_core.cli", "fsd", str(path), "--out",
+    again = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "fsd", str(path), "--out",
                             str(out)], capture_output=True, text=True)
     assert again.returncode == 2 and len(again.stderr.strip().splitlines()) == 1
 
 
 def test_siku_fsd_of_a_missing_file_is_one_line_and_exit_2(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "fsd",
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "fsd",
                         str(tmp_path / "none.h5")], capture_output=True, text=True)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
 
@@ -199,7 +199,7 @@ def test_a_tail_of_one_area_has_no_power_law():
 
 def break_line_grid():
     """A 2 x 2 lonlat grid whose cell edges are the lines the broken pack was broken along."""
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
 
     dlat = math.degrees(100.0 / 6_371_000.0)
     dlon = dlat / math.cos(math.radians(2 * dlat))
@@ -225,7 +225,7 @@ def test_floe_sizes_per_cell_of_a_grid_along_the_break_lines(broken_pack):
 
 
 def test_siku_fsd_grid_without_an_output_grid_is_one_line_and_exit_2(broken_pack, tmp_path):
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "fsd", str(broken_pack[0]),
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "fsd", str(broken_pack[0]),
                         "--out", str(tmp_path / "a.nc"), "--grid", str(tmp_path / "g.nc")],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "[output.grid]" in r.stderr
@@ -238,7 +238,7 @@ def test_siku_plot_draws_the_distribution_of_an_output_and_of_a_distribution_fil
     from siku_io.output.marks import is_picture
 
     path = broken_pack[0]
-    cli = [sys.executable, "-m", "siku_core.cli"]
+    cli = [sys.executable, "-m", "siku_core.run.cli"]
     r = subprocess.run([*cli, "plot", str(path), "--fsd", "--out-dir", str(tmp_path / "a")],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
@@ -286,7 +286,7 @@ def test_siku_grid_without_the_runs_joints_grids_the_rest(broken_pack, monkeypat
     from siku_core import DataError
     from siku_io.analysis import fsd
     from siku_io.analysis.gridded_fields import grid_output
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
 
     def fails(path, calipers=True):
         raise DataError(f"{path}: its scene builds 3 joints but the file records 38")

@@ -27,7 +27,7 @@ def siku(args, cwd: Path, limit: int | None = None):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 
-    p = subprocess.run([sys.executable, "-m", "siku_core.cli", *args], cwd=cwd, text=True,
+    p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", *args], cwd=cwd, text=True,
                        capture_output=True, preexec_fn=cap if limit else None, timeout=300)
     return p.returncode, p.stderr
 

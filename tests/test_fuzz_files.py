@@ -156,7 +156,7 @@ def sources() -> dict[str, bytes]:
             cwd = os.getcwd()
             os.chdir(d)
             try:
-                from siku_core.cli import main
+                from siku_core.run.cli import main
 
                 Path("scene.toml").write_text(SCENE, encoding="utf-8")
                 Path("w.toml").write_text(SCENE.replace("output = {", 'output = { writer = '
@@ -280,7 +280,7 @@ def check_reader(name: str, data: bytes) -> None:
 def test_readers_never_change_the_file_they_read(tmp_path, monkeypatch):
     """Every command above on a foreign and on a damaged file leaves its bytes as they were
     (past the superblock, whose open-for-writing mark siku may clear on its own output)."""
-    from siku_core.cli import main
+    from siku_core.run.cli import main
 
     monkeypatch.chdir(tmp_path)
     Path("scene.toml").write_text(SCENE, encoding="utf-8")
@@ -380,7 +380,7 @@ def test_a_damaged_attribute_that_hangs_the_hdf5_library_is_refused(tmp_path, co
             "restart": ["run", "scene.toml", "--restart", "in.h5", "--out", "r.h5",
                         "--no-progress", "--no-plots"], "info": ["info", "in.h5"]}[command]
     code = ("import sys\nfrom siku_io.output import marks\nmarks.in_child.__defaults__ = (2.0,)\n"
-            "from siku_core.cli import main\nsys.exit(main(sys.argv[1:]))\n")
+            "from siku_core.run.cli import main\nsys.exit(main(sys.argv[1:]))\n")
     r = subprocess.run([sys.executable, "-c", code, *args], cwd=tmp_path, capture_output=True,
                        text=True, timeout=120)
     one_line(r.returncode, r.stderr)

@@ -8,7 +8,7 @@ keys added, and now and then the TOML text cut short. Every run is bounded in ti
 its budget counts as a hang.
 
 Durations and schedules at their extremes make valid scenes of up to 10⁹ steps (the limit of
-``siku_core.limits``): such a run is no hang, but would outlast any budget. Every run is bounded
+``siku_core.run.limits``): such a run is no hang, but would outlast any budget. Every run is bounded
 to ``MAX_STEPS`` steps (``Simulation.run`` is asked for no more), so a scene that runs at all
 ends; a hang is a run that does not get there within its budget.
 
@@ -35,7 +35,7 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from siku_core.cli import main  # noqa: E402
+from siku_core.run.cli import main  # noqa: E402
 from siku_core.testing.scenes import square, toml_value  # noqa: E402
 
 FUZZ_EXAMPLES = 40
@@ -134,7 +134,7 @@ class Hang(Exception):
 
 def bounded_runs():
     """``Simulation.run`` takes at most :data:`MAX_STEPS` steps while the context is active."""
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     run = Simulation.run
 

@@ -48,7 +48,7 @@ import pytest
 
 from siku_core.geometry.quat import centers, latlon_of, qrotate
 from siku_core.plugins import get_registry
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 
 R = 6_371_000.0

@@ -1,4 +1,4 @@
-"""Gridded fields (siku_io.analysis.regular_grid, siku_io.analysis.gridded_fields): exact area,
+"""Gridded fields (siku_forcing.gridded.regular_grid, siku_io.analysis.gridded_fields): exact area,
 exact strain rates, stress.
 
 * Concentration times cell area, summed over the grid, is the ice area of the elements to
@@ -17,10 +17,10 @@ import math
 import numpy as np
 import pytest
 
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing.scenes import make_scene
 from siku_io.analysis.gridded_fields import Snapshot, grid_snapshot, snapshot_of, strain_rates
-from siku_io.analysis.regular_grid import Grid, GridCfg
+from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
 R = 6371e3
 

@@ -18,9 +18,9 @@ import pytest
 
 from siku_core.errors import DataError, SceneError
 from siku_core.plugins import get_registry
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
-from siku_forcing.gridded import Gridded, pole_vector
+from siku_forcing.gridded.gridded_field import Gridded, pole_vector
 
 xr = pytest.importorskip("xarray")
 pytest.importorskip("netCDF4")
@@ -537,7 +537,7 @@ def test_file_and_u_file_are_exclusive_and_one_is_needed(tmp_path):
 
 
 def test_importing_the_module_does_not_import_xarray():
-    code = ("import sys, siku_forcing.gridded, siku_core.plugins as p; p.get_registry(); "
+    code = ("import sys, siku_forcing.gridded.gridded_field, siku_core.plugins as p; p.get_registry(); "
             "print('xarray' in sys.modules, 'netCDF4' in sys.modules)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                        env={**os.environ, "SIKU_DISABLE_PLUGIN_AUTOLOAD": "1"}, check=True)

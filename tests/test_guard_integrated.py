@@ -9,8 +9,8 @@ import pytest
 from test_floating import block
 
 from siku_core.errors import NonFiniteError, PluginError
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_plugins.floating.process import Floating
 
 
@@ -50,7 +50,7 @@ def test_floating_declares_what_it_integrates():
 
 
 def test_a_declaration_of_a_field_not_owned_is_refused(monkeypatch):
-    from siku_core.guard import integrated_fields
+    from siku_core.run.guard import integrated_fields
     sim = Simulation(scene_from_text(block(dt=0.1, duration=1.0), "<block>"), out=False,
                      progress=False)
     monkeypatch.setattr(Floating, "integrates", {"surge": "finite"})

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siku_core.scene import load_scene
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import load_scene
+from siku_core.run.simulation import Simulation
 from siku_core.testing.process_checks import ice_volume
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from siku_core.elements import build_elements
+from siku_core.run.elements import build_elements
 from siku_core.errors import SikuError
-from siku_core.scene import load_scene
+from siku_core.scene.scene_file import load_scene
 from siku_core.state import FREE
 from siku_io.mesh.cache import mesh_for_scene
 

@@ -21,7 +21,7 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": "1"}
 
 
 def siku(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "siku_core.cli", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "siku_core.run.cli", *map(str, args)],
                           capture_output=True, text=True, cwd=cwd, env=ENV, timeout=120)
 
 
@@ -32,7 +32,7 @@ def killed(tmp_path_factory):
     d = tmp_path_factory.mktemp("killed")
     (d / "s.toml").write_text(scene_text([(0.0, 80.0)], dt=60.0, duration=6e6,
                                          output={"file": "k.h5", "every": 60.0}))
-    p = subprocess.Popen([sys.executable, "-m", "siku_core.cli", "run", "s.toml",
+    p = subprocess.Popen([sys.executable, "-m", "siku_core.run.cli", "run", "s.toml",
                           "--no-progress"], cwd=d, env=ENV, stderr=subprocess.DEVNULL)
     t0 = time.monotonic()
     while not (d / "k.h5").exists() and time.monotonic() - t0 < 300:
@@ -82,7 +82,7 @@ def test_info_gives_up_a_file_whose_data_hang_the_hdf5_library(killed, tmp_path)
             "    if self.name == '/geometry/flags':\n        time.sleep(3600)\n"
             "    return real(self, key)\n"
             "h5py.Dataset.__getitem__ = hang\n"
-            "from siku_core.cli import main\nsys.exit(main(sys.argv[1:]))\n")
+            "from siku_core.run.cli import main\nsys.exit(main(sys.argv[1:]))\n")
     r = subprocess.run([sys.executable, "-c", code, "info", str(killed / "k.h5")],
                        capture_output=True, text=True, cwd=tmp_path, env=ENV, timeout=120)
     lines = [ln for ln in r.stderr.strip().splitlines() if ln]

@@ -68,7 +68,7 @@ def test_a_joint_breaks_at_its_own_strength():
 
 
 def _scene(law: str):
-    from siku_core.scene import scene_from_text
+    from siku_core.scene.scene_file import scene_from_text
     from siku_core.testing import scene_text
     from siku_core.testing.contact_cases import square_pack
 
@@ -81,7 +81,7 @@ def _scene(law: str):
 
 
 def test_the_process_sets_each_joints_factor_in_a_run():
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     sim = Simulation(_scene("distributed_spring"), out=False, progress=False)
     cm = sim.context.contacts  # the view processes see
@@ -96,7 +96,7 @@ def test_the_process_sets_each_joints_factor_in_a_run():
 
 def test_a_law_without_strength_factors_is_refused_in_one_line():
     from siku_core.errors import SceneError
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     with pytest.raises(SceneError, match="joint_strength.*distributed_spring"):
         Simulation(_scene("collision"), out=False, progress=False)

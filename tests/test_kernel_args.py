@@ -4,7 +4,7 @@ Bulk data crosses into a numba kernel as named records (:mod:`siku_core.records`
 long positional list kept in order by hand: a kernel takes a handful of records and scalars.
 This test parses the sources of the engine and the shipped packages (no import, no compile),
 finds every function decorated with numba's ``njit`` or ``jit`` (the contact loops' template,
-:mod:`siku_core.contact_loops`, is one of these sources) and fails naming ``file:function``
+:mod:`siku_core.contact.contact_loops`, is one of these sources) and fails naming ``file:function``
 for each that takes more than :data:`LIMIT` positional arguments.
 
 :data:`PENDING` lists the kernels still converting, each by ``path:function``; the test also
@@ -83,13 +83,13 @@ def test_the_parser_finds_the_kernels():
     """The scan sees the engine's kernels, the contact loops' template included: a scan that
     found nothing would pass any limit."""
     found = compiled_kernels()
-    for name in ("siku_core/contact_loops.py:_collision_chunk",
-                 "siku_core/contact_loops.py:_joint_forces",
-                 "siku_core/contacts.py:_gather_forces",
-                 "siku_core/ice_follow.py:follow_contacts",
+    for name in ("siku_core/contact/contact_loops.py:_collision_chunk",
+                 "siku_core/contact/contact_loops.py:_joint_forces",
+                 "siku_core/contact/contact_forces.py:_gather_forces",
+                 "siku_core/contact/ice_follow.py:follow_contacts",
                  "siku_plugins/processes/ridging.py:ridge_pairs",
                  "siku_plugins/processes/thermodynamics.py:semtner_step",
-                 "siku_io/coupling/exchange.py:_pair_forces"):
+                 "siku_forcing/gridded/exchange.py:_pair_forces"):
         assert name in found, name
     assert len(found) > 100
 

@@ -25,10 +25,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 from siku_core.contact_law import BREAK_SHEAR
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_plugins.lab import affine_moduli, measure, virtual_test
 from siku_plugins.lab import strength_table
 

@@ -35,7 +35,7 @@ def test_modulus_and_strength_within_beam_theory(sigma, a, length, width, nu):
 def test_siku_lab_flexure_prints_the_vertical_test(monkeypatch, capsys, tmp_path):
     """``siku lab flexure`` prints, after the in-plane table, the vertical test per strength."""
     import siku_plugins.lab as rep
-    from siku_core.cli import main
+    from siku_core.run.cli import main
 
     class Table:
         def rows(self):
@@ -56,7 +56,7 @@ def test_siku_lab_flexure_with_half_metre_elements_bends_a_thinner_beam(monkeypa
     alone, so the vertical beam is 0.5 m thick; beam theory bounds its strength by
     ``sigma_crit L / (L - a)`` and its modulus is ``E / (1 - nu²)`` whatever the thickness."""
     import siku_plugins.lab_report as rep
-    from siku_core.cli import main
+    from siku_core.run.cli import main
 
     class Table:
         def rows(self):

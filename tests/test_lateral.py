@@ -16,8 +16,8 @@ import pytest
 
 from siku_core.errors import SceneError
 from siku_core.interfaces import ElementSource, ElementSpec, Process
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_core.testing.contact_cases import registry_with
 from siku_core.testing.process_checks import check_process, ice_volume

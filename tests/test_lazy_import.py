@@ -30,7 +30,7 @@ def test_import_siku_core_loads_no_io_libraries_and_no_plugins():
 @pytest.mark.parametrize("statement", [
     "import siku_core.testing",
     "import siku_core.testing.conformance",
-    "import siku_core.scene, siku_core.simulation, siku_core.cli",
+    "import siku_core.scene.scene_file, siku_core.run.simulation, siku_core.run.cli",
 ])
 def test_engine_modules_and_testing_helpers_load_no_io_libraries(statement):
     mods = imported_after(statement)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from siku_io.analysis.leads import detect
-from siku_io.analysis.regular_grid import Grid, GridCfg
+from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
 R = 6371e3
 PS = GridCfg(kind="polar_stereographic", x=(-1.5e6, 1.5e6), y=(-1.5e6, 1.5e6),

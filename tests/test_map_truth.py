@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 
 matplotlib = pytest.importorskip("matplotlib")
 pytest.importorskip("cartopy")
@@ -44,9 +44,9 @@ every = "30min"
 def files(tmp_path_factory):
     """An output of a frozen coastal mesh pushed onshore (stress of both signs), and its
     polar-stereographic grid (a frame that holds Alaska's north coast)."""
-    from siku_core.scene import scene_from_text
+    from siku_core.scene.scene_file import scene_from_text
     from siku_io.analysis.gridded_fields import grid_output
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
     from siku_io.output.netcdf import write_netcdf
 
     folder = tmp_path_factory.mktemp("truth")
@@ -123,7 +123,7 @@ def test_strain_rates_are_mapped_per_day(files, tmp_path):
     import xarray as xr
 
     from siku_io.analysis.gridded_fields import grid_output
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
     from siku_io.output.netcdf import write_netcdf
     from siku_io.plot.grid_maps import GridPainter
 

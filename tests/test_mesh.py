@@ -29,14 +29,14 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from siku_core.contact_frames import find_shared_edges
-from siku_core.elements import build_elements
+from siku_core.contact.contact_frames import find_shared_edges
+from siku_core.run.elements import build_elements
 from siku_core.errors import SceneError
 from siku_core.geometry.clip import overlap, project_partner
 from siku_core.geometry.polygon import element_from_lonlat
 from siku_core.geometry.quat import centers
 from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
-from siku_core.scene import load_scene, scene_from_text
+from siku_core.scene.scene_file import load_scene, scene_from_text
 from siku_core.state import FREE, STATIC
 from siku_io.mesh.build import build_mesh
 from siku_io.mesh.cache import load_or_build, mesh_for_scene
@@ -186,7 +186,7 @@ def beaufort(tmp_path_factory):
         pytest.skip("needs the package global-land-mask")
     path = tmp_path_factory.mktemp("beaufort") / "beaufort.toml"
     path.write_text(BEAUFORT, encoding="utf-8")
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
 
     t0 = time.perf_counter()
     sim = Simulation(load_scene(path), out=False, progress=False)
@@ -542,7 +542,7 @@ def test_the_default_mesh_has_no_cell_on_inland_water():
     8R``: 2 m for a 6 km edge at 75° N; 1e-4 degrees taken). With the lakes meshed as sea, 188
     static cells lay wholly on land and lakes, 179 of them farther than that from the sea."""
     shapely = pytest.importorskip("shapely")
-    from siku_core.cli import default_scene_path
+    from siku_core.run.cli import default_scene_path
     from siku_io.mesh import gshhg
 
     mesh, _ = mesh_for_scene(load_scene(default_scene_path()))

@@ -1,4 +1,4 @@
-"""The smallest free cells of a mesh: what they cost in step (``siku_core.cells``, the mesh
+"""The smallest free cells of a mesh: what they cost in step (``siku_core.scene.cells``, the mesh
 build's report, the run summary) and ``[elements.mesh] min_area_share`` (``siku_io.mesh.relax``).
 
 Tolerances and why:
@@ -24,13 +24,13 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from siku_core.cells import small_cell_report
-from siku_core.elements import build_elements
+from siku_core.scene.cells import small_cell_report
+from siku_core.run.elements import build_elements
 from siku_core.geometry.sphere import lonlat_to_xyz
 from siku_core.errors import SceneError
-from siku_core.scene import load_scene, scene_from_text
+from siku_core.scene.scene_file import load_scene, scene_from_text
 from siku_core.state import FREE, STATIC
-from siku_core.summary import RunSummary, format_summary
+from siku_core.run.summary import RunSummary, format_summary
 from siku_io.mesh.build import build_mesh
 from siku_io.mesh.cache import load_or_build, mesh_for_scene
 from siku_io.mesh.land import LandGrid

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 from siku_core.plugins import get_registry
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 from siku_core.testing.scenes import scene_text
 
 GRID = ('[output.grid]\nlon = [-150.5, -149.0]\nlat = [74.75, 75.25]\nresolution = 0.25\n'
@@ -159,7 +159,7 @@ def test_4_devices_fifos_and_folders_are_never_written(here, run_h5, capsys):
                      ["export", "out.h5", "--out", target, "--overwrite"],
                      ["grid", "out.h5", "--out", target, "--overwrite", "--lon", "-151",
                       "-149", "--lat", "74", "76", "--resolution", "0.5", "--no-progress"]):
-            p = subprocess.run([sys.executable, "-m", "siku_core.cli", *args], cwd=here,
+            p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", *args], cwd=here,
                                capture_output=True, text=True, timeout=120)
             assert p.returncode == 2, p.stderr
             lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]

@@ -16,7 +16,7 @@ from numba.core import caching
 
 from siku_core import numba_cache
 from siku_core.geometry.quat import qmatrix
-from siku_core.kernel_cache import user_cache_dir
+from siku_core.contact.kernel_cache import user_cache_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -9,15 +9,12 @@ import numba
 import numpy as np
 import pytest
 
-from siku_core.contact_frames import frame_point
+from siku_core.contact.contact_frames import frame_point
 from siku_core.diagnostics import element_diagnostics
 from siku_core.geometry.quat import latlon_of, q_center, qrotate, xyz_to_latlon
-from siku_core.joint_metrics import joint_diagnostics, joint_strain_opening
-from siku_core.schedule import (
-    DEFAULT_DIAGNOSTICS,
-    DEFAULT_DIAGNOSTICS_STEPS,
-    DEFAULT_SNAPSHOT_STEPS,
-    DEFAULT_SNAPSHOTS,
+from siku_core.contact.joint_metrics import joint_diagnostics, joint_strain_opening
+from siku_core.run.schedule import (
+    DEFAULT_DIAGNOSTICS, DEFAULT_DIAGNOSTICS_STEPS, DEFAULT_SNAPSHOT_STEPS, DEFAULT_SNAPSHOTS,
     StepInterval,
 )
 
@@ -27,8 +24,8 @@ def pack():
     """A pulled 60 x 50 pack (3000 elements, 5 900 joints: the kernels' parallel size) after
     a few steps, with some joints broken by hand."""
     from bench.scenes import bonded_text
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
 
     sim = Simulation(scene_from_text(bonded_text(3000, steps=20), "<pack>"), out=False)
     sim.run(5)

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 START = "2001-04-06T00:00:00Z"
@@ -250,7 +250,7 @@ def test_gridded_fields_are_drawn_with_their_units(outputs):
 
 
 def test_every_grid_key_is_on_the_scene_reference():
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
 
     text = (ROOT / "docs" / "reference" / "scene.md").read_text(encoding="utf-8")
     section = text.split("## `output.grid`")[1].split("\n## ")[0]
@@ -266,7 +266,7 @@ def test_the_results_guide_runs(outputs, monkeypatch):
     import matplotlib
 
     matplotlib.use("Agg")
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
 
     guide = (ROOT / "docs" / "howto" / "results.md").read_text(encoding="utf-8")
     grid = outputs / "run.grid.nc"

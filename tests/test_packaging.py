@@ -134,14 +134,14 @@ def test_the_wheel_installed_outside_the_tree_runs_lists_plugins_and_passes_plug
         assert data in names, data
     entry_points = zipfile.ZipFile(wheel).read(
         f"siku-{version}.dist-info/entry_points.txt").decode()
-    assert "siku = siku_core.cli:main" in entry_points and "[xarray.backends]" in entry_points
+    assert "siku = siku_core.run.cli:main" in entry_points and "[xarray.backends]" in entry_points
 
     # a fresh environment (numpy and the other dependencies from the system's site-packages);
     # siku itself only from the wheel
     sh(sys.executable, "-m", "venv", "--system-site-packages", venv)
     py, siku = venv / "bin" / "python", venv / "bin" / "siku"
     sh(py, "-m", "pip", "install", "-q", "--no-deps", "--ignore-installed", wheel)
-    where = json.loads(sh(py, "-c", "import json, siku_core, siku_core.cli as c; print(json."
+    where = json.loads(sh(py, "-c", "import json, siku_core, siku_core.run.cli as c; print(json."
                                     "dumps([siku_core.__file__, siku_core.__version__, "
                                     "str(c.default_scene_path())]))"))
     installed = venv.resolve()

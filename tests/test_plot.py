@@ -5,8 +5,8 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core.cli import main
-from siku_core.simulation import Simulation
+from siku_core.run.cli import main
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 
 matplotlib = pytest.importorskip("matplotlib")
@@ -79,7 +79,7 @@ def _land_pixels(png) -> int:
 @pytest.fixture(scope="module")
 def coast_output(tmp_path_factory):
     """A small mesh against the GSHHG shoreline off Point Barrow (a scene with a coast)."""
-    from siku_core.scene import scene_from_text
+    from siku_core.scene.scene_file import scene_from_text
 
     text = """
 title = "Barrow coast"

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from siku_core.cli import main
-from siku_core.simulation import Simulation
+from siku_core.run.cli import main
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 
 matplotlib = pytest.importorskip("matplotlib")
@@ -146,7 +146,7 @@ def test_element_and_grid_maps_draw_into_the_callers_cartopy_axes(small, tmp_pat
     import matplotlib.pyplot as plt
 
     from siku_io.analysis.gridded_fields import grid_output
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
     from siku_io.output.netcdf import write_netcdf
     from siku_io.plot.element_maps import MapPainter, Output
     from siku_io.plot.grid_maps import GridPainter

@@ -13,9 +13,9 @@ import textwrap
 import pytest
 
 from siku_core import PluginError
-from siku_core.cli import main
+from siku_core.run.cli import main
 from siku_core.plugins import register_module
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 from siku_core.testing.contact_conformance import contact_scene_text
 
@@ -153,7 +153,7 @@ def _install(siku_fake_install, source, name="faulty-ice", module="faulty_ice"):
 def _scene_for(kind, name):
     if kind == "forcing":
         return make_scene(forcing=[{"source": name}])
-    from siku_core.scene import scene_from_text
+    from siku_core.scene.scene_file import scene_from_text
 
     return scene_from_text(contact_scene_text(name, elements=[(10.0, 70.0)]), "<t>")
 

@@ -15,7 +15,7 @@ import pytest
 from siku_core import PluginError, hookimpl
 from siku_core.interfaces import ForcingSource, Integrator
 from siku_core.plugins import get_registry, make_plugin_manager, register_module
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import conformance, make_scene
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 from siku_core.testing import scene_text
 from siku_core.testing.contact_cases import square_pack
 

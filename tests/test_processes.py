@@ -13,8 +13,8 @@ import pytest
 from siku_core.errors import PluginError, SceneError, SikuError, StabilityError
 from siku_core.fields import ElementField
 from siku_core.interfaces import Process
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.state import MELTED
 from siku_core.testing import scene_text
 from siku_core.testing.contact_cases import square_pack
@@ -106,7 +106,7 @@ def test_joint_constants_left_to_the_joint_loop_are_the_ones_computed_at_once():
     at once. Either way they are ``contact_frames.joint_constants`` of the new ice bit for bit,
     and a run that reads them after every step reaches the same state, bit for bit, as one
     that leaves them to the joint loop."""
-    from siku_core.contact_frames import joint_constants
+    from siku_core.contact.contact_frames import joint_constants
 
     pack = [square_pack(0.0, 80.0, 4, 3, size=2000.0)]
     extra = ('[contact]\nlaw = "distributed_spring"\n\n[[process]]\nname = "thermodynamics"\n'
@@ -182,7 +182,7 @@ def test_a_melt_that_makes_dt_unstable_stops_the_run_in_one_line(tmp_path):
             '[[process]]\nname = "thermodynamics"\nparams = { surface_temperature = 0.0, '
             'ocean_heat_flux = 1000.0, min_thickness = 0.01 }\nevery = "1 h"\n'
             '\n[run]\ndt_safety = 1.0\n')))
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(scene), "--out",
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", str(scene), "--out",
                         str(tmp_path / "o.h5")], capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.startswith("siku: error")]
@@ -429,7 +429,7 @@ def test_a_correct_growth_process_passes_and_planted_faults_fail(tmp_path):
 def run_cli(tmp_path, text, *args):
     scene = tmp_path / "s.toml"
     scene.write_text(text)
-    return subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(scene),
+    return subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", str(scene),
                            "--out", str(tmp_path / "o.h5"), *args],
                           capture_output=True, text=True, cwd=tmp_path)
 
@@ -614,8 +614,8 @@ def _ridge_by_hand(sim, steps, P=2.75e4):
     largest area converted is ice of the thin element, which has no open water to close: its
     area leaves the thin ice (concentration ``c_thin``), its volume (at the thin ice's own
     thickness, which does not change) moves onto the carrier."""
-    from siku_core.contact_frames import rotation_matrices
-    from siku_core.contact_overlaps import overlaps, pair_overlaps
+    from siku_core.contact.contact_frames import rotation_matrices
+    from siku_core.contact.contact_overlaps import overlaps, pair_overlaps
 
     st, cm = sim.state, sim.contacts
     rm = np.empty((st.n, 3, 3))
@@ -745,7 +745,7 @@ def test_ridging_in_a_converging_pack_counts_no_ice_twice():
     from shapely.ops import unary_union
 
     from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
-    from siku_io.analysis.regular_grid import Grid, GridCfg
+    from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
     sim = converging_channel()
     st, cats = sim.state, sim.context.categories

@@ -10,8 +10,8 @@ from pathlib import Path
 import numba
 import pytest
 
-from siku_core.cli import main
-from siku_core.simulation import PHASES, Simulation
+from siku_core.run.cli import main
+from siku_core.run.simulation import PHASES, Simulation
 from siku_core.testing.contact_conformance import contact_scene_text, square_pack
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -26,7 +26,7 @@ def scene_text():
 
 
 def test_timings_cover_every_phase_of_the_step():
-    from siku_core.scene import scene_from_text
+    from siku_core.scene.scene_file import scene_from_text
 
     sim = Simulation(scene_from_text(scene_text()), out=False, progress=False).run()
     assert set(sim.timings) == set(PHASES)
@@ -54,8 +54,8 @@ def test_run_profile_prints_the_phases(tmp_path, monkeypatch, capsys):
 
 
 def test_phase_log_splits_the_timings_by_window_of_model_time():
-    from siku_core.phase_log import PhaseLog
-    from siku_core.scene import scene_from_text
+    from siku_core.run.phase_log import PhaseLog
+    from siku_core.scene.scene_file import scene_from_text
 
     sim = Simulation(scene_from_text(scene_text()), out=False, progress=False)
     sim.phase_log = PhaseLog(sim, every=10.0)  # 20 steps of 2 s: four windows of five steps

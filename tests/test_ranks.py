@@ -135,7 +135,7 @@ def test_thermodynamics_writes_the_same_file_on_two_ranks_and_restarts_on_one(tm
     (tmp_path / "scene.toml").write_text(thermo_text(flux=3e6).replace(
         "[run]", '[output]\nevery = 20.0\ndiagnostics_every = 3.0\n\n[run]'),
         encoding="utf-8")
-    base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",
+    base = [sys.executable, "-m", "siku_core.run.cli", "run", "scene.toml", "--no-progress",
             "--no-plots", "--out"]
 
     def run(*args):
@@ -161,7 +161,7 @@ def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
     """``siku run --ranks 2`` writes the file one rank writes, byte for byte; a restart
     from it continues on one rank exactly as from the one-rank file, and a restart on two
     ranks writes the same file again."""
-    from siku_core.cli import main
+    from siku_core.run.cli import main
     from siku_core.testing.ranks_cases import spring_text
 
     (tmp_path / "scene.toml").write_text(spring_text(3000).replace(
@@ -171,7 +171,7 @@ def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
     os.chdir(tmp_path)
     try:
         assert main([*base, "--out", "one.h5"]) == 0
-        p = subprocess.run([sys.executable, "-m", "siku_core.cli", *base, "--out", "two.h5",
+        p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", *base, "--out", "two.h5",
                             "--ranks", "2"], env=_env(), capture_output=True, text=True,
                            timeout=TIMEOUT)
         assert p.returncode == 0, p.stderr
@@ -180,7 +180,7 @@ def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
         for f in ("one", "two"):
             assert main([*base, "--restart", f"{f}.h5", "--extend", "20s",
                          "--out", f"{f}_more.h5"]) == 0
-        p = subprocess.run([sys.executable, "-m", "siku_core.cli", *base, "--restart",
+        p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", *base, "--restart",
                             "one.h5", "--extend", "20s", "--out", "ranks_more.h5", "--ranks",
                             "2"], env=_env(), capture_output=True, text=True, timeout=TIMEOUT)
         assert p.returncode == 0, p.stderr
@@ -249,7 +249,7 @@ def test_ridging_and_refreeze_write_the_same_file_on_two_ranks_and_restart(tmp_p
     (tmp_path / "scene.toml").write_text(ridge_freeze_text(500).replace(
         "[run]", '[output]\nevery = 10.0\ndiagnostics_every = 3.0\n\n[run]'),
         encoding="utf-8")
-    base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",
+    base = [sys.executable, "-m", "siku_core.run.cli", "run", "scene.toml", "--no-progress",
             "--no-plots", "--out"]
 
     def run(*args):
@@ -294,7 +294,7 @@ def test_ranks_given_different_scenes_or_a_process_are_refused(tmp_path):
     (tmp_path / "b.toml").write_text(spring_text(50).replace("tensile_strain = 0.0002",
                                                              "tensile_strain = 0.0003"),
                                      encoding="utf-8")
-    run = [sys.executable, "-m", "siku_core.cli", "run", "--no-progress", "--no-plots",
+    run = [sys.executable, "-m", "siku_core.run.cli", "run", "--no-progress", "--no-plots",
            "--out"]
     cmd = [mpiexec(), "-n", "1", *run, "x.h5", "a.toml", ":", "-n", "1", *run, "x.h5",
            "b.toml"]
@@ -322,8 +322,8 @@ def test_components_that_cannot_run_on_ranks_are_named():
     it and the ranks; forcing, integrator, contact law, thermodynamics, ridging and
     refreezing are not."""
     from siku_core.ranks.driver import refusals
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
     from siku_core.testing.ranks_cases import spring_text
 
     plain = Simulation(scene_from_text(spring_text(10), "<a>"), out=False)
@@ -381,7 +381,7 @@ def test_launch_is_read_from_the_environment_only():
     assert launched_ranks({}) == 1 and launched_rank({}) == 0
     assert launched_ranks({"PMI_SIZE": "4", "PMI_RANK": "3"}) == 4
     assert launched_rank({"PMI_SIZE": "4", "PMI_RANK": "3"}) == 3
-    code = ("import sys, siku_core.simulation, siku_core.cli; "
+    code = ("import sys, siku_core.run.simulation, siku_core.run.cli; "
             "sys.exit('mpi4py' in sys.modules)")
     assert subprocess.run([sys.executable, "-c", code], env=_env(), timeout=120).returncode == 0
 
@@ -409,7 +409,7 @@ def test_a_rank_killed_ends_the_run_with_one_line(tmp_path):
 
     import h5py
 
-    from siku_core.cli import main
+    from siku_core.run.cli import main
     from siku_core.testing.ranks_cases import spring_text
 
     (tmp_path / "s.toml").write_text(spring_text(6000).replace(
@@ -417,7 +417,7 @@ def test_a_rank_killed_ends_the_run_with_one_line(tmp_path):
     pids = tmp_path / "pids"
     pids.mkdir()
     env = {**_env(), "SIKU_RANK_PIDS": str(pids)}
-    p = subprocess.Popen([sys.executable, "-m", "siku_core.cli", "run", "s.toml", "--out",
+    p = subprocess.Popen([sys.executable, "-m", "siku_core.run.cli", "run", "s.toml", "--out",
                           "k.h5", "--no-progress", "--no-plots", "--ranks", "2"], cwd=tmp_path,
                          env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -477,7 +477,7 @@ def test_conformance_catches_a_source_that_reads_other_elements(monkeypatch):
 def test_default_scene_for_an_hour_same_file_on_two_ranks(tmp_path):
     """The shipped default scene (mesh, drags, Coriolis, distributed_spring) for 1 h of model
     time: ``--ranks 2`` writes the one-rank file byte for byte."""
-    base = [sys.executable, "-m", "siku_core.cli", "run", "--set", "time.duration=1h",
+    base = [sys.executable, "-m", "siku_core.run.cli", "run", "--set", "time.duration=1h",
             "--no-progress", "--no-plots", "--out"]
     for out, extra in (("one.h5", []), ("two.h5", ["--ranks", "2"])):
         p = subprocess.run([*base, out, *extra], cwd=tmp_path, env=_env(),
@@ -494,7 +494,7 @@ def test_restart_on_three_ranks_writes_the_one_rank_file(tmp_path):
 
     (tmp_path / "scene.toml").write_text(spring_text(1500).replace(
         "[run]", '[output]\nevery = 2.0\n\n[run]'), encoding="utf-8")
-    base = [sys.executable, "-m", "siku_core.cli", "run", "scene.toml", "--no-progress",
+    base = [sys.executable, "-m", "siku_core.run.cli", "run", "scene.toml", "--no-progress",
             "--no-plots"]
     for extra in (["--out", "two.h5", "--ranks", "2"],
                   ["--restart", "two.h5", "--extend", "30s", "--out", "on1.h5"],

@@ -34,7 +34,7 @@ def test_write_whole_on_a_read_only_file_system_is_one_data_error(tmp_path, monk
 
 
 def test_write_text_file_on_a_read_only_file_system_is_one_data_error(tmp_path, monkeypatch):
-    from siku_core.outputs import write_text_file
+    from siku_core.run.outputs import write_text_file
 
     read_only(monkeypatch)
     with pytest.raises(DataError, match=r"scene\.toml: cannot be written \(Read-only file "

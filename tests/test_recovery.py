@@ -28,7 +28,7 @@ def siku(args, cwd: Path, limit: int | None = None):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 
-    p = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", *args, "--no-progress",
+    p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", *args, "--no-progress",
                         "--no-plots"], cwd=cwd, text=True, capture_output=True,
                        preexec_fn=cap if limit else None, timeout=300)
     assert "Traceback" not in p.stderr, p.stderr

@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 from siku_core.testing.scenes import scene_text
 
 
@@ -160,7 +160,8 @@ def test_16_a_sweep_of_too_many_members_is_refused_before_it_makes_them(here, ca
 
 
 def test_16_long_thin_pack_cells_count_in_the_memory_estimate(monkeypatch):
-    from siku_core import SceneError, limits
+    from siku_core import SceneError
+    from siku_core.run import limits
     from siku_core.testing.scenes import make_scene
 
     def pack(lon_width: float, lat_width: float):

@@ -17,7 +17,7 @@ import textwrap
 import tracemalloc
 from pathlib import Path
 
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 
@@ -46,8 +46,8 @@ def traced_contact_bytes(scene) -> tuple[int, Simulation]:
         snap = tracemalloc.take_snapshot()
     finally:
         tracemalloc.stop()
-    snap = snap.filter_traces([tracemalloc.Filter(True, "*siku_core/contact_model.py"),
-                               tracemalloc.Filter(True, "*siku_core/contacts.py")])
+    snap = snap.filter_traces([tracemalloc.Filter(True, "*siku_core/contact/contact_model.py"),
+                               tracemalloc.Filter(True, "*siku_core/contact/contact_forces.py")])
     return sum(s.size for s in snap.statistics("filename")), sim
 
 
@@ -71,7 +71,7 @@ def test_free_drift_allocates_no_contact_arrays():
 def test_scenes_without_gridded_forcing_import_no_netcdf_library():
     code = textwrap.dedent("""
         import json, sys
-        from siku_core.simulation import Simulation
+        from siku_core.run.simulation import Simulation
         from siku_core.testing import make_scene
         from siku_core.testing.contact_conformance import contact_scene, square_pack
         wind = {"source": "air_drag", "field": {"type": "uniform", "params": {"u": 10.0}}}

@@ -5,9 +5,9 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 from siku_core.errors import SceneError
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_io.output.results import last_snapshot
 

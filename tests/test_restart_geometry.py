@@ -11,7 +11,7 @@ import numpy as np
 import zarr
 
 from siku_core.interfaces import Process
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_core.testing.process_checks import process_registry
 from siku_io.output.layout import GEOMETRY

@@ -15,8 +15,8 @@ import xarray as xr
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 
 DURATION, EVERY = 1200.0, 240.0

@@ -1,4 +1,5 @@
-"""The Python scene API (siku_core.scene_api): the same checks and messages as a scene file, TOML
+"""The Python scene API (siku_core.scene.scene_api): the same checks and messages as a scene file,
+TOML
 both ways, and the default scene built in Python runs bit for bit as the shipped file."""
 from __future__ import annotations
 
@@ -7,11 +8,11 @@ import os
 import numpy as np
 import pytest
 
-from siku_core.cli import default_scene_path
+from siku_core.run.cli import default_scene_path
 from siku_core.errors import DataError, InputError, SceneError, SikuError
-from siku_core.scene import load_scene, scene_from_text
-from siku_core.scene_api import SceneBuilder, to_toml
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import load_scene, scene_from_text
+from siku_core.scene.scene_api import SceneBuilder, to_toml
+from siku_core.run.simulation import Simulation
 
 SHORT = "2min"
 

@@ -20,8 +20,8 @@ from siku_core import (
 )
 from siku_core.interfaces import ForcingSource
 from siku_core.plugins import register_module, unregister_module
-from siku_core.scene import load_scene
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import load_scene
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 
 BASE = scene_text([(-150.0, 75.0), (-149.0, 75.0)], dt=60.0, duration=600.0)

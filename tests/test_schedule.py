@@ -1,5 +1,5 @@
 """Output times: the step is fitted so that snapshots, diagnostics and the end fall exactly on
-the scheduled times for any dt (``siku_core.schedule.fit_time_step``)."""
+the scheduled times for any dt (``siku_core.run.schedule.fit_time_step``)."""
 from __future__ import annotations
 
 import math
@@ -9,8 +9,8 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core.schedule import MIN_FIT_SHARE, fit_time_step
-from siku_core.simulation import Simulation
+from siku_core.run.schedule import MIN_FIT_SHARE, fit_time_step
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 
 

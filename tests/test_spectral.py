@@ -1,4 +1,5 @@
-"""The spectral wave field (siku_forcing.spectral, spectral_transport): transport, absorption by
+"""The spectral wave field (siku_forcing.waves.spectral, spectral_transport): transport, absorption
+by
 the ice, the local sea the elements feel, and bad input."""
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 
 from siku_core.testing import conformance
-from siku_forcing.spectral_transport import absorb, steady_ratio, transport
+from siku_forcing.waves.spectral_transport import absorb, steady_ratio, transport
 
 
 def test_transport_in_a_closed_domain_conserves_energy_to_round_off():
@@ -112,8 +113,8 @@ def flume_scene(tmp_path, field_params, n_ice=6, out=False):
 
 
 def build(path):
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     return Simulation(load_scene(path), out=False, progress=False)
 
@@ -140,7 +141,7 @@ def test_the_field_damps_the_sea_where_the_elements_are(tmp_path):
 
 
 def test_without_ice_the_elements_feel_the_incident_wave(tmp_path):
-    from siku_forcing.waves import LinearWave
+    from siku_forcing.waves.wave_field import LinearWave
 
     sim = build(flume_scene(tmp_path, {"attenuation": "constant",
                                        "attenuation_params": {"alpha": 0.0}}))
@@ -160,8 +161,8 @@ def test_without_ice_the_elements_feel_the_incident_wave(tmp_path):
 
 
 def test_a_run_writes_the_wave_height_and_dissipation_of_each_element(tmp_path):
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     path = flume_scene(tmp_path, {"attenuation": "constant",
                                   "attenuation_params": {"alpha": 1e-3}}, out=True)
@@ -176,7 +177,7 @@ def test_a_run_writes_the_wave_height_and_dissipation_of_each_element(tmp_path):
 
 
 def run_cli(path):
-    return subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(path),
+    return subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", str(path),
                            "--no-progress"], capture_output=True, text=True, cwd=path.parent)
 
 
@@ -195,8 +196,8 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, params, words):
 
 
 def test_a_restart_continues_the_evolving_spectrum_bit_for_bit(tmp_path):
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     path = flume_scene(tmp_path, {"attenuation": "doble2015", "start": "calm"}, out=True)
     scene = load_scene(path)
@@ -223,8 +224,8 @@ def test_the_breakup_front_stalls_where_the_attenuated_strain_falls_below_the_cr
     downstream face of the last cell whose amplitude exceeds a_c = 2 eps_c / (k² h): the last
     broken joint lies within one cell upstream of it, and that face within one cell of the
     continuous position x* = ln(a0 / a_c) / (alpha C)."""
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
     from siku_core.testing import scene_text
     from siku_core.testing.contact_cases import square_pack
 
@@ -254,7 +255,7 @@ def test_the_breakup_front_stalls_where_the_attenuated_strain_falls_below_the_cr
     assert broken.any() and not broken.all()
     x_b = xj[broken].max()
     # (upstream of the front some joints hold: pieces shorter than the rigid-floe length
-    # cannot break, siku_forcing.wave_breaking)
+    # cannot break, siku_forcing.waves.wave_breaking)
     amp = np.sqrt(2 * f.E[0, 0])  # per cell, steady by now
     faces = f.x0 + (np.arange(f.nx) + 1) * f.dx
     over = (amp > a_c) & (faces > 0) & (faces <= 400.0)
@@ -268,8 +269,8 @@ def test_the_breakup_front_stalls_where_the_attenuated_strain_falls_below_the_cr
 def test_the_ice_edge_example_builds_and_steps():
     from pathlib import Path
 
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     path = Path(__file__).resolve().parents[1] / "examples" / "miz" / "miz.toml"
     assert path.read_text(encoding="utf-8").startswith("#")
@@ -282,8 +283,8 @@ def test_the_ice_edge_example_builds_and_steps():
 
 
 def test_the_drag_power_is_the_drag_force_times_the_orbital_velocity(tmp_path):
-    from siku_forcing.spectral import add_slope_drag
-    from siku_io.output.element_geometry import east_north
+    from siku_forcing.waves.spectral import add_slope_drag
+    from siku_core.geometry.element_geometry import east_north
 
     sim = build(flume_scene(tmp_path, {"attenuation": "constant",
                                        "attenuation_params": {"alpha": 1e-3}}))
@@ -310,8 +311,8 @@ def test_the_drag_power_is_the_drag_force_times_the_orbital_velocity(tmp_path):
 def test_a_directional_sea_without_ice_stays_the_incident_sea_at_open_edges(tmp_path):
     # every component enters across the edges it travels in from: the uniform incident sea is
     # the steady state, kept to round-off in every cell
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
     from siku_core.testing import scene_text
 
     field = {"type": "spectral", "params": {
@@ -329,8 +330,8 @@ def test_a_directional_sea_without_ice_stays_the_incident_sea_at_open_edges(tmp_
 
 
 def test_a_drag_that_takes_the_field_as_its_current_advances_the_sea(tmp_path):
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
 
     txt = flume_scene(tmp_path, {"attenuation": "constant", "start": "calm"}).read_text()
     txt = txt.replace('source = "waves"', 'source = "water_drag"').replace(
@@ -346,8 +347,8 @@ def test_a_drag_that_takes_the_field_as_its_current_advances_the_sea(tmp_path):
 
 @pytest.mark.parametrize("nd, spreading", [(1, 10.0), (16, 2.0)])
 def test_fast_jonswap_is_the_jonswap_sea_to_round_off_at_every_point(nd, spreading):
-    from siku_forcing.spectral_fast import FastJonswap
-    from siku_forcing.waves import Jonswap
+    from siku_forcing.waves.spectral_fast import FastJonswap
+    from siku_forcing.waves.wave_field import Jonswap
 
     p = {k: v.default for k, v in Jonswap.params.items()}
     p.update(n_directions=nd, spreading=spreading, n_frequencies=48, seed=7,
@@ -374,7 +375,7 @@ def test_fast_jonswap_is_the_jonswap_sea_to_round_off_at_every_point(nd, spreadi
 
 def test_fast_jonswap_refuses_finite_depth():
     from siku_core.errors import SceneError
-    from siku_forcing.spectral_fast import FastJonswap
+    from siku_forcing.waves.spectral_fast import FastJonswap
 
     p = {k: v.default for k, v in FastJonswap.params.items()}
     with pytest.raises(SceneError, match="deep water only"):

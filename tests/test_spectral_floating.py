@@ -1,6 +1,6 @@
 """The ``floating`` process in a ``spectral`` wave field: each element is loaded with the local
 sea of its grid cell (amplitudes ``sqrt(2 E_j)``, phases of the incident components), the same
-sea the horizontal forces and the breaking check use (``siku_forcing.spectral``)."""
+sea the horizontal forces and the breaking check use (``siku_forcing.waves.spectral``)."""
 from __future__ import annotations
 
 import math
@@ -39,8 +39,8 @@ def spectral(**params):
 
 
 def build(path):
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     return Simulation(load_scene(path), out=False, progress=False)
 
@@ -136,8 +136,8 @@ def test_in_steady_state_a_floe_heaves_with_the_amplitude_of_its_cell(tmp_path, 
 
 
 def test_a_restart_with_floating_elements_in_the_spectral_sea_is_bit_for_bit(tmp_path):
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     path = flume(tmp_path, spectral(attenuation="doble2015", start="calm"), duration=4 * DT * 3,
                  out=True)

@@ -1,4 +1,4 @@
-"""Element stress from contact forces (siku_core.stress) and its gridded mean.
+"""Element stress from contact forces (siku_core.contact.stress) and its gridded mean.
 
 Uniaxial tension: a bonded block pulled by its handles (``siku lab`` tension test, elastic
 range). For the free part of the block in equilibrium the area integral of the stress is the
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from siku_core.geometry.quat import centers
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.state import STATIC, STEADY
-from siku_core.stress import principal
+from siku_core.contact.stress import principal
 from siku_core.testing.scenes import make_scene
 from siku_plugins.lab import _scene_text
 
@@ -74,7 +74,7 @@ def test_uniaxial_tension_gives_the_applied_stress_in_the_interior(pulled):
 
 def test_the_gridded_stress_of_the_interior_is_the_applied_stress(pulled):
     from siku_io.analysis.gridded_fields import grid_snapshot, snapshot_of
-    from siku_io.analysis.regular_grid import Grid, GridCfg
+    from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
     sim = pulled
     st = sim.state

@@ -12,9 +12,9 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core import cli
-from siku_core.scene import load_scene
-from siku_core.simulation import Simulation
+from siku_core.run import cli
+from siku_core.scene.scene_file import load_scene
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def siku(*args, cwd):
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": "1"}
-    return subprocess.run([sys.executable, "-m", "siku_core.cli", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "siku_core.run.cli", *map(str, args)],
                           capture_output=True, text=True, cwd=cwd, env=env, timeout=300)
 
 

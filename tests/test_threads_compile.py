@@ -1,6 +1,6 @@
 """The threads ``siku run`` chooses (siku_core.parallel.ThreadTuner), the compile line and the
-compile-free clock (siku_core.progress), and the summary's rate without the compilation
-(siku_core.summary)."""
+compile-free clock (siku_core.run.progress), and the summary's rate without the compilation
+(siku_core.run.summary)."""
 from __future__ import annotations
 
 import io
@@ -14,8 +14,9 @@ import numba
 import numpy as np
 import pytest
 
-from siku_core import parallel, progress
-from siku_core.summary import RunSummary, format_summary
+from siku_core import parallel
+from siku_core.run import progress
+from siku_core.run.summary import RunSummary, format_summary
 from siku_core.testing import scene_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,8 +36,8 @@ TINY = scene_text([(-150.0, 75.0), (-149.0, 75.0)], dt=60.0, duration=600.0,
 def test_siku_run_chooses_the_threads_unless_the_user_set_them(tmp_path, monkeypatch):
     """``siku run`` times one thread against all (``auto_threads``) unless ``--threads`` or
     ``NUMBA_NUM_THREADS`` says how many; OpenMP's variables are left as the user set them."""
-    from siku_core import cli
-    from siku_core.simulation import Simulation
+    from siku_core.run import cli
+    from siku_core.run.simulation import Simulation
 
     seen = []
     real = Simulation.run
@@ -62,7 +63,7 @@ def test_siku_run_chooses_the_threads_unless_the_user_set_them(tmp_path, monkeyp
 
 
 def test_importing_the_engine_starts_no_thread_and_sets_no_openmp_variable():
-    code = ("import os, siku_core, siku_core.simulation, siku_core.cli\n"
+    code = ("import os, siku_core, siku_core.run.simulation, siku_core.run.cli\n"
             "from numba.np.ufunc import parallel\n"
             "print([k for k in os.environ if k.startswith(('OMP_', 'KMP_', 'GOMP_'))], "
             "parallel._is_initialized)")
@@ -143,7 +144,7 @@ def test_cold_run_shows_the_compile_line_and_keeps_it_out_of_the_rate(tmp_path):
     (tmp_path / "s.toml").write_text(TINY, encoding="utf-8")
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
            "NUMBA_NUM_THREADS": "1", "SIKU_KERNEL_CACHE": str(tmp_path / "kernels")}
-    code = ("import sys; from siku_core.cli import main; sys.exit(main(['run', 's.toml', "
+    code = ("import sys; from siku_core.run.cli import main; sys.exit(main(['run', 's.toml', "
             "'--out', 'o.h5', '--no-plots', '--profile']))")
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                        check=False, timeout=900, cwd=tmp_path)
@@ -215,8 +216,8 @@ def test_results_do_not_depend_on_the_switching():
 
     if numba.config.NUMBA_NUM_THREADS < 2:
         pytest.skip("needs two numba threads")
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
     from siku_core.testing.contact_conformance import contact_scene_text, square_pack
 
     pack = square_pack(0.0, -1.0, 60, 40, 20000.0, left="static", right="steady",

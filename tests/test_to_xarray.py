@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 
 xr = pytest.importorskip("xarray")

@@ -1,4 +1,5 @@
-"""The interpolated sea (``jonswap`` with ``method = "lines"``, siku_forcing.wave_lines) against
+"""The interpolated sea (``jonswap`` with ``method = "lines"``, siku_forcing.waves.wave_lines)
+against
 the direct sum at every point, within its stated bound."""
 from __future__ import annotations
 
@@ -7,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from siku_forcing import wave_lines
-from siku_forcing.waves import Jonswap
+from siku_forcing.waves import wave_lines
+from siku_forcing.waves.wave_field import Jonswap
 
 
 def seas(**kw):

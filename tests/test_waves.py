@@ -1,4 +1,5 @@
-"""Waves on ice (``siku_forcing.waves``, ``siku_forcing.wave_breaking``): dispersion, the fields
+"""Waves on ice (``siku_forcing.waves``, ``siku_forcing.waves.wave_breaking``): dispersion, the
+fields
 against linear theory, a free floe in waves against an independent integration, the averaging
 of the slope force over a bonded floe, and wave-induced breaking."""
 from __future__ import annotations
@@ -12,9 +13,9 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
 from siku_core.geometry.quat import east_north_local, latlon_of
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
-from siku_forcing.waves import Jonswap, LinearWave, jonswap, log_layer_drag, wavenumber
+from siku_forcing.waves.wave_field import Jonswap, LinearWave, jonswap, log_layer_drag, wavenumber
 
 R = 6_371_000.0
 G = 9.81
@@ -271,7 +272,7 @@ def test_breaking_check_equals_recomputing_every_strain_at_every_pass():
     a Voronoi floe with a stiff plate, so that both limits decide some joints."""
     from siku_core.contact_law import BREAK_FLEXURE
     from siku_core.testing import scene_text
-    from siku_core.scene import scene_from_text
+    from siku_core.scene.scene_file import scene_from_text
 
     def build():
         txt = scene_text([], dt=1e-4, duration=1e-4, forcing=[{

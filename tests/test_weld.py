@@ -12,8 +12,8 @@ import pytest
 
 from siku_core.errors import SceneError
 from siku_core.geometry.quat import centers, east_north_local, from_tangent, to_tangent
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_core.testing.contact_cases import square_pack
 from siku_plugins.processes.refreeze import refrozen_strength
@@ -111,7 +111,7 @@ def test_elements_held_in_contact_weld_after_the_set_time_to_one_step(jointed):
     cx, cy = to_tangent(st.q[i], from_tangent(st.q[j], 0.0, 0.0, sim.radius), sim.radius)
     assert d[1] * cx - d[0] * cy > 0
     # its stiffness is the eq. 9 one of every joint (E h over the lever arms)
-    from siku_core.contact_frames import joint_arms, joint_constants
+    from siku_core.contact.contact_frames import joint_arms, joint_constants
     K, _ = joint_constants(st.thickness, cm.E, cm.minv, cm.ji, cm.jj,
                            *joint_arms(cm.ends_i, cm.ends_j))
     assert cm.jK[k] == K[k] > 0
@@ -223,7 +223,7 @@ def test_running_out_of_joint_slots_is_one_line(tmp_path):
     text = wall_text(weld_time=2.0, steps=400, extra_params=", weld_capacity = 0.0")
     scene = tmp_path / "s.toml"
     scene.write_text(text)
-    r = subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(scene), "--out",
+    r = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", str(scene), "--out",
                         str(tmp_path / "o.h5")], capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.startswith("siku: error")]

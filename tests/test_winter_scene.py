@@ -46,8 +46,8 @@ def test_the_winter_has_several_storms_over_two_weeks(tmp_path):
 
 
 def test_the_winter_scene_reads_its_wind_and_runs(tmp_path):
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     storms = _storms()
     shutil.copy(HERE / "winter_beaufort.toml", tmp_path)

@@ -13,8 +13,8 @@ import xarray as xr
 from siku_core.errors import DataError, PluginError, SceneError
 from siku_core.interfaces import Writer
 from siku_core.plugins import Registry, check_component, get_registry
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 
 ROOT = Path(__file__).resolve().parents[1]

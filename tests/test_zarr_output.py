@@ -27,9 +27,9 @@ import pytest
 import xarray as xr
 import zarr
 
-from siku_core.cli import main
+from siku_core.run.cli import main
 from siku_core.errors import DataError
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import scene_text
 from siku_io.output.results import last_snapshot
 
@@ -195,7 +195,7 @@ def test_a_killed_zarr_run_leaves_complete_snapshots_and_restarts_bit_for_bit(tm
     scene = write_scene(tmp_path / "scene.toml", "zarr", "run.zarr", steps=steps, every=2)
     whole = tmp_path / "whole.zarr"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": "1"}
-    cmd = [sys.executable, "-m", "siku_core.cli", "run", scene, "--no-progress", "--no-plots"]
+    cmd = [sys.executable, "-m", "siku_core.run.cli", "run", scene, "--no-progress", "--no-plots"]
     subprocess.run([*cmd, "--out", str(whole)], env=env, cwd=tmp_path, check=True,
                    capture_output=True)
     ref = zarr.open_consolidated(str(whole))

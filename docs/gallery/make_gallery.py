@@ -33,7 +33,7 @@ def _run(cmd: list[str], cwd: Path) -> None:
 
 def default(work: Path, out: Path, hours: float) -> list[Path]:
     from siku_io.analysis.gridded_fields import grid_output
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
     from siku_io.output.netcdf import write_netcdf
     from siku_io.plot.element_maps import draw_map
     from siku_io.plot.grid_maps import draw_grid_map

@@ -55,7 +55,7 @@ def run(scene=HERE / "waves_ice.toml", duration=None, exchange_every=0.5, alpha=
     holding per exchange the time [s] and the ice velocities along the flume [m/s]."""
     from siku_core.geometry.quat import latlon_of
     from siku_io.coupling.bmi import SikuBmi
-    from siku_io.output.element_geometry import east_north
+    from siku_core.geometry.element_geometry import east_north
 
     ice = SikuBmi()
     ice.initialize(str(scene))

@@ -42,8 +42,8 @@ def strip_in_waves(strength: float = STRENGTH, duration: float = T_R, n: int = N
                    dt: float = DT, ramp: float = T_R):
     """The strip of the module docstring as a ``Simulation`` (``n`` elements, steps ``dt``
     [s], the load's ramp ``ramp`` [s])."""
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
 
     lon = n * SIDE * M_DEG / 2
     txt = f"""

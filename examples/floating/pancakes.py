@@ -39,7 +39,7 @@ def rogers(f: float) -> float:
 
 def meylan(f: float) -> float:
     """``k_i`` [1/m] of the ``meylan2014`` law (amplitude rate, half the energy rate)."""
-    from siku_forcing.attenuation import Meylan2014
+    from siku_forcing.waves.attenuation import Meylan2014
 
     return float(Meylan2014({}).rate(f, 0.3, math.inf))
 
@@ -72,8 +72,8 @@ def attenuation(frequency: float, coefficients: str = "auto") -> tuple[float, st
     over the cells they cover and over the last wave period of four."""
     import numpy as np
 
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "pancakes.toml"

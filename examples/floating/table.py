@@ -30,8 +30,8 @@ HERE = Path(__file__).resolve().parent
 def run(scene: str, old: str = "", new: str = ""):
     """Run a scene of this folder in memory (its text with ``old`` replaced by ``new``);
     times [s], heave [m] and the simulation."""
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
 
     path = HERE / scene
     text = path.read_text().replace(old, new) if old else path.read_text()

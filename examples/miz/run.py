@@ -69,9 +69,9 @@ def _discrete_rates(f, dt, freqs, law):
     """The rate [1/m] that the upwind transport of field ``f`` with the engine's step ``dt``
     [s] (the sub-steps the Courant limit asks) gives under full ice of rate ``law``, per
     frequency: ``-ln r cos(theta) / (2 dx)`` of its steady cell-to-cell ratio ``r``
-    (``siku_forcing.spectral_transport.steady_ratio``) for a component along ``x`` at the
+    (``siku_forcing.waves.spectral_transport.steady_ratio``) for a component along ``x`` at the
     angle theta, the energy-weighted mean over the directions, as :func:`_fit_rates` does."""
-    from siku_forcing.spectral_transport import steady_ratio
+    from siku_forcing.waves.spectral_transport import steady_ratio
 
     rate = np.max(np.abs(f.cx) / f.dx + np.abs(f.cy) / f.dy)
     sub = dt / max(1, math.ceil(dt * rate / f.p["cfl"] - 1e-12))
@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     h5 = out / f"{scene.stem}.h5"
     if not args.no_run:
-        subprocess.run([sys.executable, "-m", "siku_core.cli", "run", str(scene), "--out",
+        subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run", str(scene), "--out",
                         str(h5), "--overwrite", "--no-progress"], check=True)
     import h5py
     import matplotlib
@@ -109,10 +109,10 @@ def main(argv: list[str] | None = None) -> None:
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import LogNorm
 
-    from siku_core.scene import load_scene
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
     from siku_io.analysis.fsd import distribution, floe_areas, floe_labels
-    from siku_io.output.element_geometry import polygons_lonlat
+    from siku_core.geometry.element_geometry import polygons_lonlat
 
     sim = Simulation(load_scene(scene), out=False, progress=False)
     f = sim.forcing[0].field

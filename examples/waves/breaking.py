@@ -2,7 +2,7 @@
 
 A strip of ice (1 m thick, 200 m long, 2 m elements frozen together) lies along the path of
 monochromatic deep-water waves (period 8 s, wavelength 100 m). With ``[[forcing]] source =
-"waves"`` and ``breaking = true`` (``siku_forcing.wave_breaking``) joints break where the
+"waves"`` and ``breaking = true`` (``siku_forcing.waves.wave_breaking``) joints break where the
 flexural strain the strip would carry exceeds the critical strain (3e-5); each check breaks the
 most strained joint of every floe and judges the pieces again. The checks run at 32 phases of one
 wave period with the ice held still (only the breaking acts), which is the quasi-static situation
@@ -36,7 +36,7 @@ def critical_length(a, period=8.0, E=1e9, h=1.0, eps=3e-5):
 def strip(L, D, a, period=8.0, E=1e9, eps=3e-5, phases=32):
     """Break a strip of ``L / D`` square elements of side ``D`` [m] with waves of amplitude
     ``a`` [m]: returns the run's contact model and the fragment lengths [m]."""
-    from siku_core.simulation import Simulation
+    from siku_core.run.simulation import Simulation
     from siku_core.testing import make_scene
 
     dlon, dlat = math.degrees(L / R), math.degrees(D / R)

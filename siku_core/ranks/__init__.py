@@ -3,7 +3,7 @@ rank (``docs/explanation/scaling_out.md``).
 
 Nothing here imports ``mpi4py`` until a run asks for ranks (:func:`launched_ranks` reads the
 launcher's environment only): without it, or on one rank, a run is the plain
-:class:`~siku_core.simulation.Simulation`. :mod:`.decompose` splits the elements by recursive
+:class:`~siku_core.run.simulation.Simulation`. :mod:`.decompose` splits the elements by recursive
 coordinate bisection, :mod:`.ghosts` finds the elements each rank must see, :mod:`.local`
 builds a rank's engine over them, :mod:`.driver` steps it and exchanges, :mod:`.comm` wraps
 MPI.

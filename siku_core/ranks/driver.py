@@ -1,6 +1,6 @@
 """The run of one scene on many ranks, bit for bit the run on one.
 
-Every rank builds the run (:class:`~siku_core.simulation.Simulation`, the *run* here: the
+Every rank builds the run (:class:`~siku_core.run.simulation.Simulation`, the *run* here: the
 scene, its elements, joints and components, as one rank would). At a *redistribution* every
 rank holds the whole current state; the elements are split among the ranks
 (:mod:`.decompose`), each rank finds its ghosts (:mod:`.ghosts`) and builds its engine over
@@ -42,9 +42,9 @@ from .. import parallel
 from ..categories import ice_per_area
 from ..errors import SceneError, SikuError
 from ..geometry.quat import centers
-from ..guard import RECHECK_JOINTS, integrated_fields
+from ..run.guard import RECHECK_JOINTS, integrated_fields
 from ..state import MELTED
-from ..progress import clock
+from ..run.progress import clock
 from .comm import Comm
 from .decompose import Cuts, bisect, imbalance
 from .ghosts import exchange_plan, local_sets, reach_pairs
@@ -191,7 +191,7 @@ class RankRun:
 
     def _ghost_dmob_from_run(self) -> np.ndarray:
         """The ghosts' damper bounds from the run's joint table (current at a redistribution)."""
-        from ..damping import contact_mobility
+        from ..contact.damping import contact_mobility
 
         full = contact_mobility(self.sim.contacts)
         return full[self.ids[self.ghost_rows]]

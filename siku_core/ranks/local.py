@@ -3,14 +3,16 @@
 Local arrays keep the elements in ascending global index, and the joints in the order of the
 run's joint table, so every element's contacts come in the same order as on one rank: the
 engine sums an element's forcing, then its joints by ascending joint index, then its candidate
-pairs by ascending pair key (``siku_core.contacts.gather_forces``), and restricting those lists
+pairs by ascending pair key (``siku_core.contact.contact_forces.gather_forces``), and restricting
+those lists
 to a subset of elements keeps their order. An owned element has all its contacts here (its
 partners are ghosts, ``siku_core.ranks.ghosts``), so its force is the one-rank force bit for
 bit.
 
 What is not a function of the local elements alone is taken from the run: the skin (a mean
 over every element), the joints' rest lengths and state, and the dampers' bound of a ghost
-(its count of intact joints, ``siku_core.damping.mobility``), which its owner sends every step.
+(its count of intact joints, ``siku_core.contact.damping.mobility``), which its owner sends every
+step.
 
 The ice that processes change (thickness, mass, inertia, flags, thickness categories) and the
 per-element fields components own come with the elements: a rank's engine has its own ice book
@@ -27,11 +29,11 @@ from typing import Any
 import numpy as np
 
 from ..categories import Categories
-from ..contact_model import ContactModel
-from ..contacts_view import ContactsView
+from ..contact.contact_model import ContactModel
+from ..contact.contacts_view import ContactsView
 from ..context import Context
 from ..errors import PluginError
-from ..damping import contact_mobility
+from ..contact.damping import contact_mobility
 from ..ice import IceBook
 from ..state import MELTED, ElementState
 
@@ -123,7 +125,8 @@ class RankContacts(ContactModel):
 
 
 class RankContactsView(ContactsView):
-    """The contacts a component sees on a rank (:class:`~siku_core.contacts_view.ContactsView`
+    """The contacts a component sees on a rank
+    (:class:`~siku_core.contact.contacts_view.ContactsView`
     of the rank's engine): its joints and candidate pairs are those of the elements the rank
     holds, in local indices (ascending global ones). A joint or pair with an element the rank
     owns is there with every contact of that element, as on one rank.

@@ -148,9 +148,9 @@ def conformance_scene_kwargs() -> dict[str, Any]:
 def build_forcing(
     case: ForcingCase, registry: Registry | None = None
 ) -> tuple[Any, ForcingSource]:
-    """A :class:`~siku_core.simulation.Simulation` (no output) on the conformance elements with
+    """A :class:`~siku_core.run.simulation.Simulation` (no output) on the conformance elements with
     the case's source as its only forcing, and that source (set up)."""
-    from ..simulation import Simulation
+    from ..run.simulation import Simulation
 
     if case.missing:
         raise ValueError(f"{case.id}: give values for the required parameters {case.missing}")
@@ -324,7 +324,7 @@ def check_field_finite(
 ) -> None:
     """A field's ``sample`` gives finite ``(u, v)`` [m/s], one value per point, at the poles,
     on the antimeridian and elsewhere, at several times."""
-    from ..simulation import Simulation
+    from ..run.simulation import Simulation
 
     reg = registry or get_registry()
     cls = reg.get("field", name)

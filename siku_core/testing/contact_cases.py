@@ -57,7 +57,7 @@ from ..contact_law import (
 )
 from ..geometry.quat import centers, qmatrix, qmul
 from ..plugins import Registry, get_registry
-from ..scene import Scene, scene_from_text
+from ..scene.scene_file import Scene, scene_from_text
 from .scenes import EARTH_RADIUS, toml_key, scene_text, toml_value
 
 # ---------------------------------------------------------------------------------------------
@@ -126,7 +126,7 @@ def contact_scene_text(
 
 
 def contact_scene(*args: Any, label: str = "<contact test scene>", **kwargs: Any) -> Scene:
-    """The validated :class:`~siku_core.scene.Scene` of :func:`contact_scene_text`."""
+    """The validated :class:`~siku_core.scene.scene_file.Scene` of :func:`contact_scene_text`."""
     return scene_from_text(contact_scene_text(*args, **kwargs), label)
 
 
@@ -191,9 +191,9 @@ def law_registry(law_cls: type, registry: Registry | None = None) -> Registry:
 
 
 def law_simulation(law_cls: type, params: Mapping[str, Any] | None = None, **scene_kwargs: Any):
-    """A :class:`~siku_core.simulation.Simulation` (no output) of a
+    """A :class:`~siku_core.run.simulation.Simulation` (no output) of a
     :func:`contact_scene_text` scene with ``law_cls``."""
-    from ..simulation import Simulation
+    from ..run.simulation import Simulation
 
     scene = contact_scene(law_cls.name, params, label=f"<conformance {law_cls.name}>",
                           **scene_kwargs)
@@ -353,7 +353,8 @@ def random_collision_geometry(rng: np.random.Generator) -> np.ndarray:
     g[G_VX], g[G_VY] = rng.normal(0.0, 0.5, 2)
     g[G_AREA_I], g[G_AREA_J] = rng.uniform(1e4, 1e7, 2)
     g[G_HI], g[G_HJ] = rng.uniform(0.1, 5.0, 2)
-    # the step over the damping mass (siku_core.damping): none, or dt / (phi m_d) of a step of
+    # the step over the damping mass (siku_core.contact.damping): none, or dt / (phi m_d) of a step
+    # of
     # 1 ms to 10 s with m_d a share 1/100 to 1 of the reduced mass
     g[G_DTM] = rng.choice([0.0, rng.uniform(1e-3, 10.0) * rng.uniform(1.0, 100.0) / g[G_MEFF]])
     return g

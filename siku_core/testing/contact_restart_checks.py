@@ -28,7 +28,7 @@ _PULL = ((-0.02, 0.01), (0.02, -0.01))
 def _run(law_cls: type, params: Mapping[str, Any] | None, kwargs: dict[str, Any],
          velocities: tuple, dt: float, steps: int, out: Path | bool,
          restart: Path | None = None, run_steps: int | None = None) -> Any:
-    from ..simulation import Simulation
+    from ..run.simulation import Simulation
 
     scene = contact_scene(law_cls.name, params, label=f"<conformance {law_cls.name}>", dt=dt,
                           steps=2 * steps, output={"every": steps * dt}, **kwargs)

@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import SceneError
 from ..interfaces import ElementSpec
 from ..plugins import Registry, get_registry
-from ..scene import scene_from_text
+from ..scene.scene_file import scene_from_text
 from ..state import FLAG_NAMES
 from .contact_cases import registry_with
 from .scenes import toml_value
@@ -79,7 +79,7 @@ def _scene(name: str, params: Mapping[str, Any] | None, extra: str = ""):
 
 def _build(name: str, params: Mapping[str, Any] | None, registry: Registry | None,
            extra: str = "") -> tuple[list, Any]:
-    from ..elements import scene_sources
+    from ..run.elements import scene_sources
 
     scene = _scene(name, params, extra)
     reg = registry or get_registry()
@@ -123,7 +123,7 @@ def _flat(made: list) -> list:
 
 def check_element_source_reproducible(name: str, params: Mapping[str, Any] | None = None,
                                       registry: Registry | None = None) -> None:
-    from ..elements import scene_sources
+    from ..run.elements import scene_sources
 
     scene = _scene(name, params)
     reg = registry or get_registry()
@@ -139,7 +139,7 @@ def check_element_source_reproducible(name: str, params: Mapping[str, Any] | Non
 
 def check_element_source_engine(name: str, params: Mapping[str, Any] | None = None,
                                 registry: Registry | None = None) -> None:
-    from ..elements import build_elements
+    from ..run.elements import build_elements
 
     made, scene = _build(name, params, registry)
     try:

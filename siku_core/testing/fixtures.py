@@ -44,7 +44,7 @@ from .scenes import scene_text
 
 
 def _scene_factory(folder: Callable[[], Path]) -> Callable[..., Any]:
-    from ..scene import load_scene, scene_from_text
+    from ..scene.scene_file import load_scene, scene_from_text
 
     def factory(*args: Any, file: bool | str = False, **kwargs: Any):
         text = scene_text(*args, **kwargs)
@@ -58,8 +58,8 @@ def _scene_factory(folder: Callable[[], Path]) -> Callable[..., Any]:
 
 
 def _simulation_factory(scenes: Callable[..., Any]) -> Callable[..., Any]:
-    from ..scene import Scene, load_scene, scene_from_text
-    from ..simulation import Simulation
+    from ..scene.scene_file import Scene, load_scene, scene_from_text
+    from ..run.simulation import Simulation
 
     def factory(scene: Any = None, **kwargs: Any):
         sim_kw = {k: kwargs.pop(k) for k in ("restart", "registry") if k in kwargs}
@@ -82,7 +82,8 @@ def siku_scene_factory(tmp_path: Path) -> Callable[..., Any]:
 
 @pytest.fixture
 def siku_simulation_factory(siku_scene_factory: Callable[..., Any]) -> Callable[..., Any]:
-    """Build a :class:`~siku_core.simulation.Simulation` that writes nothing and shows no bar."""
+    """Build a :class:`~siku_core.run.simulation.Simulation` that writes nothing and shows no
+    bar."""
     return _simulation_factory(siku_scene_factory)
 
 

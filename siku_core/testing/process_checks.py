@@ -42,7 +42,7 @@ import numpy as np
 
 from ..categories import element_volume
 from ..plugins import Registry
-from ..scene import scene_from_text
+from ..scene.scene_file import scene_from_text
 from ..state import MELTED
 from .contact_cases import registry_with, square_pack
 from .scenes import scene_text, toml_value
@@ -85,8 +85,8 @@ def process_scene_text(name: str, params: Mapping[str, Any] | None = None,
 
 def process_simulation(cls: type, params: Mapping[str, Any] | None = None, *,
                        out: Path | None = None, restart: Path | None = None, **kwargs: Any):
-    """A :class:`~siku_core.simulation.Simulation` of the conformance scene with ``cls``."""
-    from ..simulation import Simulation
+    """A :class:`~siku_core.run.simulation.Simulation` of the conformance scene with ``cls``."""
+    from ..run.simulation import Simulation
 
     text = process_scene_text(cls.name, params, out=None if out is None else str(out), **kwargs)
     scene = scene_from_text(text, f"<process conformance {cls.name}>")

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..scene import scene_from_text
+from ..scene.scene_file import scene_from_text
 from .contact_cases import contact_scene_text, square_pack
 
 SPRING = {"tensile_strain": 2e-4, "damage_onset": 0.3}
@@ -120,7 +120,7 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
 
 def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
     """Run case ``name`` (on the launched ranks if ``ranks``); its record on rank 0."""
-    from ..simulation import Simulation
+    from ..run.simulation import Simulation
 
     text, opts = CASES[name]
     sim = Simulation(scene_from_text(text, f"<ranks case {name}>"), out=False,

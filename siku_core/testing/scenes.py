@@ -12,7 +12,8 @@
     )
 
 :func:`scene_text` returns the TOML text (what a user would write), :func:`make_scene` the
-validated :class:`~siku_core.scene.Scene`. Only the standard library, numpy and the scene loader
+validated :class:`~siku_core.scene.scene_file.Scene`. Only the standard library, numpy and the scene
+loader
 are used: no plugin is imported.
 """
 from __future__ import annotations
@@ -26,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..scene import Scene, scene_from_text
+from ..scene.scene_file import Scene, scene_from_text
 
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -167,7 +168,8 @@ def scene_text(
 
 
 def make_scene(*args: Any, label: str = "<test scene>", **kwargs: Any) -> Scene:
-    """The validated :class:`~siku_core.scene.Scene` of :func:`scene_text` (same arguments)."""
+    """The validated :class:`~siku_core.scene.scene_file.Scene` of :func:`scene_text` (same
+    arguments)."""
     return scene_from_text(scene_text(*args, **kwargs), label)
 
 

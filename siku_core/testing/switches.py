@@ -1,5 +1,6 @@
 """Switches of the contact phase for tests and benchmarks only: module-level settings, read by
-:class:`~siku_core.contact_model.ContactModel` where it uses them (set them before building a
+:class:`~siku_core.contact.contact_model.ContactModel` where it uses them (set them before building
+a
 run, or before the evaluation they should change; ``monkeypatch.setattr(switches, ...)`` in
 tests). A production run never changes them."""
 from __future__ import annotations

@@ -13,7 +13,7 @@ forcing; 10 steps of 60 s, a snapshot every 2 steps: 6 snapshots) through the en
 writer as ``[output] writer`` and raises ``AssertionError`` saying what failed:
 
 * :func:`check_writer_publish`: the file is built elsewhere and appears at its path only with
-  its first snapshot, and nothing is left beside it after the run (``siku_core.outputs``:
+  its first snapshot, and nothing is left beside it after the run (``siku_core.run.outputs``:
   ``partial_path``, ``publish``); a run stopped before its first snapshot leaves nothing, and
   an old file given to ``overwrite`` stays byte for byte what it was;
 * :func:`check_writer_owns`: :meth:`~siku_core.interfaces.Writer.owns` claims the writer's own
@@ -48,7 +48,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..plugins import Registry, get_registry
-from ..scene import scene_from_text
+from ..scene.scene_file import scene_from_text
 from .contact_cases import registry_with
 from .scenes import scene_text
 
@@ -135,7 +135,7 @@ def _spy(cls: type, log: list, stop_first: bool = False) -> type:
 def _simulation(cls: type, out: Path, registry: Registry | None = None, *,
                 steps: int = STEPS, restart: Path | None = None, overwrite: bool = False,
                 params: dict | None = None) -> Any:
-    from ..simulation import Simulation
+    from ..run.simulation import Simulation
 
     scene = scene_from_text(writer_scene_text(cls.name, steps, params),
                             f"<writer conformance {cls.name}>")
@@ -173,7 +173,7 @@ def check_writer_publish(name: str, tmp_path: Path, registry: Registry | None = 
     writes = [e for e in log if e[0] == "write"]
     assert opened and opened[0][2] is None, (
         f"writer '{name}': {target.name} exists as soon as the writer opened it, before any "
-        "snapshot: build the file at siku_core.outputs.partial_path(path) and publish it "
+        "snapshot: build the file at siku_core.run.outputs.partial_path(path) and publish it "
         "with its first snapshot")
     assert writes and writes[0][3] is not None, (
         f"writer '{name}': nothing at {target.name} after the first snapshot")

@@ -8,7 +8,7 @@ from siku_core import hookimpl
 
 def _grid_cfg(args):
     """The grid of ``siku grid``: the command line's, else the output's ``[output.grid]``."""
-    from siku_io.analysis.regular_grid import GridCfg, grid_error
+    from siku_forcing.gridded.regular_grid import GridCfg, grid_error
 
     given = {k: getattr(args, k) for k in ("kind", "lon", "lat", "x", "y", "resolution",
                                            "every", "hemisphere", "central_longitude",
@@ -20,7 +20,7 @@ def _grid_cfg(args):
         given["leads"] = False
     base = {}
     if not {"lon", "lat", "x", "y"} & set(given):
-        from siku_io.analysis.regular_grid import scene_grid
+        from siku_forcing.gridded.regular_grid import scene_grid
 
         from siku_io.output.results import damaged
 
@@ -47,7 +47,7 @@ def _cmd_grid(args) -> int:
     cfg = _grid_cfg(args)
     out = Path(args.out) if args.out else Path(args.output).with_suffix(".grid.nc")
     inputs = [("the gridded output file", Path(args.output))]
-    from siku_io.analysis.regular_grid import Grid
+    from siku_forcing.gridded.regular_grid import Grid
     from siku_io.output.marks import writable
     from siku_io.output.results import damaged, require_snapshot
 
@@ -145,7 +145,7 @@ def siku_configured(scene):
     table = scene.cfg.output.grid
     if table is not None:
         from siku_core.errors import SceneError
-        from siku_io.analysis.regular_grid import GridCfg, grid_error
+        from siku_forcing.gridded.regular_grid import GridCfg, grid_error
 
         try:
             GridCfg(**table)
@@ -162,7 +162,7 @@ def siku_postprocess(path, scene, overwrite):
     from pathlib import Path
 
     from siku_io.analysis.gridded_fields import grid_output
-    from siku_io.analysis.regular_grid import GridCfg
+    from siku_forcing.gridded.regular_grid import GridCfg
     from siku_io.output.netcdf import write_netcdf
 
     cfg = GridCfg(**table)
@@ -170,7 +170,7 @@ def siku_postprocess(path, scene, overwrite):
     target = Path(cfg.file) if cfg.file else path.with_suffix(".grid.nc")
     if not target.is_absolute():
         target = path.parent / target
-    from siku_core.outputs import input_paths
+    from siku_core.run.outputs import input_paths
     from siku_io.output.marks import writable
 
     if target.exists() and not overwrite:

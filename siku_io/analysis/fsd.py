@@ -280,8 +280,8 @@ def joint_table(path) -> tuple[np.ndarray, np.ndarray]:
     stores is built again (without running or writing) and its contact model's joints taken."""
     from pathlib import Path
 
-    from siku_core.scene import scene_from_text
-    from siku_core.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.run.simulation import Simulation
     from siku_io.output.results import open_results
 
     with open_results(path) as f:
@@ -336,7 +336,7 @@ def output_floes(path, calipers: bool = True):
 
 def _node_lonlat(q, off, verts, radius):
     """Vertex longitudes and latitudes [deg] of the elements at orientation ``q``."""
-    from siku_io.output.element_geometry import polygons_lonlat
+    from siku_core.geometry.element_geometry import polygons_lonlat
 
     ll = np.concatenate(polygons_lonlat(q, off, verts, radius))
     return ll[:, 0], ll[:, 1]

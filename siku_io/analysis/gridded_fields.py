@@ -1,7 +1,8 @@
 """Element results on a regular grid (``siku grid``, ``[output.grid]``): concentration,
 thickness, velocity, strain rates, stress and broken joints per cell, as a CF-NetCDF dataset.
 
-Per cell, at each gridded time (``siku_io.analysis.regular_grid`` gives the overlap ``fraction`` of
+Per cell, at each gridded time (``siku_forcing.gridded.regular_grid`` gives the overlap ``fraction``
+of
 each element with each cell and the cell's true area ``A_c``):
 
 * ``concentration`` = sum of ``fraction × area`` over the elements / ``A_c`` [1] (CF
@@ -22,7 +23,8 @@ each element with each cell and the cell's true area ``A_c``):
   shear²)``. A cell with fewer than ``min_elements`` centres, or whose hull covers less than
   ``min_hull`` of it, gets NaN. Positions are in the grid's plane: projected metres on a polar
   stereographic grid (as RGPS), the equirectangular plane about the cell centre on a lonlat one;
-* stress [N/m]: the area-weighted mean of the element stresses (``siku_core.stress``) in grid
+* stress [N/m]: the area-weighted mean of the element stresses (``siku_core.contact.stress``) in
+  grid
   components ``stress_xx``, ``stress_yy``, ``stress_xy``, principal stresses ``stress_1 >=
   stress_2``, ``stress_I = (s1 + s2)/2`` (mean normal stress) and ``stress_II = (s1 - s2)/2``
   (maximum shear stress); NaN where a cell holds no ice;
@@ -49,9 +51,9 @@ import numpy as np
 from siku_core import DataError
 from siku_core.categories import Categories, ice_per_area
 from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
-from siku_core.stress import principal
+from siku_core.contact.stress import principal
 from siku_io.analysis import fsd
-from siku_io.analysis.regular_grid import Grid, GridCfg
+from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
 #: gridded fields: name -> (units, standard name or "", long name)
 GRID_FIELDS: dict[str, tuple[str, str, str]] = {
@@ -143,7 +145,7 @@ def snapshot_of(sim) -> Snapshot:
     """The :class:`Snapshot` of a running simulation's current state (its stress: that of the
     last force evaluation)."""
     from siku_core.geometry.quat import latlon_of
-    from siku_io.output.element_geometry import east_north, polygons_lonlat
+    from siku_core.geometry.element_geometry import east_north, polygons_lonlat
 
     st = sim.state
     lat, lon = latlon_of(st.q)
@@ -326,7 +328,7 @@ def snapshot_seconds(ds) -> np.ndarray:
 def grid_output(path, cfg: GridCfg, progress: bool = False):
     """The gridded dataset (``xarray.Dataset``, CF) of an output file at every snapshot (or
     every ``cfg.every``), with its leads (``siku_io.analysis.leads``)."""
-    from siku_core.units import parse_duration
+    from siku_core.scene.units import parse_duration
     from siku_io.output.xr import open_output
 
     ds = open_output(path)
@@ -456,13 +458,13 @@ GRID_FSD = {
 
 
 def grid_distribution(path, cfg):
-    """Floe sizes per cell of the regular grid ``cfg`` (``siku_io.analysis.regular_grid``,
+    """Floe sizes per cell of the regular grid ``cfg`` (``siku_forcing.gridded.regular_grid``,
     the same overlap of elements and cells as ``siku grid``) at every snapshot of output file
     ``path``: :data:`GRID_FSD` as an ``xarray.Dataset`` along ``time`` and the grid's two
     dimensions."""
     import xarray as xr
 
-    from siku_io.analysis.regular_grid import Grid
+    from siku_forcing.gridded.regular_grid import Grid
     from siku_io.output.xr import open_output
 
     fl = fsd.output_floes(path)

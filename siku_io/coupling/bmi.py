@@ -2,7 +2,8 @@
 
 ``initialize(scene.toml)`` builds the run of a scene that has ``[coupling.grid]`` (the exchange
 grid) and ``[[forcing]] source = "exchange"`` (the forces of the fields another model sets); see
-``siku_io.coupling.exchange`` for what flows each way. Time is in seconds from the scene's start;
+``siku_forcing.gridded.exchange`` for what flows each way. Time is in seconds from the scene's
+start;
 one ``update`` is one time step. Every variable lives on grid 0, the exchange grid: a
 ``uniform_rectilinear`` grid of ``(ny, nx)`` nodes at the cell centres (spacing and origin in
 degrees on a ``lonlat`` grid, projected metres on a ``polar_stereographic`` one), values flattened
@@ -35,11 +36,11 @@ from bmipy import Bmi
 
 from siku_core.errors import InputError
 
-from .exchange import INPUT_BOUNDS
-from .exchange import INPUTS as EXCHANGE_INPUTS
+from siku_forcing.gridded.exchange import INPUT_BOUNDS
+from siku_forcing.gridded.exchange import INPUTS as EXCHANGE_INPUTS
 
 #: BMI standard name -> the ``exchange`` forcing source's input field (its units and meaning
-#: are those of ``siku_io.coupling.exchange.INPUTS``, the one table of the exchange inputs)
+#: are those of ``siku_forcing.gridded.exchange.INPUTS``, the one table of the exchange inputs)
 _INPUT_FIELDS = {
     "sea_water_surface__elevation": "eta",
     "sea_water_flowing__x_component_of_velocity": "water_u",
@@ -51,7 +52,7 @@ _INPUT_FIELDS = {
     "sea_ice_bottom_surface__dynamic_pressure": "pressure",
 }
 #: name -> (exchange key, units, "in"/"out", description). Input keys are fields of the
-#: ``exchange`` forcing source; output keys those of ``siku_io.coupling.exchange.ice_fields``
+#: ``exchange`` forcing source; output keys those of ``siku_forcing.gridded.exchange.ice_fields``
 #: (plus the per-cell force the ice received).
 VARIABLES: dict[str, tuple[str, str, str, str]] = {
     **{name: (key, EXCHANGE_INPUTS[key][0], "in", EXCHANGE_INPUTS[key][1])
@@ -106,8 +107,8 @@ class SikuBmi(Bmi):
     # ------------------------------------------------------------------ control
     def initialize(self, config_file: str | None = None) -> None:
         from siku_core import SceneError, load_scene
-        from siku_core.simulation import Simulation
-        from siku_io.coupling.exchange import Exchange, coupling_grid, grid_velocity
+        from siku_core.run.simulation import Simulation
+        from siku_forcing.gridded.exchange import Exchange, coupling_grid, grid_velocity
 
         if self.sim is not None:
             raise RuntimeError("SikuBmi: the model is already initialized; call finalize() "
@@ -162,7 +163,7 @@ class SikuBmi(Bmi):
         self._advance(max(0, min(n, sim.n_steps - sim.step_index)))
 
     def _advance(self, n: int) -> None:
-        from siku_io.coupling.exchange import grid_velocity
+        from siku_forcing.gridded.exchange import grid_velocity
 
         sim = self.sim
         if n <= 0:
@@ -264,7 +265,7 @@ class SikuBmi(Bmi):
 
     # ------------------------------------------------------------------ values
     def _outputs(self) -> dict[str, np.ndarray]:
-        from siku_io.coupling.exchange import ice_fields
+        from siku_forcing.gridded.exchange import ice_fields
 
         sim = self._run()
         if self._out_step != sim.step_index:

@@ -1,7 +1,8 @@
 """The ``spectral`` wave field behind the Basic Model Interface (``siku_io.coupling.bmi``):
 another model sets the incident spectrum and reads what the ice does to the waves per cell.
 
-In a scene whose ``waves`` forcing takes the field ``spectral`` (``siku_forcing.spectral``) the
+In a scene whose ``waves`` forcing takes the field ``spectral`` (``siku_forcing.waves.spectral``)
+the
 BMI has two more grids. Grid 1 is the field's own grid: ``uniform_rectilinear``, ``(ny, nx)``
 nodes at the cell centres, spacing and origin in metres east (``x``) and north (``y``) of the
 field's ``origin``, values row by row (``y`` slowest). Grid 2 holds the components of the sea:
@@ -14,7 +15,7 @@ sub-step on (the sea already on the grid is left as it is). Outputs: the compone
 energy attenuation rate of the incident sea ``sum_j 2 k_i,j C E_j / sum_j E_j`` [m-1] (``k_i``
 of the scene's attenuation law, ``C`` the cell's ice concentration; with no incident energy the
 mean over the components), the wave power the ice absorbs [W m-2] and the significant wave
-height [m] (those of ``siku_forcing.spectral``).
+height [m] (those of ``siku_forcing.waves.spectral``).
 """
 from __future__ import annotations
 
@@ -44,7 +45,7 @@ WAVE_VARIABLES: dict[str, tuple[str, str, str, str, int]] = {
 
 def spectral_field(sim):
     """The ``spectral`` wave field of a simulation's forcing, or None."""
-    from siku_forcing.spectral import Spectral
+    from siku_forcing.waves.spectral import Spectral
 
     for f in sim.forcing:
         if isinstance(f.field, Spectral):

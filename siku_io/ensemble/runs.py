@@ -40,7 +40,7 @@ from typing import Any, Mapping
 
 from siku_core import __version__
 from siku_core.errors import DataError, SceneError, SikuError
-from siku_core.outputs import check_target
+from siku_core.run.outputs import check_target
 from siku_io.ensemble.summary import summarize, write_summary
 from siku_io.ensemble.sweep import Member, Sweep, load_sweep, sweep_from_text
 
@@ -57,8 +57,8 @@ def run_member(scene_path: str, overrides: dict[str, str], output: str, restart:
     try:
         import numba
 
-        from siku_core.scene import load_scene
-        from siku_core.simulation import Simulation
+        from siku_core.scene.scene_file import load_scene
+        from siku_core.run.simulation import Simulation
 
         if threads is not None:
             before = numba.get_num_threads()
@@ -86,7 +86,7 @@ def run_member(scene_path: str, overrides: dict[str, str], output: str, restart:
 def plan(sweep: Sweep) -> dict[str, dict[str, Any]]:
     """What each member needs, by name: ``{"action": "run" | "restart" | "reuse" | "fail",
     "message": ...}``, from its scene (validated, components checked) and its output file."""
-    from siku_core.limits import check_components
+    from siku_core.run.limits import check_components
     from siku_io.output.results import run_progress
 
     out: dict[str, dict[str, Any]] = {}

@@ -70,15 +70,10 @@ import numpy as np
 from pydantic import ValidationError
 
 from siku_core.errors import SceneError
-from siku_core.scene import (
-    Scene,
-    SceneCfg,
-    apply_overrides,
-    override_value,
-    read_input_text,
-    scene_from_text,
+from siku_core.scene.scene_file import (
+    Scene, SceneCfg, apply_overrides, override_value, read_input_text, scene_from_text,
 )
-from siku_core.scene_messages import allowed_keys, explain_validation_error
+from siku_core.scene.scene_messages import allowed_keys, explain_validation_error
 from siku_io.ensemble.sweep_cfg import DERIVED, RESERVED, SweepCfg
 
 
@@ -333,7 +328,7 @@ def sweep_from_text(text: str, label: str = "<sweep>", base_dir: Path | None = N
     the working directory); errors name ``label`` and the key. ``out_dir`` overrides the
     file's."""
     base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
-    from siku_core.scene import parse_toml
+    from siku_core.scene.scene_file import parse_toml
 
     data = parse_toml(text, label)
     try:

@@ -6,7 +6,7 @@ import warnings
 from pathlib import Path
 
 from siku_core.errors import DataError
-from siku_core.kernel_cache import user_cache_dir
+from siku_core.contact.kernel_cache import user_cache_dir
 
 from .build import build_mesh
 from .contours import read_contour
@@ -18,7 +18,7 @@ from .params import MeshParams
 def load_or_build(params: MeshParams, path: str | Path | None, **build_kw) -> tuple[Mesh, bool]:
     """The mesh of ``params``: loaded from ``path`` when it holds the same parameter hash,
     else built (and saved to ``path``). Returns ``(mesh, built)``."""
-    from siku_core.outputs import check_target, is_disk_full
+    from siku_core.run.outputs import check_target, is_disk_full
     from siku_io.output.marks import is_mesh_cache
 
     digest = params.digest()
@@ -64,12 +64,14 @@ def shipped(path: str | Path) -> bool:
 
 def mesh_for_scene(scene, mc=None, where: str | None = None) -> tuple[Mesh, bool]:
     """The mesh of a scene's ``[elements.mesh]`` table (or of the table ``mc``, a
-    :class:`~siku_core.scene.MeshCfg`, named ``where``), from its cache file when unchanged.
+    :class:`~siku_core.scene.scene_file.MeshCfg`, named ``where``), from its cache file when
+    unchanged.
 
     The cache is ``mesh_file`` (relative to the scene's folder), by default
     ``<scene name>.mesh.npz`` beside the scene file; a scene without a file (built from text)
     and no ``mesh_file`` is not cached. A scene shipped inside siku's packages (the default
-    scene) keeps its mesh in the user cache (``siku_core.kernel_cache.user_cache_dir``), named
+    scene) keeps its mesh in the user cache (``siku_core.contact.kernel_cache.user_cache_dir``),
+    named
     by the parameters' hash, never in the installed package. Errors become
     :class:`~siku_core.errors.SceneError` naming the table.
     """
@@ -128,10 +130,10 @@ def mesh_for_scene(scene, mc=None, where: str | None = None) -> tuple[Mesh, bool
 
 def small_cells(mesh: Mesh) -> str:
     """What the mesh's smallest free (ice) cells cost in step
-    (:func:`siku_core.cells.small_cell_report`), and what ``min_area_share`` did."""
+    (:func:`siku_core.scene.cells.small_cell_report`), and what ``min_area_share`` did."""
     import numpy as np
 
-    from siku_core.cells import small_cell_report
+    from siku_core.scene.cells import small_cell_report
     from siku_core.state import FREE, STATIC
 
     from .mesh_file import ICE

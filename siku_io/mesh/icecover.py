@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import DataError
-from siku_forcing.cf import find_coordinate
+from siku_forcing.gridded.cf import find_coordinate
 
 
 @dataclass
@@ -56,7 +56,8 @@ class Cover:
 
 def _coord(ds, da, given: str, role: str, where: str):
     """The latitude or longitude (``role``) coordinate of ``da``: ``given``, or found by the CF
-    rules of ``siku_forcing.cf`` among the variables along dimensions of ``da`` (1-D or 2-D)."""
+    rules of ``siku_forcing.gridded.cf`` among the variables along dimensions of ``da`` (1-D or
+    2-D)."""
     if given:
         if given not in ds.variables:
             raise DataError(f"{where}: no coordinate '{given}' ({role}) in the file")

@@ -1,6 +1,6 @@
 """Relaxing the seeds of a mesh's smallest free cells (``[elements.mesh] min_area_share``).
 
-A free (ice) cell's stable step scales with its linear size (:mod:`siku_core.cells`), so the
+A free (ice) cell's stable step scales with its linear size (:mod:`siku_core.scene.cells`), so the
 smallest cells of a mesh set the step of the whole pack. With ``min_area_share = s > 0`` the
 builder moves seeds until every free cell has at least ``s`` times the median free-cell area,
 or a bounded number of rounds (:data:`ROUNDS`) is spent, or a round moves nothing:

@@ -8,7 +8,7 @@ import numpy as np
 from siku_core import hookimpl
 from siku_core.errors import SceneError
 from siku_core.interfaces import ElementSource, ElementSpec
-from siku_core.scene import MeshCfg
+from siku_core.scene.scene_file import MeshCfg
 
 
 class MeshSource(ElementSource):

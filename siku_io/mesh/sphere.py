@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from siku_core.scene import PlanetCfg
+from siku_core.scene.scene_file import PlanetCfg
 
 #: the default planet radius of a scene [m] (``[planet] radius``)
 DEFAULT_RADIUS: float = PlanetCfg.model_fields["radius"].default

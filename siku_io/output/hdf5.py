@@ -59,14 +59,7 @@ import numpy as np
 
 from siku_core import PLUGIN_API_VERSION, DataError, Param, __version__, hookimpl
 from siku_core.interfaces import Writer
-from siku_core.outputs import (
-    RunLock,
-    fsync_path,
-    is_disk_full,
-    partial_path,
-    publish,
-    settle,
-)
+from siku_core.run.outputs import RunLock, fsync_path, is_disk_full, partial_path, publish, settle
 
 from .padded import append_padded, is_padded, made_padded, new_padded
 from .results import (

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from siku_core.errors import DataError
-from siku_core.summary import RunSummary, format_summary
+from siku_core.run.summary import RunSummary, format_summary
 
 
 def summary_of_file(path: str | Path) -> RunSummary:

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Callable
 
 from siku_core.errors import DataError
-from siku_core.outputs import check_target, fsync_path, is_disk_full, partial_path, publish
+from siku_core.run.outputs import check_target, fsync_path, is_disk_full, partial_path, publish
 
 _HDF5 = b"\x89HDF\r\n\x1a\n"
 _NETCDF = (b"CDF\x01", b"CDF\x02", b"CDF\x05")
@@ -82,7 +82,7 @@ def _is_hdf5_output(path: Path) -> bool:
         with h5py.File(reader, "r", driver="fileobj") as f:
             return ours(f)
     except Exception:  # noqa: BLE001
-        from siku_core.outputs import in_use
+        from siku_core.run.outputs import in_use
 
         if not in_use(path):
             return False
@@ -320,7 +320,7 @@ def kind_test(kind: str) -> Callable[[Path], bool]:
 
 def writable(path: str | Path, kind: str, *, overwrite: bool, what: str | None = None,
              option: str = "--out", inputs=(), overwrite_option: str = "--overwrite") -> Path:
-    """:func:`siku_core.outputs.check_target` for a file of ``kind`` (a Zarr kind is a
+    """:func:`siku_core.run.outputs.check_target` for a file of ``kind`` (a Zarr kind is a
     folder)."""
     return check_target(path, what=what or f"{kind} file", ours=kind_test(kind),
                         overwrite=overwrite, option=option, inputs=inputs,

@@ -241,7 +241,7 @@ class NetCDFWriter(Writer):
     def open(self, ctx) -> None:
         import netCDF4
 
-        from siku_core.outputs import RunLock, partial_path
+        from siku_core.run.outputs import RunLock, partial_path
 
         self.target = Path(self.path)
         self.partial = partial_path(self.target)
@@ -410,7 +410,7 @@ class NetCDFWriter(Writer):
     def _define_outlines(self, ctx) -> None:
         """The CF polygon geometry of the element outlines at the first time (vertex lon/lat
         [degrees]) and, with ``outlines``, the per-snapshot vertex variables."""
-        from siku_io.output.element_geometry import polygons_lonlat
+        from siku_core.geometry.element_geometry import polygons_lonlat
 
         nc, st = self.nc, ctx.state
         v = nc.createVariable("outline", "i4", ())
@@ -436,7 +436,7 @@ class NetCDFWriter(Writer):
 
     def write_state(self, ctx) -> None:
         from siku_core.geometry.quat import latlon_of
-        from siku_io.output.element_geometry import east_north, polygons_lonlat
+        from siku_core.geometry.element_geometry import east_north, polygons_lonlat
 
         if self._last == ctx.step_index or self.nc is None:
             return
@@ -465,7 +465,7 @@ class NetCDFWriter(Writer):
         self.t += 1
         self._last = ctx.step_index
         if not self.published:
-            from siku_core.outputs import publish
+            from siku_core.run.outputs import publish
 
             publish(self.partial, self.target, replace=self.replace)
             self.published = True
@@ -474,7 +474,7 @@ class NetCDFWriter(Writer):
         """Diagnostics are not part of this layout (the HDF5 writer keeps them)."""
 
     def _fail(self, exc, ctx):
-        from siku_core.outputs import is_disk_full
+        from siku_core.run.outputs import is_disk_full
 
         why = "disk full" if is_disk_full(exc) else f"write failed ({exc})"
         self._seal()
@@ -518,7 +518,7 @@ class NetCDFWriter(Writer):
             pass
 
     def close(self, ctx) -> None:
-        from siku_core.outputs import settle
+        from siku_core.run.outputs import settle
 
         if self.nc is not None:
             self._seal()

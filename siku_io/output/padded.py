@@ -1,5 +1,5 @@
 """Ragged snapshot datasets of the HDF5 output: history arrays whose first axis (one entry
-per contact) changes length from snapshot to snapshot (``siku_core.restart.RAGGED_HISTORY``:
+per contact) changes length from snapshot to snapshot (``siku_core.run.restart.RAGGED_HISTORY``:
 the per-contact history of a law with ``contact_history_names``). A dataset ``(T, M, ...)``
 grows along ``M`` to the longest row written; shorter rows are padded with -1 (integers) or
 NaN (floats), and the component's count (``contact_count``) says how many entries are real.
@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from siku_core.restart import RAGGED_HISTORY
+from siku_core.run.restart import RAGGED_HISTORY
 
 
 def is_padded(name: str) -> bool:

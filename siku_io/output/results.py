@@ -16,8 +16,8 @@ import numpy as np
 from siku_core import DataError
 from siku_core.errors import SikuError
 from siku_core.geometry.sphere import lonlat_to_xyz
-from siku_core.outputs import in_use
-from siku_core.restart import RAGGED_HISTORY
+from siku_core.run.outputs import in_use
+from siku_core.run.restart import RAGGED_HISTORY
 
 from .open_mark import MarkedReader, clear_open_mark  # noqa: F401 - re-exported, as before
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from siku_core import DataError
 from siku_core.fields import STATE_FIELDS, field_attrs
-from siku_io.output.element_geometry import east_north, polygons_lonlat
+from siku_core.geometry.element_geometry import east_north, polygons_lonlat
 
 GROUPS = (None, "states", "diagnostics", "breaks")
 

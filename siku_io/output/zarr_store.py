@@ -16,7 +16,7 @@ How nothing is lost (``docs/explanation/outputs.md``), as the HDF5 writer:
   its first snapshot; an existing store is replaced only when the engine allows it
   (``--overwrite`` of a store this writer made, or a restart continuing it, which copies the
   complete snapshots), by exchanging the two folders' names in one call
-  (:func:`siku_core.outputs.publish`);
+  (:func:`siku_core.run.outputs.publish`);
 * every file of the store is written under a temporary name and renamed into place (Zarr's
   local store), and a snapshot is committed by writing the root ``zarr.json`` with the
   consolidated metadata of every array last: **the complete snapshots are those the root
@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from siku_core import PLUGIN_API_VERSION, DataError, Param, __version__, hookimpl
-from siku_core.outputs import RunLock, is_disk_full, partial_path
+from siku_core.run.outputs import RunLock, is_disk_full, partial_path
 
 from .hdf5 import HDF5Writer
 from .layout import GEOMETRY, dataset_attrs
@@ -263,7 +263,7 @@ class ZarrWriter(HDF5Writer):
         shutil.rmtree(self.partial, ignore_errors=True)
 
     def close(self, ctx) -> None:
-        from siku_core.outputs import settle
+        from siku_core.run.outputs import settle
 
         self._seal()
         settle(self)
@@ -302,7 +302,7 @@ def export_zarr(path, target=None, overwrite: bool = False) -> Path:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # consolidated metadata: not in the v3 spec yet
             ds.to_zarr(part, mode="w-", zarr_format=3, consolidated=True)
-        from siku_core.outputs import fsync_path, publish
+        from siku_core.run.outputs import fsync_path, publish
 
         publish(part, target, replace=overwrite)
     except DataError:

@@ -16,7 +16,7 @@ import numpy as np
 from siku_core import DataError
 from siku_core.fields import units_label
 from siku_core.state import STATIC
-from siku_io.output.element_geometry import polygons_lonlat
+from siku_core.geometry.element_geometry import polygons_lonlat
 
 
 def field_units(out: "Output", field: str) -> str:

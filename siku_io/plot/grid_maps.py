@@ -32,7 +32,7 @@ def is_grid_file(path) -> bool:
 def _open(path):
     import xarray as xr
 
-    from siku_io.analysis.regular_grid import Grid, GridCfg
+    from siku_forcing.gridded.regular_grid import Grid, GridCfg
 
     try:
         ds = xr.open_dataset(path)

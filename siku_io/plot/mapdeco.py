@@ -441,7 +441,7 @@ def select_snapshots(times, specs) -> list[int]:
     Repeats are drawn once, in the order given. :class:`~siku_core.errors.InputError` names a
     spec that selects no snapshot."""
     from siku_core.errors import InputError
-    from siku_core.units import parse_duration
+    from siku_core.scene.units import parse_duration
 
     times = np.asarray(times, float)
     n = len(times)

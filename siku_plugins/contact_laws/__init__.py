@@ -6,7 +6,8 @@ One module per law (``collision``, ``spring``, ``mohr_coulomb``, ``bonded_partic
 package registers them and offers their public names.
 
 docs/explanation/physics.md §4.3. Each law is an ``@njit`` evaluator of one contact; the engine's
-loops in :mod:`siku_core.contacts` call it (the contract, layouts of ``g`` and sign conventions are
+loops in :mod:`siku_core.contact.contact_forces` call it (the contract, layouts of ``g`` and sign
+conventions are
 in :mod:`siku_core.contact_law`: forces and couples returned act on element ``j``, in ``i``'s
 frame). Each law declares the entries of its parameter vectors once, as a
 :class:`~siku_core.contact_law.ParameterRecord`; its evaluator reads them by name through the

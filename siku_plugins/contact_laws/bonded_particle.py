@@ -7,7 +7,7 @@ import math
 from numba import njit
 
 from siku_core import Param
-from siku_core.damping import step_damper
+from siku_core.contact.damping import step_damper
 from siku_core.contact_law import (
     BREAK_SHEAR,
     BREAK_TENSION,
@@ -170,7 +170,7 @@ class BondedParticle(Collision):
     stress ``k_s |d_s|`` exceeds ``tau_crit`` breaks for good; the pair then collides.
     """
 
-    bounded_damping = True  # (siku_core.damping)
+    bounded_damping = True  # (siku_core.contact.damping)
     name = "bonded_particle"
     uses_joints = True
     history_names = ("max_sigma", "max_tau")

@@ -8,7 +8,7 @@ import math
 from numba import njit
 
 from siku_core import Param
-from siku_core.damping import step_damper
+from siku_core.contact.damping import step_damper
 from siku_core.contact_law import (
     G_AREA,
     G_AREA_I,
@@ -94,7 +94,7 @@ def collision_evaluator(g, pars, out):
 class Collision(ContactLaw):
     """Independent elements: elastic repulsion by overlap area (eqs. 9–11), no joints."""
 
-    bounded_damping = True  # its dampers go through step_damper (siku_core.damping)
+    bounded_damping = True  # its dampers go through step_damper (siku_core.contact.damping)
     name = "collision"
     params = {
         "sqrt_area": Param(False, "", "Matuttis-style force ~ sqrt(overlap area)", type=bool),

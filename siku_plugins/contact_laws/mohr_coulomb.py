@@ -7,7 +7,7 @@ import math
 from numba import njit
 
 from siku_core import Param
-from siku_core.damping import step_damper
+from siku_core.contact.damping import step_damper
 from siku_core.contact_law import (
     BREAK_COMPRESSION,
     BREAK_SHEAR,
@@ -211,7 +211,7 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
         out[OUT_BREAK] = mode  # the criterion of the segment whose failure broke the joint
         return
     # damping: share of critical for the normal stiffness (h E)_eff w / L0 on the reduced mass
-    # (bounded by the step: siku_core.damping)
+    # (bounded by the step: siku_core.contact.damping)
     c = step_damper(2.0 * pars[MC.joint_damping_ratio] * math.sqrt(h * EL * w * g[J_MEFF]),
                     g[J_DTM])
     if nfailed:
@@ -229,7 +229,7 @@ def mohr_coulomb_evaluator(g, pars, hist, out):
 class MohrCoulomb(Collision):
     """Modified Hopkins–Frankenstein / Wilchinsky–Feltham–Hopkins joints (eqs. 14–16, Table 1)."""
 
-    bounded_damping = True  # (siku_core.damping)
+    bounded_damping = True  # (siku_core.contact.damping)
     name = "mohr_coulomb"
     uses_joints = True
     params = {

@@ -53,7 +53,7 @@ def ridging_evaluator(g, pars, out):
 class Ridging(DistributedSpring):
     """Joints of distributed springs, collisions capped at the plastic limit P h w."""
 
-    bounded_damping = True  # (siku_core.damping)
+    bounded_damping = True  # (siku_core.contact.damping)
     name = "ridging"
     params = {
         **DistributedSpring.params,

@@ -33,7 +33,7 @@ from siku_core.contact_law import (
     ParameterRecord,
 )
 
-from siku_core.damping import step_damper
+from siku_core.contact.damping import step_damper
 
 from .collision import Collision
 
@@ -63,7 +63,7 @@ def spring_evaluator(g, pars, hist, out):
     (damage depends on the strain history only, never on dt).
     Damping: a share ``zeta`` of critical for ``K w`` on the reduced mass, applied to the
     relative velocity distribution along the joint like the displacement, bounded by the step
-    (:func:`~siku_core.damping.step_damper`).
+    (:func:`~siku_core.contact.damping.step_damper`).
     """
     s1x, s1y, s2x, s2y = g[J_S1X], g[J_S1Y], g[J_S2X], g[J_S2Y]
     strain = math.sqrt(max(s1x * s1x + s1y * s1y, s2x * s2x + s2y * s2y)) / g[J_L0]
@@ -108,7 +108,7 @@ def spring_energy(g, pars, hist):
 class DistributedSpring(Collision):
     """Coalesced elements: a distributed spring along each frozen joint, brittle failure."""
 
-    bounded_damping = True  # (siku_core.damping)
+    bounded_damping = True  # (siku_core.contact.damping)
     name = "distributed_spring"
     uses_joints = True
     #: the largest strain reached, and the joint's log strength factor (``joint_strength``)

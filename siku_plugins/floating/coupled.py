@@ -1,7 +1,8 @@
 """The incident wave of the ``floating`` process from a coupled wave model (``wave =
 "exchange"``): its sea surface elevation and, where it gives it, the dynamic pressure on the
 ice bottom, set through the BMI (``siku_io.coupling.bmi``: ``sea_water_surface__elevation``,
-``sea_ice_bottom_surface__dynamic_pressure``) on the exchange grid (``siku_io.coupling.exchange``).
+``sea_ice_bottom_surface__dynamic_pressure``) on the exchange grid
+(``siku_forcing.gridded.exchange``).
 
 The Froude–Krylov head on an element's bottom is ``eta_d = p / (rho_w g)``, ``p`` the cell's
 dynamic pressure (the pressure in excess of the still-water hydrostatic one at the bottom, as
@@ -13,7 +14,7 @@ area in cell ``c`` (the exchange's overlap, refreshed at every exchange)
 
     eta_e = sum_c frac_ec eta_d,c,    grad_e = sum_c frac_ec grad eta_d,c
 
-(``grad`` by ``siku_io.coupling.exchange.cell_gradient``, turned from the grid's axes to east
+(``grad`` by ``siku_forcing.gridded.exchange.cell_gradient``, turned from the grid's axes to east
 and north and then to the element's principal axes ``u, v``), so that the loads are
 
     ∫ eta_d dA = A eta_e,   ∫ u eta_d dA = J_1 (grad_e · u),   ∫ v eta_d dA = J_2 (grad_e · v)
@@ -29,7 +30,7 @@ import numpy as np
 def exchange_load(bodies, ctx, ex) -> np.ndarray:
     """``(n, 3)`` loads of the module docstring for the floating elements ``bodies``
     (``siku_plugins.floating.kernels.FloatingBodies``) from the exchange source ``ex``."""
-    from siku_io.coupling.exchange import cell_gradient
+    from siku_forcing.gridded.exchange import cell_gradient
 
     from .kernels import centres_and_frames
 

@@ -14,7 +14,7 @@ The slope along principal axis 1 is capytaine's ``Pitch`` (rotation about the y 
 slope along axis 2 its ``Roll``.
 
 Cache: one JSON file per shape in the cache folder (``hydro_cache``; by default the user cache
-``siku/hydro``, ``siku_core.kernel_cache.user_cache_dir``), named by the SHA-256 of what the
+``siku/hydro``, ``siku_core.contact.kernel_cache.user_cache_dir``), named by the SHA-256 of what the
 result depends on (vertices to 1 mm, draft and thickness to 1 µm, densities, ``g``, panel size,
 frequencies, masses and stiffnesses), marked as siku's. A file of that name that siku did not
 write is never replaced; a missing folder named by the scene is an error.
@@ -144,7 +144,7 @@ def mode_coefficients(bod, dof, M, C, rho, g, omega=None, where="capytaine"):
 
 def hydro_cache_dir(cache: str, base: Path, where: str) -> Path:
     if not cache:
-        from siku_core.kernel_cache import user_cache_dir
+        from siku_core.contact.kernel_cache import user_cache_dir
 
         d = user_cache_dir("hydro")
         d.mkdir(parents=True, exist_ok=True)

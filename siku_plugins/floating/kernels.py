@@ -500,7 +500,7 @@ def advance(nch, n_sub, dt, t0, q, bod, pts, wav, mot):
     ``bod``: :data:`FloatingBodies`; ``pts``: :data:`FloatingPoints`; ``wav``:
     :data:`FloatingWave`. The amplitudes an element feels are the row ``wav.acell[wav.cell[i]]``
     [m]: the local sea of a ``spectral`` field, ``sqrt(2 E_j)`` of the element's grid cell
-    (``siku_forcing.spectral``); for a uniform sea one row, the incident ``amp``, and every
+    (``siku_forcing.waves.spectral``); for a uniform sea one row, the incident ``amp``, and every
     ``cell`` 0. Looked up once per element and step (the sums of :func:`_sums_lattice` carry
     it), so the local sea costs no more per sub-step than a uniform one.
 

@@ -73,7 +73,7 @@ import numpy as np
 from siku_core.categories import SUM_TOLERANCE
 from siku_core.errors import SceneError
 from siku_core.fields import ElementField
-from siku_core.limits import check_work
+from siku_core.run.limits import check_work
 from siku_core.parallel import ITEM_NS, PARALLEL_MIN, chunks
 from siku_core.interfaces import Process
 from siku_core.params import Param

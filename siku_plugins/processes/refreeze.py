@@ -36,7 +36,7 @@ import numpy as np
 from siku_core.contact_law import BreakMode
 from siku_core.errors import SceneError
 from siku_core.interfaces import Process
-from siku_core.limits import BYTES_PER_JOINT, check_count, most_count
+from siku_core.run.limits import BYTES_PER_JOINT, check_count, most_count
 from siku_core.params import Param
 from siku_core.state import MELTED
 

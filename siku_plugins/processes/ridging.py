@@ -61,12 +61,12 @@ import numpy as np
 from numba import njit, prange
 
 from siku_core.categories import row_mean, row_sum
-from siku_core.contact_frames import rotation_row, j_to_i, relative_matrix
+from siku_core.contact.contact_frames import rotation_row, j_to_i, relative_matrix
 from siku_core.errors import SceneError
 from siku_core.geometry.clip import make_overlap_scratch, overlap_inline
 from siku_core.fields import ElementField
 from siku_core.interfaces import Process
-from siku_core.limits import check_count, most_count
+from siku_core.run.limits import check_count, most_count
 from siku_core.parallel import alone, chunk_bounds, chunks
 from siku_core.params import Param
 from siku_core.records import record_type
@@ -188,7 +188,7 @@ def ridge_candidates(cp, mem, count, flags, q, rm, cd):
 def pair_geometry(rm, offsets, verts, pairs, cand, nc, R, nmax, geo, nch):
     """Per candidate ``a < nc`` (pair ``cand[a]``): ``geo[a]``, its overlap area [m²] for the
     rotation matrices ``rm``, by the contact loop's own functions (as
-    :func:`siku_core.contact_overlaps.pair_overlaps`). ``nch`` chunks, each writing its own
+    :func:`siku_core.contact.contact_overlaps.pair_overlaps`). ``nch`` chunks, each writing its own
     rows."""
     inv_r = 1.0 / R
     for c in prange(nch):

@@ -3,7 +3,8 @@ the tests that compare the engine's parallel loops with them: each contact is ev
 quaternion rotations and added straight into ``F, T``, in the order the engine's gather sums
 them.
 
-The module is a template of :mod:`siku_core.kernel_cache`, like :mod:`siku_core.contact_loops`:
+The module is a template of :mod:`siku_core.contact.kernel_cache`, like
+:mod:`siku_core.contact.contact_loops`:
 its loops call the evaluator as the global ``evaluate`` of its binding, and :func:`joint_loop`
 and :func:`collision_loop` run them in its instance for the evaluator they are given.
 """
@@ -13,7 +14,7 @@ import sys
 import numpy as np
 from numba import njit
 
-from siku_core.contact_frames import overlap_width, eq9_stiffness, frame_point
+from siku_core.contact.contact_frames import overlap_width, eq9_stiffness, frame_point
 from siku_core.contact_law import (
     G_AREA,
     G_AREA_I,
@@ -66,7 +67,7 @@ from siku_core.geometry.clip import (
 )
 from siku_core.geometry.face import touching_face
 from siku_core.geometry.quat import from_tangent, qrotate, qrotate_inv
-from siku_core.kernel_cache import instantiate
+from siku_core.contact.kernel_cache import instantiate
 
 # ------------------------------------------------------------------------------ the binding
 evaluate = globals().get("evaluate")

@@ -26,8 +26,8 @@ from siku_core.contact_law import (
     J_MEFF, J_NU, J_S1X, J_S1Y, J_S2X, J_S2Y, J_SIZE, J_W,
 )
 from siku_core.geometry.quat import centers, from_tangent, qmatrix
-from siku_core.scene import scene_from_text
-from siku_core.simulation import Simulation
+from siku_core.scene.scene_file import scene_from_text
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import (
     contact_forces, contact_scene, rotate_about, square_pack,
 )

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from siku_core.geometry.quat import centers, latlon_of
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 
 R = 6_371_000.0

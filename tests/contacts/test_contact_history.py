@@ -20,10 +20,10 @@ import pytest
 
 from siku_core import hookimpl
 from siku_core.contact_law import G_AREA, G_K, G_MEFF, G_NX, G_SIZE, G_WIDTH, check_contact_law
-from siku_core.contacts import contact_loops
+from siku_core.contact.contact_forces import contact_loops
 from siku_core.errors import PluginError
-from siku_core.kernel_cache import instantiate
-from siku_core.simulation import Simulation
+from siku_core.contact.kernel_cache import instantiate
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_cases import rotate_about
 from siku_core.testing.contact_conformance import contact_scene
 from siku_io.output.results import last_snapshot

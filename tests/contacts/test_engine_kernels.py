@@ -1,4 +1,4 @@
-"""The engine's parallel contact kernels (``siku_core.contacts``, fast path).
+"""The engine's parallel contact kernels (``siku_core.contact.contact_forces``, fast path).
 
 * Results do not depend on the number of threads or on how loops are cut into chunks: every
   contact writes its own row and every element sums its own contacts in a fixed order, so a
@@ -22,7 +22,7 @@ from numba import njit, prange
 
 import siku_core.parallel as parallel
 from reference_loops import collision_loop, joint_loop
-from siku_core.contact_frames import rotation_matrices, rotations_within
+from siku_core.contact.contact_frames import rotation_matrices, rotations_within
 from siku_core.geometry.clip import (
     REL_TOL,
     apart,
@@ -34,7 +34,7 @@ from siku_core.geometry.clip import (
     polygon_area_centroid,
     separating_edge,
 )
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import switches
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 

@@ -58,12 +58,12 @@ import numba
 import numpy as np
 import pytest
 
-from siku_core.contact_frames import frame_point
+from siku_core.contact.contact_frames import frame_point
 from siku_core.errors import NonFiniteError, StabilityError
 from siku_core.geometry.quat import centers, qmatrix
-from siku_core.joint_metrics import joint_strain_opening
-from siku_core.packs import rect_pack
-from siku_core.simulation import Simulation
+from siku_core.contact.joint_metrics import joint_strain_opening
+from siku_core.scene.packs import rect_pack
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import (
     contact_forces,
     contact_scene,

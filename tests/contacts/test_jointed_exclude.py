@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from siku_core.contact_law import BREAK_EXTERNAL
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, rotate_about, square_pack
 
 L = 2000.0  # side of the squares [m]

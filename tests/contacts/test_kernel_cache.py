@@ -1,4 +1,4 @@
-"""Instances of the contact loops' template (``siku_core.kernel_cache``).
+"""Instances of the contact loops' template (``siku_core.contact.kernel_cache``).
 
 * A law's evaluator is recompiled without numba's reference counting for its instance of the
   loops, and that copy computes exactly what the evaluator computes (same code object, same
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from siku_core import contact_loops, kernel_cache
+from siku_core.contact import contact_loops, kernel_cache
 from siku_core.contact_law import (
     G_AREA, G_AREA_I, G_AREA_J, G_K, G_MEFF, G_NX, G_NY, G_SIZE, G_WIDTH, J_DT, J_EI, J_EJ,
     J_HI, J_HJ, J_K, J_L0, J_MEFF, J_NU, J_S1X, J_S1Y, J_S2X, J_S2Y, J_SIZE, J_VAX, J_VAY,

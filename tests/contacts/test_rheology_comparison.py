@@ -57,7 +57,7 @@ import h5py
 import numpy as np
 import pytest
 
-from siku_core.scene import load_scene
+from siku_core.scene.scene_file import load_scene
 from siku_core.state import STATIC
 from siku_io.ensemble import runs as ensemble
 from siku_io.output.results import last_snapshot

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from siku_core.errors import NonFiniteError, StabilityError
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 
 LAW = "distributed_spring"

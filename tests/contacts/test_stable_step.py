@@ -1,4 +1,4 @@
-"""The stable-step estimate counts every stiffness and damper (siku_core.stable_step).
+"""The stable-step estimate counts every stiffness and damper (siku_core.contact.stable_step).
 
 The default scene rang at its shipped step (1.75 s, "safe step 1.76 s"): the element-wise bound
 ``2 / omega`` ignored the damping, which the integrator applies explicitly (to the old
@@ -37,9 +37,11 @@ import pytest
 
 from siku_core.errors import NonFiniteError, StabilityError
 from siku_core.geometry.quat import qmatrix
-from siku_core.simulation import Simulation
-from siku_core import stable_step
-from siku_core.stable_step import LANCZOS_TOL, contact_matrices, critical_step, top_eigenvalue
+from siku_core.run.simulation import Simulation
+from siku_core.contact import stable_step
+from siku_core.contact.stable_step import (
+    LANCZOS_TOL, contact_matrices, critical_step, top_eigenvalue,
+)
 from siku_core.state import FREE
 from siku_core.testing.contact_cases import (
     contact_forces,
@@ -105,7 +107,7 @@ def _probe(case: str, cells=(4, 3)) -> Simulation:
 def _radius(sim: Simulation, explicit: bool = False):
     """The spectral radius of semi-implicit Euler's amplification matrix of the assembled
     linear system (dense, small packs) as a function of the step ``h`` [s], with the dampers
-    as they act in a step of ``h`` (bounded: ``siku_core.damping``; ``explicit``: as
+    as they act in a step of ``h`` (bounded: ``siku_core.contact.damping``; ``explicit``: as
     written)."""
     st = sim.state
     rates = sim.contacts.law.stability_rates()
@@ -221,7 +223,7 @@ def test_assembled_joint_matrices_are_the_engines_linearisation(case):
     st = sim.state
     law = CASES[case][0]
     deficit = 1.0 / sim.contacts.law.p["n_segments"] ** 2 if law == "mohr_coulomb" else 0.0
-    # the dampers as they act at the run's step (bounded: siku_core.damping)
+    # the dampers as they act at the run's step (bounded: siku_core.contact.damping)
     Kx, Cx = contact_matrices(sim.contacts, sim.contacts.law.stability_rates(), edges=False,
                               dt=sim.dt)
     dof = np.flatnonzero(np.repeat(st.flags == FREE, 3))
@@ -297,7 +299,7 @@ def test_past_the_linear_limit_every_law_and_rule_rings(case):
 def test_bounded_dampers_leave_the_step_near_the_undamped_limit():
     """The default scene's ratios (0.5 and 0.5) on a touching jointed pack, where explicit
     dampers set the step (``4 / (gamma + sqrt(gamma² + 4 omega²))``: 0.36 × ``2 / omega``
-    here). Bounded by the step (``siku_core.damping``), the dampers leave the assembled
+    here). Bounded by the step (``siku_core.contact.damping``), the dampers leave the assembled
     system's exact limit at 0.72 × the undamped ``2 / omega`` (asserted: above 0.7 ×); the
     whole pack's estimate lies within that limit and above 1.5 × the explicit one, and the
     amplification matrix's spectral radius is at most 1 at the estimate, mode by mode. The
@@ -350,7 +352,7 @@ def test_one_and_a_half_times_the_safe_step_is_refused_naming_element_and_step(c
 
 
 def test_the_command_line_refuses_with_exit_2_and_one_line(tmp_path, capsys):
-    from siku_core.cli import main
+    from siku_core.run.cli import main
 
     case = "spring-collide-contact"
     probe = _probe(case)
@@ -432,7 +434,7 @@ def test_a_pack_of_40000_elongated_cells_is_checked_within_one_gigabyte(monkeypa
     DOF. The check's own allocations (numpy's, traced) stay under 1 GB (254 MB measured; the
     assembled triplets alone would take about 2 GB) and its answer is the step of the same
     cells' 8 000-element pack within the estimate's tolerance (the stiffest mode is local)."""
-    from siku_core import contact_model
+    from siku_core.contact import contact_model
 
     def pack(ny):
         lat = math.degrees(100.0 * ny / R)

@@ -27,7 +27,7 @@ from siku_core.geometry.clip import (
 )
 from siku_core.geometry.clip import polygon_area_centroid as centroid
 from siku_core.geometry.face import edge_table, joint_edges, touching_face, touching_face_u
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import switches
 from siku_core.testing.contact_conformance import contact_scene, square_pack
 

@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 
 from siku_core.geometry.quat import centers, qmatrix
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import contact_scene
 
 R = 6_371_000.0

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from siku_core.geometry.quat import centers, from_tangent, to_tangent
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import (
     contact_forces,
     contact_scene,

@@ -1,7 +1,8 @@
 """V5 Mohr–Coulomb joints (docs/explanation/physics.md §4.3 "mohr_coulomb", §8, Table 1).
 
 The joint evaluator is called directly on hand-built geometry vectors (layout ``J_*`` of
-:mod:`siku_core.contacts`): a joint from ``a = (1000, -1000)`` to ``b = (1000, 1000)`` m in
+:mod:`siku_core.contact.contact_forces`): a joint from ``a = (1000, -1000)`` to ``b = (1000, 1000)``
+m in
 ``i``'s frame (tangent ``t = (0, 1)``, normal ``n = (1, 0)`` out of ``i``), ``L0`` = 2 km. A
 uniform displacement ``d`` of ``j`` gives in every segment ``sigma_n = E d·n / L0`` (tension
 positive) and ``sigma_s = G d·t / L0``, ``G = E / (2 (1 + nu))``. Loads grow in steps of 0.1 %
@@ -39,7 +40,7 @@ from siku_core.contact_law import (
     J_W,
 )
 from siku_core.geometry.quat import centers, to_tangent
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing.contact_conformance import (
     contact_forces,
     contact_scene,

@@ -75,7 +75,7 @@ import numpy as np
 import pytest
 
 from siku_core import Simulation
-from siku_core.scene import scene_from_text
+from siku_core.scene.scene_file import scene_from_text
 from siku_core.state import STEADY
 
 R_EARTH = 6_371_000.0

@@ -7,7 +7,7 @@ import numpy as np
 
 from siku_core.geometry.quat import latlon_of
 from siku_core.interfaces import Writer
-from siku_core.outputs import partial_path, publish, settle
+from siku_core.run.outputs import partial_path, publish, settle
 
 MARK = "# siku centres_csv"  # the first line: how owns() knows the file
 
@@ -50,7 +50,7 @@ class CentresCSV(Writer):
             publish(self.partial, self.target, replace=self.replace)
             self.published = True
 
-    def _discard(self):  # siku_core.outputs.settle: no snapshot was written
+    def _discard(self):  # siku_core.run.outputs.settle: no snapshot was written
         self.partial.unlink(missing_ok=True)
 
     def close(self, ctx):

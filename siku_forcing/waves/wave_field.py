@@ -21,7 +21,8 @@ Forces (:class:`Waves`, forcing source ``waves``) on each element, at its own ce
   with the log-layer drag coefficient of Orzech et al. eq. 6, ``C_d = [kappa / ln(30 dz / K_s)]²``
   (``kappa = 0.41``, roughness ``K_s``, layer thickness ``dz``), unless ``C`` is given;
 * the surface-slope force ``-m g grad eta``;
-* with ``breaking = true``, the wave-induced flexural breaking of :mod:`siku_forcing.wave_breaking`.
+* with ``breaking = true``, the wave-induced flexural breaking of
+  :mod:`siku_forcing.waves.wave_breaking`.
 
 The fields also serve any drag as a current: ``sample`` returns the surface orbital velocity.
 """
@@ -37,7 +38,7 @@ from siku_core.interfaces import Field, ForcingSource
 from siku_core.records import record_type
 from siku_core.state import FREE
 
-from .drag import drag_stability_limit
+from ..drag import drag_stability_limit
 from .wave_kernels import (  # noqa: F401 - re-exported, as before
     local_plane, plane_coords, plane_curvature, plane_evaluate, wave_forces, wrap_phase,
 )
@@ -128,7 +129,7 @@ def jonswap(f, hs: float, tp: float, gamma: float = 3.3, g: float = 9.81):
     return shape(f) * (hs / 4.0) ** 2 / m0
 
 
-# ------------------------------------------------------- kernels: siku_forcing.wave_kernels
+# ------------------------------------------------------- kernels: siku_forcing.waves.wave_kernels
 #: a sea of plane waves as the kernels take it (:meth:`WaveField.plane_waves`)
 PlaneWaves = record_type("PlaneWaves", __name__, [
     ("lat0", "n", 0, "latitude of the field's origin, where x = y = 0 [rad]"),
@@ -322,7 +323,7 @@ class Jonswap(LinesMixin, WaveField):
 class Waves(ForcingSource):
     """Wave forces on every element at its centre: drag on the velocity relative to the orbital
     velocity (log-layer ``C_d``, Orzech et al. eq. 6) and the slope force ``-m g grad eta``;
-    optional wave-induced flexural breaking of joints (``siku_forcing.wave_breaking``)."""
+    optional wave-induced flexural breaking of joints (``siku_forcing.waves.wave_breaking``)."""
 
     name = "waves"
     uses_field = True
@@ -368,7 +369,7 @@ class Waves(ForcingSource):
         if self.breaker is not None and self.ctx.committing:
             self.breaker.check(t, q)
         drag = self.C * self.p["rho"] if self.p["drag"] else 0.0
-        if hasattr(f, "add_forces"):  # a sea that varies in space (siku_forcing.spectral)
+        if hasattr(f, "add_forces"):  # a sea that varies in space (siku_forcing.waves.spectral)
             f.add_forces(t, q, V, self.st, self.free, self.g, bool(self.p["slope"]), drag, F)
             return
         if drag == 0.0 and not self.p["slope"]:

@@ -69,8 +69,10 @@ Missing data
 
 Modules
     This one holds the field (:class:`Gridded`: files, records, time bracketing, sampling);
-    :mod:`siku_forcing.gridded_reader` reads a component's files, :mod:`siku_forcing.gridded_kernel`
-    interpolates, :mod:`siku_forcing.cf` holds the CF rules shared with ``siku_io.mesh.icecover``.
+    :mod:`siku_forcing.gridded.gridded_reader` reads a component's files,
+    :mod:`siku_forcing.gridded.gridded_kernel`
+    interpolates, :mod:`siku_forcing.gridded.cf` holds the CF rules shared with
+    ``siku_io.mesh.icecover``.
 """
 from __future__ import annotations
 
@@ -100,7 +102,7 @@ __all__ = ["SPEED_UNITS", "GridSample", "Gridded", "classic_size", "pole_vector"
            "siku_register_fields"]
 
 #: the grid and the two records around a time, as the kernels take them
-#: (:func:`siku_forcing.gridded_kernel.interpolate`, ``Gridded._records_at``)
+#: (:func:`siku_forcing.gridded.gridded_kernel.interpolate`, ``Gridded._records_at``)
 GridSample = record_type("GridSample", __name__, [
     ("ylat", "f", 1, "(ny,) ascending latitudes of the grid [rad]"),
     ("xoff", "f", 1, "(nx,) ascending longitude offsets from lon0, in [0, 2 pi) [rad]"),
@@ -343,14 +345,15 @@ class Gridded(Field):
 
     def add_drag(self, t, q, V, area, rho, C, theta, subtract_ice, F, nch) -> None:
         """Add the quadratic drag of this field on every element to ``F`` [N] in one pass
-        (:func:`siku_forcing.gridded_drag.gridded_stress`: the same forces as sampling the
+        (:func:`siku_forcing.gridded.gridded_drag.gridded_stress`: the same forces as sampling the
         field at the centres, bit for bit); the drag sources call it.
 
         With ``resample > 0`` [s] the field is interpolated at the elements' positions only
         every ``resample`` seconds of model time (and whenever the pair of records around
         ``t`` changes); in between each element keeps its values of the two records
-        (:func:`~siku_forcing.gridded_drag.gridded_values`) and only their weight in time
-        follows ``t`` (:func:`~siku_forcing.gridded_drag.cached_stress`). The wind an element
+        (:func:`~siku_forcing.gridded.gridded_drag.gridded_values`) and only their weight in time
+        follows ``t`` (:func:`~siku_forcing.gridded.gridded_drag.cached_stress`). The wind an
+        element
         feels then lags its drift by at most ``resample`` times its speed: about 30 m at
         0.5 m/s and 60 s, a wind error of about 1e-3 m/s on a 2.5° grid. A restart takes the
         values again at its first step."""

@@ -4,7 +4,7 @@ A scene is one TOML file describing a run: ``[time]``, ``[planet]``, ``[material
 ``[elements]`` (``[[elements.polygon]]``, ``[[elements.pack]]``, ``[elements.mesh]``),
 ``[integrator]``, ``[[forcing]]``, ``[output]`` and ``[run]``. Every table is strict: an
 unknown key, a value of the wrong type or out of range is a :class:`~siku_core.errors.SceneError`
-naming the file, the key and the allowed values (:mod:`siku_core.scene_messages`). The
+naming the file, the key and the allowed values (:mod:`siku_core.scene.scene_messages`). The
 reference is ``docs/reference/scene.md``.
 """
 from __future__ import annotations
@@ -24,8 +24,8 @@ from pydantic import (
     model_validator,
 )
 
-from .errors import SceneError, check_argument, is_path
-from .params import format_validation_error
+from ..errors import SceneError, check_argument, is_path
+from ..params import format_validation_error
 from .scene_messages import explain_validation_error, is_duration, read_input_text
 from .units import parse_duration
 
@@ -223,7 +223,7 @@ class ForcingCfg(_Strict):
     params: dict[str, Any] = Field(default_factory=dict)
     field: FieldCfg | None = None
     ramp: Duration | None = Field(None, description="spin-up time [s]: the source's force "
-                                  "grows from 0 to full over it (siku_core.ramp)")
+                                  "grows from 0 to full over it (siku_core.run.ramp)")
     ramp_shape: Literal["cosine", "linear"] = Field(
         "cosine", description="the ramp r(t): 'cosine' (1 - cos(pi t/T))/2 or 'linear' t/T")
 
@@ -304,7 +304,7 @@ class RunCfg(_Strict):
     allow_unstable_dt: bool = False
     break_guard: Literal["stop", "warn", "off"] = Field(
         "warn", description="what a run does whose joints break faster than cracks can run "
-        "(siku_core.guard.BreakRate)")
+        "(siku_core.run.guard.BreakRate)")
 
 
 class SceneCfg(_Strict):
@@ -467,7 +467,7 @@ def scene_from_text(
 
 def load_scene(path: str | Path, overrides: dict[str, str] | None = None) -> Scene:
     """Read and validate a scene file (``overrides``: see :func:`scene_from_text`)."""
-    from .errors import shown
+    from ..errors import shown
 
     check_argument("load_scene", "path", path, is_path(path), "the path of a scene file")
     p = Path(path)
