@@ -1,4 +1,4 @@
-"""Benchmark scenes, written as the TOML a user would write (``siku_core.scene``).
+"""Benchmark scenes, written as the TOML a user would write (``siku_core.scene.scene_file``).
 
 * ``bonded``: the Siku-like pack of the performance issue: ``nx × ny`` squares of 0.2° (about
   22 km) centred on the equator, 1 m thick, every shared edge jointed (``joints = "auto"``),

@@ -1,4 +1,5 @@
-"""The gridded field (siku_forcing.gridded): NCEP/NCAR and CF NetCDF files, interpolation in space
+"""The gridded field (siku_forcing.gridded.gridded_field): NCEP/NCAR and CF NetCDF files,
+interpolation in space
 and time, the poles, regional grids, laziness, errors, and one run against the uniform field.
 
 Every file is written here (small grids) with xarray/netCDF4.
@@ -537,8 +538,8 @@ def test_file_and_u_file_are_exclusive_and_one_is_needed(tmp_path):
 
 
 def test_importing_the_module_does_not_import_xarray():
-    code = ("import sys, siku_forcing.gridded.gridded_field, siku_core.plugins as p; p.get_registry(); "
-            "print('xarray' in sys.modules, 'netCDF4' in sys.modules)")
+    code = ("import sys, siku_forcing.gridded.gridded_field, siku_core.plugins as p; "
+            "p.get_registry(); print('xarray' in sys.modules, 'netCDF4' in sys.modules)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                        env={**os.environ, "SIKU_DISABLE_PLUGIN_AUTOLOAD": "1"}, check=True)
     assert r.stdout.split() == ["False", "False"]

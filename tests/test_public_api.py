@@ -28,7 +28,7 @@ from siku_core import PluginError, hookimpl
 from siku_core.interfaces import ForcingSource, Process
 from siku_core.params import Param
 from siku_core.plugins import check_component
-from siku_core.simulation import Simulation
+from siku_core.run.simulation import Simulation
 from siku_core.testing import make_scene
 from siku_core.versions import PLUGIN_API_VERSION, api_mismatch
 
@@ -50,7 +50,8 @@ siku_core                             SikuError           -
 siku_core                             Simulation          -
 siku_core                             contact_law         -
 siku_core                             hookimpl            -
-siku_core.cells                       small_cell_report   -
+siku_core.cells                       small_cell_report   siku_core.scene.cells
+siku_core.contact.kernel_cache        user_cache_dir      -
 siku_core.contact_law                 BREAK_MODE_MEANINGS -
 siku_core.contact_law                 BREAK_SHEAR         -
 siku_core.contact_law                 BREAK_TENSION       -
@@ -103,6 +104,8 @@ siku_core.errors                      SikuError           -
 siku_core.fields                      ENGINE_FIELDS       -
 siku_core.fields                      ElementField        -
 siku_core.fields                      catalogue           -
+siku_core.geometry.element_geometry   east_north          -
+siku_core.geometry.element_geometry   polygons_lonlat     -
 siku_core.geometry.quat               east_north_local    -
 siku_core.geometry.quat               latlon_of           -
 siku_core.ice                         ElementField        siku_core.fields
@@ -113,39 +116,49 @@ siku_core.interfaces                  ForcingSource       -
 siku_core.interfaces                  Integrator          -
 siku_core.interfaces                  Process             -
 siku_core.interfaces                  Writer              -
-siku_core.kernel_cache                user_cache_dir      -
-siku_core.outputs                     partial_path        -
-siku_core.outputs                     publish             -
-siku_core.outputs                     settle              -
+siku_core.kernel_cache                user_cache_dir      siku_core.contact.kernel_cache
+siku_core.outputs                     partial_path        siku_core.run.outputs
+siku_core.outputs                     publish             siku_core.run.outputs
+siku_core.outputs                     settle              siku_core.run.outputs
 siku_core.params                      Param               -
 siku_core.plugins                     get_registry        -
 siku_core.plugins                     register_module     -
 siku_core.plugins                     unregister_module   -
-siku_core.scene                       load_scene          -
-siku_core.scene                       scene_from_text     -
-siku_core.scene_api                   SceneBuilder        -
-siku_core.simulation                  Simulation          -
+siku_core.run.outputs                 partial_path        -
+siku_core.run.outputs                 publish             -
+siku_core.run.outputs                 settle              -
+siku_core.run.simulation              Simulation          -
+siku_core.scene                       load_scene          siku_core.scene.scene_file
+siku_core.scene                       scene_from_text     siku_core.scene.scene_file
+siku_core.scene.cells                 small_cell_report   -
+siku_core.scene.scene_api             SceneBuilder        -
+siku_core.scene.scene_file            load_scene          -
+siku_core.scene.scene_file            scene_from_text     -
+siku_core.scene_api                   SceneBuilder        siku_core.scene.scene_api
+siku_core.simulation                  Simulation          siku_core.run.simulation
 siku_core.state                       FREE                -
 siku_core.state                       MELTED              -
 siku_core.state                       STATIC              -
 siku_core.testing                     conformance         -
 siku_core.testing                     make_scene          -
 siku_core.testing.contact_conformance check_contact_law   -
-siku_core.testing.contact_conformance collision_geometry   -
-siku_core.testing.contact_conformance contact_history_row   -
+siku_core.testing.contact_conformance collision_geometry  -
+siku_core.testing.contact_conformance contact_history_row -
 siku_core.testing.element_source_checks check_element_source -
 siku_core.testing.process_checks      check_process       -
 siku_core.testing.writer_checks       DT                  -
 siku_core.testing.writer_checks       check_writer        -
-siku_forcing.spectral_transport       steady_ratio        -
+siku_forcing.gridded.regular_grid     GridCfg             -
+siku_forcing.spectral_transport       steady_ratio        siku_forcing.waves.spectral_transport
 siku_forcing.synthetic                write_ncep_pair     -
+siku_forcing.waves.spectral_transport steady_ratio        -
 siku_io                               ensemble            -
 siku_io.analysis.fsd                  distribution        -
 siku_io.analysis.fsd                  floe_areas          -
 siku_io.analysis.fsd                  floe_labels         -
 siku_io.analysis.fsd                  output_distribution -
 siku_io.analysis.gridded_fields       grid_output         -
-siku_io.analysis.regular_grid         GridCfg             -
+siku_io.analysis.regular_grid         GridCfg             siku_forcing.gridded.regular_grid
 siku_io.bmi                           SikuBmi             siku_io.coupling.bmi
 siku_io.coupling.bmi                  SikuBmi             -
 siku_io.ensemble                      runs                -
@@ -161,8 +174,8 @@ siku_io.mesh.mesh_file                COAST               -
 siku_io.mesh.mesh_file                ICE                 -
 siku_io.mesh.mesh_file                Mesh                -
 siku_io.mesh.params                   MeshParams          -
-siku_io.output.element_geometry       east_north          -
-siku_io.output.element_geometry       polygons_lonlat     -
+siku_io.output.element_geometry       east_north          siku_core.geometry.element_geometry
+siku_io.output.element_geometry       polygons_lonlat     siku_core.geometry.element_geometry
 siku_io.output.netcdf                 write_netcdf        -
 siku_io.output.xr                     outlines_at         -
 siku_io.plot                          mapdeco             -

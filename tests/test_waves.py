@@ -1,7 +1,6 @@
-"""Waves on ice (``siku_forcing.waves``, ``siku_forcing.waves.wave_breaking``): dispersion, the
-fields
-against linear theory, a free floe in waves against an independent integration, the averaging
-of the slope force over a bonded floe, and wave-induced breaking."""
+"""Waves on ice (``siku_forcing.waves.wave_field``, ``siku_forcing.waves.wave_breaking``):
+dispersion, the fields against linear theory, a free floe in waves against an independent
+integration, the averaging of the slope force over a bonded floe, and wave-induced breaking."""
 from __future__ import annotations
 
 import math

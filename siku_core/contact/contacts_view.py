@@ -327,7 +327,8 @@ class ContactsView:
         use = RENAMED.get(name)
         hint = (f"use ctx.contacts.{use}" if use and not use.startswith("ctx.")
                 else f"use {use}" if use else
-                "the contacts view (siku_core.contact.contacts_view.ContactsView) has no member for it")
+                "the contacts view (siku_core.contact.contacts_view.ContactsView) has no member "
+                "for it")
         warnings.warn(f"ctx.contacts.{name} reads the contact model's internals and is "
                       f"deprecated: {hint}", DeprecationWarning, stacklevel=2)
         return getattr(model, name)

@@ -80,7 +80,8 @@ class Simulation:
         extend: float | None = None,
     ):
         check_argument("Simulation", "scene", scene, isinstance(scene, Scene) or is_path(scene),
-                       "a Scene (siku_core.scene.scene_file.load_scene) or the path of a scene file")
+                       "a Scene (siku_core.scene.scene_file.load_scene) or the path of a scene "
+                       "file")
         check_argument("Simulation", "out", out, out is None or isinstance(out, bool)
                        or is_path(out), "the path of the output file, or False to write none")
         check_argument("Simulation", "restart", restart, restart is None or is_path(restart),

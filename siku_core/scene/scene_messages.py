@@ -1,7 +1,8 @@
 """Messages for scene-like tables that fail validation: one line per problem, naming the file,
 the key, the allowed keys or the allowed range (with its unit).
 
-Shared by every strict table siku reads: the scene (:mod:`siku_core.scene`) and the tables of
+Shared by every strict table siku reads: the scene (:mod:`siku_core.scene.scene_file`) and the
+tables of
 the packages above the engine (sweeps, grids), so that their messages read alike.
 """
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""CF conventions shared by the readers of gridded NetCDF data (``siku_forcing.gridded``, the winds
+"""CF conventions shared by the readers of gridded NetCDF data
+(``siku_forcing.gridded.gridded_field``, the winds
 and currents; ``siku_io.mesh.icecover``, the initial ice cover): which coordinate of a variable is
 latitude, longitude or time, the spellings of m/s, and the check that a classic NetCDF file is
 complete.

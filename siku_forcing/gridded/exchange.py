@@ -41,7 +41,7 @@ from siku_core.records import record_type
 from siku_core.state import FREE
 from siku_forcing.drag import drag_stability_limit, quadratic_drag
 from siku_forcing.waves.wave_field import WATER_DRAG_PARAMS, drag_coefficient
-from siku_forcing.gridded.regular_grid import Grid, GridCfg, grid_error
+from siku_forcing.gridded.regular_grid import Grid, GridCfg, cell_means, grid_error
 
 #: per-cell input fields of the exchange source: name -> (units, meaning)
 INPUTS: dict[str, tuple[str, str]] = {
@@ -315,7 +315,6 @@ def ice_fields(ctx, grid: Grid, eta: np.ndarray | None = None, rho_w: float = 10
     ``area_fraction`` [1], ``volume`` [m³], ``top``, ``bottom`` [m], ``u``, ``v`` [m/s], and
     ``ax``, ``ay`` [m/s²] from the element velocities ``velocity_before`` (grid components) an
     ``interval`` [s] ago (zero without them)."""
-    from siku_io.analysis.gridded_fields import cell_means
 
     ny, nx = grid.shape
     nc = ny * nx

@@ -1,7 +1,8 @@
 """Quadratic drag from a gridded velocity field in one pass over the elements.
 
 The drag sources (``air_drag``, ``water_drag``; :mod:`siku_forcing.drag`) with a ``gridded``
-field (:mod:`siku_forcing.gridded`) would otherwise make three passes: the element centres'
+field (:mod:`siku_forcing.gridded.gridded_field`) would otherwise make three passes: the element
+centres'
 latitude and longitude (``latlon_of``), the interpolated field at them (``interpolate``), and
 the stress (``_stress``), with two pairs of temporary arrays between them. :func:`gridded_stress`
 does the three for each element in turn, on the engine's chunks (``siku_core.parallel``): the

@@ -129,7 +129,7 @@ class Gridded(Field):
     ``u_file`` and ``v_file`` (NCEP/NCAR: variables ``uwnd``, ``vwnd``), or one ``file`` with both
     components. Bilinear in space with longitude wrap-around and a pole cap (vector-consistent),
     linear in time, zero outside a regional grid (with one warning). Only the records the run
-    needs are read. See :mod:`siku_forcing.gridded`.
+    needs are read. See :mod:`siku_forcing.gridded.gridded_field`.
     """
 
     name = "gridded"

@@ -1,6 +1,6 @@
 """Interpolation kernels of gridded velocity fields (numba): bilinear in space on a sorted
 lon/lat grid with longitude wrap-around and vector-consistent pole caps, linear in time, and
-the least-squares pole vector of a latitude row. See :mod:`siku_forcing.gridded`."""
+the least-squares pole vector of a latitude row. See :mod:`siku_forcing.gridded.gridded_field`."""
 from __future__ import annotations
 
 import math

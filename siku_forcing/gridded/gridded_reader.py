@@ -2,7 +2,7 @@
 time order, the variable's lat/lon/time dimensions (CF discovery, :mod:`siku_forcing.gridded.cf`),
 its
 records; and the file's grid mapped onto the sorted grid of the interpolation kernels. See
-:mod:`siku_forcing.gridded`."""
+:mod:`siku_forcing.gridded.gridded_field`."""
 from __future__ import annotations
 
 import contextlib

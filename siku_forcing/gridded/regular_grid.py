@@ -362,16 +362,10 @@ def grid_error(exc: Exception, where: str) -> DataError:
     return DataError(f"{where}: {exc}")
 
 
-def scene_grid(path) -> dict | None:
-    """The ``[output.grid]`` table of the scene an output file records (``None``: none)."""
-    import tomllib
-
-    from siku_io.output.results import open_results
-
-    with open_results(path) as f:
-        text = f["scene"][()].decode()
-    try:
-        cfg = tomllib.loads(text)
-    except tomllib.TOMLDecodeError:
-        return None
-    return (cfg.get("output") or {}).get("grid")
+def cell_means(cell, weights, weight_sums, values, empty: float) -> np.ndarray:
+    """Per cell, the mean of ``values`` (one per element-cell overlap) with ``weights``, whose
+    per-cell sums are ``weight_sums``; ``empty`` in cells without weight (NaN for a gridded
+    file, 0 for the coupling's exchange grid, which must hand over finite numbers)."""
+    safe = np.where(weight_sums > 0, weight_sums, 1.0)
+    return np.where(weight_sums > 0,
+                    np.bincount(cell, weights * values, len(weight_sums)) / safe, empty)

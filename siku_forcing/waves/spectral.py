@@ -1,7 +1,8 @@
 """``spectral``: a wave field whose spectrum evolves over a grid and is damped by the ice.
 
 The incident sea (``spectrum = "jonswap"``, ``"monochromatic"`` or ``"table"``) is a set of
-components ``j`` (frequency, direction, phase) as in :mod:`siku_forcing.waves`. Over a regular
+components ``j`` (frequency, direction, phase) as in :mod:`siku_forcing.waves.wave_field`. Over a
+regular
 grid in the field's plane (``x`` east, ``y`` north of ``origin`` [m]) the variance ``E_j`` [m²]
 of every component evolves by the energy balance of :mod:`siku_forcing.waves.spectral_transport`,
 ``∂E/∂t + ∇·(c_g E) = -2 c_g k_i C E``, with the amplitude attenuation rate ``k_i`` of an
@@ -14,7 +15,8 @@ grid (``boundary = "open"``) or nothing crosses them (``"closed"``).
 The elements feel the local sea: at a point in cell ``c`` the component ``j`` has the amplitude
 ``a_j = sqrt(2 E_j[c])`` and the phase of the incident component, ``psi_j = k_j·x - omega_j t +
 phi_j``; elevation, slope, orbital velocity and curvature are the sums of
-:mod:`siku_forcing.waves` with these amplitudes, so the ``waves`` forcing (drag, slope force,
+:mod:`siku_forcing.waves.wave_field` with these amplitudes, so the ``waves`` forcing (drag, slope
+force,
 flexural breaking) acts as with a uniform sea, and so does a ``floating`` process, which shares
 this instance (:attr:`Spectral.local_sea`) and loads each element with the amplitudes of its
 cell (``siku_plugins.floating.process``). Points outside the grid take the nearest cell.

@@ -13,7 +13,7 @@ cos(theta_d)``. So per point and direction
 three complex exponentials per direction and two complex products per component, and
 ``exp(i psi_j) = Z_n exp(i (phi_j - omega_n t))`` with the second factor computed once per
 evaluation for all points. The sums (elevation, slope, orbital velocity, curvature) are those of
-:mod:`siku_forcing.waves`, with the same components and phases as ``jonswap`` of the same
+:mod:`siku_forcing.waves.wave_field`, with the same components and phases as ``jonswap`` of the same
 parameters and seed: the two fields agree to round-off (the recurrence over ``N_f`` frequencies
 loses about ``N_f`` ulps; tested to 1e-12 of the summed amplitudes at every point). Deep water
 only (``depth = -1``). The elements' loop runs in parallel (numba threads).

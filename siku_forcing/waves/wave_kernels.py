@@ -1,4 +1,4 @@
-"""The compiled kernels of the plane-wave fields (:mod:`siku_forcing.waves`) that the
+"""The compiled kernels of the plane-wave fields (:mod:`siku_forcing.waves.wave_field`) that the
 sea-state modules share: the local plane about a field's reference point, the surface and
 orbital velocity of a sum of plane waves and its curvature along a direction, and the slope
 force and drag on the free elements (:func:`wave_forces`, from the wave sums;

@@ -3,7 +3,8 @@
 
 All components ``j`` of one direction ``theta_d`` have phases ``psi_j = k_j s - omega_j t +
 phi_j`` that depend on the point only through ``s = x sin(theta_d) + y cos(theta_d)``, so the
-direction's share of every sum of :mod:`siku_forcing.waves` is a function of one variable:
+direction's share of every sum of :mod:`siku_forcing.waves.wave_field` is a function of one
+variable:
 
     F_d(s) = sum_j a_j cos(psi_j)            (elevation),
     G_d(s) = -sum_j a_j k_j sin(psi_j)       (slope along the direction, dF_d/ds),
@@ -11,7 +12,8 @@ direction's share of every sum of :mod:`siku_forcing.waves` is a function of one
     K_d(s) = -sum_j a_j k_j² cos(psi_j)      (d²F_d/ds², for the curvature);
 
 ``eta = sum_d F_d``, slope east/north ``= sum_d (m sin, cos)(theta_d) G_d`` (``m`` the metric
-factor of :mod:`siku_forcing.waves`), orbital velocity ``= sum_d (m sin, cos)(theta_d) U_d`` and
+factor of :mod:`siku_forcing.waves.wave_field`), orbital velocity ``= sum_d (m sin, cos)(theta_d)
+U_d`` and
 the curvature along ``(se, sn)`` is ``sum_d (m se sin + sn cos)² K_d``. At each evaluation time
 the functions are tabulated on nodes ``s_p = s_0 + p h`` spanning the points (blocks of 64
 nodes: ``exp(i k_j (s_b + q h)) = exp(i k_j s_b) exp(i k_j q h)``, a product of a row by a

@@ -1,6 +1,6 @@
 """How a wave field sums its sea: the ``method`` key of the ``jonswap`` field.
 
-``direct``: a cosine and a sine per component and point (:mod:`siku_forcing.waves`);
+``direct``: a cosine and a sine per component and point (:mod:`siku_forcing.waves.wave_field`);
 ``lines``: the sea tabulated along each direction and interpolated, within ``tolerance`` of the
 direct sum (:mod:`siku_forcing.waves.wave_lines`).
 """

@@ -20,7 +20,7 @@ def _grid_cfg(args):
         given["leads"] = False
     base = {}
     if not {"lon", "lat", "x", "y"} & set(given):
-        from siku_forcing.gridded.regular_grid import scene_grid
+        from siku_io.analysis.gridded_fields import scene_grid
 
         from siku_io.output.results import damaged
 

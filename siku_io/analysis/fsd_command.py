@@ -73,7 +73,8 @@ def _write(ds, out, overwrite: bool, source) -> None:
 
 def _grid(args):
     """The grid of ``--grid``: the scene's ``[output.grid]``."""
-    from siku_forcing.gridded.regular_grid import GridCfg, grid_error, scene_grid
+    from siku_forcing.gridded.regular_grid import GridCfg, grid_error
+    from siku_io.analysis.gridded_fields import scene_grid
     from siku_io.output.results import damaged
 
     with damaged(args.output):

@@ -53,7 +53,7 @@ from siku_core.categories import Categories, ice_per_area
 from siku_core.geometry.sphere import lonlat_to_xyz, xyz_to_lonlat
 from siku_core.contact.stress import principal
 from siku_io.analysis import fsd
-from siku_forcing.gridded.regular_grid import Grid, GridCfg
+from siku_forcing.gridded.regular_grid import Grid, GridCfg, cell_means
 
 #: gridded fields: name -> (units, standard name or "", long name)
 GRID_FIELDS: dict[str, tuple[str, str, str]] = {
@@ -168,15 +168,6 @@ def snapshot_of(sim) -> Snapshot:
     return Snapshot(np.degrees(lon), np.degrees(lat), u, v, st.area, st.thickness, st.m,
                     nodes[:, 0], nodes[:, 1], st.vert_offsets, stress, broken, extra,
                     None if cats is None else (cats.fraction, cats.thickness))
-
-
-def cell_means(cell, weights, weight_sums, values, empty: float) -> np.ndarray:
-    """Per cell, the mean of ``values`` (one per element-cell overlap) with ``weights``, whose
-    per-cell sums are ``weight_sums``; ``empty`` in cells without weight (NaN for a gridded
-    file, 0 for the coupling's exchange grid, which must hand over finite numbers)."""
-    safe = np.where(weight_sums > 0, weight_sums, 1.0)
-    return np.where(weight_sums > 0,
-                    np.bincount(cell, weights * values, len(weight_sums)) / safe, empty)
 
 
 def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
@@ -502,3 +493,18 @@ def floe_cells(grid, snap, floes: fsd.Floes, with_concentration: bool = False) -
     if with_concentration:
         out["concentration"] = ice / grid.cell_area.ravel()
     return out
+
+
+def scene_grid(path) -> dict | None:
+    """The ``[output.grid]`` table of the scene an output file records (``None``: none)."""
+    import tomllib
+
+    from siku_io.output.results import open_results
+
+    with open_results(path) as f:
+        text = f["scene"][()].decode()
+    try:
+        cfg = tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return None
+    return (cfg.get("output") or {}).get("grid")

@@ -489,7 +489,8 @@ def advance(nch, n_sub, dt, t0, q, bod, pts, wav, mot):
     the damping taken half explicitly (first half step) and half implicitly (second), so that
     the scheme is second order and, for the linear oscillator, stable for ``omega dt < 2``.
     The element's centre on the wave field's plane (``x = R cos(lat0) (lon - lon0)``, ``y = R
-    (lat - lat0)``, as ``siku_forcing.waves``) and its local frame come from ``q``; the tilts
+    (lat - lat0)``, as ``siku_forcing.waves.wave_field``) and its local frame come from ``q``; the
+    tilts
     are stepped as slopes along the principal axes (angle ``phi``: ``cphi, sphi``) and written
     back as roll and pitch; ``mot.power`` [W m-2] receives the damping's power per area
     averaged over the ``n_sub`` steps (trapezoid of ``B v²`` at the sub-steps). The fields of
