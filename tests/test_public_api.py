@@ -51,6 +51,7 @@ siku_core                             Simulation          -
 siku_core                             contact_law         -
 siku_core                             hookimpl            -
 siku_core.cells                       small_cell_report   siku_core.scene.cells
+siku_core.contact                     contact_model       -
 siku_core.contact.kernel_cache        user_cache_dir      -
 siku_core.contact_law                 BREAK_MODE_MEANINGS -
 siku_core.contact_law                 BREAK_SHEAR         -
@@ -141,6 +142,8 @@ siku_core.state                       MELTED              -
 siku_core.state                       STATIC              -
 siku_core.testing                     conformance         -
 siku_core.testing                     make_scene          -
+siku_core.testing                     scene_text          -
+siku_core.testing.contact_cases       square_pack         -
 siku_core.testing.contact_conformance check_contact_law   -
 siku_core.testing.contact_conformance collision_geometry  -
 siku_core.testing.contact_conformance contact_history_row -
@@ -148,15 +151,18 @@ siku_core.testing.element_source_checks check_element_source -
 siku_core.testing.process_checks      check_process       -
 siku_core.testing.writer_checks       DT                  -
 siku_core.testing.writer_checks       check_writer        -
+siku_forcing.attenuation              Meylan2014          siku_forcing.waves.attenuation
 siku_forcing.gridded.regular_grid     GridCfg             -
 siku_forcing.spectral_transport       steady_ratio        siku_forcing.waves.spectral_transport
 siku_forcing.synthetic                write_ncep_pair     -
+siku_forcing.waves.attenuation        Meylan2014          -
 siku_forcing.waves.spectral_transport steady_ratio        -
 siku_io                               ensemble            -
 siku_io.analysis.fsd                  distribution        -
 siku_io.analysis.fsd                  floe_areas          -
 siku_io.analysis.fsd                  floe_labels         -
 siku_io.analysis.fsd                  output_distribution -
+siku_io.analysis.fsd                  tail_fit            -
 siku_io.analysis.gridded_fields       grid_output         -
 siku_io.analysis.regular_grid         GridCfg             siku_forcing.gridded.regular_grid
 siku_io.bmi                           SikuBmi             siku_io.coupling.bmi
@@ -182,8 +188,8 @@ siku_io.plot                          mapdeco             -
 siku_io.plot.element_maps             MapPainter          -
 siku_io.plot.element_maps             Output              -
 siku_io.plot.element_maps             draw_map            -
-siku_io.plot.grid_maps                draw_grid_map       -
 siku_io.plot.grid_maps                GridPainter         -
+siku_io.plot.grid_maps                draw_grid_map       -
 siku_io.xr                            east_north          siku_io.output.xr
 siku_plugins.contact_laws             Collision           -
 siku_plugins.contact_laws             collision_evaluator -
