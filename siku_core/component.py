@@ -69,11 +69,15 @@ class Component(ABC):
     #: why a component that does not run on ranks refuses them, one line for the refusal
     #: message (``""``: "it reads the contacts of every element")
     ranks_refusal: ClassVar[str] = ""
-    #: whether it reads other elements through ``ctx.contacts`` on ranks (processes:
-    #: :class:`siku_core.interfaces.Process`)
+    #: a component that runs on ranks and reads other elements through ``ctx.contacts``
+    #: (pairs, joints: the processes ``ridging``, ``refreeze``) says so: on ranks each rank
+    #: applies it to the contacts of the elements it holds, the owners' ice then goes to the
+    #: ghosts, and its joint actions are applied once to the run (``docs/howto/processes.md``)
     reads_contacts: ClassVar[bool] = False
-    #: how each array of its ``history()`` is indexed on ranks (``{name: layout}``, layouts
-    #: of ``siku_core.ranks.history``; empty: it keeps none that ranks carry)
+    #: how each array of its ``history()`` is indexed (``{name: layout}``, layouts of
+    #: ``siku_core.ranks.history``: ``"element"``, ``"joint"``, ``"pair_keys"``,
+    #: ``"pair_rows"``, ``"pair_elements"``, ``"pair_count"``, ``"total"``), so that ranks
+    #: carry it; a component that keeps history without it is refused on ranks
     rank_history: ClassVar[Mapping[str, str]] = {}
 
     def __init__(self, params: Mapping[str, Any] | None = None):

@@ -253,16 +253,6 @@ class Process(Component):
     runs_on_ranks = False
     ranks_refusal = ("it is not declared element-local; a process that changes each element "
                      "by itself declares runs_on_ranks = True")
-    #: a process that runs on ranks and reads other elements through ``ctx.contacts`` (pairs,
-    #: joints: ``ridging``, ``refreeze``) says so: on ranks each rank applies it to the
-    #: contacts of the elements it holds, the owners' ice then goes to the ghosts, and its
-    #: joint actions are applied once to the run (``docs/howto/processes.md``)
-    reads_contacts: ClassVar[bool] = False
-    #: how each array of its ``history()`` is indexed (``{name: layout}``, layouts of
-    #: ``siku_core.ranks.history``: ``"element"``, ``"joint"``, ``"pair_keys"``,
-    #: ``"pair_rows"``, ``"pair_elements"``, ``"pair_count"``, ``"total"``), so that ranks
-    #: carry it; a process that keeps history without it is refused on ranks
-    rank_history: ClassVar[dict[str, str]] = {}
     required = {"apply": ("ctx", "dt")}
     #: quantities the process conserves (checked by the conformance suite)
     conserves: ClassVar[tuple[str, ...]] = ()
