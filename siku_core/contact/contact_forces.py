@@ -49,7 +49,7 @@ def joint_forces(evaluate, pars: np.ndarray, el: ContactElements, jt: JointTable
     element ``n/m`` [1/kg], ``n/I`` [1/(kg m²)], ``n`` its contacts; no rows: the dampers
     unbounded): the bound of the dampers (:mod:`siku_core.contact.damping`, ``g[J_DTM]``)."""
     loops = instantiate(contact_loops, evaluate)
-    return loops._joint_forces(pars, el, jt, R, dt, commit, nch, tasks(nch))
+    return loops._joint_forces(pars, tuple(el), tuple(jt), R, dt, commit, nch, tasks(nch))
 
 
 def collision_forces(evaluate, pars: np.ndarray, el: ContactElements, pt: PairTable, R: float,
@@ -95,7 +95,7 @@ def collision_forces(evaluate, pars: np.ndarray, el: ContactElements, pt: PairTa
     settles such pairs).
     """
     loops = instantiate(contact_loops, evaluate, pt.chist.shape[1] > 0)
-    return loops._collision_forces(pars, el, pt, R, float(dt), nmax, pretest, drop,
+    return loops._collision_forces(pars, tuple(el), tuple(pt), R, float(dt), nmax, pretest, drop,
                                    bool(commit), nch, tasks(nch))
 
 
@@ -104,11 +104,13 @@ def gather_forces(F, T, index: ContactIndex, jout, joint_active, pout, pair_acti
     joints (rows ``jout`` where ``joint_active``), then of its pairs (rows ``pout`` where
     ``pair_active == 1``), each in ascending contact index as the element-to-contact
     ``index`` lists them (fixed order: independent of the thread count)."""
-    _gather_forces(F, T, index, jout, joint_active, pout, pair_active, nch, tasks(nch))
+    _gather_forces(F, T, tuple(index), jout, joint_active, pout, pair_active, nch,
+                   tasks(nch))
 
 
 @njit(cache=True, parallel=True)
-def _gather_forces(F, T, index, jout, joint_active, pout, pair_active, nch, nt):
+def _gather_forces(F, T, index_t, jout, joint_active, pout, pair_active, nch, nt):
+    index = ContactIndex(*index_t)   # a plain tuple named again (records.py, "At the boundary")
     n = F.shape[0]
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):

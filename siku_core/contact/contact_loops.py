@@ -23,6 +23,7 @@ from siku_core.contact.contact_frames import (
     overlap_width, centre_normal, eq9_stiffness, i_to_j, j_to_i, pair_contribution,
     relative_matrix, relative_velocity_m,
 )
+from siku_core.contact.contact_tables import ContactElements, JointTable, PairTable
 from siku_core.contact.damping import damping_mobility
 from siku_core.contact_law import (
     G_AREA,
@@ -131,7 +132,11 @@ BLK_SIZE = BLK_M + 9
 # The parallel loops are thin: each task calls a (serially compiled) chunk function. Numba's
 # parallel compilation of a large loop body takes twice as long as compiling it serially.
 @njit(parallel=True, cache=CACHE)
-def _joint_forces(pars, el, jt, R, dt, commit, nch, nt):
+def _joint_forces(pars, el_t, jt_t, R, dt, commit, nch, nt):
+    # the records arrive as plain tuples (numba types those in C: records.py, "At the
+    # boundary") and are named again here, at no cost
+    el = ContactElements(*el_t)
+    jt = JointTable(*jt_t)
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):
@@ -243,7 +248,9 @@ def _joint_chunk(pars, el, jt, R, dt, commit, lo, hi, g, res, scratch):
 
 
 @njit(parallel=True, cache=CACHE)
-def _collision_forces(pars, el, pt, R, dt, nmax, pretest, drop, commit, nch, nt):
+def _collision_forces(pars, el_t, pt_t, R, dt, nmax, pretest, drop, commit, nch, nt):
+    el = ContactElements(*el_t)   # plain tuples named again (as in _joint_forces)
+    pt = PairTable(*pt_t)
     counts = np.zeros(nch, dtype=np.int64)
     counter = np.zeros(1, dtype=np.int64)
     for t in prange(nt):

@@ -32,6 +32,7 @@ import math
 from typing import ClassVar
 
 import numpy as np
+from numba import njit
 
 from siku_core import Param, SceneError, hookimpl
 from siku_core.interfaces import Field, ForcingSource
@@ -374,8 +375,8 @@ class Waves(ForcingSource):
             return
         if drag == 0.0 and not self.p["slope"]:
             return
-        wave_forces(float(t), q, V, self.st.m, self.st.area, self.free, w, self.g,
-                    bool(self.p["slope"]), drag, F)
+        _wave_forces_t(float(t), q, V, self.st.m, self.st.area, self.free, tuple(w), self.g,
+                       bool(self.p["slope"]), drag, F)
 
     def stability_limit(self, ctx):
         """Drag: ``dt < m / (S rho_w C_d |dU|)`` with ``|dU|`` the largest orbital speed plus
@@ -401,3 +402,10 @@ def siku_register_fields():
 @hookimpl
 def siku_register_forcing_sources():
     return [Waves]
+
+
+@njit(cache=True)
+def _wave_forces_t(t, q, V, m, area, free, w_t, g, slope, drag_coef, F):
+    """:func:`~siku_forcing.waves.wave_kernels.wave_forces` with the sea ``w_t`` as a plain
+    tuple, named again here (:mod:`siku_core.records`, "At the boundary")."""
+    wave_forces(t, q, V, m, area, free, PlaneWaves(*w_t), g, slope, drag_coef, F)

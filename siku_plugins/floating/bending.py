@@ -32,7 +32,8 @@ from numba import njit
 from siku_core.contact_law import BreakMode
 from siku_core.records import record_type
 
-from .kernels import Frames, attenuation, centres_and_frames, excite
+from .kernels import (FloatingBodies, FloatingPoints, FloatingWave, Frames, attenuation,
+                      centres_and_frames, excite)
 from .memory import RadiationMemory, lagged
 
 #: the beams' stiffness over the ``3 n`` degrees of freedom (:meth:`Beams.stiffness`)
@@ -165,6 +166,14 @@ class Beams:
         n = self.cm.break_joints(k, BreakMode.FLEXURE, t)
         self.assemble(bodies)
         return n
+
+
+@njit(cache=True, error_model="numpy")
+def _advance_bonded_t(n_sub, dt, t0, frames_t, bod_t, pts_t, wav_t, stiff_t, mem_t, u, v, pw):
+    """:func:`advance_bonded` with its records as plain tuples, named again here."""
+    advance_bonded(n_sub, dt, t0, Frames(*frames_t), FloatingBodies(*bod_t),
+                   FloatingPoints(*pts_t), FloatingWave(*wav_t), BeamStiffness(*stiff_t),
+                   RadiationMemory(*mem_t), u, v, pw)
 
 
 @njit(cache=True, error_model="numpy")
@@ -324,8 +333,10 @@ def advance_jointed(n_sub, dt, t0, q, field, bodies, points, wave, beams, memory
     v = np.column_stack([f["heave_rate"], wx * c + wy * s, -wx * s + wy * c]).ravel()
     mem = memory.kernels() if memory is not None else RadiationMemory(
         np.zeros((0, 3, 1)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)), 0)
-    advance_bonded(n_sub, dt, t0, Frames(xc, yc, e0, e1), bodies, points, wave, stiff, mem, u,
-                   v, f["wave_radiated_power"])
+    # plain tuples across the boundary, named again inside (siku_core.records, "At the
+    # boundary"): numba types six records in Python otherwise, every step
+    _advance_bonded_t(n_sub, dt, t0, (xc, yc, e0, e1), tuple(bodies), tuple(points),
+                      tuple(wave), tuple(stiff), tuple(mem), u, v, f["wave_radiated_power"])
     if memory is not None:
         memory.head = (memory.head + n_sub) % memory.K.shape[2]
     U, W = u.reshape(-1, 3), v.reshape(-1, 3)
