@@ -159,3 +159,37 @@ def test_the_picture_of_beta_q_and_the_distribution(tmp_path):
     s = sirex(crack_positions(0.01 * H / T, T), T, [H * 2**k for k in range(1, 6)])
     plot_sirex(s, tmp_path / "sirex.png")
     assert (tmp_path / "sirex.png").stat().st_size > 10_000
+
+
+def test_the_fastest_five_percent_carry_all_of_a_crack_and_five_percent_of_a_uniform_strain():
+    T = 3600.0
+    s = sirex(crack_positions(0.01 * H / T, T), T, [H * 2**k for k in range(1, 6)])
+    # the cells across the crack (1/NS = 0.8 % of them) deform, the others not at all
+    assert s.top_share(0.05) == pytest.approx(1.0, abs=1e-12)
+    i, j = np.meshgrid(np.arange(NS + 1), np.arange(NS + 1))
+    x, y = (i * H).ravel().astype(float), (j * H).ravel().astype(float)
+    g = 1e-7  # uniform shear [1/s]: every cell deforms at the same rate
+    u = sirex([(x, y), (x + g * T * y, y)], T, [H * 2**k for k in range(1, 6)])
+    n = len(u.rates)
+    assert u.top_share(0.05) == pytest.approx(round(0.05 * n) / n, rel=1e-9)
+    assert "carry" in u.table()
+
+
+def test_a_window_keeps_the_snapshots_between_its_ends():
+    from siku_core import DataError
+    from siku_io.analysis.sirex import window_snapshots
+
+    seconds = 1e6 + 10800.0 * np.arange(17)  # 48 h every 3 h
+    assert list(window_snapshots(seconds, (86400.0, 172800.0))) == list(range(8, 17))
+    assert list(window_snapshots(seconds, (0.0, 86400.0))) == list(range(9))
+    with pytest.raises(DataError, match="1 snapshot"):
+        window_snapshots(seconds, (172800.0, 200000.0), "run.h5")
+
+
+@pytest.mark.parametrize("window", ["12h", "12h,soon", "1,2h"])
+def test_a_window_that_is_not_two_durations_is_refused_in_one_line(window, capsys):
+    from siku_core.run.cli import main
+
+    assert main(["deformation", "run.h5", "--sirex", "--window", window]) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(err) == 1 and "--window" in err[0] and "Traceback" not in err[0]
