@@ -193,3 +193,29 @@ def test_a_window_that_is_not_two_durations_is_refused_in_one_line(window, capsy
     assert main(["deformation", "run.h5", "--sirex", "--window", window]) == 2
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
     assert len(err) == 1 and "--window" in err[0] and "Traceback" not in err[0]
+
+
+def test_an_output_whose_flags_are_per_snapshot_is_read(monkeypatch):
+    """A run with processes writes ``flags`` per snapshot: the metrics take the elements free
+    in every snapshot, and give the crack's ``q - 1`` as from the positions."""
+    import xarray as xr
+
+    import siku_io.output.xr as sxr
+    from siku_io.analysis.sirex import output_sirex
+
+    R = 6371e3
+    T = 3600.0
+    pos = crack_positions(0.01 * H / T, T, 3)
+    lon = np.degrees(np.array([x for x, _ in pos]) / R)  # a small patch at the equator
+    lat = np.degrees(np.array([y for _, y in pos]) / R)
+    n = lon.shape[1]
+    flags = np.zeros((3, n), np.int8)
+    ds = xr.Dataset({"lon": (("time", "element"), lon), "lat": (("time", "element"), lat),
+                     "flags": (("time", "element"), flags),
+                     "area": (("element",), np.full(n, H * H))},
+                    coords={"time": [0.0, T, 2 * T]}, attrs={"radius": R})
+    monkeypatch.setattr(sxr, "open_output", lambda path: ds)
+    s = output_sirex("run.h5", [H * 2**k for k in range(1, 6)], (1,))
+    assert len(s.rates) == 2 * 2 * NS * NS  # every element free: two intervals of 2 NS² cells
+    for q in (1.0, 2.0, 3.0):
+        assert s.beta_q[q] == pytest.approx(q - 1, abs=0.02)

@@ -374,8 +374,13 @@ def output_sirex(path, scales, steps=(1,), coverage: float = 0.5, window=None,
     if window is not None:
         keep = window_snapshots(seconds, window, path)
         lon, lat = lon[keep], lat[keep]
-    free = ds["flags"].values == 0 if "flags" in ds else np.ones(lon.shape[-1], bool)
-    element = float(np.sqrt(np.median(ds["area"].values[free]))) if "area" in ds else 0.0
+    # flags and areas are per snapshot in a run whose processes may change them: the elements
+    # free in every snapshot kept, their areas at the first
+    flags = ds["flags"].values if "flags" in ds else np.zeros(lon.shape[-1], int)
+    free = np.all(np.atleast_2d(flags if flags.ndim == 1 or window is None else flags[keep])
+                  == 0, axis=0)
+    area = np.atleast_2d(ds["area"].values)[0] if "area" in ds else None
+    element = float(np.sqrt(np.median(area[free]))) if area is not None else 0.0
     lon0 = float(np.degrees(np.angle(np.mean(np.exp(1j * np.radians(lon[0][free]))))))
     lat0 = float(np.mean(lat[0][free]))
     pos = [plane_positions(lon[k][free], lat[k][free], lon0, lat0, R) for k in range(len(lon))]
