@@ -184,3 +184,34 @@ def test_cells_without_enough_elements_have_no_strain_rate():
     f = grid_snapshot(grid, snap)
     assert np.isnan(f["divergence"]).all()
     assert f["n_elements"].sum() == 2
+
+
+@pytest.mark.parametrize("cover,overlap_cells,giver_cells", [
+    (0.8, 1.0, 1.0),     # the giver ceded exactly the overlap: no ice counted twice
+    (0.6, 1.0, 0.75),    # more open water than overlap: the rest spread over the giver's cells
+    (0.9, 1.5, 1.0),     # half the overlap ceded: half of it still covered twice
+])
+def test_a_givers_open_water_lies_under_its_overlap_on_cells_narrower_than_an_element(
+        cover, overlap_cells, giver_cells):
+    """Two 0.1° squares at the equator overlapping on a 0.02° strip (a fifth of each), the
+    carrier all ice, the giver's ice covering ``cover`` of it, on 0.02° cells: the giver's
+    open water lies in the strip first, so a strip cell holds the carrier's ice plus the
+    giver's left there, ``1 + (0.2 - (1 - cover)) / 0.2`` when positive."""
+    lon_a = [0.0, 0.1, 0.1, 0.0]
+    lon_b = [0.08, 0.18, 0.18, 0.08]
+    lat = [0.0, 0.0, 0.1, 0.1]
+    area = R**2 * math.radians(0.1) * math.sin(math.radians(0.1))
+    snap = Snapshot([0.05, 0.13], [0.05, 0.05], [0, 0], [0, 0], [area, area], [1, 1],
+                    [1, 1], lon_a + lon_b, lat + lat, [0, 4, 8],
+                    categories=([[1.0], [cover]], [[1.0], [1.0]]))
+    grid = Grid(GridCfg(kind="lonlat", lon=(-0.04, 0.22), lat=(0.0, 0.1), resolution=0.02),
+                R)
+    c = grid_snapshot(grid, snap)["concentration"]
+    assert c.shape == (5, 13)
+    x = grid.x
+    assert c[:, (x > 0) & (x < 0.08)] == pytest.approx(1.0, rel=1e-5)           # carrier alone
+    assert c[:, (x > 0.08) & (x < 0.1)] == pytest.approx(overlap_cells, rel=1e-5)
+    assert c[:, (x > 0.1) & (x < 0.18)] == pytest.approx(giver_cells, rel=1e-5)  # giver alone
+    assert c[:, (x < 0) | (x > 0.18)] == pytest.approx(0.0, abs=1e-12)
+    # the ice area is the elements' ice: A + cover A
+    assert np.sum(c * grid.cell_area) == pytest.approx(area * (1 + cover), rel=1e-5)

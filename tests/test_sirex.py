@@ -159,3 +159,63 @@ def test_the_picture_of_beta_q_and_the_distribution(tmp_path):
     s = sirex(crack_positions(0.01 * H / T, T), T, [H * 2**k for k in range(1, 6)])
     plot_sirex(s, tmp_path / "sirex.png")
     assert (tmp_path / "sirex.png").stat().st_size > 10_000
+
+
+def test_the_fastest_five_percent_carry_all_of_a_crack_and_five_percent_of_a_uniform_strain():
+    T = 3600.0
+    s = sirex(crack_positions(0.01 * H / T, T), T, [H * 2**k for k in range(1, 6)])
+    # the cells across the crack (1/NS = 0.8 % of them) deform, the others not at all
+    assert s.top_share(0.05) == pytest.approx(1.0, abs=1e-12)
+    i, j = np.meshgrid(np.arange(NS + 1), np.arange(NS + 1))
+    x, y = (i * H).ravel().astype(float), (j * H).ravel().astype(float)
+    g = 1e-7  # uniform shear [1/s]: every cell deforms at the same rate
+    u = sirex([(x, y), (x + g * T * y, y)], T, [H * 2**k for k in range(1, 6)])
+    n = len(u.rates)
+    assert u.top_share(0.05) == pytest.approx(round(0.05 * n) / n, rel=1e-9)
+    assert "carry" in u.table()
+
+
+def test_a_window_keeps_the_snapshots_between_its_ends():
+    from siku_core import DataError
+    from siku_io.analysis.sirex import window_snapshots
+
+    seconds = 1e6 + 10800.0 * np.arange(17)  # 48 h every 3 h
+    assert list(window_snapshots(seconds, (86400.0, 172800.0))) == list(range(8, 17))
+    assert list(window_snapshots(seconds, (0.0, 86400.0))) == list(range(9))
+    with pytest.raises(DataError, match="1 snapshot"):
+        window_snapshots(seconds, (172800.0, 200000.0), "run.h5")
+
+
+@pytest.mark.parametrize("window", ["12h", "12h,soon", "1,2h"])
+def test_a_window_that_is_not_two_durations_is_refused_in_one_line(window, capsys):
+    from siku_core.run.cli import main
+
+    assert main(["deformation", "run.h5", "--sirex", "--window", window]) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(err) == 1 and "--window" in err[0] and "Traceback" not in err[0]
+
+
+def test_an_output_whose_flags_are_per_snapshot_is_read(monkeypatch):
+    """A run with processes writes ``flags`` per snapshot: the metrics take the elements free
+    in every snapshot, and give the crack's ``q - 1`` as from the positions."""
+    import xarray as xr
+
+    import siku_io.output.xr as sxr
+    from siku_io.analysis.sirex import output_sirex
+
+    R = 6371e3
+    T = 3600.0
+    pos = crack_positions(0.01 * H / T, T, 3)
+    lon = np.degrees(np.array([x for x, _ in pos]) / R)  # a small patch at the equator
+    lat = np.degrees(np.array([y for _, y in pos]) / R)
+    n = lon.shape[1]
+    flags = np.zeros((3, n), np.int8)
+    ds = xr.Dataset({"lon": (("time", "element"), lon), "lat": (("time", "element"), lat),
+                     "flags": (("time", "element"), flags),
+                     "area": (("element",), np.full(n, H * H))},
+                    coords={"time": [0.0, T, 2 * T]}, attrs={"radius": R})
+    monkeypatch.setattr(sxr, "open_output", lambda path: ds)
+    s = output_sirex("run.h5", [H * 2**k for k in range(1, 6)], (1,))
+    assert len(s.rates) == 2 * 2 * NS * NS  # every element free: two intervals of 2 NS² cells
+    for q in (1.0, 2.0, 3.0):
+        assert s.beta_q[q] == pytest.approx(q - 1, abs=0.02)

@@ -59,3 +59,23 @@ def test_the_winter_scene_reads_its_wind_and_runs(tmp_path):
     assert sim.dt <= scene.cfg.run.dt_safety * sim.critical_dt
     sim.run(steps=3)
     assert np.isfinite(sim.state.V).all()
+
+
+def test_the_coastal_box_has_boxes_of_many_elements_and_runs(tmp_path):
+    """The coastal box (``coastal_box.toml``): elements of about 6 km (the square root of the
+    median area; 5 km spacing), so a 10 km box holds about three and a 20 km one about eleven;
+    a stable step; its first steps run."""
+    from siku_core.scene.scene_file import load_scene
+    from siku_core.run.simulation import Simulation
+
+    shutil.copy(HERE / "coastal_box.toml", tmp_path)
+    _storms().write(tmp_path)
+    scene = load_scene(tmp_path / "coastal_box.toml")
+    sim = Simulation(scene, out=False, progress=False)
+    free = sim.state.flags == 0
+    size = float(np.sqrt(np.median(sim.state.area[free])))  # m
+    assert 5.0e3 < size < 6.5e3 and free.sum() > 500
+    assert (10e3 / size) ** 2 >= 2.5 and (20e3 / size) ** 2 >= 10.0
+    assert sim.dt <= scene.cfg.run.dt_safety * sim.critical_dt
+    sim.run(steps=3)
+    assert np.isfinite(sim.state.V).all()

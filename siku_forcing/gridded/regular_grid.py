@@ -270,10 +270,17 @@ class Grid:
                 owner.append(i)
         return polys, np.asarray(owner, dtype=np.int64)
 
-    def overlap(self, node_lon, node_lat, offsets, centre_lon):
+    def overlap(self, node_lon, node_lat, offsets, centre_lon, cover=None):
         """Sparse overlap of elements and cells: ``(element, cell, fraction)`` arrays, ``cell``
         the flat index ``iy * nx + ix``, ``fraction`` the share of the element's polygon in the
-        cell (module docstring)."""
+        cell (module docstring).
+
+        With ``cover`` (per element, the share of its footprint its ice covers, 0-1), a fourth
+        array too: the share of the element's polygon that its *ice* covers in the cell: its
+        open water, ``(1 - cover)`` of the polygon, lies first where the polygon
+        overlaps other elements' (where the ice it lost went, under a ridge), spread evenly
+        over that overlap, and only what is left over the rest of the polygon
+        (:func:`ice_shares`); ``cover`` times the plain share where ``cover = 1``."""
         import shapely
 
         polys, owner = self.polygons(node_lon, node_lat, offsets, centre_lon)
@@ -304,6 +311,10 @@ class Grid:
         piece = shapely.area(shapely.intersection(shapes[pid], boxes))
         keep = piece > 0.0
         frac = piece[keep] / whole[pid[keep]]
+        if cover is not None:
+            return (owner[pid[keep]], (iy * self.nx + ix)[keep], frac,
+                    ice_shares(shapes, owner, np.asarray(cover, float), pid[keep], boxes[keep],
+                               piece[keep], whole))
         return owner[pid[keep]], (iy * self.nx + ix)[keep], frac
 
     # -------------------------------------------------------------- CF description
@@ -369,3 +380,46 @@ def cell_means(cell, weights, weight_sums, values, empty: float) -> np.ndarray:
     safe = np.where(weight_sums > 0, weight_sums, 1.0)
     return np.where(weight_sums > 0,
                     np.bincount(cell, weights * values, len(weight_sums)) / safe, empty)
+
+
+def ice_shares(shapes, owner, cover, pid, boxes, piece, whole) -> np.ndarray:
+    """The share of each polygon ``pid`` (of ``shapes``, owned by element ``owner[pid]``) that
+    its element's ice covers in the cell ``boxes`` (its ``piece`` of area ``whole`` lies in
+    the cell), for elements whose ice covers ``cover`` of their footprint: the open water,
+    ``W = (1 - cover) whole``, lies first in the polygon's overlap ``O`` with the polygons of
+    other elements (the footprint a ridging giver ceded lies under the carrier), evenly over
+    it; what ``O`` cannot hold (``W > |O|``) evenly over the rest. So the cell gets open water
+    ``W |O ∩ cell| / |O|`` (``W <= |O|``) or ``|O ∩ cell| + (W - |O|) (piece - |O ∩ cell|) /
+    (whole - |O|)``, and the share is ``(piece - open) / whole``; with ``cover = 1`` it is
+    ``piece / whole`` to the bit. The areas are the grid plane's (as the overlap's)."""
+    import shapely
+
+    c = np.clip(cover[owner], 0.0, 1.0)
+    out = piece / whole[pid] * c[pid]
+    need = np.unique(pid[c[pid] < 1.0])
+    if not len(need):
+        return out
+    tree = shapely.STRtree(shapes)
+    ov = {}
+    for p in need:
+        near = tree.query(shapes[p], predicate="intersects")
+        near = near[owner[near] != owner[p]]
+        ov[p] = (shapely.union_all(shapely.intersection(shapes[p], shapes[near])) if len(near)
+                 else None)
+    k = np.flatnonzero(c[pid] < 1.0)
+    for i in k:
+        p = pid[i]
+        water = (1.0 - c[p]) * whole[p]
+        o = ov[p]
+        area_o = 0.0 if o is None else float(shapely.area(o))
+        in_box = (0.0 if area_o <= 0.0
+                  else float(shapely.area(shapely.intersection(o, boxes[i]))))
+        if area_o > 0.0 and water <= area_o:
+            open_ = water * in_box / area_o
+        else:
+            rest = whole[p] - area_o
+            open_ = (in_box + (water - area_o) * (piece[i] - in_box) / rest if rest > 0.0
+                     else piece[i])
+        out[i] = max(piece[i] - open_, 0.0) / whole[p]
+    return out
+

@@ -81,8 +81,22 @@ def _cmd_deformation(args) -> int:
         from siku_io.analysis.sirex import output_sirex
         from siku_io.output.results import damaged
 
+        window = None
+        if args.window:
+            from siku_core.scene.units import parse_duration
+
+            parts = args.window.split(",")
+            try:
+                if len(parts) != 2:
+                    raise ValueError(args.window)
+                window = tuple(parse_duration(v.strip()) for v in parts)
+            except ValueError:
+                from siku_core import DataError
+
+                raise DataError(f"siku deformation: --window {args.window!r}: give two "
+                                "durations FROM,TO (e.g. 24h,48h)") from None
         with damaged(args.output):
-            stats = output_sirex(args.output, scales, steps, args.min_cover)
+            stats = output_sirex(args.output, scales, steps, args.min_cover, window)
         print(stats.table())
         if args.plot:
             from siku_io.analysis.sirex import plot_sirex
@@ -134,6 +148,8 @@ def siku_register_commands(subparsers):
                    help="the RGPS method (Lagrangian cells of the element centres, "
                    "coarse-grained): moments q = 0.5-3 and beta(q), the rate distribution's "
                    "tail, linear kinematic features, beside the RGPS values")
+    d.add_argument("--window", help="with --sirex: the snapshots from FROM to TO after the "
+                   "first only, e.g. 24h,48h")
     d.add_argument("--plot", help="with --sirex: draw beta(q) and the rate distribution into "
                    "this image file (PNG)")
     d.set_defaults(func=_cmd_deformation)

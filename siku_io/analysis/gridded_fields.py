@@ -7,11 +7,13 @@ each element with each cell and the cell's true area ``A_c``):
 
 * ``concentration`` = sum of ``fraction × area`` over the elements / ``A_c`` [1] (CF
   ``sea_ice_area_fraction``; overlapping elements may push it above 1, except where the
-  ``ridging`` process has taken the overlap from the giver's ice, to the spread of an
-  element's open water over its footprint; with thickness categories each element counts its
-  ice, ``fraction × area × sum a_k``);
+  ``ridging`` process has taken the overlap from the giver's ice); with thickness categories
+  each element counts its ice, ``sum a_k`` of its area, and its open water lies first where
+  its footprint overlaps other elements' (where the ice it ceded went), only the rest spread
+  over its footprint (``Grid.overlap`` with ``cover``), so a cell narrower than an element
+  is not counted twice under a ridge;
 * ``thickness`` = ice volume / ``A_c`` [m] (the mean thickness of the whole cell; an element's
-  volume is ``area × thickness``, with categories ``area × sum a_k h_k``:
+  volume is ``area × thickness``, with categories ``area × sum a_k h_k``, placed with its ice:
   ``siku_core.categories.element_volume``);
 * ``u``, ``v``: mass-weighted mean velocity [m/s], east/north on a lonlat grid, along the grid
   axes on a polar stereographic one;
@@ -175,7 +177,11 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
     ny, nx = grid.shape
     nc = ny * nx
     A = grid.cell_area.ravel()
-    el, cell, frac = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon)
+    # with categories an element's open water lies first where its footprint overlaps
+    # another's (Grid.overlap's ice shares)
+    cover = None if snap.categories is None else Categories(*snap.categories).fraction.sum(1)
+    el, cell, frac, *fice = grid.overlap(snap.node_lon, snap.node_lat, snap.offsets, snap.lon,
+                                         cover)
     w = frac * snap.area[el]
     ice = np.bincount(cell, w, nc)
     if snap.categories is None:
@@ -183,9 +189,11 @@ def grid_snapshot(grid: Grid, snap: Snapshot) -> dict[str, np.ndarray]:
                "thickness": np.bincount(cell, w * snap.thickness[el], nc) / A}
     else:  # the ice of an element covers sum a_k of it; its volume is A sum a_k h_k
         cats = Categories(*snap.categories)
-        out = {"concentration": np.bincount(cell, w * cats.fraction.sum(axis=1)[el], nc) / A,
-               "thickness": np.bincount(cell, w * ice_per_area(snap.thickness, cats)[el],
-                                        nc) / A}
+        wi = fice[0] * snap.area[el]
+        h_ice = np.divide(ice_per_area(snap.thickness, cats), cover,
+                          out=np.zeros(len(cover)), where=cover > 0.0)
+        out = {"concentration": np.bincount(cell, wi, nc) / A,
+               "thickness": np.bincount(cell, wi * h_ice[el], nc) / A}
     gu, gv = grid.rotate(snap.u, snap.v, snap.lon)
     wm = frac * snap.mass[el]
     msum = np.bincount(cell, wm, nc)

@@ -27,8 +27,9 @@ Experiment (SIREx: Bouchat et al. 2022, Hutter et al. 2022):
    isolated straight cracks gives ``beta(q) = q - 1`` (``a = 0``, ``b = 1``, ``c = -1``: a box
    holding the crack has ``eps ∝ 1/L`` and the share of boxes holding it grows as ``L``).
    ``<eps>(T) ∝ T^-alpha`` at the smallest ``L``.
-5. **Distribution.** The cell rates at the shortest ``T``: the share above 0.01 /day and the
-   log-spaced density.
+5. **Distribution.** The cell rates at the shortest ``T``: the share above 0.01 /day, the
+   share of the summed rate that the fastest 5 % of the cells carry (``top_share``: 0.05 when
+   every cell deforms alike, near 1 when a few cells carry it all) and the log-spaced density.
 6. **Linear kinematic features.** Cells deforming faster than ``lkf_rate`` joined through
    shared sides; a group of at least ``lkf_cells`` cells is one feature, its length the extent
    of its centroids along their principal axis, its orientation that axis's angle from east
@@ -198,6 +199,15 @@ class SirexStats:
         """Share of the cell rates above 0.01 /day."""
         return float(np.mean(self.rates > TAIL_RATE)) if len(self.rates) else np.nan
 
+    def top_share(self, fraction: float = 0.05) -> float:
+        """Share of the summed cell rate carried by the fastest ``fraction`` of the cells
+        (``fraction`` itself when every cell deforms at the same rate)."""
+        r = np.sort(self.rates)[::-1]
+        total = float(np.sum(r))
+        if not len(r) or total <= 0.0:
+            return np.nan
+        return float(np.sum(r[:max(1, int(round(fraction * len(r))))]) / total)
+
     def histogram(self, bins: int = 24) -> tuple[np.ndarray, np.ndarray]:
         """Probability density of the cell rates on log-spaced bins [1/day]: ``(density,
         edges)``."""
@@ -230,7 +240,8 @@ class SirexStats:
                    f"c = {self.c:.3f} (convex when a > 0; q - 1 is a = 0, b = 1, c = -1)")
         out.append(f"alpha (L = {self.scales[0] / 1e3:g} km) = {self.alpha:.3f} ± "
                    f"{1.96 * self.alpha_se:.3f}")
-        out.append(f"share of cell rates above 0.01 /day: {self.tail:.1%}")
+        out.append(f"share of cell rates above 0.01 /day: {self.tail:.1%}; the fastest 5 % "
+                   f"of the cells carry {self.top_share():.0%} of the summed rate")
         if len(self.lkf_lengths):
             out.append(f"linear kinematic features: {len(self.lkf_lengths)} over "
                        f"{len(self.lkf_counts)} intervals, median length "
@@ -327,9 +338,25 @@ def sirex(positions, dt: float, scales, steps=(1,), coverage: float = 0.5,
                       lifetimes(tracked, steps[0] * dt))
 
 
-def output_sirex(path, scales, steps=(1,), coverage: float = 0.5, **kw) -> SirexStats:
+def window_snapshots(seconds, window, where="output") -> np.ndarray:
+    """Indices of the snapshots at ``seconds`` [s] that fall in ``window = (t0, t1)`` [s after
+    the first snapshot, both ends included to a microsecond]; at least two, or a
+    :class:`~siku_core.DataError` naming ``where``."""
+    rel = np.asarray(seconds, float) - float(seconds[0])
+    keep = np.flatnonzero((rel >= window[0] - 1e-6) & (rel <= window[1] + 1e-6))
+    if len(keep) < 2:
+        from siku_core import DataError
+
+        raise DataError(f"{where}: the window {window[0] / 3600:g}-{window[1] / 3600:g} h "
+                        f"holds {len(keep)} snapshot(s); the metrics need two")
+    return keep
+
+
+def output_sirex(path, scales, steps=(1,), coverage: float = 0.5, window=None,
+                 **kw) -> SirexStats:
     """:func:`sirex` of the free elements of a run's output file, no scale below the median
-    element's size (square root of its area)."""
+    element's size (square root of its area); ``window = (t0, t1)`` [s from the first
+    snapshot] keeps the snapshots from ``t0`` to ``t1`` (both included) only."""
     from siku_io.analysis.deformation_stats import plane_positions
     from siku_io.analysis.gridded_fields import snapshot_seconds
     from siku_io.output.xr import open_output
@@ -344,8 +371,16 @@ def output_sirex(path, scales, steps=(1,), coverage: float = 0.5, **kw) -> Sirex
         raise DataError(f"{path}: deformation metrics need at least two snapshots at a "
                         "constant interval")
     lon, lat = ds["lon"].values, ds["lat"].values
-    free = ds["flags"].values == 0 if "flags" in ds else np.ones(lon.shape[-1], bool)
-    element = float(np.sqrt(np.median(ds["area"].values[free]))) if "area" in ds else 0.0
+    if window is not None:
+        keep = window_snapshots(seconds, window, path)
+        lon, lat = lon[keep], lat[keep]
+    # flags and areas are per snapshot in a run whose processes may change them: the elements
+    # free in every snapshot kept, their areas at the first
+    flags = ds["flags"].values if "flags" in ds else np.zeros(lon.shape[-1], int)
+    free = np.all(np.atleast_2d(flags if flags.ndim == 1 or window is None else flags[keep])
+                  == 0, axis=0)
+    area = np.atleast_2d(ds["area"].values)[0] if "area" in ds else None
+    element = float(np.sqrt(np.median(area[free]))) if area is not None else 0.0
     lon0 = float(np.degrees(np.angle(np.mean(np.exp(1j * np.radians(lon[0][free]))))))
     lat0 = float(np.mean(lat[0][free]))
     pos = [plane_positions(lon[k][free], lat[k][free], lon0, lat0, R) for k in range(len(lon))]
