@@ -106,6 +106,10 @@ def test_the_guides_law_runs_its_scene_with_the_predicted_breaks(law_from_the_gu
     assert set(cm.break_mode) == {BREAK_TENSION}
 
 
+# slow: the same check (check_contact_law on siku_example_plugin.laws.BrittleBond, the file the
+# guide shows verbatim, with the same two parameter sets) is the example's own
+# test_brittle_bond_conforms, which tests/test_plugins.py runs in the default suite
+@pytest.mark.slow
 def test_the_guides_law_passes_the_conformance_suite(law_from_the_guide):
     check_contact_law(law_from_the_guide)
     check_contact_law(law_from_the_guide, {"stiffness_scale": 2.0, "friction": 0.3,
