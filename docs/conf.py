@@ -1,9 +1,10 @@
 """Sphinx configuration of siku's documentation site.
 
 Sphinx with MyST: the pages are the Markdown files of this folder as they read on the
-repository (MyST renders them unchanged; MyST-NB runs the tutorial notebook at build),
-autodoc and napoleon render the public docstrings (numpy style, units in brackets) into the
-API reference, and the small extension
+repository (MyST renders them unchanged; MyST-NB runs the notebooks at build: the tutorial and
+the gallery's pages ``gallery/*.md``, each drawing its figures from a small scene), autodoc
+and napoleon render the public docstrings (numpy style, units in brackets) into the API
+reference, and the small extension
 ``_ext/siku_docs.py`` keeps the Markdown pages valid for both readers (HTML anchors of the
 references page as targets, links that leave docs/ to the repository). Build:
 
@@ -31,6 +32,13 @@ nb_execution_mode = "force"
 nb_execution_raise_on_error = True  # a cell that fails fails the build
 nb_execution_show_tb = True
 nb_execution_timeout = 600  # [s] per cell: the first run on a machine compiles siku's kernels
+# each notebook runs in a new empty folder, as a reader's does: the files its cells write (the
+# gallery's runs) never reach the source tree
+nb_execution_in_temp = True
+# SIKU_DOCS_GALLERY=skip: the gallery's pages are read and checked but their cells not run (the
+# suite's quick build; its doc-block tests run those cells, and a full build runs them here)
+if os.environ.get("SIKU_DOCS_GALLERY") == "skip":
+    nb_execution_excludepatterns = ["gallery/*"]
 # the kernel imports the siku of this tree (the one documented), whatever is installed
 os.environ["PYTHONPATH"] = os.pathsep.join(
     [str(HERE.parent), *filter(None, [os.environ.get("PYTHONPATH")])])

@@ -170,6 +170,38 @@ def test_element_and_grid_maps_draw_into_the_callers_cartopy_axes(small, tmp_pat
     plt.close(fig)
 
 
+def test_a_run_held_in_memory_maps_as_its_file(small):
+    """``Output(sim)`` of a run made with ``out="memory"`` holds what ``Output(FILE)`` reads
+    from the file of the same scene (the same snapshots, geometry and fields, bit for bit), so
+    the map painter draws it without a file; a run that keeps nothing in memory is refused
+    with siku's error."""
+    import matplotlib.pyplot as plt
+
+    from siku_core import DataError
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_io.output.results import open_results
+    from siku_io.plot.element_maps import MapPainter, Output
+
+    with open_results(small) as f:
+        scene = f["scene"][()].decode()
+    sim = Simulation(scene_from_text(scene, "small"), out="memory", progress=False).run()
+    mem, disk = Output(sim), Output(small)
+    assert mem.path.name == "<memory>" and len(mem.time) == len(disk.time) == 3
+    for name in ("time", "q", "offsets", "verts", "flags"):
+        np.testing.assert_array_equal(getattr(mem, name), getattr(disk, name), err_msg=name)
+    assert mem.fields.keys() == disk.fields.keys() and mem.units == disk.units
+    for name in disk.fields:
+        np.testing.assert_array_equal(mem.fields[name], disk.fields[name], err_msg=name)
+    assert (mem.title, mem.radius, mem.start, mem.has_coast) == (
+        disk.title, disk.radius, disk.start, disk.has_coast)
+    painter = MapPainter(mem, "speed")
+    painter.draw(-1)
+    assert len(painter.coll.get_paths()) == 2 and "<memory>" not in painter.ax.get_title()
+    plt.close(painter.fig)
+    with pytest.raises(DataError, match='out="memory"'):
+        Output(Simulation(scene_from_text(scene, "small"), out=False, progress=False))
+
+
 @pytest.mark.parametrize("args, says", [
     (["--time", "9"], "snapshot index out of range"),
     (["--time", "5h"], "no snapshot at 18000 s"),

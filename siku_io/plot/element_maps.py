@@ -33,34 +33,55 @@ def field_units(out: "Output", field: str) -> str:
 
 
 class Output:
-    """Read-only view of an output file for plotting."""
+    """Read-only view of a run's snapshots for plotting: an output file (its path), or a run
+    held in memory (a :class:`~siku_core.run.simulation.Simulation` made with
+    ``out="memory"``: the snapshots it has kept so far, no file written)."""
 
-    def __init__(self, path: str | Path):
-        from siku_io.output.results import n_snapshots, open_results
+    def __init__(self, path):
+        from contextlib import nullcontext
 
-        self.path = Path(path)
-        with open_results(self.path) as f:
-            if "states" not in f or "q" not in f["states"]:
-                raise DataError(f"{self.path}: no element states (is it a siku output file?)")
-            n = n_snapshots(f)  # complete snapshots only (a killed run may leave one more row)
-            if n == 0:
-                raise DataError(f"{self.path}: holds no complete snapshot yet, nothing to draw "
-                                "(a run killed before its first snapshot; rerun the scene)")
-            self.title = str(f.attrs.get("title", ""))
-            self.radius = float(f.attrs["radius"])
-            self.start = str(f.attrs.get("start", ""))
-            geo = f["geometry"]
-            self.offsets = geo["vert_offsets"][...]
-            self.verts = geo["verts"][...]
-            self.flags = geo["flags"][...]
-            self.time = f["states/time"][:n]
-            self.q = f["states/q"][:n]
-            self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()
-                           if v.ndim == 2}  # one value per element (not per category)
-            #: the fields' ``units`` attributes as the file holds them (empty: none)
-            self.units = {k: _text(v.attrs.get("units", ""))
-                          for k, v in f["states"].get("fields", {}).items() if v.ndim == 2}
-            scene = f["scene"][()] if "scene" in f else b""
+        from siku_core.run.simulation import Simulation
+        from siku_io.output.results import open_results
+
+        if isinstance(path, Simulation):
+            kept = next((w for w in path.writers if w.in_memory), None)
+            if kept is None or not kept.holds_snapshots():
+                raise DataError("the run keeps no snapshot in memory: make it with "
+                                "Simulation(scene, out=\"memory\") and run it, or give an "
+                                "output file")
+            kept.f.flush()
+            self.path = Path("<memory>")
+            source = nullcontext(kept.f)
+        else:
+            self.path = Path(path)
+            source = open_results(self.path)
+        with source as f:
+            self._read(f)
+
+    def _read(self, f) -> None:
+        from siku_io.output.results import n_snapshots
+
+        if "states" not in f or "q" not in f["states"]:
+            raise DataError(f"{self.path}: no element states (is it a siku output file?)")
+        n = n_snapshots(f)  # complete snapshots only (a killed run may leave one more row)
+        if n == 0:
+            raise DataError(f"{self.path}: holds no complete snapshot yet, nothing to draw "
+                            "(a run killed before its first snapshot; rerun the scene)")
+        self.title = str(f.attrs.get("title", ""))
+        self.radius = float(f.attrs["radius"])
+        self.start = str(f.attrs.get("start", ""))
+        geo = f["geometry"]
+        self.offsets = geo["vert_offsets"][...]
+        self.verts = geo["verts"][...]
+        self.flags = geo["flags"][...]
+        self.time = f["states/time"][:n]
+        self.q = f["states/q"][:n]
+        self.fields = {k: v[:n] for k, v in f["states"].get("fields", {}).items()
+                       if v.ndim == 2}  # one value per element (not per category)
+        #: the fields' ``units`` attributes as the file holds them (empty: none)
+        self.units = {k: _text(v.attrs.get("units", ""))
+                      for k, v in f["states"].get("fields", {}).items() if v.ndim == 2}
+        scene = f["scene"][()] if "scene" in f else b""
         from siku_io.plot.mapdeco import scene_has_coast
 
         #: whether the run's scene has a coast (a mesh against land data): land is drawn
