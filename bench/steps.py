@@ -218,18 +218,22 @@ def figure(rows: list[tuple[float, dict]], hours: int, path: Path, ref: str = ""
     ax1.set_yscale("log")
     ax1.grid(True, which="both", alpha=0.3)
     h2 = min(2, hours)
-    ax2.plot(dts, [100 * abs(c[f"lead_err_{hours}h"]) for _, c in rows], "o-",
+    ax2.plot(dts, [100 * abs(c[f"lead_err_{hours}h"]) for _, c in rows], "o-", color="C0",
              label=f"|lead fraction error| at {hours} h [%]")
-    if h2 != hours:
+    if h2 != hours and any(c[f"lead_{h2}h"] for _, c in rows):  # (leads open by then)
         ax2.plot(dts, [100 * abs(c[f"lead_err_{h2}h"]) for _, c in rows], "s--",
                  label=f"|lead fraction error| at {h2} h [%]")
-    ax2.plot(dts, [100 * (1 - c["near_of_run"]) for _, c in rows], "^-",
+    ax2.plot(dts, [100 * (1 - c["near_of_run"]) for _, c in rows], "^-", color="C2",
              label="breaks farther than 10 km from a reference break [%]")
+    ax2.axhline(100 * LEAD_REL, color="C0", lw=0.8, ls=":", label="bound of the lead fraction")
+    ax2.axhline(100 * (1 - NEAR_SHARE), color="C2", lw=0.8, ls=":",
+                label="bound of the far breaks")
     ax2.set_xlabel("dt [s]")
     ax2.set_xscale("log")
     ax2.set_yscale("symlog", linthresh=1.0)
+    ax2.set_ylim(bottom=0.0)
     ax2.grid(True, which="both", alpha=0.3)
-    ax2.legend(fontsize=8)
+    ax2.legend(fontsize=7, loc="upper left")
     fig.suptitle(f"The default scene against its step (reference: {ref or 'the first dt'})")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
