@@ -10,6 +10,11 @@ velocities of 1 mm/s (strains of about ``v / c = 1e-6``, a tenth of the joints' 
   break faster than cracks can run: the run stops with one line naming the step, the share
   broken and what to do, and the state is the last good one (no joint broken);
 * ``break_guard = "warn"`` warns once and runs on; ``"off"`` says nothing;
+* the dampers as written (unbounded, as the engine applied them before it bounded them by the
+  step): the step the default scene shattered at (3 s against its explicit critical 1.665 s,
+  1.8 times it) is refused before the run at the widest ``dt_safety`` (1), and run anyway it is
+  stopped by the breaking rate, while with the bounded dampers that step lies within the
+  critical step and runs without a break;
 * breaking joints from outside past ``RECHECK_JOINTS`` of them checks the step again (and
   not before); refreezing them where the step is no longer stable is refused as before a run.
 """
@@ -155,3 +160,31 @@ def test_joints_broken_from_outside_the_law_are_not_counted(critical):
     cm.break_joints(np.arange(cm.n_joints), BreakMode.EXTERNAL, sim.time)
     sim.step()
     assert sim.step_index == 1 and cm.n_intact == 0
+
+
+def test_the_old_dampers_at_1_8_times_their_critical_step_are_refused_and_stopped(monkeypatch):
+    """The dampers unbounded (``ContactModel.damping_mobility`` all zeros: every ``g[J_DTM]``
+    is 0, the law's ``step_damper`` returns ``c`` as written, and the estimate is the explicit
+    ``4 / (gamma + sqrt(gamma² + 4 omega²))``) at 1.8 times their critical step, the ratio of
+    the default scene's 3 s to its explicit 1.665 s."""
+    from siku_core.contact.contact_model import ContactModel
+
+    bounded = _sim(1e-3).critical_dt
+    monkeypatch.setattr(ContactModel, "damping_mobility",
+                        lambda self: np.zeros((self.state.n, 2)))
+    explicit = _sim(1e-3).critical_dt
+    assert explicit < 0.6 * bounded  # the dampers as written set the step
+    dt = 1.8 * explicit
+    with pytest.raises(StabilityError, match="is above the safe step"):
+        _sim(dt, dt_safety=1.0)
+    sim = _kicked(dt, allow_unstable_dt=True)
+    with pytest.raises(StabilityError, match="faster than cracks can run"):
+        for _ in range(STEPS):
+            sim.step()
+    assert sim.step_index == 0 and sim.contacts.n_intact == sim.contacts.n_joints
+    monkeypatch.undo()
+    sim = _kicked(dt, dt_safety=1.0)  # bounded: within the critical step, accepted at 1
+    assert dt <= sim.critical_dt
+    for _ in range(STEPS):
+        sim.step()
+    assert sim.contacts.n_intact == sim.contacts.n_joints
