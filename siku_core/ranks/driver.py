@@ -49,7 +49,7 @@ from .comm import Comm
 from .decompose import Cuts, bisect, imbalance
 from .ghosts import exchange_plan, local_sets, reach_pairs
 from .history import merge, to_global, to_local, unfit
-from .local import JOINT_STATE, local_engine
+from .local import JOINT_STATE, RankLink, local_engine
 
 #: the element arrays processes change besides the declared fields (``siku_core.ice``)
 ICE_STATE = ("thickness", "m", "I", "flags")
@@ -156,7 +156,9 @@ class RankRun:
         self.recv_ghosts = [np.searchsorted(self.ghost_rows, r) for r in self.recv_rows]
         if getattr(self, "loc", None) is not None:
             self._close_local()
-        self.loc, self.jg = local_engine(sim, self.ids, self.ghost_rows)
+        self.link = RankLink(sim, self.ids, self.own_rows, self.comm, self.send_rows,
+                             self.recv_rows)
+        self.loc, self.jg = local_engine(sim, self.ids, self.ghost_rows, self.link)
         self.loc.check_time_step = self._local_check  # (made on the whole run, :meth:`step`)
         lc = self.loc.contacts
         # joints reported here: those whose first element this rank owns
