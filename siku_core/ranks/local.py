@@ -185,12 +185,12 @@ class RankLink:
     holding them as ghosts). Every rank calls them alike, in the same order.
 
     Without ``comm`` (a check in one process, ``siku_core.testing.process_checks``) the
-    link holds no other rank: :meth:`whole` needs every element held, :meth:`to_ghosts` takes
-    the ghosts' rows from ``mirror`` (a function ``(call, arrays)``), else raises."""
+    link holds no other rank: :meth:`whole` needs every element held, :meth:`to_ghosts` no
+    ghost."""
 
     def __init__(self, glob, ids: np.ndarray, own_rows: np.ndarray, comm=None,
                  send_rows: list[np.ndarray] | None = None,
-                 recv_rows: list[np.ndarray] | None = None, mirror=None):
+                 recv_rows: list[np.ndarray] | None = None):
         #: the run's context, and its contact model (the whole joint table)
         self.run = glob.context
         self.run_contacts = glob.contacts
@@ -203,9 +203,6 @@ class RankLink:
         self.jg = np.zeros(0, dtype=np.int64)
         self.comm = comm
         self.send_rows, self.recv_rows = send_rows or [], recv_rows or []
-        self.mirror = mirror
-        #: how many times :meth:`to_ghosts` was called (a mirror replays its calls by count)
-        self.calls = 0
 
     @property
     def rank(self) -> int:
@@ -234,12 +231,9 @@ class RankLink:
     def to_ghosts(self, *arrays: np.ndarray) -> None:
         """The owners' rows of each of ``arrays`` (first axis: the elements the rank holds)
         to the ranks holding them as ghosts, in place. Collective."""
-        self.calls += 1
         if self.comm is None:
             if len(self.ghost_rows):
-                if self.mirror is None:
-                    raise PluginError("exchanging ghosts' rows needs the ranks of a run")
-                self.mirror(self.calls - 1, arrays)
+                raise PluginError("exchanging ghosts' rows needs the ranks of a run")
             return
         out = []
         for s, rows in enumerate(self.send_rows):
@@ -269,7 +263,7 @@ class WholeJoints:
         self.ji, self.jj = run.ji, run.jj
         self.intact = np.array(run.intact, copy=True)
         self.n_joints, self.joint_slots = run.n_joints, run.joint_slots
-        self.youngs_modulus = run.youngs_modulus
+        self.youngs_modulus = link.run.contacts.youngs_modulus  # [Pa] (the run's view)
 
     def joint_lines(self, q: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         return self._run.joint_lines(q)

@@ -86,6 +86,11 @@ params = { gap = 2.0, freeze_time = 5.0, strength = 2e3, strength_time = 100.0 }
 """
 
 
+FLOE = ('outline = "rectangle", center = [0.0, 0.0], length = 80.0, width = 30.0, '
+        'element_size = 10.0')
+WAVE = "amplitude = 0.5, period = 3.0, direction = 90.0, origin = [0.0, 0.0]"
+
+
 def floe_text(steps: int = 100, process: str = "", forcing: str = "") -> str:
     """A bonded 8 × 3 floe of 10 m elements, 1 m thick (``distributed_spring``, dt 1 ms), in
     a linear wave of 0.5 m amplitude and 3 s period (the ``waves`` forcing with ``forcing``'s
@@ -102,7 +107,7 @@ thickness = 1.0
 
 [[elements.source]]
 name = "floe"
-params = {{ outline = "rectangle", center = [0.0, 0.0], length = 80.0, width = 30.0, element_size = 10.0 }}
+params = {{ {FLOE} }}
 
 [contact]
 law = "distributed_spring"
@@ -111,7 +116,7 @@ params = {{ tensile_strain = 1e-2 }}
 [[forcing]]
 source = "waves"
 params = {{ {forcing} }}
-field = {{ type = "linear_wave", params = {{ amplitude = 0.5, period = 3.0, direction = 90.0, origin = [0.0, 0.0] }} }}
+field = {{ type = "linear_wave", params = {{ {WAVE} }} }}
 
 [run]
 progress = false

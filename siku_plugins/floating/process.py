@@ -372,11 +372,11 @@ class Floating(Process):
 
     def _ghosts(self):
         """After each bonded sub-step's drift on an MPI rank: the ghosts' state from their
-        owners (``None``: on one rank, or no beams)."""
-        link = self.link
-        if self.beams is None or link is None or not len(link.ghost_rows):
+        owners (``None``: on one rank, or no beams). Every rank exchanges alike, with ghosts
+        or without (a collective call)."""
+        if self.beams is None or self.link is None:
             return None
-        return link.to_ghosts
+        return self.link.to_ghosts
 
     def _coefficients(self, ctx, free, phi, h, d, A, J1, J2, rho_i, rho_w, g, where) -> dict:
         """The masses, damping and stiffnesses of :data:`FloatingBodies` (by name)."""
