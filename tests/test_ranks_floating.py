@@ -115,3 +115,28 @@ def test_floating_conforms_on_ranks_with_loads_by_index():
     from siku_plugins.floating import Floating
 
     check_process_on_ranks(Floating, {"initial_heave": 0.1, "loads": [[3, 1e8], [4, -5e7]]})
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_floating_and_wave_breaking_write_the_same_file_on_two_ranks(tmp_path):
+    """``siku run --ranks 2`` of the bending floe and of the waves' breaking writes the
+    one-rank file byte for byte (states, heave and tilts, joints, the breaks' log in the
+    order one rank logs them, pass by pass of the waves' check, diagnostics)."""
+    import subprocess
+    import sys
+
+    from siku_core.testing.ranks_cases import floating_text, wave_breaking_text
+    from test_ranks import _env
+
+    for name, text in (("float", floating_text()), ("waves", wave_breaking_text())):
+        (tmp_path / f"{name}.toml").write_text(text.replace(
+            "[run]", "[output]\nevery = 0.02\n\n[run]"), encoding="utf-8")
+        for out, extra in ((f"{name}1.h5", []), (f"{name}2.h5", ["--ranks", "2"])):
+            p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run",
+                                f"{name}.toml", "--no-progress", "--no-plots", "--out", out,
+                                *extra], cwd=tmp_path, env=_env(), capture_output=True,
+                               text=True, timeout=TIMEOUT)
+            assert p.returncode == 0, p.stderr
+        one = (tmp_path / f"{name}1.h5").read_bytes()
+        assert one == (tmp_path / f"{name}2.h5").read_bytes(), name

@@ -37,6 +37,8 @@ from ..contact.damping import contact_mobility
 from ..ice import IceBook
 from ..state import MELTED, ElementState
 
+#: the pass of a step's breaks that come after every component's checks (the law's)
+LAST_PASS = 1 << 30
 #: the joint arrays a rank's engine takes from the run's joint table (the rest it derives);
 #: a refrozen joint's rest state (``ends_j``, ``L0``) is where it refroze
 JOINT_STATE = ("L0", "ends_j", "width", "intact", "break_mode", "break_time", "hist")
@@ -78,16 +80,20 @@ class RankContacts(ContactModel):
         self.reports = np.ones(self.n_joints, dtype=bool)
         #: the rank's place in the run (:class:`RankLink`), set by :func:`local_engine`
         self.link: RankLink | None = None
+        #: the pass of a step's checks in which joints break now (:class:`WholeJoints` sets
+        #: 1, 2, ...; :data:`LAST_PASS` otherwise): one rank logs a step's breaks pass by
+        #: pass, in joint order within each, and the ranks' logs are merged by the same keys
+        self.break_pass = LAST_PASS
         #: the local joints that broke or refroze since the driver last took them, in the
-        #: order they did (:meth:`take_changes`)
-        self._broke: list[np.ndarray] = []
+        #: order they did (:meth:`take_changes`), the breaks with their pass
+        self._broke: list[tuple[int, np.ndarray]] = []
         self._refroze: list[np.ndarray] = []
 
     def _record_breaks(self, t: float) -> None:
         new = np.flatnonzero(~self.intact & np.isnan(self.break_time))
         super()._record_breaks(t)
         if len(new):
-            self._broke.append(new)
+            self._broke.append((self.break_pass, new))
 
     def refreeze_joints(self, k: np.ndarray, t: float) -> int:
         k = np.asarray(k, dtype=np.int64).reshape(-1)
@@ -98,14 +104,19 @@ class RankContacts(ContactModel):
             self._refroze.append(done)
         return n
 
-    def take_changes(self) -> tuple[np.ndarray, np.ndarray]:
-        """The local joints that broke since the last call (each once, ascending) and those
-        whose state changed (broke or refroze, ascending)."""
-        broke = np.unique(np.concatenate(self._broke)) if self._broke else np.zeros(0, np.int64)
-        both = self._broke + self._refroze
-        changed = np.unique(np.concatenate(both)) if both else np.zeros(0, np.int64)
+    def take_changes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The local joints that broke since the last call (each once, ascending), the pass
+        in which each broke (:attr:`break_pass`) and the joints whose state changed (broke or
+        refroze, ascending)."""
+        z = np.zeros(0, np.int64)
+        joints = np.concatenate([b for _, b in self._broke]) if self._broke else z
+        passes = np.concatenate([np.full(len(b), p, np.int64) for p, b in self._broke]) \
+            if self._broke else z
+        broke, first = np.unique(joints, return_index=True)
+        both = [b for _, b in self._broke] + self._refroze
+        changed = np.unique(np.concatenate(both)) if both else z
         self._broke, self._refroze = [], []
-        return broke, changed
+        return broke, passes[first], changed
 
     def _build_joints(self) -> None:
         g = self._given
@@ -264,6 +275,8 @@ class WholeJoints:
         self.intact = np.array(run.intact, copy=True)
         self.n_joints, self.joint_slots = run.n_joints, run.joint_slots
         self.youngs_modulus = link.run.contacts.youngs_modulus  # [Pa] (the run's view)
+        #: how many times joints were broken here (the passes of a check)
+        self.passes = 0
 
     def joint_lines(self, q: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         return self._run.joint_lines(q)
@@ -278,8 +291,14 @@ class WholeJoints:
         jg = self._link.jg
         at = np.minimum(np.searchsorted(jg, k), max(len(jg) - 1, 0))
         held = at[jg[at] == k] if len(jg) else at[:0]
+        self.passes += 1
         if len(held):
-            self._link.contacts.break_joints(held, mode, t)
+            lc = self._link.contacts
+            lc.break_pass = self.passes
+            try:
+                lc.break_joints(held, mode, t)
+            finally:
+                lc.break_pass = LAST_PASS
         return len(k)
 
 
