@@ -136,7 +136,7 @@ def test_floating_and_wave_breaking_write_the_same_file_on_two_ranks(tmp_path):
             p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run",
                                 f"{name}.toml", "--no-progress", "--no-plots", "--out", out,
                                 *extra], cwd=tmp_path, env=_env(), capture_output=True,
-                               text=True, timeout=TIMEOUT)
+                               text=True, timeout=2 * TIMEOUT)  # (with the writer)
             assert p.returncode == 0, p.stderr
         one = (tmp_path / f"{name}1.h5").read_bytes()
         assert one == (tmp_path / f"{name}2.h5").read_bytes(), name
