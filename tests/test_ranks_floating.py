@@ -140,3 +140,22 @@ def test_floating_and_wave_breaking_write_the_same_file_on_two_ranks(tmp_path):
             assert p.returncode == 0, p.stderr
         one = (tmp_path / f"{name}1.h5").read_bytes()
         assert one == (tmp_path / f"{name}2.h5").read_bytes(), name
+
+
+def test_what_runs_on_ranks_and_what_is_refused(tmp_path):
+    """The floating floe (bending, loads) and the waves' breaking are not refused on ranks;
+    a sea that the ice damps on a grid (the ``spectral`` field, under a floating floe) is,
+    in one line naming the field and the number of ranks."""
+    from siku_core.ranks.driver import refusals
+    from siku_core.run.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.testing.ranks_cases import floating_text, wave_breaking_text
+    from test_spectral import build, flume_scene
+
+    for text in (floating_text(10), wave_breaking_text(10)):
+        assert refusals(Simulation(scene_from_text(text, "<f>"), out=False), 2) == []
+    path = flume_scene(tmp_path, {})
+    path.write_text(path.read_text() + '\n[[process]]\nname = "floating"\n'
+                    'params = { coefficients = "scene" }\n')
+    got = refusals(build(path), 4)
+    assert len(got) == 1 and "field 'spectral' cannot run on 4 ranks" in got[0], got
