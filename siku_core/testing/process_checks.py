@@ -27,9 +27,10 @@ failed:
   every other element, set up over those elements alone as an MPI rank sets it up (its
   ``setup_on_rank``, from the run's copy), as it changes them among all, bit for bit
   (thickness, mass, inertia, flags, declared fields, thickness categories); one that also
-  declares ``reads_contacts`` is set up over a third of the elements and their contact partners (its ghosts), with its history split as its
-  ``rank_history`` says, stepped once beside the whole run, and must change those elements,
-  the joints they report and its history of them as among all, bit for bit.
+  declares ``reads_contacts`` is set up over a third of the elements and their contact partners
+  (its ghosts), with its history split as its ``rank_history`` says, stepped once beside the
+  whole run, and must change those elements, the joints they report and its history of them as
+  among all, bit for bit.
 """
 from __future__ import annotations
 
