@@ -76,8 +76,8 @@ class Component(ABC):
     reads_contacts: ClassVar[bool] = False
     #: how each array of its ``history()`` is indexed (``{name: layout}``, layouts of
     #: ``siku_core.ranks.history``: ``"element"``, ``"joint"``, ``"pair_keys"``,
-    #: ``"pair_rows"``, ``"pair_elements"``, ``"pair_count"``, ``"total"``), so that ranks
-    #: carry it; a component that keeps history without it is refused on ranks
+    #: ``"pair_rows"``, ``"pair_elements"``, ``"pair_count"``, ``"same"``, ``"total"``), so
+    #: that ranks carry it; a component that keeps history without it is refused on ranks
     rank_history: ClassVar[Mapping[str, str]] = {}
 
     def __init__(self, params: Mapping[str, Any] | None = None):
@@ -94,6 +94,17 @@ class Component(ABC):
     def setup(self, ctx: "Context") -> None:  # noqa: B027 - optional hook
         """Called once when the run is built (allocate arrays, keep ``ctx`` if the step needs
         it)."""
+
+    def setup_on_rank(self, ctx: "Context", run: "Component", link: Any) -> None:
+        """Set up this copy of the component on a rank's engine (``siku_core.ranks``):
+        ``ctx`` is the engine's context over the elements the rank holds (owned and ghosts,
+        ascending global index), ``run`` the component's copy set up on the whole run, and
+        ``link`` (``siku_core.ranks.local.RankLink``) the rank's place in the run: the
+        elements' global indices, gathering the run's elements and sending owners' rows to
+        ghosts. The default sets the copy up afresh on ``ctx``; a component whose set-up
+        depends on the whole run (a sub-step from every element, indices of the run's
+        elements, expensive coefficients) takes it from ``run`` instead."""
+        self.setup(ctx)
 
     def stability_limit(self, ctx: "Context") -> tuple[float, str] | None:
         """``(dt_max [s], reason)``: the largest stable step this component allows, checked

@@ -49,7 +49,7 @@ from .comm import Comm
 from .decompose import Cuts, bisect, imbalance
 from .ghosts import exchange_plan, local_sets, reach_pairs
 from .history import merge, to_global, to_local, unfit
-from .local import JOINT_STATE, local_engine
+from .local import JOINT_STATE, RankLink, local_engine
 
 #: the element arrays processes change besides the declared fields (``siku_core.ice``)
 ICE_STATE = ("thickness", "m", "I", "flags")
@@ -156,7 +156,9 @@ class RankRun:
         self.recv_ghosts = [np.searchsorted(self.ghost_rows, r) for r in self.recv_rows]
         if getattr(self, "loc", None) is not None:
             self._close_local()
-        self.loc, self.jg = local_engine(sim, self.ids, self.ghost_rows)
+        self.link = RankLink(sim, self.ids, self.own_rows, self.comm, self.send_rows,
+                             self.recv_rows)
+        self.loc, self.jg = local_engine(sim, self.ids, self.ghost_rows, self.link)
         self.loc.check_time_step = self._local_check  # (made on the whole run, :meth:`step`)
         lc = self.loc.contacts
         # joints reported here: those whose first element this rank owns
@@ -488,21 +490,23 @@ class RankRun:
                 return False
         return True
 
-    def _joint_news(self, stepped: tuple[np.ndarray, np.ndarray],
-                    processed: tuple[np.ndarray, np.ndarray]) -> dict[str, Any] | None:
+    def _joint_news(self, stepped: tuple[np.ndarray, np.ndarray, np.ndarray],
+                    processed: tuple[np.ndarray, np.ndarray, np.ndarray]
+                    ) -> dict[str, Any] | None:
         """What this rank reports of the step's joint changes: the joints that broke in the
-        step's force evaluations, then those that broke in its processes (global indices),
-        and the new state of every joint that broke or refroze (of those it reports)."""
+        step's force evaluations, then those that broke in its processes (global indices,
+        with the pass of a check in which each broke), and the new state of every joint that
+        broke or refroze (of those it reports)."""
         lc = self.loc.contacts
         rep = self.j_mine
-        b1, c1 = stepped
-        b2, c2 = processed
+        b1, p1, c1 = stepped
+        b2, p2, c2 = processed
         changed = np.union1d(c1, c2)
         changed = changed[rep[changed]]
         if not len(changed):
             return None
         news: dict[str, Any] = {"broke": (self.jg[b1[rep[b1]]], self.jg[b2[rep[b2]]]),
-                                "jg": self.jg[changed]}
+                                "passes": (p1[rep[b1]], p2[rep[b2]]), "jg": self.jg[changed]}
         for k in JOINT_STATE:
             news[k] = getattr(lc, k)[changed]
         return news
@@ -510,7 +514,8 @@ class RankRun:
     def _take_joints(self, parts: list[dict[str, Any]]) -> None:
         """Apply the ranks' reported joint changes to the run's joint table: the new state of
         the joints that broke or refroze, and the breaks in the order one rank records them
-        (those of the force evaluations, then those of the processes, each in joint order)."""
+        (those of the force evaluations, then those of the processes, each by the pass of a
+        check in which they broke, then in joint order)."""
         gc = self.sim.contacts
         if not parts or gc is None:
             return
@@ -519,7 +524,8 @@ class RankRun:
         for k in JOINT_STATE:
             getattr(gc, k)[j] = np.concatenate([p[k] for p in parts])
         for phase in (0, 1):
-            b = np.sort(np.concatenate([p["broke"][phase] for p in parts]))
+            b = np.concatenate([p["broke"][phase] for p in parts])
+            b = b[np.lexsort((b, np.concatenate([p["passes"][phase] for p in parts])))]
             gc.n_broken_total += len(b)
             if self.root:
                 gc._pending.extend(b.tolist())

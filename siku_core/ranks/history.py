@@ -24,6 +24,9 @@ in global ones. Layouts (:data:`LAYOUTS`):
     global indices as the keys are.
 ``"pair_count"``
     how many keys of the ``"pair_keys"`` array are in use (a scalar).
+``"same"``
+    a value every rank's copy holds alike (a scalar or array: the position of a ring buffer
+    that every element's row shares, a clock): the run's is the first rank's.
 ``"total"``
     a count over the whole run of what the process did (a scalar): the run's value is the sum
     of the ranks' values. A process keeps it exact by adding what the contacts view's actions
@@ -41,7 +44,7 @@ import numpy as np
 from ..errors import SceneError
 
 LAYOUTS = ("element", "joint", "pair_keys", "pair_rows", "pair_elements", "pair_count",
-           "total")
+           "same", "total")
 
 
 def unfit(comp) -> str:
@@ -99,7 +102,7 @@ def to_global(layout: dict[str, str], hist: dict[str, np.ndarray], ids: np.ndarr
             part[name] = a[own]
         elif kind == "joint":
             part[name] = a[:len(jg)][j_mine]
-        elif kind == "total":
+        elif kind in ("total", "same"):
             part[name] = a
     if kname is not None:
         keys = np.asarray(hist[kname])
@@ -132,6 +135,8 @@ def merge(layout: dict[str, str], run_hist: dict[str, np.ndarray],
             for _, _, part in parts:
                 total = total + part[name]
             out[name] = np.asarray(total, dtype=out[name].dtype)
+        elif kind == "same" and parts:
+            out[name] = np.array(parts[0][2][name], dtype=out[name].dtype)
     if kname is not None:
         keys = np.concatenate([p[kname] for _, _, p in parts]).astype(np.int64)
         order = np.argsort(keys, kind="stable")
@@ -167,6 +172,8 @@ def to_local(layout: dict[str, str], run_hist: dict[str, np.ndarray],
         elif kind == "total":
             out[name] = np.asarray(run_hist[name] if rank == 0 else 0,
                                    dtype=np.asarray(run_hist[name]).dtype)
+        elif kind == "same":
+            out[name] = np.array(run_hist[name], copy=True)
     if kname is not None:
         g = np.asarray(run_hist[kname])
         g = g[g >= 0]

@@ -37,6 +37,8 @@ from ..contact.damping import contact_mobility
 from ..ice import IceBook
 from ..state import MELTED, ElementState
 
+#: the pass of a step's breaks that come after every component's checks (the law's)
+LAST_PASS = 1 << 30
 #: the joint arrays a rank's engine takes from the run's joint table (the rest it derives);
 #: a refrozen joint's rest state (``ends_j``, ``L0``) is where it refroze
 JOINT_STATE = ("L0", "ends_j", "width", "intact", "break_mode", "break_time", "hist")
@@ -76,16 +78,22 @@ class RankContacts(ContactModel):
         self.ghost_dmob = np.zeros((len(ghost_rows), 2))
         #: per local joint: whether this rank reports it (owns its first element)
         self.reports = np.ones(self.n_joints, dtype=bool)
+        #: the rank's place in the run (:class:`RankLink`), set by :func:`local_engine`
+        self.link: RankLink | None = None
+        #: the pass of a step's checks in which joints break now (:class:`WholeJoints` sets
+        #: 1, 2, ...; :data:`LAST_PASS` otherwise): one rank logs a step's breaks pass by
+        #: pass, in joint order within each, and the ranks' logs are merged by the same keys
+        self.break_pass = LAST_PASS
         #: the local joints that broke or refroze since the driver last took them, in the
-        #: order they did (:meth:`take_changes`)
-        self._broke: list[np.ndarray] = []
+        #: order they did (:meth:`take_changes`), the breaks with their pass
+        self._broke: list[tuple[int, np.ndarray]] = []
         self._refroze: list[np.ndarray] = []
 
     def _record_breaks(self, t: float) -> None:
         new = np.flatnonzero(~self.intact & np.isnan(self.break_time))
         super()._record_breaks(t)
         if len(new):
-            self._broke.append(new)
+            self._broke.append((self.break_pass, new))
 
     def refreeze_joints(self, k: np.ndarray, t: float) -> int:
         k = np.asarray(k, dtype=np.int64).reshape(-1)
@@ -96,14 +104,19 @@ class RankContacts(ContactModel):
             self._refroze.append(done)
         return n
 
-    def take_changes(self) -> tuple[np.ndarray, np.ndarray]:
-        """The local joints that broke since the last call (each once, ascending) and those
-        whose state changed (broke or refroze, ascending)."""
-        broke = np.unique(np.concatenate(self._broke)) if self._broke else np.zeros(0, np.int64)
-        both = self._broke + self._refroze
-        changed = np.unique(np.concatenate(both)) if both else np.zeros(0, np.int64)
+    def take_changes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The local joints that broke since the last call (each once, ascending), the pass
+        in which each broke (:attr:`break_pass`) and the joints whose state changed (broke or
+        refroze, ascending)."""
+        z = np.zeros(0, np.int64)
+        joints = np.concatenate([b for _, b in self._broke]) if self._broke else z
+        passes = np.concatenate([np.full(len(b), p, np.int64) for p, b in self._broke]) \
+            if self._broke else z
+        broke, first = np.unique(joints, return_index=True)
+        both = [b for _, b in self._broke] + self._refroze
+        changed = np.unique(np.concatenate(both)) if both else z
         self._broke, self._refroze = [], []
-        return broke, changed
+        return broke, passes[first], changed
 
     def _build_joints(self) -> None:
         g = self._given
@@ -135,8 +148,8 @@ class RankContactsView(ContactsView):
     from the same inputs), and the engine applies them once to the run's joint table, in
     joint order. ``break_joints`` and ``refreeze_joints`` return how many of the joints they
     acted on this rank *reports* (those whose first element it owns): summed over the ranks,
-    each joint is counted once. Creating joints and labelling floes (which read the joints of
-    every element) do not run on ranks."""
+    each joint is counted once. Floe labels are the whole run's (:meth:`floe_labels`);
+    creating joints does not run on ranks."""
 
     __slots__ = ()
 
@@ -161,8 +174,132 @@ class RankContactsView(ContactsView):
                           "rank")
 
     def floe_labels(self) -> tuple[int, np.ndarray]:
-        raise PluginError("floe labels read the joints of every element and do not run on MPI "
-                          "ranks; run the scene on one rank")
+        """The floes of the whole run (:class:`WholeJoints`: the run's joint table, with the
+        state of the joints this rank holds as it is now): ``(count, label)`` over the run's
+        floes, ``label`` of the elements this rank holds, so that a floe over several ranks
+        has one label on each, numbered by global identities as on one rank."""
+        model = self._model
+        link = model.link
+        whole = WholeJoints(link)
+        whole.intact[link.jg] = model.intact[:len(link.jg)]
+        count, label = whole.floe_labels()
+        return count, label[link.ids]
+
+
+class RankLink:
+    """A rank's place in the run, for the components of its engine
+    (``siku_core.component.Component.setup_on_rank``): the run's context (``run``, set up
+    over every element), the global indices of the elements the rank holds (``ids``,
+    ascending) and of its joints (``jg``), which of its rows it owns (``own_rows``), and the
+    two collective exchanges a component may make within its step: :meth:`whole` (every
+    element's rows from their owners) and :meth:`to_ghosts` (owners' rows to the ranks
+    holding them as ghosts). Every rank calls them alike, in the same order.
+
+    Without ``comm`` (a check in one process, ``siku_core.testing.process_checks``) the
+    link holds no other rank: :meth:`whole` needs every element held, :meth:`to_ghosts` no
+    ghost."""
+
+    def __init__(self, glob, ids: np.ndarray, own_rows: np.ndarray, comm=None,
+                 send_rows: list[np.ndarray] | None = None,
+                 recv_rows: list[np.ndarray] | None = None):
+        #: the run's context, and its contact model (the whole joint table)
+        self.run = glob.context
+        self.run_contacts = glob.contacts
+        #: the contact model of the rank's engine (set by :func:`local_engine`)
+        self.contacts: RankContacts | None = None
+        self.n = glob.state.n
+        self.ids = ids
+        self.own_rows = own_rows
+        self.ghost_rows = np.setdiff1d(np.arange(len(ids)), own_rows)
+        self.jg = np.zeros(0, dtype=np.int64)
+        self.comm = comm
+        self.send_rows, self.recv_rows = send_rows or [], recv_rows or []
+
+    @property
+    def rank(self) -> int:
+        return 0 if self.comm is None else self.comm.rank
+
+    def whole(self, *arrays: np.ndarray) -> list[np.ndarray]:
+        """Each of ``arrays`` (first axis: the elements the rank holds) as the run's (first
+        axis: every element), each row from its element's owner. Collective."""
+        own = self.own_rows
+        mine = (self.ids[own], [np.asarray(a)[own] for a in arrays])
+        if self.comm is None:
+            if len(own) != self.n:
+                raise PluginError("gathering every element needs the ranks of a run")
+            got = [mine]
+        else:
+            got = self.comm.allgather(mine)
+        out = []
+        for k, a in enumerate(arrays):
+            a = np.asarray(a)
+            w = np.empty((self.n,) + a.shape[1:], dtype=a.dtype)
+            for ids, rows in got:
+                w[ids] = rows[k]
+            out.append(w)
+        return out
+
+    def to_ghosts(self, *arrays: np.ndarray) -> None:
+        """The owners' rows of each of ``arrays`` (first axis: the elements the rank holds)
+        to the ranks holding them as ghosts, in place. Collective."""
+        if self.comm is None:
+            if len(self.ghost_rows):
+                raise PluginError("exchanging ghosts' rows needs the ranks of a run")
+            return
+        out = []
+        for s, rows in enumerate(self.send_rows):
+            out.append(None if s == self.comm.rank or not len(rows)
+                       else [np.asarray(a)[rows] for a in arrays])
+        got = self.comm.alltoall(out)
+        for s, rows in enumerate(self.recv_rows):
+            if got[s] is None or not len(rows):
+                continue
+            for a, v in zip(arrays, got[s]):
+                a[rows] = v
+
+
+class WholeJoints:
+    """The run's joints as a component on a rank reads them whole (a floe spans ranks): the
+    run's joint table (``ji``, ``jj``, ``intact`` (a copy), ``youngs_modulus``,
+    ``joint_lines``, ``floe_labels``) over every element. :meth:`break_joints` breaks the
+    joints here and, through ``link``, the rank's copies of those it holds (its engine records
+    and reports them as it does the law's breaks). The run's table is current as of the end
+    of the last step on every rank alike, so every rank labels the same floes, by global
+    identities."""
+
+    def __init__(self, link: RankLink):
+        run = link.run_contacts
+        self._run, self._link = run, link
+        self.state = run.state
+        self.ji, self.jj = run.ji, run.jj
+        self.intact = np.array(run.intact, copy=True)
+        self.n_joints, self.joint_slots = run.n_joints, run.joint_slots
+        self.youngs_modulus = link.run.contacts.youngs_modulus  # [Pa] (the run's view)
+        #: how many times joints were broken here (the passes of a check)
+        self.passes = 0
+
+    def joint_lines(self, q: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+        return self._run.joint_lines(q)
+
+    def floe_labels(self) -> tuple[int, np.ndarray]:
+        return type(self._run).floe_labels(self)  # (of these flags)
+
+    def break_joints(self, k: np.ndarray, mode, t: float) -> int:
+        k = np.asarray(k, dtype=np.int64).reshape(-1)
+        k = k[self.intact[k]]
+        self.intact[k] = False
+        jg = self._link.jg
+        at = np.minimum(np.searchsorted(jg, k), max(len(jg) - 1, 0))
+        held = at[jg[at] == k] if len(jg) else at[:0]
+        self.passes += 1
+        if len(held):
+            lc = self._link.contacts
+            lc.break_pass = self.passes
+            try:
+                lc.break_joints(held, mode, t)
+            finally:
+                lc.break_pass = LAST_PASS
+        return len(k)
 
 
 def local_ice(glob, loc, ids: np.ndarray) -> IceBook:
@@ -183,11 +320,15 @@ def local_ice(glob, loc, ids: np.ndarray) -> IceBook:
     return ice
 
 
-def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np.ndarray]:
+def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray,
+                 link: RankLink | None = None) -> tuple[Any, np.ndarray]:
     """A shallow copy of the run ``glob`` (a ``Simulation``) whose state, contacts, ice book,
     forcing sources, integrator and processes hold the elements ``ids`` (ascending global
-    indices); ``ghost_rows`` are the local rows of ghosts. Returns it and the run's indices
-    of its joints."""
+    indices); ``ghost_rows`` are the local rows of ghosts; ``link`` the rank's place in the
+    run (default: one without other ranks). Each component is set up by its
+    ``setup_on_rank`` from the run's copy. Returns it and the run's indices of its joints."""
+    if link is None:
+        link = RankLink(glob, ids, np.setdiff1d(np.arange(len(ids)), ghost_rows))
     loc = copy.copy(glob)
     loc.state = sub_state(glob.state, ids)
     loc.context = Context(loc, RankContactsView)
@@ -216,13 +357,18 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray) -> tuple[Any, np
         if gone.any():  # melted elements touch nothing (as ``ContactModel.ice_changed``)
             loc.contacts.gone = gone
         loc.contacts.setup()
+    link.jg = jg
+    link.contacts = loc.contacts
+    if loc.contacts is not None:
+        loc.contacts.link = link
     loc.ice = local_ice(glob, loc, ids)
-    for comp in [*loc.forcing, loc.integrator, *loc.processes]:
-        comp.setup(loc.context)
+    for comp, run in zip([*loc.forcing, loc.integrator, *loc.processes],
+                         [*glob.forcing, glob.integrator, *glob.processes]):
+        comp.setup_on_rank(loc.context, run, link)
     for name, values in glob.ice.values.items():  # the carried values, not a set-up's start
         loc.ice.values[name][...] = values[ids]
     return loc, jg
 
 
-__all__ = ["JOINT_STATE", "RankContacts", "RankContactsView", "local_engine", "local_ice",
-           "sub_state"]
+__all__ = ["JOINT_STATE", "RankContacts", "RankContactsView", "RankLink", "WholeJoints",
+           "local_engine", "local_ice", "sub_state"]

@@ -24,12 +24,13 @@ failed:
 * :func:`check_process_restart`: a run restarted from a mid-run snapshot ends bit for bit equal
   to an uninterrupted one (state, thickness, declared fields, history);
 * :func:`check_process_on_ranks`: a process that declares ``runs_on_ranks = True`` changes
-  every other element, set up over those elements alone as an MPI rank sets it up, as it
-  changes them among all, bit for bit (thickness, mass, inertia, flags, declared fields,
-  thickness categories); one that also declares ``reads_contacts`` is set up over a third of
-  the elements and their contact partners (its ghosts), with its history split as its
-  ``rank_history`` says, stepped once beside the whole run, and must change those elements,
-  the joints they report and its history of them as among all, bit for bit.
+  every other element, set up over those elements alone as an MPI rank sets it up (its
+  ``setup_on_rank``, from the run's copy), as it changes them among all, bit for bit
+  (thickness, mass, inertia, flags, declared fields, thickness categories); one that also
+  declares ``reads_contacts`` is set up over a third of the elements and their contact partners
+  (its ghosts), with its history split as its ``rank_history`` says, stepped once beside the
+  whole run, and must change those elements, the joints they report and its history of them as
+  among all, bit for bit.
 """
 from __future__ import annotations
 

@@ -13,7 +13,11 @@ spring pack thinning and melting under ``thermodynamics``), ``ridge_freeze`` (th
 pulled apart under ``thermodynamics``, ``ridging`` and ``refreeze``: joints across the ranks'
 boundary break and refreeze), ``ridge_freeze_split`` (the same, split by bisection),
 ``ridge_freeze_migrate`` (the same, every element changing rank every 60 steps), ``raise`` (rank
-1's integrator raises at step 10: the run ends on every rank with one line).
+1's integrator raises at step 10: the run ends on every rank with one line), ``floating`` (a
+bonded floe of 24 elements under the ``floating`` process in a wave with two loads, its joints
+beams that break in flexure), ``floating_migrate`` (the same, every element changing rank every
+40 steps), ``floating_plain`` (the floe floating without beams), ``wave_breaking`` (the floe
+under the ``waves`` forcing's flexural breaking).
 """
 from __future__ import annotations
 
@@ -86,6 +90,62 @@ params = { gap = 2.0, freeze_time = 5.0, strength = 2e3, strength_time = 100.0 }
 """
 
 
+FLOE = ('outline = "rectangle", center = [0.0, 0.0], length = 80.0, width = 30.0, '
+        'element_size = 10.0')
+WAVE = "amplitude = 0.5, period = 3.0, direction = 90.0, origin = [0.0, 0.0]"
+
+
+def floe_text(steps: int = 100, process: str = "", forcing: str = "") -> str:
+    """A bonded 8 × 3 floe of 10 m elements, 1 m thick (``distributed_spring``, dt 1 ms), in
+    a linear wave of 0.5 m amplitude and 3 s period (the ``waves`` forcing with ``forcing``'s
+    parameters), with the ``[[process]]`` tables ``process``."""
+    return f"""
+title = "a floe in waves"
+
+[time]
+duration = {steps * 0.001!r}
+dt = 0.001
+
+[elements]
+thickness = 1.0
+
+[[elements.source]]
+name = "floe"
+params = {{ {FLOE} }}
+
+[contact]
+law = "distributed_spring"
+params = {{ tensile_strain = 1e-2 }}
+
+[[forcing]]
+source = "waves"
+params = {{ {forcing} }}
+field = {{ type = "linear_wave", params = {{ {WAVE} }} }}
+
+[run]
+progress = false
+{process}"""
+
+
+def floating_text(steps: int = 100, bending: bool = True) -> str:
+    """The floe under the ``floating`` process: heave, roll and pitch in the wave, two
+    constant loads; with ``bending`` its joints are beams that break in flexure (at 100 kPa
+    four of them within 100 steps)."""
+    extra = ", bending = true, flexural_strength = 1e5" if bending else ""
+    return floe_text(steps, f"""
+[[process]]
+name = "floating"
+params = {{ coefficients = "scene", loads = [[5, 2e5], [20, -1e5]]{extra} }}
+""", "drag = true")
+
+
+def wave_breaking_text(steps: int = 60) -> str:
+    """The floe under the ``waves`` forcing's flexural breaking, checked every 20 steps
+    (floes labelled over the whole joint network, split into pieces as joints break)."""
+    return floe_text(steps, forcing="breaking = true, critical_strain = 4e-5, "
+                     "break_every = 0.02")
+
+
 def _last_column(step: int, c: np.ndarray) -> np.ndarray:
     """Rank 1 owns the last column of the spring pack (elements 8 and 9), rank 0 the rest."""
     return (np.arange(len(c)) >= 8).astype(np.int64)
@@ -102,6 +162,12 @@ def _swapping(step: int, c: np.ndarray) -> np.ndarray:
     return (np.arange(len(c)) + step // 60) % 2
 
 
+def _swapping_floe(step: int, c: np.ndarray) -> np.ndarray:
+    """Elements of the floe alternate between the ranks in blocks of three; every 40 steps
+    each changes rank."""
+    return (np.arange(len(c)) // 3 + step // 40) % 2
+
+
 #: name -> (scene text, options of the ranks driver)
 CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "spring": (spring_text(), {"owner": _last_column}),
@@ -115,6 +181,10 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "ridge_freeze_migrate": (ridge_freeze_text(), {"owner": _swapping, "every": 30}),
     "rk4": (spring_text(3000).replace('"siku2"', '"rk4"'), {"owner": _three_columns}),
     "raise": (spring_text(100), {}),
+    "floating": (floating_text(), {}),
+    "floating_migrate": (floating_text(), {"owner": _swapping_floe, "every": 20}),
+    "floating_plain": (floating_text(60, bending=False), {}),
+    "wave_breaking": (wave_breaking_text(), {}),
 }
 
 

@@ -144,24 +144,28 @@ class FlexuralBreaking:
         #: long as the joint slots, so that joints a process creates are checked too
         self.strain = np.full(cm.joint_slots, np.nan)
 
-    def surface_strains(self, t: float, q: np.ndarray, joints: np.ndarray) -> np.ndarray:
+    def surface_strains(self, t: float, q: np.ndarray, joints: np.ndarray,
+                        cm=None) -> np.ndarray:
         """``eps_f = (h / 2) |d²eta / ds²|`` [1] of ``joints`` across their edges at time ``t``
-        [s] for state ``q``."""
-        cm, f, st = self.cm, self.field, self.ctx.state
+        [s] for state ``q`` (``cm``: the joints read, default the run's contacts)."""
+        cm = self.cm if cm is None else cm
+        f, st = self.field, self.ctx.state
         lat, lon, de, dn = (a[joints] for a in cm.joint_lines(q))
         h = 0.5 * (st.thickness[cm.ji[joints]] + st.thickness[cm.jj[joints]])
         # across the joint: the normal of its edge
         return 0.5 * h * np.abs(f.curvature(t, lat, lon, dn, -de))
 
     def strains(self, t: float, q: np.ndarray, joints: np.ndarray, eps_f=None, floes=None,
-                only=None) -> np.ndarray:
+                only=None, cm=None) -> np.ndarray:
         """``min(eps_f, eps_r)`` [1] of intact ``joints`` at time ``t`` [s] for state ``q``.
         ``eps_f``: their surface strains if known (:meth:`surface_strains`); ``floes``:
         ``(count, label)`` of the current joints if known; ``only`` (bool over ``joints``): the
-        joints whose rigid limit is computed (the others get ``eps_f``)."""
-        cm, f, st, ctx = self.cm, self.field, self.ctx.state, self.ctx
+        joints whose rigid limit is computed (the others get ``eps_f``); ``cm``: as
+        :meth:`surface_strains`."""
+        cm = self.cm if cm is None else cm
+        f, st, ctx = self.field, self.ctx.state, self.ctx
         if eps_f is None:
-            eps_f = self.surface_strains(t, q, joints)
+            eps_f = self.surface_strains(t, q, joints, cm)
         # the joints' ice as it is now (a process may have changed the thickness or made the
         # joint)
         ji, jj = cm.ji[joints], cm.jj[joints]
@@ -207,8 +211,10 @@ class FlexuralBreaking:
                 out[a] = min(eps_f[a], eps_r)
         return out
 
-    def check(self, t: float, q: np.ndarray) -> int:
-        """Break joints as the module docstring says; the number broken.
+    def check(self, t: float, q: np.ndarray, cm=None) -> int:
+        """Break joints as the module docstring says; the number broken (``cm``: the joints
+        read and broken, default the run's contacts; :class:`RankBreaking` gives the whole
+        run's on an MPI rank).
 
         Within one check the sea and the elements stand still, so a joint's surface strain is
         computed once, and its rigid-floe strain again only when its floe changed (lost or
@@ -217,11 +223,11 @@ class FlexuralBreaking:
         if t < self.next_check:
             return 0
         self.next_check = t + self.every
-        cm = self.cm
+        cm = self.cm if cm is None else cm
         total = 0
         eps_f = np.full(cm.joint_slots, np.nan)
         joints = np.flatnonzero(cm.intact)  # (the intact flags of the joints made so far)
-        eps_f[joints] = self.surface_strains(t, q, joints)
+        eps_f[joints] = self.surface_strains(t, q, joints, cm)
         known = np.full(cm.joint_slots, np.nan)  # min(eps_f, eps_r) of the last pass
         before = None  # floe labels of the last pass
         while True:
@@ -231,7 +237,7 @@ class FlexuralBreaking:
             floes = cm.floe_labels()
             same = _unchanged_floes(floes, before)
             redo = ~same[floes[1][cm.ji[joints]]]
-            eps = self.strains(t, q, joints, eps_f[joints], floes, redo)
+            eps = self.strains(t, q, joints, eps_f[joints], floes, redo, cm)
             eps[~redo] = known[joints[~redo]]
             known[joints] = eps
             before = floes
@@ -248,6 +254,34 @@ class FlexuralBreaking:
             best = np.lexsort((-e, fl))
             first = np.r_[True, fl[best][1:] != fl[best][:-1]]
             total += cm.break_joints(k[best][first], BREAK_FLEXURE, t)
+
+
+class RankBreaking:
+    """The check of :class:`FlexuralBreaking` on an MPI rank (``siku_core.ranks``): a floe
+    spans ranks, and its rigid-floe strain sums over all its elements, so every rank makes
+    the run's check, alike: the run's breaker ``run`` (its clock and last strains are the
+    run's, on every rank), the elements' positions and thickness gathered from their owners
+    (``link.whole``) at each check, the floes of the run's joint table, labelled by global
+    identities (``siku_core.ranks.local.WholeJoints``); the joints it breaks break the rank's
+    copies of those it holds, in the same step on every rank, and the engine reports each
+    once. ``state``: the rank's elements."""
+
+    def __init__(self, run: FlexuralBreaking, link, state):
+        self.run, self.link, self.state = run, link, state
+
+    @property
+    def strain(self) -> np.ndarray:
+        return self.run.strain
+
+    def check(self, t: float, q: np.ndarray) -> int:
+        from siku_core.ranks.local import WholeJoints
+
+        run = self.run
+        if t < run.next_check:
+            return 0
+        q_all, h_all = self.link.whole(q, self.state.thickness)
+        run.ctx.state.thickness[:] = h_all  # (the run's elements as they are now)
+        return run.check(t, q_all, WholeJoints(self.link))
 
 
 def _unchanged_floes(floes, before) -> np.ndarray:

@@ -348,6 +348,25 @@ class Waves(ForcingSource):
                            "amplitude": 0.0})
 
     def setup(self, ctx):
+        self._setup(ctx)
+        p = self.p
+        if p["breaking"]:
+            from .wave_breaking import FlexuralBreaking
+
+            self.breaker = FlexuralBreaking(ctx, self.field, p["critical_strain"],
+                                            p["break_every"], p["rho"])
+
+    def setup_on_rank(self, ctx, run, link):
+        """On an MPI rank: the forces as :meth:`setup` sets them up over the rank's elements;
+        breaking is the run's check, made alike on every rank over the whole run (its floes
+        span ranks: ``siku_forcing.waves.wave_breaking.RankBreaking``)."""
+        self._setup(ctx)
+        if run.breaker is not None:
+            from .wave_breaking import RankBreaking
+
+            self.breaker = RankBreaking(run.breaker, link, ctx.state)
+
+    def _setup(self, ctx):
         self.ctx = ctx
         self.st = ctx.state
         p = self.p
@@ -355,14 +374,6 @@ class Waves(ForcingSource):
         self.g = float(self.field.p["g"])
         self.free = self.st.flags == FREE
         self.breaker = None
-        if p["breaking"]:  # the floes' labels come from the contacts of every element
-            self.runs_on_ranks = False
-            self.ranks_refusal = ("its breaking labels floes from the joints of every element "
-                                  "and breaks them by their whole length")
-            from .wave_breaking import FlexuralBreaking
-
-            self.breaker = FlexuralBreaking(ctx, self.field, p["critical_strain"],
-                                            p["break_every"], p["rho"])
 
     def add(self, t, q, V, w, F, T):
         f = self.field

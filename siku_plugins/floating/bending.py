@@ -168,16 +168,173 @@ class Beams:
         return n
 
 
-@njit(cache=True, error_model="numpy")
-def _advance_bonded_t(n_sub, dt, t0, frames_t, bod_t, pts_t, wav_t, stiff_t, mem_t, u, v, pw):
-    """:func:`advance_bonded` with its records as plain tuples, named again here."""
-    advance_bonded(n_sub, dt, t0, Frames(*frames_t), FloatingBodies(*bod_t),
-                   FloatingPoints(*pts_t), FloatingWave(*wav_t), BeamStiffness(*stiff_t),
-                   RadiationMemory(*mem_t), u, v, pw)
+#: the working arrays of one call of :func:`advance_bonded` (its sub-steps may be run one by one,
+#: :func:`advance_jointed`)
+BondedScratch = record_type("BondedScratch", __name__, [
+    ("att", "f", 2, "(n, M) attenuation of each wave component at each element's draft [1]"),
+    ("F", "f", 1, "(3 n) force and moments on the degrees of freedom now [N, N m]"),
+    ("M", "f", 1, "(3 n) inertia of each degree of freedom with added mass [kg, kg m²]"),
+    ("B", "f", 1, "(3 n) radiation damping [kg/s, kg m²/s]"),
+    ("mu", "f", 1, "(3 n) memory force now (radiation = 'memory') [N, N m]"),
+    ("den", "f", 1, "(3 n) the implicit damping's denominator [1]"),
+    ("hp", "i", 1, "(1,) where the latest rates are in the ring buffers"),
+    ("pw", "f", 1, "(n,) damping power per area over the sub-steps [W m-2], written"),
+], doc="Working arrays of the bonded sub-steps (``siku_plugins.floating.bending``).")
+
+
+def bonded_scratch(n: int, n_waves: int, head: int, pw: np.ndarray) -> tuple:
+    """A :data:`BondedScratch` for ``n`` elements and ``n_waves`` wave components, the ring
+    buffers' head at ``head``, the power written into ``pw``."""
+    return BondedScratch(np.empty((n, n_waves)), np.zeros(3 * n), np.empty(3 * n),
+                         np.empty(3 * n), np.zeros(3 * n), np.empty(3 * n),
+                         np.array([head], dtype=np.int64), pw)
 
 
 @njit(cache=True, error_model="numpy")
-def advance_bonded(n_sub, dt, t0, frames, bod, pts, wav, stiff, mem, u, v, pw):
+def _bonded_forces(t, frames, bod, pts, wav, stiff, s, u):
+    """``s.F`` at time ``t`` [s] for the state ``u``: buoyancy, the wave's load, the loads,
+    the hydrostatic tilt stiffness and the beams' (:func:`advance_bonded`)."""
+    free, rho_g, draft, h, area = bod.free, bod.rho_g, bod.draft, bod.h, bod.area
+    C1, C2, load = bod.C1, bod.C2, bod.load
+    xc, yc, e0, e1 = frames.xc, frames.yc, frames.e0, frames.e1
+    acell, cell = wav.acell, wav.cell
+    indptr, indices, data = stiff.indptr, stiff.indices, stiff.data
+    F, att = s.F, s.att
+    n = free.shape[0]
+    for i in range(n):
+        if not free[i]:
+            continue
+        f, g1, g2 = excite(t, i, xc[i], yc[i], e0[i], e1[i], pts, acell[cell[i]], att[i], wav)
+        d = draft[i]
+        ka = rho_g * area[i]
+        F[3 * i] = ka * (min(max(d - u[3 * i] + f / area[i], 0.0), h[i]) - d) + load[i]
+        F[3 * i + 1] = -C1[i] * u[3 * i + 1] + rho_g * g1
+        F[3 * i + 2] = -C2[i] * u[3 * i + 2] + rho_g * g2
+    for r in range(3 * n):
+        acc = 0.0
+        for p in range(indptr[r], indptr[r + 1]):
+            acc += data[p] * u[indices[p]]
+        F[r] -= acc
+
+
+@njit(cache=True, error_model="numpy")
+def bonded_start(dt, t0, frames, bod, pts, wav, stiff, mem, s, u, v):
+    """The set-up of :func:`advance_bonded`'s sub-steps of ``dt`` [s] from ``t0`` [s] in the
+    scratch ``s`` (:data:`BondedScratch`): attenuations, inertias, damping, the forces at
+    ``t0``, the power's first half-weight."""
+    free, draft = bod.free, bod.draft
+    kk, depth = wav.k, wav.depth
+    K, kidx, hist = mem.K, mem.kidx, mem.hist
+    att, M, B, mu, den = s.att, s.M, s.B, s.mu, s.den
+    n = free.shape[0]
+    natt = kk.shape[0]
+    for i in range(n):
+        for j in range(natt):
+            att[i, j] = attenuation(kk[j], draft[i], depth)
+    for i in range(n):
+        M[3 * i], M[3 * i + 1], M[3 * i + 2] = bod.M3[i], bod.M1[i], bod.M2[i]
+        B[3 * i], B[3 * i + 1], B[3 * i + 2] = bod.B3[i], bod.B1[i], bod.B2[i]
+    hd = 0.5 * dt
+    memory = K.shape[0] > 0
+    L = K.shape[2]
+    head = s.hp[0]
+    mu[:] = 0.0
+    for r in range(3 * n):
+        den[r] = 1.0 + hd * B[r] / M[r]
+    if memory:
+        for r in range(3 * n):
+            i, m = r // 3, r % 3
+            if free[i]:
+                Ki = K[kidx[i], m]
+                mu[r] = dt * (0.5 * Ki[0] * hist[i, m, head]
+                              + lagged(Ki, hist[i, m], (head - 1) % L, L))
+                den[r] = 1.0 + hd * 0.5 * dt * Ki[0] / M[r]
+    _bonded_forces(t0, frames, bod, pts, wav, stiff, s, u)
+    s.pw[:] = 0.0
+    _damping_work(n, free, memory, mu, B, v, -0.5, s.pw)
+
+
+@njit(cache=True, error_model="numpy")
+def bonded_drift(dt, bod, mem, s, u, v):
+    """The first half of a sub-step of ``dt`` [s]: the damping's power, the half kick and
+    the drift of ``u``."""
+    free = bod.free
+    F, M, B, mu = s.F, s.M, s.B, s.mu
+    n = free.shape[0]
+    memory = mem.K.shape[0] > 0
+    hd = 0.5 * dt
+    _damping_work(n, free, memory, mu, B, v, 1.0, s.pw)
+    for r in range(3 * n):
+        if free[r // 3]:
+            if memory:
+                v[r] += hd * (F[r] - mu[r]) / M[r]
+            else:
+                v[r] += hd * (F[r] - B[r] * v[r]) / M[r]
+            u[r] += dt * v[r]
+
+
+@njit(cache=True, error_model="numpy")
+def bonded_kick(k, dt, t0, frames, bod, pts, wav, stiff, mem, s, u, v):
+    """The second half of sub-step ``k`` (from 0) of ``dt`` [s] from ``t0`` [s]: the forces
+    at its end for the drifted ``u``, the (implicitly damped) half kick, the ring buffers."""
+    free = bod.free
+    K, kidx, hist = mem.K, mem.kidx, mem.hist
+    F, M, mu, den = s.F, s.M, s.mu, s.den
+    n = free.shape[0]
+    memory = K.shape[0] > 0
+    L = K.shape[2]
+    hd = 0.5 * dt
+    hp = s.hp[0]
+    _bonded_forces(t0 + (k + 1) * dt, frames, bod, pts, wav, stiff, s, u)
+    for r in range(3 * n):
+        i = r // 3
+        if not free[i]:
+            continue
+        if memory:
+            m = r % 3
+            Ki = K[kidx[i], m]
+            rest = dt * lagged(Ki, hist[i, m], hp, L)
+            v[r] = (v[r] + hd * (F[r] - rest) / M[r]) / den[r]
+            mu[r] = rest + 0.5 * dt * Ki[0] * v[r]
+        else:
+            v[r] = (v[r] + hd * F[r] / M[r]) / den[r]
+    if memory:
+        hp = (hp + 1) % L
+        s.hp[0] = hp
+        for r in range(3 * n):
+            if free[r // 3]:
+                hist[r // 3, r % 3, hp] = v[r]
+
+
+@njit(cache=True, error_model="numpy")
+def bonded_end(n_sub, bod, mem, s, v):
+    """The end of :func:`advance_bonded`: the power's last half-weight, per area, averaged
+    over the ``n_sub`` sub-steps."""
+    free, area = bod.free, bod.area
+    n = free.shape[0]
+    _damping_work(n, free, mem.K.shape[0] > 0, s.mu, s.B, v, 0.5, s.pw)
+    for i in range(n):
+        s.pw[i] /= n_sub * area[i]
+
+
+@njit(cache=True, error_model="numpy")
+def _bonded_steps_t(n_sub, dt, t0, frames_t, bod_t, pts_t, wav_t, stiff_t, mem_t, s_t, u, v):
+    """:func:`_bonded_steps` with its records as plain tuples, named again here."""
+    _bonded_steps(n_sub, dt, t0, Frames(*frames_t), FloatingBodies(*bod_t),
+                  FloatingPoints(*pts_t), FloatingWave(*wav_t), BeamStiffness(*stiff_t),
+                  RadiationMemory(*mem_t), BondedScratch(*s_t), u, v)
+
+
+@njit(cache=True, error_model="numpy")
+def _bonded_steps(n_sub, dt, t0, frames, bod, pts, wav, stiff, mem, s, u, v):
+    bonded_start(dt, t0, frames, bod, pts, wav, stiff, mem, s, u, v)
+    for k in range(n_sub):
+        bonded_drift(dt, bod, mem, s, u, v)
+        bonded_kick(k, dt, t0, frames, bod, pts, wav, stiff, mem, s, u, v)
+    bonded_end(n_sub, bod, mem, s, v)
+
+
+def advance_bonded(n_sub, dt, t0, frames, bod, pts, wav, stiff, mem, u, v, pw, exchange=None):
     """:func:`siku_plugins.floating.kernels.advance` with the beams' stiffness ``stiff``
     (:data:`BeamStiffness`, over the ``3 n`` degrees of freedom ``u``, velocities ``v``, both
     in place) and the constant vertical loads ``bod.load`` [N]: the same velocity Verlet,
@@ -187,94 +344,27 @@ def advance_bonded(n_sub, dt, t0, frames, bod, pts, wav, stiff, mem, u, v, pw):
     ``siku_plugins.floating.memory.advance_modes`` (same scheme). ``pw`` [W m-2] receives
     each element's damping (or memory force) power per area averaged over the sub-steps
     (trapezoid of ``B v²`` or ``mu v``). Element ``i`` feels the amplitudes
-    ``wav.acell[wav.cell[i]]`` [m] (``kernels.advance``)."""
-    free, rho_g, draft, h, area = bod.free, bod.rho_g, bod.draft, bod.h, bod.area
-    M3, B3, M1, C1, B1, M2, C2, B2 = (bod.M3, bod.B3, bod.M1, bod.C1, bod.B1, bod.M2, bod.C2,
-                                      bod.B2)
-    load = bod.load
-    xc, yc, e0, e1 = frames.xc, frames.yc, frames.e0, frames.e1
-    kx, kk, depth, acell, cell = wav.kx, wav.k, wav.depth, wav.acell, wav.cell
-    indptr, indices, data = stiff.indptr, stiff.indices, stiff.data
-    K, kidx, hist, head = mem.K, mem.kidx, mem.hist, mem.head
-    n = free.shape[0]
-    natt = kx.shape[0]
-    att = np.empty((n, natt))
-    for i in range(n):
-        for j in range(natt):
-            att[i, j] = attenuation(kk[j], draft[i], depth)
-    F = np.zeros(3 * n)
-    M = np.empty(3 * n)
-    B = np.empty(3 * n)
-    for i in range(n):
-        M[3 * i], M[3 * i + 1], M[3 * i + 2] = M3[i], M1[i], M2[i]
-        B[3 * i], B[3 * i + 1], B[3 * i + 2] = B3[i], B1[i], B2[i]
-    hd = 0.5 * dt
-    mem = K.shape[0] > 0
-    L = K.shape[2]
-    mu = np.zeros(3 * n)
-    den = np.empty(3 * n)
-    for r in range(3 * n):
-        den[r] = 1.0 + hd * B[r] / M[r]
-    if mem:
-        for r in range(3 * n):
-            i, m = r // 3, r % 3
-            if free[i]:
-                Ki = K[kidx[i], m]
-                mu[r] = dt * (0.5 * Ki[0] * hist[i, m, head]
-                              + lagged(Ki, hist[i, m], (head - 1) % L, L))
-                den[r] = 1.0 + hd * 0.5 * dt * Ki[0] / M[r]
+    ``wav.acell[wav.cell[i]]`` [m] (``kernels.advance``). Returns the ring buffers' head
+    after the sub-steps.
 
-    def forces(t):
-        for i in range(n):
-            if not free[i]:
-                continue
-            f, g1, g2 = excite(t, i, xc[i], yc[i], e0[i], e1[i], pts, acell[cell[i]], att[i],
-                               wav)
-            d = draft[i]
-            ka = rho_g * area[i]
-            F[3 * i] = ka * (min(max(d - u[3 * i] + f / area[i], 0.0), h[i]) - d) + load[i]
-            F[3 * i + 1] = -C1[i] * u[3 * i + 1] + rho_g * g1
-            F[3 * i + 2] = -C2[i] * u[3 * i + 2] + rho_g * g2
-        for r in range(3 * n):
-            acc = 0.0
-            for p in range(indptr[r], indptr[r + 1]):
-                acc += data[p] * u[indices[p]]
-            F[r] -= acc
-
-    forces(t0)
-    hp = head
-    pw[:] = 0.0
-    _damping_work(n, free, mem, mu, B, v, -0.5, pw)
+    ``exchange`` (a function of ``u`` as ``(n, 3)``, in place; on MPI ranks: the owners'
+    rows to the ghosts, ``siku_core.ranks.local.RankLink.to_ghosts``) runs after each
+    drift, before the forces that read the partners' ``u``: the sub-steps run one by one,
+    each element's arithmetic as in one call."""
+    s = bonded_scratch(len(bod.free), len(wav.k), mem.head, pw)
+    if exchange is None:
+        # plain tuples across the boundary, named again inside (siku_core.records, "At the
+        # boundary"): numba types seven records in Python otherwise, every step
+        _bonded_steps_t(n_sub, dt, t0, tuple(frames), tuple(bod), tuple(pts), tuple(wav),
+                        tuple(stiff), tuple(mem), tuple(s), u, v)
+        return int(s.hp[0])
+    bonded_start(dt, t0, frames, bod, pts, wav, stiff, mem, s, u, v)
     for k in range(n_sub):
-        _damping_work(n, free, mem, mu, B, v, 1.0, pw)
-        for r in range(3 * n):
-            if free[r // 3]:
-                if mem:
-                    v[r] += hd * (F[r] - mu[r]) / M[r]
-                else:
-                    v[r] += hd * (F[r] - B[r] * v[r]) / M[r]
-                u[r] += dt * v[r]
-        forces(t0 + (k + 1) * dt)
-        for r in range(3 * n):
-            i = r // 3
-            if not free[i]:
-                continue
-            if mem:
-                m = r % 3
-                Ki = K[kidx[i], m]
-                rest = dt * lagged(Ki, hist[i, m], hp, L)
-                v[r] = (v[r] + hd * (F[r] - rest) / M[r]) / den[r]
-                mu[r] = rest + 0.5 * dt * Ki[0] * v[r]
-            else:
-                v[r] = (v[r] + hd * F[r] / M[r]) / den[r]
-        if mem:
-            hp = (hp + 1) % L
-            for r in range(3 * n):
-                if free[r // 3]:
-                    hist[r // 3, r % 3, hp] = v[r]
-    _damping_work(n, free, mem, mu, B, v, 0.5, pw)
-    for i in range(n):
-        pw[i] /= n_sub * area[i]
+        bonded_drift(dt, bod, mem, s, u, v)
+        exchange(u.reshape(-1, 3))
+        bonded_kick(k, dt, t0, frames, bod, pts, wav, stiff, mem, s, u, v)
+    bonded_end(n_sub, bod, mem, s, v)
+    return int(s.hp[0])
 
 
 @njit(cache=True, inline="always")
@@ -305,7 +395,8 @@ def equilibrium(bodies, beams, n: int) -> np.ndarray:
     return u.reshape(n, 3)
 
 
-def advance_jointed(n_sub, dt, t0, q, field, bodies, points, wave, beams, memory, f):
+def advance_jointed(n_sub, dt, t0, q, field, bodies, points, wave, beams, memory, f,
+                    exchange=None):
     """``n_sub`` sub-steps of ``dt`` [s] from ``t0`` of the floating elements ``bodies`` with
     beams between jointed elements (``beams``, or None) or loads: all elements together in
     each sub-step (:func:`advance_bonded`), at their centres on the plane of ``field`` (the
@@ -313,7 +404,8 @@ def advance_jointed(n_sub, dt, t0, q, field, bodies, points, wave, beams, memory
     with the radiation ``memory`` (``siku_plugins.floating.memory.Memory``, or None). The
     per-element fields ``f`` (heave, roll, pitch, their rates, ``wave_radiated_power``) are
     advanced in place; returns the state ``u`` (``3 n``: heave and principal slopes) at the
-    end, from which :meth:`Beams.break_overstressed` finds the joints that break."""
+    end, from which :meth:`Beams.break_overstressed` finds the joints that break.
+    ``exchange``: :func:`advance_bonded`'s (on MPI ranks, the ghosts' rows each sub-step)."""
     n = q.shape[0]
     if field is not None:
         lat, lon, e0, e1 = centres_and_frames(q)
@@ -333,10 +425,8 @@ def advance_jointed(n_sub, dt, t0, q, field, bodies, points, wave, beams, memory
     v = np.column_stack([f["heave_rate"], wx * c + wy * s, -wx * s + wy * c]).ravel()
     mem = memory.kernels() if memory is not None else RadiationMemory(
         np.zeros((0, 3, 1)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)), 0)
-    # plain tuples across the boundary, named again inside (siku_core.records, "At the
-    # boundary"): numba types six records in Python otherwise, every step
-    _advance_bonded_t(n_sub, dt, t0, (xc, yc, e0, e1), tuple(bodies), tuple(points),
-                      tuple(wave), tuple(stiff), tuple(mem), u, v, f["wave_radiated_power"])
+    advance_bonded(n_sub, dt, t0, Frames(xc, yc, e0, e1), bodies, points, wave, stiff, mem, u,
+                   v, f["wave_radiated_power"], exchange)
     if memory is not None:
         memory.head = (memory.head + n_sub) % memory.K.shape[2]
     U, W = u.reshape(-1, 3), v.reshape(-1, 3)

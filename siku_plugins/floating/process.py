@@ -65,6 +65,7 @@ times the rates); its total [W] is the diagnostic of the same name. Only free el
 """
 from __future__ import annotations
 
+import copy
 import math
 from typing import ClassVar
 
@@ -110,10 +111,12 @@ class Floating(Process):
     the Froude–Krylov load of the scene's waves (linear, per element)."""
 
     name = "floating"
-    #: its sub-steps follow the shortest natural period of all the elements, its bending
-    #: beams span the joints of whole floes and its loads name elements by index
-    ranks_refusal = ("its sub-steps follow the shortest natural period of all the elements, "
-                     "its floes bend across their joints and its loads name elements by index")
+    #: on MPI ranks each rank's copy takes the run's set-up for its elements
+    #: (:meth:`setup_on_rank`); with ``bending = true`` it reads the joints (set up), and its
+    #: ghosts take their owners' heave and tilts each sub-step
+    runs_on_ranks = True
+    #: ``radiation = "memory"``: the ring buffers, one per element, and their shared head
+    rank_history: ClassVar[dict[str, str]] = {"rates": "element", "head": "same"}
     owned_fields = FIELDS
     integrates: ClassVar[dict[str, str]] = {  # its degrees of freedom, for the engine's guard
         **dict.fromkeys(("heave", "roll", "roll_rate", "pitch", "pitch_rate"), "finite"),
@@ -189,6 +192,8 @@ class Floating(Process):
 
     #: the coefficients set up: "scene", "capytaine" or "small_body"
     coefficients_used = ""
+    #: on an MPI rank, the rank's place in the run (``siku_core.ranks.local.RankLink``)
+    link = None
 
     # ------------------------------------------------------------------ set-up
     def setup(self, ctx) -> None:
@@ -290,6 +295,7 @@ class Floating(Process):
 
             self.beams = Beams(self.bodies, ctx)
             self._periods()
+            self.reads_contacts = True  # (on ranks: the ghosts' fields from their owners)
         self.memory = None
         if p["radiation"] == "memory":
             from siku_core.ice import process_schedule
@@ -329,6 +335,48 @@ class Floating(Process):
         f = ctx.fields
         for key in ("heave", "roll", "pitch"):
             f[key][free] = p[f"initial_{key}"]
+
+    def setup_on_rank(self, ctx, run, link) -> None:
+        """On an MPI rank (``siku_core.ranks``): the run's set-up (``run``, over every
+        element) for the elements the rank holds, ``link.ids``: their rows of its bodies,
+        quadrature points, diffraction factors, loads and radiation memory, and its shortest
+        period, so that every rank takes the run's sub-steps. With ``bending = true`` the
+        beams are the rank's joints' (an owned element has all its joints here, and its row
+        of their stiffness is the run's: ``siku_plugins.floating.bending``), and the ghosts
+        take their owners' heave and tilts after each sub-step's drift (``link.to_ghosts``),
+        so that an owned element's beams pull on the state its partners have on one rank."""
+        ids = link.ids
+        self.link = link
+        self.field, self.exchange = run.field, run.exchange
+        self.coefficients_used = run.coefficients_used
+        self.bodies = type(run.bodies)(*(_rows_of(a, ids, run.bodies.free)
+                                         for a in run.bodies))
+        self._inertia = tuple(a[ids] for a in run._inertia)
+        self.points = _points_of(run.points, ids)
+        self.kap = run.kap[ids] if len(run.kap) else run.kap
+        self.period_min = run.period_min
+        self.memory = None
+        if run.memory is not None:
+            mem = copy.copy(run.memory)
+            mem.kidx = run.memory.kidx[ids]
+            mem.hist = run.memory.hist[ids].copy()
+            self.memory = mem
+        self.beams = None
+        if run.beams is not None:
+            from .bending import Beams
+
+            self.beams = Beams(self.bodies, ctx)
+            self.reads_contacts = True
+        self._floats, self._loaded = run._floats, run._loaded
+        self._wave_rec = None
+
+    def _ghosts(self):
+        """After each bonded sub-step's drift on an MPI rank: the ghosts' state from their
+        owners (``None``: on one rank, or no beams). Every rank exchanges alike, with ghosts
+        or without (a collective call)."""
+        if self.beams is None or self.link is None:
+            return None
+        return self.link.to_ghosts
 
     def _coefficients(self, ctx, free, phi, h, d, A, J1, J2, rho_i, rho_w, g, where) -> dict:
         """The masses, damping and stiffnesses of :data:`FloatingBodies` (by name)."""
@@ -471,7 +519,8 @@ class Floating(Process):
                 self.period_min = min(self.period_min, bm.period_min)
             n_sub = self.substeps(ctx, dt)
             u = advance_jointed(n_sub, dt / n_sub, t0, st.q, self.field, self.bodies,
-                                self.points, self.wave(ctx), bm, self.memory, f)
+                                self.points, self.wave(ctx), bm, self.memory, f,
+                                self._ghosts())
             if bm is not None and bm.break_overstressed(self.bodies, u,
                                                         self.p["flexural_strength"], ctx.time):
                 self.period_min = min(self.period_min, bm.period_min)
@@ -563,6 +612,28 @@ class Floating(Process):
         out = super().describe()
         out["period_min"] = self.period_min if hasattr(self, "period_min") else None
         return out
+
+
+def _rows_of(a, ids: np.ndarray, free: np.ndarray):
+    """Rows ``ids`` of a per-element array of the run's bodies (a scalar as it is)."""
+    return a[ids] if isinstance(a, np.ndarray) and a.shape[:1] == free.shape else a
+
+
+def _points_of(pts, ids: np.ndarray):
+    """The :data:`FloatingPoints` of the elements ``ids`` (ascending) of the run's ``pts``:
+    their points and vertices, in the run's order."""
+    def sel(off):
+        counts = np.diff(off)[ids]
+        new = np.zeros(len(ids) + 1, dtype=off.dtype)
+        np.cumsum(counts, out=new[1:])
+        rows = np.repeat(off[ids], counts) + (np.arange(new[-1]) - np.repeat(new[:-1], counts))
+        return new, rows
+
+    qoff, q = sel(pts.qoff)
+    voff, v = sel(pts.voff)
+    return type(pts)(qoff=qoff, qa=pts.qa[q], qb=pts.qb[q], qu=pts.qu[q], qv=pts.qv[q],
+                     qw=pts.qw[q], voff=voff, m6=pts.m6[ids], vx=pts.vx[v], vy=pts.vy[v],
+                     ia=pts.ia[q], ib=pts.ib[q], zsize=pts.zsize)
 
 
 def _field_of(record: str, name: str, kind: str) -> property:

@@ -1,0 +1,161 @@
+"""Floating floes and wave breaking on MPI ranks give the bits of one rank
+(docs/explanation/scaling_out.md).
+
+Cases (``siku_core.testing.ranks_cases``): a bonded floe of 24 elements under the ``floating``
+process in a wave with two point loads, its joints beams that break in flexure, split by
+bisection (``floating``) and with every element changing rank every 40 steps
+(``floating_migrate``); the floe floating without beams (``floating_plain``: each element by
+itself); the floe under the ``waves`` forcing's flexural breaking (``wave_breaking``: floes
+labelled over the whole joint network, split as joints break); three ranks on the floating
+floe. Each run on ranks is a real ``mpiexec -n N`` under a timeout (a deadlock fails).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from siku_core.contact_law import BreakMode
+from test_ranks import HAVE_MPI, TIMEOUT, assert_same_bits, mpirun, needs_mpi, one_rank
+
+FLEXURE = {int(BreakMode.FLEXURE)}
+FLOAT_CASES = ("floating", "floating_migrate", "floating_plain", "wave_breaking")
+
+
+@pytest.fixture(scope="module")
+def float_ranks(tmp_path_factory):
+    if not HAVE_MPI:
+        pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
+    d = tmp_path_factory.mktemp("ranks_float")
+    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *FLOAT_CASES], d,
+                     timeout=TIMEOUT * len(FLOAT_CASES))
+    assert rc == 0, err
+    return d
+
+
+@needs_mpi
+@pytest.mark.parametrize("name", FLOAT_CASES)
+def test_floating_and_wave_breaking_on_two_ranks_same_bits(float_ranks, name):
+    """State, joints (broken in flexure by the beams or by the waves' check), heave, roll,
+    pitch, their rates, the radiated power and the diagnostics equal one rank's bit for bit;
+    a joint both ranks hold is in the same state on both."""
+    many = np.load(float_ranks / f"{name}.npz")
+    one = one_rank(name)
+    assert_same_bits(one, many, name)
+    assert bool(many["ranks_joints_agree"])
+    assert int(many["ranks_shared_joints"]) >= 2  # the floe lies on both ranks
+    n_joints = len(one["joint_intact"])
+    broken = int(one["n_broken_total"])
+    if name in ("floating", "floating_migrate"):
+        # the loads bend the floe: some joints, not all, break in flexure
+        assert 1 <= broken < n_joints
+        assert set(one["joint_break_mode"][~one["joint_intact"]].tolist()) == FLEXURE
+        assert np.ptp(one["field_heave"]) > 0  # the floe bends: its elements heave apart
+    if name == "floating_migrate":  # every element changed rank at steps 40 and 80
+        assert int(many["ranks_migrated"]) >= 2 * len(one["field_heave"])
+    if name == "floating_plain":
+        assert broken == 0 and np.abs(one["field_heave"]).max() > 0
+        assert float(one["diag_wave_radiated_power"]) > 0
+    if name == "wave_breaking":  # the waves' check broke joints, not all, in flexure
+        assert 1 <= broken < n_joints
+        assert set(one["joint_break_mode"][~one["joint_intact"]].tolist()) == FLEXURE
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_floating_floe_on_three_ranks_same_bits(tmp_path):
+    """Three ranks (oversubscribed) on the bending floe and the waves' breaking: the bits of
+    one rank."""
+    names = ("floating", "wave_breaking")
+    rc, err = mpirun(3, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), *names],
+                     tmp_path)
+    assert rc == 0, err
+    for name in names:
+        many = np.load(tmp_path / f"{name}.npz")
+        assert_same_bits(one_rank(name), many, name)
+        assert bool(many["ranks_joints_agree"])
+
+
+def test_floe_labels_on_a_rank_are_the_runs():
+    """On a rank holding a third of the floe and its ghosts, ``ctx.contacts.floe_labels()``
+    gives the run's labels of its elements (one label for a floe over several ranks,
+    numbered by global identities), with a joint the rank broke seen at once."""
+    from siku_core.geometry.quat import centers
+    from siku_core.ranks.decompose import bisect
+    from siku_core.ranks.ghosts import local_sets
+    from siku_core.ranks.local import local_engine
+    from siku_core.run.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.testing.ranks_cases import floe_text
+
+    sim = Simulation(scene_from_text(floe_text(10), "<floe>"), out=False, progress=False)
+    gc = sim.contacts
+    c = centers(sim.state.q)
+    owner = bisect(c, np.ones(sim.state.n), 3).assign(c)
+    ids = local_sets(owner, 3, [np.stack([gc.ji, gc.jj], axis=1)])[0]
+    loc, jg = local_engine(sim, ids, np.flatnonzero(owner[ids] != 0))
+    count, label = loc.context.contacts.floe_labels()
+    assert count == 1 and (label == 0).all()
+    # cut the floe along a line of joints the rank holds: two floes, as on one rank
+    x = c[:, 1]
+    cut = np.flatnonzero((x[gc.ji] - np.median(x)) * (x[gc.jj] - np.median(x)) < 0)
+    assert np.isin(cut, jg).any()
+    held = np.searchsorted(jg, cut[np.isin(cut, jg)])
+    loc.contacts.break_joints(held, BreakMode.FLEXURE, 0.0)
+    gc.break_joints(cut[np.isin(cut, jg)], BreakMode.FLEXURE, 0.0)
+    want = gc.floe_labels()
+    got = loc.context.contacts.floe_labels()
+    assert got[0] == want[0] and np.array_equal(got[1], want[1][ids])
+
+
+def test_floating_conforms_on_ranks_with_loads_by_index():
+    """The process conformance check on ranks: the floating pack with loads on two
+    elements (named by the run's index), set up over every other element from the run's
+    set-up, heaves as among all, bit for bit."""
+    from siku_core.testing.process_checks import check_process_on_ranks
+    from siku_plugins.floating import Floating
+
+    check_process_on_ranks(Floating, {"initial_heave": 0.1, "loads": [[3, 1e8], [4, -5e7]]})
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_floating_and_wave_breaking_write_the_same_file_on_two_ranks(tmp_path):
+    """``siku run --ranks 2`` of the bending floe and of the waves' breaking writes the
+    one-rank file byte for byte (states, heave and tilts, joints, the breaks' log in the
+    order one rank logs them, pass by pass of the waves' check, diagnostics)."""
+    import subprocess
+    import sys
+
+    from siku_core.testing.ranks_cases import floating_text, wave_breaking_text
+    from test_ranks import _env
+
+    for name, text in (("float", floating_text()), ("waves", wave_breaking_text())):
+        (tmp_path / f"{name}.toml").write_text(text.replace(
+            "[run]", "[output]\nevery = 0.02\n\n[run]"), encoding="utf-8")
+        for out, extra in ((f"{name}1.h5", []), (f"{name}2.h5", ["--ranks", "2"])):
+            p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", "run",
+                                f"{name}.toml", "--no-progress", "--no-plots", "--out", out,
+                                *extra], cwd=tmp_path, env=_env(), capture_output=True,
+                               text=True, timeout=2 * TIMEOUT)  # (with the writer)
+            assert p.returncode == 0, p.stderr
+        one = (tmp_path / f"{name}1.h5").read_bytes()
+        assert one == (tmp_path / f"{name}2.h5").read_bytes(), name
+
+
+def test_what_runs_on_ranks_and_what_is_refused(tmp_path):
+    """The floating floe (bending, loads) and the waves' breaking are not refused on ranks;
+    a sea that the ice damps on a grid (the ``spectral`` field, under a floating floe) is,
+    in one line naming the field and the number of ranks."""
+    from siku_core.ranks.driver import refusals
+    from siku_core.run.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.testing.ranks_cases import floating_text, wave_breaking_text
+    from test_spectral import build, flume_scene
+
+    for text in (floating_text(10), wave_breaking_text(10)):
+        assert refusals(Simulation(scene_from_text(text, "<f>"), out=False), 2) == []
+    path = flume_scene(tmp_path, {})
+    path.write_text(path.read_text() + '\n[[process]]\nname = "floating"\n'
+                    'params = { coefficients = "scene" }\n')
+    got = refusals(build(path), 4)
+    assert len(got) == 1 and "field 'spectral' cannot run on 4 ranks" in got[0], got
