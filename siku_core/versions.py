@@ -23,7 +23,7 @@ except md.PackageNotFoundError:  # pragma: no cover - a source tree never instal
     __version__ = "0+unknown"
 
 #: the plugin interface this siku provides, "major.minor"
-PLUGIN_API_VERSION = "1.0"
+PLUGIN_API_VERSION = "1.1"
 
 _REQUIRES = re.compile(r"^\s*(\d+)(?:\.(x|\*|\d+))?\s*$")
 

@@ -198,6 +198,7 @@ siku_plugins.floating                 memory              -
 siku_plugins.floating                 scatter             -
 siku_plugins.floating.steady          Steady              -
 siku_plugins.floating.steady          thin_plate          -
+siku_plugins.lab                      measure             -
 """
 ROWS = [tuple(line.split()) for line in HISTORY.strip().splitlines()]
 #: what the alias helper says (siku_core.deprecation.warn_moved)
