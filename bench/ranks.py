@@ -6,9 +6,13 @@
 (``mpiexec -n 2``, ``siku_core.ranks``), the two alternated ``--repeat`` times in one window
 (each run a fresh process), and prints per run: steps per second, the share of the rank's
 step spent in the exchange (ghost update plus the per-step allgather, waiting included), the
-bytes a rank sends per step, and the peak memory of a rank (``ru_maxrss``). Outputs are off.
+bytes a rank sends per step, the CPU time of a step summed over the cores (``process_time`` of
+the process, or of every rank: on a busy machine the fairer measure of work) and the peak
+memory of a rank (``ru_maxrss``). Outputs are off. ``--steps`` takes one number, or one per
+size (fewer steps at the large sizes).
 
     python -m bench.ranks --sizes 2000 10000 --steps 50 --repeat 2
+    python -m bench.ranks --sizes 10000 100000 1000000 --steps 40 10 3 --warm 2 --repeat 1
 """
 from __future__ import annotations
 
@@ -38,15 +42,16 @@ def worker(n: int, warm: int, steps: int) -> None:
         run.comm.barrier()
         run.work = run.exchange_time = 0.0
         sent0 = run.comm.sent_bytes
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for _ in range(steps):
             run.step()
+        cpu = time.process_time() - c0
         run.comm.barrier()
         wall = time.perf_counter() - t0
         mine = {"exchange": run.exchange_time / max(run.exchange_time + run.work, 1e-300),
                 "bytes": (run.comm.sent_bytes - sent0) / steps,
                 "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-                "held": len(run.ids), "owned": len(run.own_rows)}
+                "cpu": cpu, "held": len(run.ids), "owned": len(run.own_rows)}
         every = run.comm.gather(mine)
         if not run.root:
             return
@@ -54,18 +59,20 @@ def worker(n: int, warm: int, steps: int) -> None:
                "exchange_share": max(e["exchange"] for e in every),
                "bytes_per_step": max(e["bytes"] for e in every),
                "rss_mb_per_rank": max(e["rss_mb"] for e in every),
+               "cpu_s_per_step": sum(e["cpu"] for e in every) / steps,
                "redistributions": run.redistributions,
                "held": [e["held"] for e in every], "owned": [e["owned"] for e in every]}
     else:
         sim.run(warm)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         sim.run(steps)
+        cpu = time.process_time() - c0
         wall = time.perf_counter() - t0
         import numba
 
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         out = {"mode": f"1 rank x {numba.get_num_threads()} threads", "n": sim.state.n,
-               "steps_per_s": steps / wall, "rss_mb_per_rank": rss}
+               "steps_per_s": steps / wall, "rss_mb_per_rank": rss, "cpu_s_per_step": cpu / steps}
     print(json.dumps(out), flush=True)
 
 
@@ -87,7 +94,8 @@ def _one(mode: str, n: int, warm: int, steps: int) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.ranks", description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000])
-    ap.add_argument("--steps", type=int, default=50)
+    ap.add_argument("--steps", type=int, nargs="+", default=[50],
+                    help="steps timed: one number for every size, or one per size")
     ap.add_argument("--warm", type=int, default=5)
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--worker", type=int, nargs=3, help=argparse.SUPPRESS)
@@ -98,16 +106,20 @@ def main(argv: list[str] | None = None) -> int:
     if mpiexec() is None:
         print("bench.ranks needs mpiexec: pip install 'siku[mpi]'", file=sys.stderr)
         return 2
-    print("| elements | mode | steps/s | exchange share | bytes/step per rank | "
-          "peak memory per rank |")
-    print("|---:|---|---:|---:|---:|---:|")
-    for n in a.sizes:
+    if len(a.steps) not in (1, len(a.sizes)):
+        ap.error(f"--steps: one number, or one per size ({len(a.sizes)})")
+    steps = a.steps * len(a.sizes) if len(a.steps) == 1 else a.steps
+    print("| elements | steps | mode | steps/s | CPU s/step (all cores) | exchange share | "
+          "bytes/step per rank | peak memory per rank |")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|")
+    for n, k in zip(a.sizes, steps):
         for _ in range(a.repeat):
             for mode in ("threads", "ranks"):
-                r = _one(mode, n, a.warm, a.steps)
+                r = _one(mode, n, a.warm, k)
                 ex = f"{r['exchange_share']:.0%}" if "exchange_share" in r else ""
                 by = f"{r['bytes_per_step'] / 1e3:.1f} kB" if "bytes_per_step" in r else ""
-                print(f"| {r['n']} | {r['mode']} | {r['steps_per_s']:.2f} | {ex} | {by} | "
+                print(f"| {r['n']} | {k} | {r['mode']} | {r['steps_per_s']:.3g} | "
+                      f"{r['cpu_s_per_step']:.3g} | {ex} | {by} | "
                       f"{r['rss_mb_per_rank']:.0f} MB |", flush=True)
     return 0
 
