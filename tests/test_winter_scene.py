@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 HERE = Path(__file__).resolve().parent.parent / "examples" / "winter_beaufort"
 
@@ -45,18 +46,25 @@ def test_the_winter_has_several_storms_over_two_weeks(tmp_path):
         raise AssertionError("the wind files were replaced")
 
 
-def test_the_winter_scene_reads_its_wind_and_runs(tmp_path):
+@pytest.mark.parametrize("name", ["winter_beaufort.toml", "winter_heterogeneous.toml"])
+def test_the_winter_scene_reads_its_wind_and_runs(tmp_path, name):
+    """Both winters (as shipped, and with spread joint strengths, damage and refreezing) run
+    two weeks or more with the 6 h ramp at a stable step; the heterogeneous one is the same
+    pack with the three ingredients added."""
     from siku_core.scene.scene_file import load_scene
     from siku_core.run.simulation import Simulation
 
     storms = _storms()
-    shutil.copy(HERE / "winter_beaufort.toml", tmp_path)
+    shutil.copy(HERE / name, tmp_path)
     storms.write(tmp_path)
-    scene = load_scene(tmp_path / "winter_beaufort.toml")
+    scene = load_scene(tmp_path / name)
     assert scene.cfg.time.total >= 14 * 86400.0
     assert scene.cfg.forcing[0].ramp == 6 * 3600.0
     sim = Simulation(scene, out=False, progress=False)
     assert sim.dt <= scene.cfg.run.dt_safety * sim.critical_dt
+    if name == "winter_heterogeneous.toml":
+        assert [p.name for p in scene.cfg.process] == ["joint_strength", "refreeze"]
+        assert scene.cfg.contact.params["damage_onset"] == 0.5
     sim.run(steps=3)
     assert np.isfinite(sim.state.V).all()
 
