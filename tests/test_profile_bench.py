@@ -3,8 +3,10 @@
 assertion on times."""
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numba
@@ -59,7 +61,9 @@ def test_phase_log_splits_the_timings_by_window_of_model_time():
 
     sim = Simulation(scene_from_text(scene_text()), out=False, progress=False)
     sim.phase_log = PhaseLog(sim, every=10.0)  # 20 steps of 2 s: four windows of five steps
+    cpu0 = time.process_time()
     sim.run()
+    cpu_run = time.process_time() - cpu0
     log = sim.phase_log
     assert len(log.windows) == 3  # the fourth closes after the run (its last output)
     log.finish(sim)
@@ -73,8 +77,21 @@ def test_phase_log_splits_the_timings_by_window_of_model_time():
         assert w.wall >= sum(w.phases.values()) - 1e-9
         assert w.contacts["pairs"] == len(sim.contacts.pairs)
     assert log.windows[-1].contacts["n_broken_total"] == sim.contacts.n_broken_total
+    # the windows' CPU time is the process's, split: each window's is positive (it steps) and
+    # together they are no more than the run's (the last window closes after it, with no work)
+    assert all(w.cpu > 0.0 for w in log.windows)
+    assert sum(w.cpu for w in log.windows) <= cpu_run + 1e-3
+    assert all(math.isfinite(w.load) and w.load >= 0.0 for w in log.windows)  # Linux tells
     table = log.table(sim.state.n, PHASES).splitlines()
     assert len(table) == 2 + 4 and table[2].split()[:2] == ["0-0.00278", "5"]
+    head = table[1].split()
+    assert head[2:5] == ["steps/s", "el-steps/s", "CPU"] and head[-1] == "load"
+    for w, row in zip(log.windows, table[2:]):  # steps/s is the steps over the wall time
+        cells = row.split()
+        assert float(cells[2]) == pytest.approx(w.steps / w.wall, rel=1e-3)
+        assert float(cells[3]) == pytest.approx(sim.state.n * w.steps / w.wall, rel=5e-3)
+        assert float(cells[4]) == pytest.approx(1e3 * w.cpu / w.steps, abs=1e-3)
+        assert float(cells[-1]) == pytest.approx(w.load, abs=0.01)
     with pytest.raises(ValueError):
         PhaseLog(sim, every=0.0)
 

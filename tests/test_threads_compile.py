@@ -85,15 +85,22 @@ def fresh_kernel():
 
 
 def test_clock_leaves_the_compilation_out():
+    from siku_core.run.phase_log import cpu_clock
+
     f = fresh_kernel()
     w0, c0 = time.perf_counter(), progress.clock()
+    p0, q0 = time.process_time(), cpu_clock()
     with progress.CompileClock() as k:
         assert f(np.arange(3.0)) == 5.0
     wall, clocked = time.perf_counter() - w0, progress.clock() - c0
+    cpu, cpu_clocked = time.process_time() - p0, cpu_clock() - q0
     assert k.count >= 1 and k.seconds > 0.0
     assert "sum_of_squares" in " ".join(k.kernels)
     assert abs((wall - clocked) - k.seconds) < 0.01 * max(1.0, k.seconds)
     assert clocked < wall - 0.9 * k.seconds
+    # the CPU clock (``siku run --profile``'s CPU per step) leaves the compilation's CPU out
+    assert 0.0 < k.cpu_seconds <= cpu + 1e-6
+    assert abs((cpu - cpu_clocked) - k.cpu_seconds) < 0.01 * max(1.0, k.cpu_seconds)
 
 
 def test_compile_line_names_the_kernel_and_says_how_long(monkeypatch):

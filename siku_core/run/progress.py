@@ -51,15 +51,18 @@ class CompileClock(event.Listener):
     implementations of the library functions a kernel calls counted in the kernel);
     ``kernels``: seconds per kernel, its own (without the kernels it compiled on the way)
     [s]; ``signatures``: compilations per kernel (one per argument types); ``current``: the
-    kernel compiling now (``None`` between compilations).
+    kernel compiling now (``None`` between compilations); ``cpu_seconds``: the process's CPU
+    seconds over the same compilations (``time.process_time()``) [s].
     """
 
     def __init__(self) -> None:
         self.seconds = 0.0
+        self.cpu_seconds = 0.0
         self.count = 0
         self.kernels: dict[str, float] = {}
         self.signatures: dict[str, int] = {}
-        self._stack: list[list] = []  # [name, start, seconds of the compilations inside]
+        # [name, start, seconds of the compilations inside, CPU clock at the start]
+        self._stack: list[list] = []
         self._lock = threading.Lock()
 
     @property
@@ -74,18 +77,27 @@ class CompileClock(event.Listener):
                 return self.seconds + time.perf_counter() - self._stack[0][1]
             return self.seconds
 
+    def cpu_now(self) -> float:
+        """The process's CPU seconds of compilation so far, the one under way included [s]."""
+        with self._lock:
+            if self._stack:
+                return self.cpu_seconds + time.process_time() - self._stack[0][3]
+            return self.cpu_seconds
+
     def on_start(self, ev: event.Event) -> None:
         with self._lock:
-            self._stack.append([kernel_name(ev), time.perf_counter(), 0.0])
+            self._stack.append([kernel_name(ev), time.perf_counter(), 0.0,
+                                time.process_time()])
 
     def on_end(self, ev: event.Event) -> None:
         with self._lock:
             if not self._stack:
                 return
-            name, t0, inner = self._stack.pop()
+            name, t0, inner, c0 = self._stack.pop()
             took = time.perf_counter() - t0
             if not self._stack:
                 self.seconds += took
+                self.cpu_seconds += time.process_time() - c0
             if name.startswith("numba.") and self._stack:
                 return  # numba's own implementation of a library call: the caller's time
             self.count += 1
