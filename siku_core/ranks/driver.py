@@ -18,13 +18,15 @@ its elements and ghosts (:mod:`.local`). A step:
    fields components integrate) is sound, an error a process raised and whether some
    element's ice changed enough to check the stable step again (on the whole run, every rank
    alike); every rank applies the breaks to the run's joint table, and runs the joints' guard;
-5. if an element moved half the skin (the engine's own rule for its candidate list), or
-   ``every`` steps passed, a redistribution: elements whose centre left their subdomain
-   change owner; and whenever the slowest rank's measured work (at least :data:`MIN_WORK`)
-   exceeds the mean by :data:`REBALANCE_MARGIN`, the elements are split again;
-6. on output steps the ranks' elements, joints, ice, contact and declared fields are
+5. on output steps the ranks' elements, joints, ice, contact and declared fields are
    gathered on rank 0 in global order, and the run's writers write them: the same files as
-   one rank's (the components' diagnostics computed there, on the gathered run).
+   one rank's (the components' diagnostics computed there, on the gathered run);
+6. then, if an element moved half the skin (the engine's own rule for its candidate list), or
+   ``every`` steps passed, a redistribution (new engines, whose contact fields are empty
+   until their first force evaluation: hence after the outputs): elements whose centre left
+   their subdomain change owner; and whenever the slowest rank's measured work (at least
+   :data:`MIN_WORK`) exceeds the mean by :data:`REBALANCE_MARGIN`, the elements are split
+   again.
 
 A joint between elements of two ranks is evaluated on both, from the same inputs (the owners'
 states and damper bounds, its own state carried since the last redistribution): it breaks in
@@ -144,7 +146,9 @@ class RankRun:
         links = []
         if gc is not None:
             links = [reach_pairs(gc, c), np.stack([gc.ji, gc.jj], axis=1)]
-        held = local_sets(owner, self.size, links)
+        # a process reading the contacts: the ghosts next to owned elements with all theirs
+        depth = 2 if any(p.reads_contacts for p in sim.processes) else 1
+        held = local_sets(owner, self.size, links, depth)
         self.ids = held[self.rank]
         self.mine = owner[self.ids] == self.rank  # local rows owned here
         self.own_rows = np.flatnonzero(self.mine)
@@ -310,7 +314,10 @@ class RankRun:
         self._apply(self.comm.allgather(self._record(False)), False)
 
     # ------------------------------------------------------------------ step
-    def step(self) -> None:
+    def step(self, write: bool = False) -> None:
+        """One step of the run on every rank; with ``write``, the outputs due at its end are
+        written (rank 0) before a redistribution replaces the ranks' engines (their contact
+        fields are those of the step's last force evaluation)."""
         sim, loc = self.sim, self.loc
         lc = loc.contacts
         t0 = clock()
@@ -367,6 +374,8 @@ class RankRun:
         work = np.array([n[3] for n in news])
         resplit = (self.owner_fn is None and bool(work.min() >= self.min_work)
                    and imbalance(work) > self.margin)
+        if write:
+            self._write()
         if sim.step_index < sim.n_steps and (any(n[0] for n in news) or due or resplit):
             if not synced:
                 self._sync_all()
@@ -583,8 +592,7 @@ class RankRun:
             if self.root:
                 sim.open_outputs()
             while sim.step_index < sim.n_steps:
-                self.step()
-                self._write()
+                self.step(write=True)
         except (KeyboardInterrupt, SystemExit):
             raise
         except Exception as exc:
