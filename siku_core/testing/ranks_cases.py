@@ -253,10 +253,16 @@ def _trace(sim) -> list[dict[str, np.ndarray]]:
 
 
 def _traced(trace: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """The trace as arrays ``trace_<name>`` (first axis: the diagnostics steps)."""
-    if not trace:
-        return {}
-    return {f"trace_{k}": np.stack([t[k] for t in trace]) for k in trace[0]}
+    """The trace as arrays ``trace_<name>`` (first axis: the diagnostics steps that have it;
+    ``trace_<name>_steps``: which, where not every one has)."""
+    names = list(dict.fromkeys(k for t in trace for k in t))
+    out = {}
+    for k in names:
+        rows = [t for t in trace if k in t]
+        out[f"trace_{k}"] = np.stack([t[k] for t in rows])
+        if len(rows) != len(trace):
+            out[f"trace_{k}_steps"] = np.array([int(t["step"]) for t in rows])
+    return out
 
 
 def _shared_pairs(run) -> int:
