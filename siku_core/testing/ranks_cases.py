@@ -14,14 +14,14 @@ spring pack under an integrator that evaluates forces four times a step), ``ther
 spring pack thinning and melting under ``thermodynamics``), ``ridge_freeze`` (the pack
 pulled apart under ``thermodynamics``, ``ridging`` and ``refreeze``: joints across the ranks'
 boundary break and refreeze), ``ridge_freeze_split`` (the same, split by bisection),
-``ridge_freeze_migrate`` (the same, every element changing rank every 60 steps), ``cycle4`` (on four ranks,
-the spring pack to its joints' breaks, every element moving to the next rank every 60 steps),
-``raise`` (rank
-1's integrator raises at step 10: the run ends on every rank with one line), ``floating`` (a
-bonded floe of 24 elements under the ``floating`` process in a wave with two loads, its joints
-beams that break in flexure), ``floating_migrate`` (the same, every element changing rank every
-40 steps), ``floating_plain`` (the floe floating without beams), ``wave_breaking`` (the floe
-under the ``waves`` forcing's flexural breaking).
+``ridge_freeze_migrate`` (the same, every element changing rank every 60 steps),
+``cycle4`` (on four ranks, the spring pack to its joints' breaks, every element moving to the
+next rank every 60 steps), ``raise`` (rank 1's integrator raises at step 10: the run ends on
+every rank with one line), ``floating`` (a bonded floe of 24 elements under the ``floating``
+process in a wave with two loads, its joints beams that break in flexure),
+``floating_migrate`` (the same, every element changing rank every 40 steps),
+``floating_plain`` (the floe floating without beams), ``wave_breaking`` (the floe under the
+``waves`` forcing's flexural breaking).
 """
 from __future__ import annotations
 
