@@ -46,7 +46,7 @@ from ..errors import SceneError, SikuError
 from ..geometry.quat import centers
 from ..run.guard import RECHECK_JOINTS, integrated_fields
 from ..state import MELTED
-from ..run.progress import clock
+from ..run.progress import clock, compile_time
 from .comm import Comm
 from .decompose import Cuts, bisect, imbalance
 from .ghosts import exchange_plan, local_sets, reach_pairs
@@ -127,8 +127,6 @@ class RankRun:
         self._recheck = ""
         self.reports: list[dict[str, float]] | None = None
         self.stepping = 0.0
-        from ..run.progress import compile_time
-
         with compile_time(sim):  # (the engine's first build may compile: left out of rates)
             self._redistribute(resplit=True)
 
@@ -618,8 +616,6 @@ class RankRun:
     def run(self) -> "RankRun":
         """Run to the scene's end; a rank that raises ends the run on every rank
         (:meth:`Comm.abort`, one line naming the rank and the cause)."""
-        from ..run.progress import compile_time
-
         sim = self.sim
         try:
             if self.root:
