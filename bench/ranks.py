@@ -7,9 +7,10 @@
 (each run a fresh process), and prints per run: steps per second, the share of the rank's
 step spent in the exchange (ghost update plus the per-step allgather, waiting included), the
 bytes a rank sends per step, the CPU time of a step summed over the cores (``process_time`` of
-the process, or of every rank: on a busy machine the fairer measure of work) and the peak
-memory of a rank (``ru_maxrss``). Outputs are off. ``--steps`` takes one number, or one per
-size (fewer steps at the large sizes).
+the process, or of every rank: on a busy machine the fairer measure of work), the peak
+memory of a rank (``ru_maxrss``) and its resident memory once the run is built and after
+the steps (``VmRSS``: the peak is the build's, the whole scene's stable-step check). Outputs
+are off. ``--steps`` takes one number, or one per size (fewer steps at the large sizes).
 
     python -m bench.ranks --sizes 2000 10000 --steps 50 --repeat 2
     python -m bench.ranks --sizes 10000 100000 1000000 --steps 40 10 3 --warm 2 --repeat 1
@@ -28,11 +29,24 @@ from bench.scenes import scene
 from siku_core.ranks import launched_ranks, mpiexec
 
 
+def resident_mb() -> float:
+    """This process's resident memory now [MB] (``VmRSS``; 0 where ``/proc`` is missing)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return 0.0
+
+
 def worker(n: int, warm: int, steps: int) -> None:
     """One run (on the launched ranks if any): a JSON line from rank 0."""
     from siku_core.run.simulation import Simulation
 
     sim = Simulation(scene("bonded", n, steps=warm + steps), out=False, progress=False)
+    built = resident_mb()
     if launched_ranks() > 1:
         from siku_core.ranks.driver import RankRun
 
@@ -51,7 +65,8 @@ def worker(n: int, warm: int, steps: int) -> None:
         mine = {"exchange": run.exchange_time / max(run.exchange_time + run.work, 1e-300),
                 "bytes": (run.comm.sent_bytes - sent0) / steps,
                 "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-                "cpu": cpu, "held": len(run.ids), "owned": len(run.own_rows)}
+                "built_mb": built, "stepping_mb": resident_mb(), "cpu": cpu,
+                "held": len(run.ids), "owned": len(run.own_rows)}
         every = run.comm.gather(mine)
         if not run.root:
             return
@@ -59,6 +74,8 @@ def worker(n: int, warm: int, steps: int) -> None:
                "exchange_share": max(e["exchange"] for e in every),
                "bytes_per_step": max(e["bytes"] for e in every),
                "rss_mb_per_rank": max(e["rss_mb"] for e in every),
+               "built_mb_per_rank": max(e["built_mb"] for e in every),
+               "stepping_mb_per_rank": max(e["stepping_mb"] for e in every),
                "cpu_s_per_step": sum(e["cpu"] for e in every) / steps,
                "redistributions": run.redistributions,
                "held": [e["held"] for e in every], "owned": [e["owned"] for e in every]}
@@ -72,7 +89,8 @@ def worker(n: int, warm: int, steps: int) -> None:
 
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         out = {"mode": f"1 rank x {numba.get_num_threads()} threads", "n": sim.state.n,
-               "steps_per_s": steps / wall, "rss_mb_per_rank": rss, "cpu_s_per_step": cpu / steps}
+               "steps_per_s": steps / wall, "rss_mb_per_rank": rss, "built_mb_per_rank": built,
+               "stepping_mb_per_rank": resident_mb(), "cpu_s_per_step": cpu / steps}
     print(json.dumps(out), flush=True)
 
 
@@ -110,8 +128,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--steps: one number, or one per size ({len(a.sizes)})")
     steps = a.steps * len(a.sizes) if len(a.steps) == 1 else a.steps
     print("| elements | steps | mode | steps/s | CPU s/step (all cores) | exchange share | "
-          "bytes/step per rank | peak memory per rank |")
-    print("|---:|---:|---|---:|---:|---:|---:|---:|")
+          "bytes/step per rank | peak memory per rank | built / stepping per rank |")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|")
     for n, k in zip(a.sizes, steps):
         for _ in range(a.repeat):
             for mode in ("threads", "ranks"):
@@ -120,7 +138,8 @@ def main(argv: list[str] | None = None) -> int:
                 by = f"{r['bytes_per_step'] / 1e3:.1f} kB" if "bytes_per_step" in r else ""
                 print(f"| {r['n']} | {k} | {r['mode']} | {r['steps_per_s']:.3g} | "
                       f"{r['cpu_s_per_step']:.3g} | {ex} | {by} | "
-                      f"{r['rss_mb_per_rank']:.0f} MB |", flush=True)
+                      f"{r['rss_mb_per_rank']:.0f} MB | {r['built_mb_per_rank']:.0f} / "
+                      f"{r['stepping_mb_per_rank']:.0f} MB |", flush=True)
     return 0
 
 

@@ -172,10 +172,11 @@ def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
     try:
         assert main([*base, "--out", "one.h5"]) == 0
         p = subprocess.run([sys.executable, "-m", "siku_core.run.cli", *base, "--out", "two.h5",
-                            "--ranks", "2"], env=_env(), capture_output=True, text=True,
-                           timeout=TIMEOUT)
+                            "--ranks", "2", "--profile"], env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
         assert p.returncode == 0, p.stderr
         assert "on 2 MPI ranks" in p.stderr
+        _check_profile_on_ranks(p.stderr, steps=3000, ranks=2, n=10)
         assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
         for f in ("one", "two"):
             assert main([*base, "--restart", f"{f}.h5", "--extend", "20s",
@@ -193,6 +194,24 @@ def test_cli_ranks_writes_the_same_file_and_restarts_on_one(tmp_path):
     a = (tmp_path / "one_more.h5").read_bytes()
     assert a == (tmp_path / "two_more.h5").read_bytes()
     assert a == (tmp_path / "ranks_more.h5").read_bytes()  # and a restart on two ranks
+
+
+def _check_profile_on_ranks(err: str, steps: int, ranks: int, n: int) -> None:
+    """``siku run --profile`` on ranks: rank 0's phases over its steps (the exchange among
+    them), then a row per rank whose steps are the run's, its elements add up to the run's
+    and whose exchange is a share of its stepping time."""
+    lines = err.splitlines()
+    head = next(ln for ln in lines if ln.startswith("profile: "))
+    assert head.startswith(f"profile: {steps} steps of rank 0's "), head
+    assert any(ln.split()[:1] == ["exchange"] for ln in lines), err
+    at = next(k for k, ln in enumerate(lines) if ln.startswith(f"ranks: {ranks} "))
+    rows = [ln.split() for ln in lines[at + 2:at + 2 + ranks]]
+    assert [int(r[0]) for r in rows] == list(range(ranks)), err
+    assert sum(int(r[1]) for r in rows) == n  # each element owned by one rank
+    assert all(int(r[3]) == steps for r in rows), err
+    for r in rows:  # busy and exchange seconds, the exchange's share of the steps' time
+        assert float(r[4]) > 0.0 and float(r[5]) > 0.0
+        assert 0.0 < float(r[6].rstrip("%")) <= 100.0
 
 
 RIDGE_FREEZE = ("ridge_freeze", "ridge_freeze_split", "ridge_freeze_migrate")
@@ -371,6 +390,9 @@ def test_ghosts_hold_every_partner_and_the_plan_is_symmetric():
     pairs = np.array([[0, 2], [1, 4], [3, 4]])
     held = local_sets(owner, 3, [pairs])
     assert [h.tolist() for h in held] == [[0, 1, 2, 4], [0, 2, 3, 4], [1, 3, 4]]
+    # a second layer: the partners of the ghosts too (rank 0 holds 3, a partner of 4)
+    assert [h.tolist() for h in local_sets(owner, 3, [pairs], depth=2)] == [
+        [0, 1, 2, 3, 4], [0, 1, 2, 3, 4], [1, 3, 4]]
     plans = [exchange_plan(owner, held, r) for r in range(3)]
     for r in range(3):
         for s in range(3):
@@ -399,6 +421,28 @@ def test_three_ranks_same_bits(tmp_path):
     assert rc == 0, err
     for name in names:
         assert_same_bits(one_rank(name), np.load(tmp_path / f"{name}.npz"), name)
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_four_ranks_same_bits(tmp_path):
+    """Four ranks (oversubscribed here): the collision pack split by bisection; the spring
+    pack to its joints' breaks, every element moving to the next rank every 60 steps (the
+    breaking joints always across two ranks); and the pack under thermodynamics, ridging
+    and refreezing split by bisection (a ridging pair's giver a ghost whose other pairs reach
+    beyond the first layer of ghosts). The final state, joints and the diagnostics and fields
+    at every diagnostics step equal one rank's bit for bit."""
+    names = ("collision", "cycle4", "ridge_freeze_split")
+    rc, err = mpirun(4, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), *names],
+                     tmp_path, timeout=TIMEOUT * len(names))
+    assert rc == 0, err
+    for name in names:
+        many = np.load(tmp_path / f"{name}.npz")
+        assert_same_bits(one_rank(name), many, name)
+        assert bool(many["ranks_joints_agree"])
+    cycle = np.load(tmp_path / "cycle4.npz")
+    assert int(cycle["ranks_migrated"]) >= 27 * 10  # each element moved at 60, 120, ... 1680
+    assert int(cycle["n_broken_total"]) >= 2
 
 
 @needs_mpi

@@ -18,13 +18,15 @@ its elements and ghosts (:mod:`.local`). A step:
    fields components integrate) is sound, an error a process raised and whether some
    element's ice changed enough to check the stable step again (on the whole run, every rank
    alike); every rank applies the breaks to the run's joint table, and runs the joints' guard;
-5. if an element moved half the skin (the engine's own rule for its candidate list), or
-   ``every`` steps passed, a redistribution: elements whose centre left their subdomain
-   change owner; and whenever the slowest rank's measured work (at least :data:`MIN_WORK`)
-   exceeds the mean by :data:`REBALANCE_MARGIN`, the elements are split again;
-6. on output steps the ranks' elements, joints, ice, contact and declared fields are
+5. on output steps the ranks' elements, joints, ice, contact and declared fields are
    gathered on rank 0 in global order, and the run's writers write them: the same files as
-   one rank's (the components' diagnostics computed there, on the gathered run).
+   one rank's (the components' diagnostics computed there, on the gathered run);
+6. then, if an element moved half the skin (the engine's own rule for its candidate list), or
+   ``every`` steps passed, a redistribution (new engines, whose contact fields are empty
+   until their first force evaluation: hence after the outputs): elements whose centre left
+   their subdomain change owner; and whenever the slowest rank's measured work (at least
+   :data:`MIN_WORK`) exceeds the mean by :data:`REBALANCE_MARGIN`, the elements are split
+   again.
 
 A joint between elements of two ranks is evaluated on both, from the same inputs (the owners'
 states and damper bounds, its own state carried since the last redistribution): it breaks in
@@ -44,7 +46,7 @@ from ..errors import SceneError, SikuError
 from ..geometry.quat import centers
 from ..run.guard import RECHECK_JOINTS, integrated_fields
 from ..state import MELTED
-from ..run.progress import clock
+from ..run.progress import clock, compile_time
 from .comm import Comm
 from .decompose import Cuts, bisect, imbalance
 from .ghosts import exchange_plan, local_sets, reach_pairs
@@ -123,7 +125,10 @@ class RankRun:
         self.migrated = 0
         self.owner = np.zeros(sim.state.n, dtype=np.int64)
         self._recheck = ""
-        self._redistribute(resplit=True)
+        self.reports: list[dict[str, float]] | None = None
+        self.stepping = 0.0
+        with compile_time(sim):  # (the engine's first build may compile: left out of rates)
+            self._redistribute(resplit=True)
 
     # ------------------------------------------------------------------ distribution
     def _redistribute(self, resplit: bool) -> None:
@@ -144,7 +149,9 @@ class RankRun:
         links = []
         if gc is not None:
             links = [reach_pairs(gc, c), np.stack([gc.ji, gc.jj], axis=1)]
-        held = local_sets(owner, self.size, links)
+        # a process reading the contacts: the ghosts next to owned elements with all theirs
+        depth = 2 if any(p.reads_contacts for p in sim.processes) else 1
+        held = local_sets(owner, self.size, links, depth)
         self.ids = held[self.rank]
         self.mine = owner[self.ids] == self.rank  # local rows owned here
         self.own_rows = np.flatnonzero(self.mine)
@@ -310,9 +317,15 @@ class RankRun:
         self._apply(self.comm.allgather(self._record(False)), False)
 
     # ------------------------------------------------------------------ step
-    def step(self) -> None:
+    def step(self, write: bool = False) -> None:
+        """One step of the run on every rank; with ``write``, the outputs due at its end are
+        written (rank 0) before a redistribution replaces the ranks' engines (their contact
+        fields are those of the step's last force evaluation)."""
         sim, loc = self.sim, self.loc
         lc = loc.contacts
+        if sim.phase_log is not None:
+            sim.phase_log.before_step(sim)
+        timings = sim.timings  # (the rank's engine's phases add to them too: the same dict)
         t0 = clock()
         loc.step_index = sim.step_index
         loc._commit = True
@@ -330,11 +343,13 @@ class RankRun:
             loc.integrator.step(loc.state, sim.time, sim.dt, forces)
         t1 = clock()
         self.work += t1 - t0
+        timings["integrator"] += t1 - t0 - loc._force_time
         sim.step_index += 1
         loc.step_index = sim.step_index
         self._exchange()
         stepped = lc.take_changes() if lc is not None else None
         failed = self._processes() if loc.processes else None
+        t2 = clock()
         breaks = None
         if lc is not None:
             lc._pending = []
@@ -343,9 +358,11 @@ class RankRun:
         sound = self._sound()
         due = self.every is not None and sim.step_index - self.since >= self.every
         recheck, self._recheck = self._recheck, ""
-        t2 = clock()
+        t3 = clock()
+        timings["guard"] += t3 - t2
         news = self.comm.allgather((moved, sound, breaks, self.work, failed, recheck))
-        self.exchange_time += clock() - t2 + (t2 - t1)
+        t4 = clock()
+        self._exchanged(t4 - t3)
         for got in news:  # a process raised on some rank: the same error on every rank
             if got[4] is not None:
                 raise got[4][0](got[4][1])
@@ -367,10 +384,17 @@ class RankRun:
         work = np.array([n[3] for n in news])
         resplit = (self.owner_fn is None and bool(work.min() >= self.min_work)
                    and imbalance(work) > self.margin)
+        t5 = clock()
+        timings["guard"] += t5 - t4
+        if write:
+            self._write()
         if sim.step_index < sim.n_steps and (any(n[0] for n in news) or due or resplit):
+            t6 = clock()
             if not synced:
                 self._sync_all()
             self._redistribute(resplit=resplit)
+            timings["redistribute"] += clock() - t6
+        sim.timed_steps += 1
 
     def _processes(self) -> tuple[type, str] | None:
         """The processes due at this step on the rank's engine, then the ghosts' new damper
@@ -380,6 +404,7 @@ class RankRun:
         if not any(loc.step_index % every == 0 for every in loc._process_every):
             return None
         t0 = clock()
+        ex0 = self.exchange_time
         failed = None
         ran = []
         for proc, every in zip(loc.processes, loc._process_every):
@@ -402,7 +427,9 @@ class RankRun:
                 loc.ice.after_processes(" and ".join(ran))
             except SikuError as exc:
                 failed = type(exc), str(exc)
-        self.work += clock() - t0
+        spent = clock() - t0 - (self.exchange_time - ex0)  # (its ghosts' ice exchanges apart)
+        self.work += spent
+        self.sim.timings["processes"] += spent
         self._exchange()
         return failed
 
@@ -410,6 +437,7 @@ class RankRun:
         """Owners' ice (thickness, flags, categories, declared fields) to the ranks holding
         their elements as ghosts; a ghost its owner melted melts here too (its joints break
         here as there)."""
+        t0 = clock()
         loc = self.loc
         ls, ice = loc.state, loc.ice
         arrays = {"thickness": ls.thickness, "flags": ls.flags, **ice._category_arrays(),
@@ -429,6 +457,12 @@ class RankRun:
                     arrays[k][rows] = v
             if len(melted):
                 ice.melt(melted)
+        self._exchanged(clock() - t0)
+
+    def _exchanged(self, seconds: float) -> None:
+        """Count ``seconds`` [s] as this rank's time in exchanges with the others."""
+        self.exchange_time += seconds
+        self.sim.timings["exchange"] += seconds
 
     def _local_check(self, after: str = "") -> None:
         """The rank's engine's stable-step check after its processes changed the ice: noted,
@@ -438,6 +472,7 @@ class RankRun:
     def _exchange(self, *arrays: np.ndarray) -> None:
         """Owners' new states (and damper bounds) to the ranks holding them as ghosts: of the
         state, or of the arrays ``q, V, w`` an integrator evaluates forces at."""
+        t0 = clock()
         ls, lc = self.loc.state, self.loc.contacts
         q, V, w = arrays or (ls.q, ls.V, ls.w)
         dmob = lc.own_mobility() if lc is not None and len(self.ghost_rows) + sum(
@@ -459,6 +494,7 @@ class RankRun:
             q[rows], V[rows], w[rows] = rec["q"], rec["V"], rec["w"]
             if lc is not None and "dmob" in rec:
                 lc.ghost_dmob[self.recv_ghosts[s]] = rec["dmob"]
+        self._exchanged(clock() - t0)
 
     def _moved(self) -> bool:
         """Whether an owned element moved half the skin since the redistribution."""
@@ -547,7 +583,9 @@ class RankRun:
         k, last = sim.step_index, sim.n_steps
         if not (force or sim.state_schedule.due(k, last) or sim.diag_schedule.due(k, last)):
             return
+        t0 = clock()
         self.gather_all()
+        sim.timings["output"] += clock() - t0  # (the gather; rank 0's writing adds its own)
         if self.root:
             sim._write(force=force, diagnostics=not force or sim.restarted_from is None)
 
@@ -582,9 +620,14 @@ class RankRun:
         try:
             if self.root:
                 sim.open_outputs()
-            while sim.step_index < sim.n_steps:
-                self.step()
-                self._write()
+            t0 = clock()
+            with compile_time(sim):
+                while sim.step_index < sim.n_steps:
+                    self.step(write=True)
+            #: seconds this rank stepped (its outputs included, compilation left out) [s]
+            self.stepping = clock() - t0
+            #: every rank's :meth:`report` (rank 0; ``None`` on the others)
+            self.reports = self.comm.gather(self.report())
         except (KeyboardInterrupt, SystemExit):
             raise
         except Exception as exc:
@@ -601,10 +644,36 @@ class RankRun:
         return self
 
     def report(self) -> dict[str, float]:
-        """Timings of this rank: step work and exchange [s], bytes sent."""
+        """This rank's numbers: ``work`` (the step's computation since the last split) and
+        ``exchange`` [s], ``sent_bytes``, the elements it ``held`` and ``owned`` last, and
+        from the run's phase timers (compilation left out) its ``steps`` taken, ``busy`` [s]
+        (every phase but the exchanges and the redistributions), ``exchanged`` and
+        ``redistributing`` [s], and ``stepping`` [s], the time of its steps and outputs."""
+        t = self.sim.timings
+        spent = sum(t.values()) - t["exchange"] - t["redistribute"]
         return {"work": self.work, "exchange": self.exchange_time,
                 "sent_bytes": float(self.comm.sent_bytes), "held": float(len(self.ids)),
-                "owned": float(len(self.own_rows))}
+                "owned": float(len(self.own_rows)), "steps": float(self.sim.timed_steps),
+                "busy": spent, "exchanged": t["exchange"], "redistributing": t["redistribute"],
+                "stepping": self.stepping}
+
+    def profile_table(self) -> str:
+        """Every rank's share of the run (rank 0, after :meth:`run`): its elements, steps,
+        seconds busy in its own phases, in exchanges with the others (ghost states and ice,
+        the per-step agreement) and in redistributions, and the exchange's share of its
+        stepping time (:attr:`stepping`: compilation left out)."""
+        lines = [f"ranks: {self.size} (each rank's own phase timers; rank 0's phases above)",
+                 f"  {'rank':>4} {'owned':>9} {'held':>9} {'steps':>7} {'busy s':>9} "
+                 f"{'exchange s':>10} {'share':>6} {'redistribute s':>14} {'sent kB/step':>12}"]
+        for r, rep in enumerate(self.reports or []):
+            steps = max(rep["steps"], 1.0)
+            wall = rep["stepping"]
+            share = 100.0 * rep["exchanged"] / wall if wall > 0 else 0.0
+            lines.append(f"  {r:>4} {int(rep['owned']):>9} {int(rep['held']):>9} "
+                         f"{int(rep['steps']):>7} {rep['busy']:9.3f} {rep['exchanged']:10.3f} "
+                         f"{share:5.1f}% {rep['redistributing']:14.3f} "
+                         f"{rep['sent_bytes'] / steps / 1e3:12.2f}")
+        return "\n".join(lines)
 
 
 def run_on_ranks(sim, **kwargs: Any) -> RankRun:

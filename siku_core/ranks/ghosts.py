@@ -6,6 +6,11 @@ current centres (contact reach plus the skin, the same reach and the same broad 
 engine's candidate list) or in a joint. The driver redistributes as soon as any element has
 moved half the skin since (the engine's own rebuild rule), so every pair the engine would find
 overlapping while the ghosts are current has both elements on the rank that owns either.
+
+A process that reads the contacts may change an element from its pairs in an order that runs
+through its partners' other pairs (``ridging``: a giver's open water, taken pair after pair);
+with such a process the ranks hold a second layer (``depth = 2``), the partners of the ghosts,
+so that every ghost next to an owned element has all of its contacts too.
 """
 from __future__ import annotations
 
@@ -22,19 +27,22 @@ def reach_pairs(model, c: np.ndarray) -> np.ndarray:
     return pairs
 
 
-def local_sets(owner: np.ndarray, size: int, links: list[np.ndarray]) -> list[np.ndarray]:
+def local_sets(owner: np.ndarray, size: int, links: list[np.ndarray],
+               depth: int = 1) -> list[np.ndarray]:
     """Per rank, the sorted element indices it holds: those it owns and every partner of
-    them in ``links`` (arrays of pairs ``(m, 2)``: candidate pairs, joints)."""
+    them in ``links`` (arrays of pairs ``(m, 2)``: candidate pairs, joints), and with
+    ``depth`` 2 or more, the partners of those again (``depth`` layers of ghosts)."""
     n = len(owner)
     out = []
     for r in range(size):
-        mine = owner == r
-        need = mine.copy()
-        for p in links:
-            if len(p):
-                a, b = p[:, 0], p[:, 1]
-                need[b[mine[a]]] = True
-                need[a[mine[b]]] = True
+        need = owner == r
+        for _ in range(depth):
+            have = need.copy()
+            for p in links:
+                if len(p):
+                    a, b = p[:, 0], p[:, 1]
+                    need[b[have[a]]] = True
+                    need[a[have[b]]] = True
         out.append(np.flatnonzero(need) if n else np.zeros(0, np.int64))
     return out
 

@@ -137,8 +137,13 @@ def _run(args: argparse.Namespace, path: Path, overrides: dict) -> int:
         from .simulation import PHASES
 
         sim.phase_log.finish(sim)
-        print(profile_table(sim, wall - sim.compile_seconds), file=sys.stderr)
-        print(sim.phase_log.table(sim.state.n, PHASES), file=sys.stderr)
+        held, stepping = None, wall - sim.compile_seconds
+        if comm is not None:  # rank 0's phases over its steps (not the ranks' start)
+            held, stepping = int(on_ranks.report()["held"]), on_ranks.stepping
+        print(profile_table(sim, stepping, held), file=sys.stderr)
+        print(sim.phase_log.table(held or sim.state.n, PHASES), file=sys.stderr)
+        if comm is not None:
+            print(on_ranks.profile_table(), file=sys.stderr)
     if sim.output_path is not None and sim.step_index == sim.n_steps:
         from ..plugins import get_plugin_manager
 
@@ -240,16 +245,17 @@ def _set_threads(n: int) -> None:
     numba.set_num_threads(n)
 
 
-def profile_table(sim, wall: float) -> str:
+def profile_table(sim, wall: float, held: int | None = None) -> str:
     """The time of each phase of the step (``Simulation.timings``) as a table: seconds, share
     of the run's wall time ``wall`` [s] (without the compilation: ``Simulation.timings`` leave
-    it out too), and per step and per element-step."""
+    it out too), and per step and per element-step. On MPI ranks, ``held``: the elements rank
+    0 steps (its own and its ghosts), whose phases these are (per element-step of those)."""
     import numba
 
     from .. import parallel
 
     steps = max(sim.timed_steps, 1)
-    n = max(sim.state.n, 1)
+    n = max(sim.state.n if held is None else held, 1)
     rows = [(k, v) for k, v in sim.profile()]
     other = wall - sum(v for _, v in rows)
     rows.append(("other", max(other, 0.0)))
@@ -257,7 +263,9 @@ def profile_table(sim, wall: float) -> str:
     if sim.auto_threads and parallel.LAST_TUNED:
         on = ", ".join(f"{t} thread(s) for {k} steps"
                        for t, k in sorted(parallel.LAST_TUNED.items())) + " (timed as it ran)"
-    lines = [f"profile: {sim.timed_steps} steps of {sim.state.n} elements in {wall:.3g} s on "
+    what = (f"{sim.state.n} elements" if held is None else
+            f"rank 0's {held} elements (its own and its ghosts, of {sim.state.n})")
+    lines = [f"profile: {sim.timed_steps} steps of {what} in {wall:.3g} s on "
              f"{on}: {n * steps / wall:.3g} element-steps/s",
              f"  {'phase':<12} {'seconds':>9} {'share':>7} {'per step':>11} "
              f"{'per element-step':>17}"]

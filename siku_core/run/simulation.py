@@ -45,9 +45,10 @@ from .schedule import StepInterval, fit_time_step
 #: the per-element sums of contact forces (with the rotation matrices they use, and the check
 #: whether the candidate list is due for a rebuild, done in the same pass);
 #: the integrator (its own work, without the force evaluations); the processes that change the
-#: ice (with what they make the engine recompute); the NaN guard; writers
+#: ice (with what they make the engine recompute); the NaN guard; writers; on MPI ranks
+#: (``siku_core.ranks``), the exchanges with the other ranks and the redistributions
 PHASES = ("forcing", "joints", "broad_phase", "collisions", "contact_sum", "integrator",
-          "processes", "guard", "output")
+          "processes", "guard", "output", "exchange", "redistribute")
 
 
 class Simulation:

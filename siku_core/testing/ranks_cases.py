@@ -3,7 +3,9 @@
 ``python -m siku_core.testing.ranks_cases DIR CASE...`` runs each case to its end (under
 ``mpiexec -n N`` on N ranks, else on one) and writes ``DIR/CASE.npz`` from rank 0: the final
 element state, the joint table and the diagnostics and per-element fields of the gathered
-run. Cases (:data:`CASES`): ``spring`` (a bonded pack whose joints break, the ranks' boundary
+run, and the same at each step the run writes diagnostics (``trace_*``: the diagnostics and
+fields its writers would write, on ranks gathered before any redistribution). Cases
+(:data:`CASES`): ``spring`` (a bonded pack whose joints break, the ranks' boundary
 across the joints that break), ``mohr`` (the pack with ``mohr_coulomb``), ``collision`` (a
 jittered pack without joints pushed by a moving edge), ``migrate`` (the spring pack with every
 element moving to the other rank and back every 60 steps), ``rebalance`` (the collision pack
@@ -12,12 +14,14 @@ spring pack under an integrator that evaluates forces four times a step), ``ther
 spring pack thinning and melting under ``thermodynamics``), ``ridge_freeze`` (the pack
 pulled apart under ``thermodynamics``, ``ridging`` and ``refreeze``: joints across the ranks'
 boundary break and refreeze), ``ridge_freeze_split`` (the same, split by bisection),
-``ridge_freeze_migrate`` (the same, every element changing rank every 60 steps), ``raise`` (rank
-1's integrator raises at step 10: the run ends on every rank with one line), ``floating`` (a
-bonded floe of 24 elements under the ``floating`` process in a wave with two loads, its joints
-beams that break in flexure), ``floating_migrate`` (the same, every element changing rank every
-40 steps), ``floating_plain`` (the floe floating without beams), ``wave_breaking`` (the floe
-under the ``waves`` forcing's flexural breaking).
+``ridge_freeze_migrate`` (the same, every element changing rank every 60 steps),
+``cycle4`` (on four ranks, the spring pack to its joints' breaks, every element moving to the
+next rank every 60 steps), ``raise`` (rank 1's integrator raises at step 10: the run ends on
+every rank with one line), ``floating`` (a bonded floe of 24 elements under the ``floating``
+process in a wave with two loads, its joints beams that break in flexure),
+``floating_migrate`` (the same, every element changing rank every 40 steps),
+``floating_plain`` (the floe floating without beams), ``wave_breaking`` (the floe under the
+``waves`` forcing's flexural breaking).
 """
 from __future__ import annotations
 
@@ -162,6 +166,12 @@ def _swapping(step: int, c: np.ndarray) -> np.ndarray:
     return (np.arange(len(c)) + step // 60) % 2
 
 
+def _cycling(step: int, c: np.ndarray) -> np.ndarray:
+    """On four ranks: elements take the ranks in turn by index, and every 60 steps each moves
+    to the next rank (the breaking joints of the spring pack always join two ranks)."""
+    return (np.arange(len(c)) + step // 60) % 4
+
+
 def _swapping_floe(step: int, c: np.ndarray) -> np.ndarray:
     """Elements of the floe alternate between the ranks in blocks of three; every 40 steps
     each changes rank."""
@@ -181,6 +191,7 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "ridge_freeze_migrate": (ridge_freeze_text(), {"owner": _swapping, "every": 30}),
     "rk4": (spring_text(3000).replace('"siku2"', '"rk4"'), {"owner": _three_columns}),
     "raise": (spring_text(100), {}),
+    "cycle4": (spring_text(1700), {"owner": _cycling, "every": 30}),
     "floating": (floating_text(), {}),
     "floating_migrate": (floating_text(), {"owner": _swapping_floe, "every": 20}),
     "floating_plain": (floating_text(60, bending=False), {}),
@@ -195,9 +206,10 @@ def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
     text, opts = CASES[name]
     sim = Simulation(scene_from_text(text, f"<ranks case {name}>"), out=False,
                      progress=False)
+    trace = _trace(sim)
     if not ranks:
         sim.run()
-        return record(sim)
+        return {**record(sim), **_traced(trace)}
     from ..ranks.driver import RankRun
 
     run = RankRun(sim, **opts)
@@ -214,12 +226,42 @@ def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
     agree = run.joints_agree()
     if not run.root:
         return None
-    out = record(sim)
+    out = {**record(sim), **_traced(trace)}
     out["ranks_joints_agree"] = np.array(agree)
     out["ranks_shared_joints"] = np.array(_shared(run))
     out["ranks_splits"] = np.array(run.splits)
     out["ranks_migrated"] = np.array(run.migrated)
     out["ranks_shared_pairs"] = np.array(_shared_pairs(run))
+    return out
+
+
+def _trace(sim) -> list[dict[str, np.ndarray]]:
+    """The diagnostics and per-element fields of ``sim`` at each of its diagnostics steps, as
+    its writers would write them (on ranks: rank 0's, gathered), appended to the list
+    returned."""
+    trace: list[dict[str, np.ndarray]] = []
+    write = sim._write
+
+    def traced(force: bool = False, diagnostics: bool = True) -> None:
+        write(force=force, diagnostics=diagnostics)
+        if sim.diag_schedule.due(sim.step_index, sim.n_steps):
+            got = {f"diag_{k}": np.asarray(v) for k, v in sim.diagnostics().items()}
+            got.update({f"field_{k}": np.asarray(v) for k, v in sim.element_fields().items()})
+            trace.append({"step": np.asarray(sim.step_index), **got})
+    sim._write = traced
+    return trace
+
+
+def _traced(trace: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The trace as arrays ``trace_<name>`` (first axis: the diagnostics steps that have it;
+    ``trace_<name>_steps``: which, where not every one has)."""
+    names = list(dict.fromkeys(k for t in trace for k in t))
+    out = {}
+    for k in names:
+        rows = [t for t in trace if k in t]
+        out[f"trace_{k}"] = np.stack([t[k] for t in rows])
+        if len(rows) != len(trace):
+            out[f"trace_{k}_steps"] = np.array([int(t["step"]) for t in rows])
     return out
 
 
