@@ -24,6 +24,7 @@ components are held to the same checks, but a fault is an error at once.
 """
 from __future__ import annotations
 
+import functools
 import importlib
 import importlib.metadata as md
 import inspect
@@ -319,19 +320,15 @@ def check_component(kind: str, cls: Any, package: str) -> None:
 
 
 
-_TOP_MAP: list[dict[str, list[str]]] = []
-
-
+@functools.lru_cache(maxsize=1)
 def _top_map() -> dict[str, list[str]]:
     """Top-level import names to the distributions providing them
     (``importlib.metadata.packages_distributions``), read once per process: scanning every
     installed distribution's file list takes about 0.3 s. A refreshed registry reads it again."""
-    if not _TOP_MAP:
-        try:
-            _TOP_MAP.append(md.packages_distributions())
-        except Exception:  # pragma: no cover - metadata quirks
-            _TOP_MAP.append({})
-    return _TOP_MAP[0]
+    try:
+        return md.packages_distributions()
+    except Exception:  # pragma: no cover - metadata quirks
+        return {}
 
 
 def own_distribution() -> str | None:
@@ -455,7 +452,7 @@ def get_registry(refresh: bool = False) -> Registry:
     """The process-wide registry (built on first use)."""
     if refresh or "default" not in _CACHE:
         if refresh:
-            _TOP_MAP.clear()  # distributions installed since the last build
+            _top_map.cache_clear()  # distributions installed since the last build
         _CACHE["default"] = make_plugin_manager(extra=tuple(_EXTRA))
     return _CACHE["default"][1]
 

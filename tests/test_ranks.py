@@ -58,6 +58,15 @@ def mpirun(n: int, args: list[str], cwd: Path, timeout: int = TIMEOUT):
     return p.returncode, p.stderr
 
 
+def run_cases(n: int, folder: Path, names) -> Path:
+    """The ranks cases ``names`` (``siku_core.testing.ranks_cases``) on ``n`` ranks, each
+    writing ``folder/<name>.npz``; a failure or a hang (each case's timeout) fails the test."""
+    rc, err = mpirun(n, ["-m", "siku_core.testing.ranks_cases", str(folder), *names], folder,
+                     timeout=TIMEOUT * len(names))
+    assert rc == 0, err
+    return folder
+
+
 def one_rank(name: str) -> dict[str, np.ndarray]:
     from siku_core.testing.ranks_cases import run_case
 
@@ -76,11 +85,7 @@ def assert_same_bits(one: dict, many, name: str) -> None:
 def two_ranks(tmp_path_factory):
     if not HAVE_MPI:
         pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
-    d = tmp_path_factory.mktemp("ranks2")
-    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *CASES], d,
-                     timeout=TIMEOUT * len(CASES))  # (each case's)
-    assert rc == 0, err
-    return d
+    return run_cases(2, tmp_path_factory.mktemp("ranks2"), CASES)
 
 
 # ---------------------------------------------------------------------- the same bits
@@ -221,11 +226,7 @@ RIDGE_FREEZE = ("ridge_freeze", "ridge_freeze_split", "ridge_freeze_migrate")
 def ridge_freeze_ranks(tmp_path_factory):
     if not HAVE_MPI:
         pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
-    d = tmp_path_factory.mktemp("ridge_freeze")
-    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *RIDGE_FREEZE], d,
-                     timeout=TIMEOUT * len(RIDGE_FREEZE))
-    assert rc == 0, err
-    return d
+    return run_cases(2, tmp_path_factory.mktemp("ridge_freeze"), RIDGE_FREEZE)
 
 
 @needs_mpi
@@ -416,9 +417,7 @@ def test_three_ranks_same_bits(tmp_path):
     evaluation of the step needs the ghosts' stage states and damper bounds), and the pack
     under thermodynamics, ridging and refreezing split by bisection."""
     names = ("spring", "collision", "rk4", "ridge_freeze_split")
-    rc, err = mpirun(3, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), *names],
-                     tmp_path)
-    assert rc == 0, err
+    run_cases(3, tmp_path, names)
     for name in names:
         assert_same_bits(one_rank(name), np.load(tmp_path / f"{name}.npz"), name)
 
@@ -433,9 +432,7 @@ def test_four_ranks_same_bits(tmp_path):
     beyond the first layer of ghosts). The final state, joints and the diagnostics and fields
     at every diagnostics step equal one rank's bit for bit."""
     names = ("collision", "cycle4", "ridge_freeze_split")
-    rc, err = mpirun(4, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), *names],
-                     tmp_path, timeout=TIMEOUT * len(names))
-    assert rc == 0, err
+    run_cases(4, tmp_path, names)
     for name in names:
         many = np.load(tmp_path / f"{name}.npz")
         assert_same_bits(one_rank(name), many, name)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from siku_core.contact_law import BreakMode
-from test_ranks import HAVE_MPI, TIMEOUT, assert_same_bits, mpirun, needs_mpi, one_rank
+from test_ranks import HAVE_MPI, TIMEOUT, assert_same_bits, needs_mpi, one_rank, run_cases
 
 FLEXURE = {int(BreakMode.FLEXURE)}
 FLOAT_CASES = ("floating", "floating_migrate", "floating_plain", "wave_breaking")
@@ -25,11 +25,7 @@ FLOAT_CASES = ("floating", "floating_migrate", "floating_plain", "wave_breaking"
 def float_ranks(tmp_path_factory):
     if not HAVE_MPI:
         pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
-    d = tmp_path_factory.mktemp("ranks_float")
-    rc, err = mpirun(2, ["-m", "siku_core.testing.ranks_cases", str(d), *FLOAT_CASES], d,
-                     timeout=TIMEOUT * len(FLOAT_CASES))
-    assert rc == 0, err
-    return d
+    return run_cases(2, tmp_path_factory.mktemp("ranks_float"), FLOAT_CASES)
 
 
 @needs_mpi
@@ -66,9 +62,7 @@ def test_floating_floe_on_three_ranks_same_bits(tmp_path):
     """Three ranks (oversubscribed) on the bending floe and the waves' breaking: the bits of
     one rank."""
     names = ("floating", "wave_breaking")
-    rc, err = mpirun(3, ["-m", "siku_core.testing.ranks_cases", str(tmp_path), *names],
-                     tmp_path)
-    assert rc == 0, err
+    run_cases(3, tmp_path, names)
     for name in names:
         many = np.load(tmp_path / f"{name}.npz")
         assert_same_bits(one_rank(name), many, name)
