@@ -168,6 +168,21 @@ def _rows_sound(F, T, V, w, q, lim2, lo, hi):
             and all_finite(q[lo:hi].reshape(-1)) and speeds_within(V[lo:hi], lim2))
 
 
+@njit(cache=True)
+def rows_sound(F, T, V, w, q, lim2, rows):
+    """:func:`state_sound` of the elements ``rows`` only (an MPI rank's own elements among
+    its ghosts: no copies of the state's rows)."""
+    ok = True
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        # (``&``, not ``and``: no branches, three times faster on a sound state)
+        ok &= (math.isfinite(F[i, 0]) & math.isfinite(F[i, 1]) & math.isfinite(T[i])
+               & math.isfinite(V[i, 0]) & math.isfinite(V[i, 1]) & math.isfinite(w[i])
+               & math.isfinite(q[i, 0]) & math.isfinite(q[i, 1]) & math.isfinite(q[i, 2])
+               & math.isfinite(q[i, 3]) & (V[i, 0] * V[i, 0] + V[i, 1] * V[i, 1] <= lim2))
+    return ok
+
+
 @njit(cache=True, parallel=True)
 def _sound_chunks(F, T, V, w, q, lim2, nch):
     n = w.shape[0]

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from siku_core.diagnostics import all_finite, fastest, speeds_within, state_sound
+from siku_core.diagnostics import all_finite, fastest, rows_sound, speeds_within, state_sound
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
@@ -57,3 +57,27 @@ def test_state_sound_finds_a_bad_value_in_any_array_and_chunk(n, nch):
                 b = [x.copy() for x in arrays]
                 b[a].reshape(n, -1)[k, -1] = bad
                 assert not state_sound(*b, math.inf, nch)
+
+
+@pytest.mark.parametrize("n", [1, 40, 5000])
+def test_rows_sound_checks_the_rows_it_is_given_and_no_other(n):
+    """An MPI rank checks its own elements among its ghosts: a bad value or a speed above the
+    limit in a listed row fails, as :func:`state_sound` of those rows does; one in a row not
+    listed (a ghost, checked by its owner) does not."""
+    arrays = _state(n, n + 1)
+    rows = np.arange(0, n, 2)
+    other = np.arange(1, n, 2)
+    mine = [a[rows] for a in arrays]
+    _, s2 = fastest(mine[2])
+    assert rows_sound(*arrays, s2, rows) and state_sound(*mine, s2, 1)
+    assert not rows_sound(*arrays, np.nextafter(s2, 0.0), rows)  # the speed limit, exactly
+    for a in range(5):
+        for bad in (math.nan, math.inf, -math.inf):
+            b = [x.copy() for x in arrays]
+            b[a].reshape(n, -1)[rows[-1], -1] = bad
+            assert not rows_sound(*b, math.inf, rows)
+            if len(other):
+                c = [x.copy() for x in arrays]
+                c[a].reshape(n, -1)[other[-1], 0] = bad
+                assert rows_sound(*c, math.inf, rows)
+    assert rows_sound(*arrays, 0.0, np.zeros(0, np.int64))

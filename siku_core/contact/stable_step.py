@@ -102,27 +102,36 @@ class _Assembler:
             vals[:, c] = np.where(self.free[e], v, 0.0)
         self.parts.append((np.broadcast_to(np.asarray(coef, dtype=float), (m,)), cols, vals))
 
-    def factors(self, scale: np.ndarray | None = None):
+    def factors(self, scale: np.ndarray | None = None, consume: bool = False):
         """``(B, c)``: the vectors as a CSR matrix (one row each, ``3 n`` columns; column ``i``
-        times ``scale[i]`` if given) and their coefficients."""
+        times ``scale[i]`` if given) and their coefficients. ``consume``: each family of
+        vectors is let go as soon as it is copied (the assembler is left empty), so that the
+        copy never sits beside all of them: the peak memory of the build's stable-step check
+        is about one copy of the vectors, not two."""
         from scipy.sparse import csr_matrix
 
         n3 = 3 * self.n
-        width = max((p[1].shape[1] for p in self.parts), default=1)
-        m = sum(len(p[0]) for p in self.parts)
+        parts = self.parts
+        if consume:
+            self.parts = []
+        width = max((p[1].shape[1] for p in parts), default=1)
+        m = sum(len(p[0]) for p in parts)
         itype = self.itype if m * width < 2**31 else np.int64
         cols = np.zeros((m, width), dtype=itype)
         vals = np.zeros((m, width))
         coef = np.empty(m)
         r = 0
-        for c, pc, pv in self.parts:
+        for at in range(len(parts)):
+            c, pc, pv = parts[at]
+            if consume:
+                parts[at] = None
             k, w = pc.shape
             cols[r:r + k, :w] = pc
-            vals[r:r + k, :w] = pv
+            # (scaled family by family: the products of the whole array, without its copy)
+            vals[r:r + k, :w] = pv if scale is None else pv * scale[pc]
             coef[r:r + k] = c
             r += k
-        if scale is not None:
-            vals *= scale[cols]
+            del c, pc, pv
         B = csr_matrix((vals.ravel(), cols.ravel(), np.arange(0, m * width + 1, width,
                                                                  dtype=itype)), shape=(m, n3))
         return B, coef
@@ -141,9 +150,14 @@ class _Assembler:
     def gram(self, scale: np.ndarray) -> "Gram":
         """The matrix scaled on both sides, ``S A S`` (``S = diag(scale)``), as a
         :class:`Gram` operator (never formed); the assembler's own copy is let go."""
-        op = Gram(*self.factors(scale))
-        self.parts = []
-        return op
+        return Gram(*self.factors(scale, consume=True))
+
+
+class _Unwanted:
+    """An assembler not asked for (``contact_matrices(which=...)``): its vectors are dropped."""
+
+    def add_vectors(self, coef, entries) -> None:
+        return None
 
 
 class Gram:
@@ -161,7 +175,10 @@ class Gram:
     def gershgorin(self) -> np.ndarray:
         """Row sums of ``|B|^T diag(c) |B|``, each at least that of ``|A|``: their largest
         bounds the largest eigenvalue from above (Gershgorin)."""
-        absB = abs(self.B)
+        from scipy.sparse import csr_matrix
+
+        B = self.B  # (|B| shares B's indices: a copy of its values only)
+        absB = csr_matrix((np.abs(B.data), B.indices, B.indptr), shape=B.shape)
         return absB.T @ (self.c * (absB @ np.ones(self.n)))
 
 
@@ -181,7 +198,7 @@ def _point_entries(i, j, p_i, p_j, rot, d_i):
 
 
 def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = False,
-                     dt: float | None = None):
+                     dt: float | None = None, which: str = "KC"):
     """Stiffness and damping matrices (scipy CSR, ``3 n`` square, N/m, N m/rad, ...) of the
     contact phase of ``model`` (a :class:`~siku_core.contact.contact_model.ContactModel`) at rest.
 
@@ -194,12 +211,14 @@ def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = Fa
     that have broken count as free edges (their pair collides as independent elements);
     ``edges = False`` leaves the free edges' collision budget out (the contacts of the state at
     rest alone); ``factored = True`` returns the two as their vectors and coefficients
-    (:class:`_Assembler`: ``factors``, ``gram``, ``matrix``), never formed."""
+    (:class:`_Assembler`: ``factors``, ``gram``, ``matrix``), never formed. ``which``: the
+    ones wanted, ``"K"``, ``"C"`` or both; the other is ``None`` (assembled one at a time, a
+    large pack's check holds one set of vectors at once)."""
     st = model.state
     n = st.n
     free = st.flags == FREE
-    KA = _Assembler(n, free)
-    CA = _Assembler(n, free)
+    KA = _Assembler(n, free) if "K" in which else _Unwanted()
+    CA = _Assembler(n, free) if "C" in which else _Unwanted()
     zc = float(rates.get("collision_damping", 0.0))
     zj = float(rates.get("joint_damping", 0.0))
     fj = float(rates.get("joint_stiffness", 1.0))
@@ -289,7 +308,9 @@ def contact_matrices(model, rates: dict, edges: bool = True, factored: bool = Fa
         KA.add_vectors(kb, ent)
         CA.add_vectors(damper(2.0 * zc * np.sqrt(kb * st.m[el]), el, np.sum(mid**2, axis=1)),
                        ent)
-    return (KA, CA) if factored else (KA.matrix(), CA.matrix())
+    out = tuple(None if isinstance(A, _Unwanted) else A if factored else A.matrix()
+                for A in (KA, CA))
+    return out
 
 
 def lanczos_steps(m: int, tol: float = LANCZOS_TOL, fail: float = LANCZOS_FAIL) -> int:
@@ -403,7 +424,6 @@ def critical_step(model, rates: dict) -> tuple[float, int, dict]:
     free = st.flags == FREE
     if not free.any():
         return math.inf, -1, {"omega": 0.0, "gamma": 0.0}
-    KA, CA = contact_matrices(model, rates, factored=True)
     mass = np.stack([st.m, st.m, st.I], axis=1).ravel()
     dof = np.flatnonzero(np.repeat(free, 3))
     s = 1.0 / np.sqrt(mass)
@@ -416,8 +436,9 @@ def critical_step(model, rates: dict) -> tuple[float, int, dict]:
             return _largest(D @ A.matrix() @ D, dof)
         return _largest(A.gram(s), dof)
 
-    om2, vec = largest(KA)
-    gam, cvec = largest(CA)
+    # one assembled at a time (each let go by its estimate): the check's peak memory is one set
+    om2, vec = largest(contact_matrices(model, rates, factored=True, which="K")[0])
+    gam, cvec = largest(contact_matrices(model, rates, factored=True, which="C")[1])
     if om2 <= 0.0 and gam <= 0.0:
         return math.inf, -1, {"omega": 0.0, "gamma": 0.0}
     bounded = bool(rates.get("bounded_damping", False))
@@ -429,8 +450,7 @@ def critical_step(model, rates: dict) -> tuple[float, int, dict]:
         # c' h = c h / (1 + c h / m_d) does); so at dt = sqrt(4 - 2 g) / omega <= h the
         # condition omega² dt² + 2 dt gamma'(dt) <= 4 holds
         h = 2.0 / math.sqrt(om2)
-        CB = contact_matrices(model, rates, factored=True, dt=h)[1]
-        gb, bvec = largest(CB)
+        gb, bvec = largest(contact_matrices(model, rates, factored=True, dt=h, which="C")[1])
         g = h * gb
         bounded_dt = math.sqrt(4.0 - 2.0 * g) / math.sqrt(om2) if g < 2.0 else 0.0
         details["gamma_bounded"] = gb

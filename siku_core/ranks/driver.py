@@ -42,6 +42,7 @@ import numpy as np
 
 from .. import parallel
 from ..categories import ice_per_area
+from ..diagnostics import rows_sound
 from ..errors import SceneError, SikuError
 from ..geometry.quat import centers
 from ..run.guard import RECHECK_JOINTS, integrated_fields
@@ -513,11 +514,7 @@ class RankRun:
         ls = self.loc.state
         own = self.own_rows
         vmax = sim.scene.cfg.run.max_speed
-        arrs = [getattr(ls, a)[own] for a in ("F", "T", "V", "w", "q")]
-        if not all(np.isfinite(a).all() for a in arrs):
-            return False
-        v2 = arrs[2][:, 0] ** 2 + arrs[2][:, 1] ** 2
-        if len(v2) and v2.max() > vmax * vmax:
+        if not rows_sound(ls.F, ls.T, ls.V, ls.w, ls.q, vmax * vmax, own):
             return False
         for _, _, arr, bound in integrated_fields(self.loc):  # (the guard's, on the run)
             v = arr[own]

@@ -33,7 +33,6 @@ from ..contact.contact_model import ContactModel
 from ..contact.contacts_view import ContactsView
 from ..context import Context
 from ..errors import PluginError
-from ..contact.damping import contact_mobility
 from ..ice import IceBook
 from ..state import MELTED, ElementState
 
@@ -132,9 +131,10 @@ class RankContacts(ContactModel):
         return d
 
     def own_mobility(self) -> np.ndarray:
-        """``(n/m, n/I) / phi`` of every local element from the local joints (exact for an
-        owned element: all its joints are here)."""
-        return contact_mobility(self)
+        """``(n/m, n/I) / phi`` from the local joints, exact in the rows of owned elements (all
+        their joints are here): the engine's array, kept until the joints or the ice change
+        (:meth:`ContactModel.damping_mobility`; a ghost's row may hold its owner's bound)."""
+        return super().damping_mobility()
 
 
 class RankContactsView(ContactsView):
