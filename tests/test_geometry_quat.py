@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from siku_core.geometry.quat import latlon_to_xyz, xyz_to_latlon
+from siku_core.geometry.quat import centers, farthest_moved2, latlon_to_xyz, xyz_to_latlon
 
 ULP = math.ulp(0.5 * math.pi)  # 2.2e-16: spacing of latitudes next to the pole
 PI2_LO = 6.123233995736766e-17  # pi/2 - float(pi/2)
@@ -64,3 +64,21 @@ def test_point_1e_9_from_the_pole_round_trips(lon):
     rel = abs(colatitude(lat2) - colatitude(lat)) / colatitude(lat)
     assert rel <= 4 * np.finfo(float).eps, f"colatitude relative error {rel:.3e}"
     assert lon2 == pytest.approx(lon, rel=4e-16, abs=4e-16) or abs(lon2) == abs(lon) == math.pi
+
+
+def test_farthest_moved2_is_the_largest_squared_drift_of_the_rows_given():
+    """An MPI rank's drift test: the largest squared chord between the centres of the rows
+    given and their earlier places, as from :func:`centers` of a copy of those rows; rows not
+    given (ghosts) do not count; no rows, no drift."""
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(500, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    rows = np.sort(rng.choice(500, 300, replace=False))
+    ref = centers(q[rows]) + rng.normal(0.0, 1e-3, (300, 3))
+    d = centers(q[rows]) - ref
+    assert farthest_moved2(q, rows, ref) == pytest.approx((d * d).sum(axis=1).max(), rel=1e-15)
+    other = np.setdiff1d(np.arange(500), rows)
+    far = q.copy()
+    far[other] = far[other][::-1]  # the rows not given moved anywhere: the same answer
+    assert farthest_moved2(far, rows, ref) == farthest_moved2(q, rows, ref)
+    assert farthest_moved2(q, rows[:0], ref) == 0.0

@@ -127,6 +127,23 @@ def centers(q):
     return out
 
 
+@njit(cache=True)
+def farthest_moved2(q, rows, ref):
+    """The largest squared distance (unit sphere, chord) of the centres of the elements
+    ``rows`` of ``q (N, 4)`` from their places ``ref (len(rows), 3)``; 0 without rows (an MPI
+    rank's test of whether its elements drifted: no copies of the rows)."""
+    best = 0.0
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        dx = 2 * (x * z + w * y) - ref[k, 0]  # (q_center, without its array)
+        dy = 2 * (y * z - w * x) - ref[k, 1]
+        dz = 1 - 2 * (x * x + y * y) - ref[k, 2]
+        d2 = dx * dx + dy * dy + dz * dz
+        best = d2 if d2 > best else best
+    return best
+
+
 @njit(cache=True, parallel=True)
 def _latlon_chunks(q, lat, lon, nch):
     n = q.shape[0]

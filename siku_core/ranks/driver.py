@@ -44,7 +44,7 @@ from .. import parallel
 from ..categories import ice_per_area
 from ..diagnostics import rows_sound
 from ..errors import SceneError, SikuError
-from ..geometry.quat import centers
+from ..geometry.quat import centers, farthest_moved2
 from ..run.guard import RECHECK_JOINTS, integrated_fields
 from ..state import MELTED
 from ..run.progress import clock, compile_time
@@ -501,9 +501,7 @@ class RankRun:
         """Whether an owned element moved half the skin since the redistribution."""
         if not np.isfinite(self.skin) or not len(self.own_rows):
             return False
-        c = centers(self.loc.state.q[self.own_rows])
-        d2 = np.einsum("ij,ij->i", c - self.ref, c - self.ref)
-        return bool(d2.max() > (0.5 * self.skin) ** 2)
+        return farthest_moved2(self.loc.state.q, self.own_rows, self.ref) > (0.5 * self.skin) ** 2
 
     def _sound(self) -> bool:
         sim = self.sim
