@@ -429,9 +429,10 @@ def test_four_ranks_same_bits(tmp_path):
     pack to its joints' breaks, every element moving to the next rank every 60 steps (the
     breaking joints always across two ranks); and the pack under thermodynamics, ridging
     and refreezing split by bisection (a ridging pair's giver a ghost whose other pairs reach
-    beyond the first layer of ghosts). The final state, joints and the diagnostics and fields
-    at every diagnostics step equal one rank's bit for bit."""
-    names = ("collision", "cycle4", "ridge_freeze_split")
+    beyond the first layer of ghosts); and six elements in a ``spectral`` sea the ice damps
+    (its cells' ice gathered from four ranks). The final state, joints and the diagnostics
+    and fields at every diagnostics step equal one rank's bit for bit."""
+    names = ("collision", "cycle4", "ridge_freeze_split", "spectral")
     run_cases(4, tmp_path, names)
     for name in names:
         many = np.load(tmp_path / f"{name}.npz")

@@ -362,6 +362,9 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray,
     if loc.contacts is not None:
         loc.contacts.link = link
     loc.ice = local_ice(glob, loc, ids)
+    for f, run in zip(loc.forcing, glob.forcing):  # the run's fields as the rank evaluates them
+        if run.field is not None:
+            f.field = run.field.on_rank(loc.context, link)
     for comp, run in zip([*loc.forcing, loc.integrator, *loc.processes],
                          [*glob.forcing, glob.integrator, *glob.processes]):
         comp.setup_on_rank(loc.context, run, link)
