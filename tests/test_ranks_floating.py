@@ -8,7 +8,8 @@ bisection (``floating``) and with every element changing rank every 40 steps
 itself); the floe under the ``waves`` forcing's flexural breaking (``wave_breaking``: floes
 labelled over the whole joint network, split as joints break); a ``spectral`` sea that the ice
 damps on a grid, its elements in a flume (``spectral``) and floating floes in it
-(``spectral_floating``); three ranks on the floating floe and the sea. Each run on ranks is a real ``mpiexec -n N`` under a timeout (a deadlock fails).
+(``spectral_floating``); three ranks on the floating floe and the sea. Each run on ranks is a
+real ``mpiexec -n N`` under a timeout (a deadlock fails).
 """
 from __future__ import annotations
 
