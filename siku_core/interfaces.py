@@ -92,6 +92,16 @@ class Field(Component):
     def close(self) -> None:  # noqa: B027 - optional hook
         """Release files or caches."""
 
+    def on_rank(self, ctx: "Context", link: Any) -> "Field":
+        """The field as the engine of an MPI rank evaluates it (``siku_core.ranks``): ``ctx``
+        is the engine's context over the elements the rank holds, ``link``
+        (``siku_core.ranks.local.RankLink``) the rank's place in the run. A field of place
+        and time alone is the same on every rank: this instance, the run's (the default). A
+        field that evolves from the elements (the ``spectral`` wave field) returns a view of
+        the run's instance that gathers them from their owners through ``link`` (collective
+        calls, every rank alike) and sets the fields of the rank's elements."""
+        return self
+
 
 class ForcingSource(Component):
     """Adds a driving force [N] and torque [N m] to every element."""

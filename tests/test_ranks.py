@@ -429,9 +429,10 @@ def test_four_ranks_same_bits(tmp_path):
     pack to its joints' breaks, every element moving to the next rank every 60 steps (the
     breaking joints always across two ranks); and the pack under thermodynamics, ridging
     and refreezing split by bisection (a ridging pair's giver a ghost whose other pairs reach
-    beyond the first layer of ghosts). The final state, joints and the diagnostics and fields
-    at every diagnostics step equal one rank's bit for bit."""
-    names = ("collision", "cycle4", "ridge_freeze_split")
+    beyond the first layer of ghosts); and six elements in a ``spectral`` sea the ice damps
+    (its cells' ice gathered from four ranks). The final state, joints and the diagnostics
+    and fields at every diagnostics step equal one rank's bit for bit."""
+    names = ("collision", "cycle4", "ridge_freeze_split", "spectral")
     run_cases(4, tmp_path, names)
     for name in names:
         many = np.load(tmp_path / f"{name}.npz")
@@ -511,6 +512,38 @@ def test_conformance_catches_a_source_that_reads_other_elements(monkeypatch):
     monkeypatch.setattr(cls, "add", add)
     with pytest.raises(AssertionError, match="must act on each element by itself"):
         conformance.check_forcing_on_ranks(case)
+
+
+def test_ranks_as_threads_take_turns_and_end_on_an_error_or_a_missing_call():
+    """The ranks of the forcing conformance check (threads of one process): collective calls
+    give every rank's values by rank, one rank runs at a time, and a rank that raises or
+    ends without a collective call the others make ends the run with an error, not a hang."""
+    from siku_core.testing.rank_threads import run_ranks
+
+    running = []
+
+    def rank(comm):
+        running.append(comm.rank)
+        a = comm.allgather(comm.rank * 10)
+        running.append(comm.rank)
+        b = comm.alltoall([(comm.rank, s) for s in range(comm.size)])
+        return a, b
+    got = run_ranks([rank] * 3)
+    assert [g[0] for g in got] == [[0, 10, 20]] * 3
+    assert [g[1] for g in got] == [[(s, r) for s in range(3)] for r in range(3)]
+    assert running == [0, 1, 2, 0, 1, 2]  # in turn, handed on at each collective call
+
+    def failing(comm):
+        if comm.rank == 1:
+            raise ValueError("rank 1 failed")
+        return comm.allgather(1)
+    with pytest.raises(ValueError, match="rank 1 failed"):
+        run_ranks([failing] * 2, timeout=30.0)
+
+    def short(comm):
+        return comm.allgather(1) if comm.rank == 0 else None
+    with pytest.raises(RuntimeError, match="rank 1 ended without collective call 0"):
+        run_ranks([short] * 2, timeout=30.0)
 
 
 @needs_mpi

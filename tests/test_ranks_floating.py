@@ -6,8 +6,10 @@ process in a wave with two point loads, its joints beams that break in flexure, 
 bisection (``floating``) and with every element changing rank every 40 steps
 (``floating_migrate``); the floe floating without beams (``floating_plain``: each element by
 itself); the floe under the ``waves`` forcing's flexural breaking (``wave_breaking``: floes
-labelled over the whole joint network, split as joints break); three ranks on the floating
-floe. Each run on ranks is a real ``mpiexec -n N`` under a timeout (a deadlock fails).
+labelled over the whole joint network, split as joints break); a ``spectral`` sea that the ice
+damps on a grid, its elements in a flume (``spectral``) and floating floes in it
+(``spectral_floating``); three ranks on the floating floe and the sea. Each run on ranks is a
+real ``mpiexec -n N`` under a timeout (a deadlock fails).
 """
 from __future__ import annotations
 
@@ -19,13 +21,15 @@ from test_ranks import HAVE_MPI, TIMEOUT, assert_same_bits, needs_mpi, one_rank,
 
 FLEXURE = {int(BreakMode.FLEXURE)}
 FLOAT_CASES = ("floating", "floating_migrate", "floating_plain", "wave_breaking")
+#: a sea the ice damps on a grid (the ``spectral`` field), by itself and under floating floes
+SEA_CASES = ("spectral", "spectral_floating")
 
 
 @pytest.fixture(scope="module")
 def float_ranks(tmp_path_factory):
     if not HAVE_MPI:
         pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
-    return run_cases(2, tmp_path_factory.mktemp("ranks_float"), FLOAT_CASES)
+    return run_cases(2, tmp_path_factory.mktemp("ranks_float"), FLOAT_CASES + SEA_CASES)
 
 
 @needs_mpi
@@ -57,11 +61,53 @@ def test_floating_and_wave_breaking_on_two_ranks_same_bits(float_ranks, name):
 
 
 @needs_mpi
+@pytest.mark.parametrize("name", SEA_CASES)
+def test_spectral_sea_on_two_ranks_same_bits(float_ranks, name):
+    """A ``spectral`` sea damped by the ice on two ranks: the spectrum and its clock, the
+    state, the fields of every element (wave height, dissipation, drag power, attenuation
+    rates; heave and radiated power of the floating floes) and the diagnostics equal one
+    rank's bit for bit at every diagnostics step and at the end; the ice does damp the sea
+    (the spectrum in its cells falls below the incident one, which the open cells upstream
+    keep), the cells are shared between the ranks' elements, and the elements feel the
+    drag of the waves."""
+    from siku_core.run.simulation import Simulation
+    from siku_core.scene.scene_file import scene_from_text
+    from siku_core.testing.ranks_cases import CASES
+
+    many = np.load(float_ranks / f"{name}.npz")
+    one = one_rank(name)
+    assert_same_bits(one, many, name)
+    assert len(one["trace_step"]) >= 4  # several diagnostics steps, each compared
+    owner = many["ranks_owner"]
+    assert set(owner.tolist()) == {0, 1}
+    sim = Simulation(scene_from_text(CASES[name][0], "<sea>"), out=False, progress=False)
+    f = sim.forcing[0].field
+    E_in = f.E_in[0]
+    E = one["history_0_E"][0, 0]  # (one component, one row of cells)
+    cells = f.element_cells(one["q"])
+    iced = np.unique(cells)
+    upstream = np.arange(iced.min())
+    # a cell holds elements of both ranks (its ice is summed over them in global order)
+    assert any(len(set(owner[cells == c].tolist())) == 2 for c in iced)
+    # open water upstream keeps the incident sea; the ice damps it in its cells
+    assert len(upstream) and np.array_equal(E[upstream], np.full(len(upstream), E_in))
+    assert (E[iced] < E_in).all()
+    assert (one["field_wave_dissipation"] > 0).all()
+    assert (one["field_wave_height"] < 4 * np.sqrt(E_in)).all()
+    assert float(one["diag_wave_power_absorbed"]) > 0
+    assert (one["field_wave_drag_power"] != 0).all()
+    assert (one["field_wave_response_attenuation"] != 0).all()
+    if name == "spectral_floating":
+        assert np.abs(one["field_heave"]).max() > 0
+        assert float(one["diag_wave_radiated_power"]) > 0
+
+
+@needs_mpi
 @pytest.mark.slow
 def test_floating_floe_on_three_ranks_same_bits(tmp_path):
-    """Three ranks (oversubscribed) on the bending floe and the waves' breaking: the bits of
-    one rank."""
-    names = ("floating", "wave_breaking")
+    """Three ranks (oversubscribed) on the bending floe, the waves' breaking and the floes
+    floating in a ``spectral`` sea: the bits of one rank."""
+    names = ("floating", "wave_breaking", "spectral_floating")
     run_cases(3, tmp_path, names)
     for name in names:
         many = np.load(tmp_path / f"{name}.npz")
@@ -137,9 +183,10 @@ def test_floating_and_wave_breaking_write_the_same_file_on_two_ranks(tmp_path):
 
 
 def test_what_runs_on_ranks_and_what_is_refused(tmp_path):
-    """The floating floe (bending, loads) and the waves' breaking are not refused on ranks;
-    a sea that the ice damps on a grid (the ``spectral`` field, under a floating floe) is,
-    in one line naming the field and the number of ranks."""
+    """The floating floe (bending, loads), the waves' breaking and a sea that the ice damps
+    on a grid (the ``spectral`` field, under a floating floe) are not refused on ranks; a
+    component that says it cannot run on ranks is, in one line naming it and the number of
+    ranks."""
     from siku_core.ranks.driver import refusals
     from siku_core.run.simulation import Simulation
     from siku_core.scene.scene_file import scene_from_text
@@ -151,5 +198,48 @@ def test_what_runs_on_ranks_and_what_is_refused(tmp_path):
     path = flume_scene(tmp_path, {})
     path.write_text(path.read_text() + '\n[[process]]\nname = "floating"\n'
                     'params = { coefficients = "scene" }\n')
-    got = refusals(build(path), 4)
+    sim = build(path)
+    assert refusals(sim, 4) == []
+    field = sim.forcing[0].field
+    try:
+        field.runs_on_ranks = False  # (an instance may say so in its set-up)
+        got = refusals(sim, 4)
+    finally:
+        del field.runs_on_ranks
     assert len(got) == 1 and "field 'spectral' cannot run on 4 ranks" in got[0], got
+
+
+@needs_mpi
+@pytest.mark.slow
+def test_spectral_sea_writes_the_same_file_on_two_ranks_and_restarts_on_one(tmp_path):
+    """``siku run --ranks 2`` of the floes floating in a ``spectral`` sea writes the one-rank
+    file byte for byte (states, the wave fields of every element, heave, diagnostics, the
+    spectrum in the restart record); a restart from its mid-run snapshot on one rank
+    continues the spectrum and the floes as the one-rank run does, bit for bit."""
+    import subprocess
+    import sys
+
+    import h5py
+
+    from siku_core.testing.ranks_cases import spectral_floating_text
+    from test_ranks import _env
+
+    (tmp_path / "sea.toml").write_text(spectral_floating_text().replace(
+        "[run]", "[output]\nevery = 2.5\ndiagnostics_every = 1.0\n\n[run]"), encoding="utf-8")
+    base = [sys.executable, "-m", "siku_core.run.cli", "run", "sea.toml", "--no-progress",
+            "--no-plots", "--out"]
+
+    def run(*args):
+        p = subprocess.run([*base, *args], cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    run("one.h5")
+    run("two.h5", "--ranks", "2")
+    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+    run("part.h5", "--ranks", "2", "--set", "time.duration=5s")
+    run("more.h5", "--restart", "part.h5", "--set", "time.duration=5s", "--extend", "5s")
+    with h5py.File(tmp_path / "one.h5", "r") as a, h5py.File(tmp_path / "more.h5", "r") as b:
+        k = list(a["states/step"][:]).index(int(b["states/step"][-1]))
+        assert k > 0
+        for name in ("q", "V", "fields/wave_height", "fields/heave"):
+            assert np.array_equal(a[f"states/{name}"][k], b[f"states/{name}"][-1]), name

@@ -325,8 +325,9 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray,
     """A shallow copy of the run ``glob`` (a ``Simulation``) whose state, contacts, ice book,
     forcing sources, integrator and processes hold the elements ``ids`` (ascending global
     indices); ``ghost_rows`` are the local rows of ghosts; ``link`` the rank's place in the
-    run (default: one without other ranks). Each component is set up by its
-    ``setup_on_rank`` from the run's copy. Returns it and the run's indices of its joints."""
+    run (default: one without other ranks). Each forcing's field is the run's as the rank
+    evaluates it (``Field.on_rank``), and each component is set up by its ``setup_on_rank``
+    from the run's copy. Returns it and the run's indices of its joints."""
     if link is None:
         link = RankLink(glob, ids, np.setdiff1d(np.arange(len(ids)), ghost_rows))
     loc = copy.copy(glob)
@@ -362,6 +363,9 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray,
     if loc.contacts is not None:
         loc.contacts.link = link
     loc.ice = local_ice(glob, loc, ids)
+    for f, run in zip(loc.forcing, glob.forcing):  # the run's fields as the rank evaluates them
+        if run.field is not None:
+            f.field = run.field.on_rank(loc.context, link)
     for comp, run in zip([*loc.forcing, loc.integrator, *loc.processes],
                          [*glob.forcing, glob.integrator, *glob.processes]):
         comp.setup_on_rank(loc.context, run, link)

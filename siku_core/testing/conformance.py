@@ -11,7 +11,7 @@ Every registered forcing source (each drag paired with every registered field) m
 4. where the source provides a pure-Python reference ``py_add`` (same signature as ``add``),
    agree with it (:func:`check_forcing_matches_python`);
 5. unless it declares ``runs_on_ranks = False``, give a subset of the elements, set up on
-   that subset as an MPI rank sets it up, their forces bit for bit
+   that subset as an MPI rank sets it up (two ranks, as threads), their forces bit for bit
    (:func:`check_forcing_on_ranks`).
 
 Every registered field must return finite ``(u, v)`` of the right shape, poles and antimeridian
@@ -278,31 +278,46 @@ def check_forcing_matches_python(
 
 
 def check_forcing_on_ranks(case: ForcingCase, registry: Registry | None = None) -> None:
-    """A source that runs on ranks (``runs_on_ranks``) gives every other element, set up
-    over those elements alone (``siku_core.ranks.local``), the force and torque it gives them
-    among all, bit for bit."""
+    """A source that runs on ranks (``runs_on_ranks``) gives every element, on two ranks
+    that each hold every other element and set the source up over them
+    (``siku_core.ranks.local``), the force and torque it gives it among all, bit for bit. The
+    ranks are threads of this process taking turns
+    (:mod:`siku_core.testing.rank_threads`): a source whose field evolves from every
+    element gathers them through the rank's link, as on the ranks of a run."""
     from ..ranks.driver import refusals
-    from ..ranks.local import local_engine
+    from ..ranks.local import RankLink, local_engine
+    from .rank_threads import run_ranks
 
     sim, src = build_forcing(case, registry)
     if refusals(sim, 2):  # refused on ranks before the first step: nothing to compare
         return
-    st = sim.state
-    ids = np.arange(1, st.n, 2)
-    loc, _ = local_engine(sim, ids, np.zeros(0, dtype=np.int64))
-    part = loc.forcing[0]
-    ls = loc.state
-    for t in CONFORMANCE_TIMES:
-        F, T = _add(src, sim, t)
-        Fs, Ts = _add(part, loc, t, state=(ls.q.copy(), ls.V.copy(), ls.w.copy()))
-        for name, a, b in (("F", F[ids], Fs), ("T", T[ids], Ts)):
-            bad = ~(a == b).reshape(len(ids), -1).all(axis=1)
-            i = int(np.argmax(bad))
-            assert not bad.any(), (
-                f"{case.id}: {name} {b[i]} on {_where(sim, int(ids[i]))} when set up over a "
-                f"subset of the elements, {a[i]} among all, at t = {t:g} s: a source that "
-                "runs on ranks must act on each element by itself (or set runs_on_ranks = "
-                "False)")
+    n = sim.state.n
+    want = [_add(src, sim, t) for t in CONFORMANCE_TIMES]
+    none = np.zeros(0, dtype=np.int64)
+
+    def rank(ids: np.ndarray) -> Any:
+        run = build_forcing(case, registry)[0]  # every rank builds the run
+
+        def steps(comm: Any) -> list[tuple[np.ndarray, np.ndarray]]:
+            link = RankLink(run, ids, np.arange(len(ids)), comm, [none, none], [none, none])
+            loc, _ = local_engine(run, ids, none, link)
+            part, ls = loc.forcing[0], loc.state
+            return [_add(part, loc, t, state=(ls.q.copy(), ls.V.copy(), ls.w.copy()))
+                    for t in CONFORMANCE_TIMES]
+        return steps
+
+    parts = [np.arange(r, n, 2) for r in range(2)]
+    got = run_ranks([rank(ids) for ids in parts])
+    for ids, forces in zip(parts, got):
+        for t, (F, T), (Fs, Ts) in zip(CONFORMANCE_TIMES, want, forces):
+            for name, a, b in (("F", F[ids], Fs), ("T", T[ids], Ts)):
+                bad = ~(a == b).reshape(len(ids), -1).all(axis=1)
+                i = int(np.argmax(bad))
+                assert not bad.any(), (
+                    f"{case.id}: {name} {b[i]} on {_where(sim, int(ids[i]))} when set up over "
+                    f"a subset of the elements, {a[i]} among all, at t = {t:g} s: a source "
+                    "that runs on ranks must act on each element by itself (or set "
+                    "runs_on_ranks = False)")
 
 
 def field_cases(

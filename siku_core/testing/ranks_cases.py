@@ -21,10 +21,17 @@ every rank with one line), ``floating`` (a bonded floe of 24 elements under the 
 process in a wave with two loads, its joints beams that break in flexure),
 ``floating_migrate`` (the same, every element changing rank every 40 steps),
 ``floating_plain`` (the floe floating without beams), ``wave_breaking`` (the floe under the
-``waves`` forcing's flexural breaking).
+``waves`` forcing's flexural breaking), ``spectral`` (six elements in a flume under the
+``waves`` forcing of a ``spectral`` field whose spectrum the ice damps, a grid cell holding
+elements of both ranks), ``spectral_floating`` (ten floes floating in a ``spectral`` field,
+dragged by it: their drag and radiated power set its response attenuation).
+
+The record of a run holds the history of the forcing's fields (``history_<k>_<name>``: a
+``spectral`` field's spectrum and clock), as rank 0 writes them to a restart.
 """
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -33,6 +40,7 @@ import numpy as np
 
 from ..scene.scene_file import scene_from_text
 from .contact_cases import contact_scene_text, square_pack
+from .scenes import scene_text
 
 SPRING = {"tensile_strain": 2e-4, "damage_onset": 0.3}
 
@@ -150,6 +158,43 @@ def wave_breaking_text(steps: int = 60) -> str:
                      "break_every = 0.02")
 
 
+R_EARTH = 6_371_000.0
+
+
+def spectral_text(steps: int = 60) -> str:
+    """Six 100 m elements, 1 m thick, free in a flume 0..2100 m east of the origin at the
+    equator (from x = 1000 m on), under the ``waves`` forcing (drag and slope) of a
+    ``spectral`` field: an 8 s wave of 0.5 m amplitude on 300 m cells, damped by the ice at
+    ``alpha = 1e-3`` (dt 0.05 s). Bisection puts elements 0-2 on one rank and 3-5 on the
+    other: the cell from 1200 to 1500 m holds elements 2, 3 and 4 of both."""
+    pack = square_pack(math.degrees(1000.0 / R_EARTH), -math.degrees(50.0 / R_EARTH), 6, 1,
+                       size=100.0)
+    field = {"type": "spectral", "params": {
+        "spectrum": "monochromatic", "amplitude": 0.5, "period": 8.0, "x": [0.0, 2100.0],
+        "y": [-150.0, 150.0], "resolution": 300.0, "origin": [0.0, 0.0],
+        "attenuation": "constant", "attenuation_params": {"alpha": 1e-3}}}
+    return scene_text([], packs=[pack], dt=0.05, duration=steps * 0.05, thickness=1.0,
+                      forcing=[{"source": "waves", "params": {"drag": True}, "field": field}],
+                      run={"progress": False})
+
+
+def spectral_floating_text(steps: int = 40) -> str:
+    """Ten 10 m floes, 1 m thick, from x = 100 m in a flume 0..400 m (20 m cells) under an
+    8 s wave of 5 cm amplitude of a ``spectral`` field damped by the ice (``alpha = 2e-3``),
+    floating (``floating``, ramped over 8 s) and dragged by the orbital flow (dt 0.25 s)."""
+    pack = square_pack(math.degrees(100.0 / R_EARTH), -math.degrees(5.0 / R_EARTH), 10, 1,
+                       size=10.0)
+    field = {"type": "spectral", "params": {
+        "spectrum": "monochromatic", "amplitude": 0.05, "period": 8.0, "x": [0.0, 400.0],
+        "y": [-10.0, 10.0], "resolution": 20.0, "origin": [0.0, 0.0],
+        "attenuation": "constant", "attenuation_params": {"alpha": 2e-3}}}
+    return scene_text([], packs=[pack], dt=0.25, duration=steps * 0.25, thickness=1.0,
+                      forcing=[{"source": "waves", "params": {"drag": True, "slope": False},
+                                "field": field}],
+                      run={"progress": False}, extra='[[process]]\nname = "floating"\n'
+                      'params = { ramp = 8.0, coefficients = "scene" }')
+
+
 def _last_column(step: int, c: np.ndarray) -> np.ndarray:
     """Rank 1 owns the last column of the spring pack (elements 8 and 9), rank 0 the rest."""
     return (np.arange(len(c)) >= 8).astype(np.int64)
@@ -196,6 +241,8 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "floating_migrate": (floating_text(), {"owner": _swapping_floe, "every": 20}),
     "floating_plain": (floating_text(60, bending=False), {}),
     "wave_breaking": (wave_breaking_text(), {}),
+    "spectral": (spectral_text(), {}),
+    "spectral_floating": (spectral_floating_text(), {}),
 }
 
 
@@ -232,6 +279,7 @@ def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
     out["ranks_splits"] = np.array(run.splits)
     out["ranks_migrated"] = np.array(run.migrated)
     out["ranks_shared_pairs"] = np.array(_shared_pairs(run))
+    out["ranks_owner"] = np.array(run.owner)
     return out
 
 
@@ -302,6 +350,10 @@ def record(sim) -> dict[str, np.ndarray]:
         out[f"diag_{k}"] = np.asarray(v)
     for k, v in sim.element_fields().items():
         out[f"field_{k}"] = np.asarray(v)
+    for k, f in enumerate(sim.forcing):
+        hist = f.field.history() if f.field is not None else None
+        for name, v in (hist or {}).items():
+            out[f"history_{k}_{name}"] = np.asarray(v)
     return out
 
 

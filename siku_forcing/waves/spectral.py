@@ -21,6 +21,13 @@ flexural breaking) acts as with a uniform sea, and so does a ``floating`` proces
 this instance (:attr:`Spectral.local_sea`) and loads each element with the amplitudes of its
 cell (``siku_plugins.floating.process``). Points outside the grid take the nearest cell.
 
+On MPI ranks (``siku_core.ranks``) every rank evolves the run's spectrum alike: at each step
+the engine commits, the rank's view of the field (:class:`RankSpectral`) gathers from their
+owners the positions, thickness and flags of every element and the power their response took
+(``RankLink.whole``), so the cells' ice and sums over the elements run in global element order,
+as on one rank; each rank then forces its own elements (owned and ghosts) from their cells and
+sets their fields, and gathers their drag power for the next step and the diagnostics.
+
 The sea advances when the engine commits a step (the first force evaluation of a step), in as
 many equal sub-steps as the Courant limit ``cfl`` asks. Per element the field reports
 ``wave_height`` (significant height ``4 sqrt(sum E)`` of its cell [m]), ``wave_dissipation``
@@ -121,11 +128,9 @@ class Spectral(WaveField):
     #: ``Context.forcing_field``) and loads each element with its cell's amplitudes
     #: (:meth:`amplitudes`, :meth:`cells`)
     local_sea = True
-    #: the spectrum on its grid takes the drag of every element and each element reads its
-    #: cell: not a function of each element by itself
-    runs_on_ranks = False
-    ranks_refusal = ("its wave spectrum evolves on a grid from the drag of every element, "
-                     "which one rank does not hold")
+    #: on MPI ranks the run's instance evolves alike on every rank (:meth:`on_rank`): its
+    #: spectrum and clock are the same everywhere
+    rank_history: ClassVar[dict[str, str]] = {"E": "same", "t_wave": "same"}
     params: ClassVar[dict[str, Param]] = {
         "spectrum": Param("jonswap", "", "incident sea: jonswap, monochromatic or table",
                           type=str, choices=("jonswap", "monochromatic", "table")),
@@ -300,17 +305,20 @@ class Spectral(WaveField):
         return _element_cells(q, self.lat0, self.lon0, float(self.radius), self.x0, self.y0,
                               self.dx, self.dy, self.nx, self.ny)
 
-    def _ice(self, q):
+    def _ice(self, q, thickness=None, flags=None):
         """Concentration, thickness and attenuation rate per cell from the elements at
-        orientation ``q``; the cell of every element."""
+        orientation ``q`` (every element of the run) with ``thickness`` [m] and ``flags``
+        (default: the run's state's); the cell of every element."""
         st = self.ctx.state
+        thickness = st.thickness if thickness is None else thickness
+        flags = st.flags if flags is None else flags
         cell, _ = self.cells(*self._latlon(q))
         nc = self.nx * self.ny
-        live = st.flags != 3  # melted elements hold no ice
+        live = flags != 3  # melted elements hold no ice
         a = np.where(live, st.area, 0.0)
         area = np.bincount(cell, a, nc)
         self.C = np.minimum(area / (self.dx * self.dy), 1.0).reshape(self.ny, self.nx)
-        h = np.bincount(cell, a * st.thickness, nc) / np.where(area > 0, area, 1.0)
+        h = np.bincount(cell, a * thickness, nc) / np.where(area > 0, area, 1.0)
         self.h_ice = h.reshape(self.ny, self.nx)
         # the law's rate depends on the thickness only: kept while no cell's thickness changes
         # (ice that does not move or grow: the rate of every step would be the same array)
@@ -321,12 +329,13 @@ class Spectral(WaveField):
         self.element_cell = cell
 
     # ------------------------------------------------------------------ evolution
-    def advance(self, t: float, q=None) -> None:
+    def advance(self, t: float, q=None, thickness=None, flags=None) -> None:
         """Evolve the spectrum from its time to ``t`` [s] (nothing if ``t`` is not later), with
-        the ice of orientation ``q`` (the current state's by default)."""
+        the ice of orientation ``q``, ``thickness`` [m] and ``flags`` (every element of the
+        run; the current state's by default)."""
         if t <= self.t_wave:
             return
-        self._ice(self.ctx.state.q if q is None else q)
+        self._ice(self.ctx.state.q if q is None else q, thickness, flags)
         rate = np.max(np.abs(self.cx) / self.dx + np.abs(self.cy) / self.dy)
         n = max(1, int(math.ceil((t - self.t_wave) * rate / self.p["cfl"] - 1e-12)))
         dt = (t - self.t_wave) / n
@@ -379,8 +388,7 @@ class Spectral(WaveField):
         """Orbital velocity east, north [m/s] of the local sea (a drag that takes this field
         as its current); the sea advances when the engine commits a step."""
         if self.ctx.committing:
-            self.advance(t)
-            self._report()
+            self._commit_step(t, None)
         r = self.evaluate(t, lat, lon)
         return r["u"], r["v"]
 
@@ -391,48 +399,73 @@ class Spectral(WaveField):
     def curvature(self, t, lat, lon, se, sn):
         return self._sums(t, lat, lon, se, sn)[:, 0]
 
-    def add_forces(self, t, q, V, st, free, g, slope, drag, F) -> None:
+    def add_forces(self, t, q, V, st, free, g, slope, drag, F, view=None) -> None:
         """The ``waves`` forcing with the local sea: advance the spectrum when the engine
         commits a step, then add ``-m g grad eta`` and the drag ``S drag |u - U| (u - U)`` to
-        the free elements (local frames), as :func:`siku_forcing.waves.wave_field.wave_forces`."""
-        if self.ctx.committing:
-            self.advance(t, q)
-            self._report()
+        the free elements (local frames), as :func:`siku_forcing.waves.wave_field.wave_forces`.
+        ``view``: the :class:`RankSpectral` of an MPI rank's engine whose elements ``q`` are
+        (``None``: every element of the run)."""
+        ctx = self.ctx if view is None else view.ctx
+        committing = ctx.committing
+        if committing:
+            self._commit_step(t, q, view)
         if drag == 0.0 and not slope:  # no force: the sea acts on the ice by breaking only
-            if self.ctx.committing:
-                self.drag_power = np.zeros(len(q))
-                if "wave_drag_power" in self.ctx.fields:
-                    self.ctx.fields["wave_drag_power"][:] = 0.0
+            if committing:
+                self.drag_power = np.zeros(self.ctx.state.n)
+                if "wave_drag_power" in ctx.fields:
+                    ctx.fields["wave_drag_power"][:] = 0.0
             return
         lat, lon = self._latlon(q)
         r = self._sums(t, lat, lon)
         power = np.zeros(len(q))
         add_slope_drag(q, V, st.m, st.area, free, r, g, slope, drag, F, power)
-        if self.ctx.committing:
-            self.drag_power = power
-            fields = self.ctx.fields
+        if committing:
+            # the run's, every element's (on a rank: from their owners) for the diagnostics
+            # and the next step's response power
+            self.drag_power = power if view is None else view.link.whole(power)[0]
+            fields = ctx.fields
             if "wave_drag_power" in fields:
                 fields["wave_drag_power"][:] = power / st.area
 
-    def _report(self):
-        fields = self.ctx.fields
+    def _commit_step(self, t, q, view=None) -> None:
+        """At the force evaluation that commits a step: the spectrum advanced to ``t`` [s]
+        with the ice at orientation ``q`` (``None``: the state's), and the fields of the
+        elements set from their cells. ``view``: as :meth:`add_forces` (the rank's elements
+        ``q``; every element's ice then gathered from its owner)."""
+        if view is None:
+            self.advance(t, q)
+            self._report()
+            return
+        q_all, h_all, flags_all, power = view.whole_ice(q)
+        self.advance(t, q_all, h_all, flags_all)
+        self._report(view.ctx.fields, view.link.ids, power)
+
+    def _report(self, fields=None, rows=None, power=None):
+        """The fields of the elements from their cells: of every element of the run in
+        ``fields`` (default: the run's), or of the run's elements ``rows`` (a rank's); ``power``
+        [W] per element of the run: :meth:`response_power` by default."""
+        fields = self.ctx.fields if fields is None else fields
         if "wave_height" in fields:
-            c = self.element_cell
+            c = self.element_cell if rows is None else self.element_cell[rows]
             fields["wave_height"][:] = self.height().ravel()[c]
             fields["wave_dissipation"][:] = self.dissipation().ravel()[c]
-            k_law, k_resp = self.attenuations(self.response_power())
+            k_law, k_resp = self.attenuations(self.response_power() if power is None
+                                              else power)
             fields["wave_attenuation"][:] = k_law.ravel()[c]
             fields["wave_response_attenuation"][:] = k_resp.ravel()[c]
 
-    def response_power(self) -> np.ndarray:
+    def response_power(self, radiated=None) -> np.ndarray:
         """Power [W] per element that the ice's own motion takes from the waves over the last
         step: its drag's work against the orbital flow (``wave_drag_power``) plus the radiation
-        damping's work of a ``floating`` process (``wave_radiated_power``) if the scene has
-        one, both times the element's area."""
+        damping's work of a ``floating`` process (``wave_radiated_power`` [W m-2], of every
+        element: ``radiated``, default the run's field, if the scene has one), both times the
+        element's area."""
         st = self.ctx.state
         power = np.zeros(st.n) + getattr(self, "drag_power", 0.0)
-        if "wave_radiated_power" in self.ctx.fields:
-            power += self.ctx.fields["wave_radiated_power"] * st.area
+        if radiated is None and "wave_radiated_power" in self.ctx.fields:
+            radiated = self.ctx.fields["wave_radiated_power"]
+        if radiated is not None:
+            power += radiated * st.area
         return power
 
     def attenuations(self, power) -> tuple[np.ndarray, np.ndarray]:
@@ -459,6 +492,11 @@ class Spectral(WaveField):
                 "wave_energy": float(RHO_WATER * self.p["g"] * self.E.sum() * cell),
                 "wave_drag_power": float(np.sum(getattr(self, "drag_power", 0.0)))}
 
+    def on_rank(self, ctx, link) -> "RankSpectral":
+        """The field as the engine of an MPI rank evaluates it: a :class:`RankSpectral` view of
+        this instance (the run's, whose spectrum every rank evolves alike)."""
+        return RankSpectral(self, ctx, link)
+
     def history(self):
         return {"E": self.E.copy(), "t_wave": np.array(self.t_wave)}
 
@@ -469,6 +507,49 @@ class Spectral(WaveField):
         self.E = np.array(arrays["E"], float)
         self.t_wave = float(arrays["t_wave"])
         self._amp_cells = None
+
+
+class RankSpectral:
+    """The run's :class:`Spectral` field (``run``) as the engine of an MPI rank evaluates it
+    (``siku_core.ranks``): ``ctx`` the engine's context over the elements the rank holds
+    (owned and ghosts, ascending global index), ``link`` its place in the run
+    (``siku_core.ranks.local.RankLink``). At each step the engine commits it gathers every
+    element's ice from its owner (:meth:`whole_ice`, a collective call every rank makes
+    alike), so that the run's instance advances the spectrum as on one rank, and sets the
+    fields of the rank's elements from their cells; everything else is the run's field's
+    (the sea at points, its components, its spectrum and clock)."""
+
+    def __init__(self, run: Spectral, ctx, link):
+        self.run, self.ctx, self.link = run, ctx, link
+
+    def __getattr__(self, name):
+        if name == "run":  # (before ``__init__``: a copy being made)
+            raise AttributeError(name)
+        return getattr(self.run, name)
+
+    def whole_ice(self, q) -> tuple[np.ndarray, ...]:
+        """``(q, thickness [m], flags, power [W])`` of every element of the run, from the
+        owners' rows of the rank's ``q`` (its elements' orientations now), state and fields:
+        ``power`` is :meth:`Spectral.response_power` (the last step's drag power and the
+        radiated power of a ``floating`` process). Collective."""
+        st, fields = self.ctx.state, self.ctx.fields
+        radiated = fields.get("wave_radiated_power")
+        got = self.link.whole(q, st.thickness, st.flags,
+                              *(() if radiated is None else (radiated,)))
+        power = self.run.response_power(got[3] if radiated is not None else None)
+        return got[0], got[1], got[2], power
+
+    def add_forces(self, t, q, V, st, free, g, slope, drag, F) -> None:
+        """:meth:`Spectral.add_forces` on the rank's elements."""
+        self.run.add_forces(t, q, V, st, free, g, slope, drag, F, view=self)
+
+    def sample(self, t, lat, lon):
+        """:meth:`Spectral.sample` at the rank's points; the sea advances when the rank's
+        engine commits a step (with its elements' state)."""
+        if self.ctx.committing:
+            self.run._commit_step(t, self.ctx.state.q, self)
+        r = self.run.evaluate(t, lat, lon)
+        return r["u"], r["v"]
 
 
 @hookimpl
