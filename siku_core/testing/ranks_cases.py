@@ -94,6 +94,31 @@ params = { gap = 2.0, freeze_time = 5.0, strength = 2e3, strength_time = 100.0 }
 """
 
 
+def weld_text(steps: int = 200) -> str:
+    """The collision pack without joints under ``distributed_spring``, its right edge pushed
+    in at 0.15 m/s, with ``refreeze``'s weld (pairs in contact for 2 s freeze into a new
+    joint; broken ones within 2 m for 3 s refreeze, at 2 kPa growing over 100 s): within 200
+    steps about twenty joints are welded, across the ranks' boundary too, then break and
+    refreeze, and new pairs weld."""
+    pack = square_pack(30.0, 72.0, 5, 3, 2000.0, jitter=0.3, seed=3, left="static",
+                       right="steady", right_velocity=[-0.15, 0.0])
+    return contact_scene_text("distributed_spring", {"tensile_strain": 2e-4}, packs=[pack],
+                              joints="none", dt=0.1, steps=steps,
+                              run={"progress": False}) + """
+[[process]]
+name = "refreeze"
+
+[process.params]
+weld = true
+weld_time = 2.0
+weld_capacity = 3.0
+gap = 2.0
+freeze_time = 3.0
+strength = 2e3
+strength_time = 100.0
+"""
+
+
 FLOE = ('outline = "rectangle", center = [0.0, 0.0], length = 80.0, width = 30.0, '
         'element_size = 10.0')
 WAVE = "amplitude = 0.5, period = 3.0, direction = 90.0, origin = [0.0, 0.0]"
@@ -196,6 +221,7 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "floating_migrate": (floating_text(), {"owner": _swapping_floe, "every": 20}),
     "floating_plain": (floating_text(60, bending=False), {}),
     "wave_breaking": (wave_breaking_text(), {}),
+    "weld": (weld_text(), {"every": 25}),
 }
 
 
@@ -232,6 +258,7 @@ def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
     out["ranks_splits"] = np.array(run.splits)
     out["ranks_migrated"] = np.array(run.migrated)
     out["ranks_shared_pairs"] = np.array(_shared_pairs(run))
+    out["ranks_welded_across"] = np.array(_created_across(run))
     return out
 
 
@@ -280,6 +307,18 @@ def _shared_pairs(run) -> int:
     return count
 
 
+def _created_across(run) -> int:
+    """How many joints created during the run join two elements that different ranks own at
+    its end."""
+    cm = run.sim.contacts
+    if cm is None:
+        return 0
+    built = cm.n_joints - int(run.sim.diagnostics().get("welded_joints", 0))
+    own = run.owner
+    new = np.arange(built, cm.n_joints)
+    return int(np.count_nonzero(own[cm.ji[new]] != own[cm.jj[new]]))
+
+
 def _shared(run) -> int:
     """How many joints rank 0 holds with an element owned elsewhere."""
     cm = run.sim.contacts
@@ -295,9 +334,13 @@ def record(sim) -> dict[str, np.ndarray]:
     out = {k: np.array(getattr(st, k)) for k in ("q", "V", "w", "F", "T")}
     cm = sim.contacts
     if cm is not None:
-        for k in ("intact", "hist", "break_mode", "break_time"):
+        for k in ("ji", "jj", "ends_i", "ends_j", "L0", "width", "intact", "hist",
+                  "break_mode", "break_time"):
             out[f"joint_{k}"] = np.array(getattr(cm, k))
         out["n_broken_total"] = np.array(cm.n_broken_total)
+    for k, proc in enumerate(sim.processes):  # (on ranks: gathered by global identities)
+        for name, v in (proc.history() or {}).items():
+            out[f"history_{k}_{name}"] = np.asarray(v)
     for k, v in sim.diagnostics().items():
         out[f"diag_{k}"] = np.asarray(v)
     for k, v in sim.element_fields().items():
