@@ -35,8 +35,9 @@ for now, with a :class:`DeprecationWarning` naming the member to use.
 On MPI ranks a component sees the view of its rank's engine
 (:class:`siku_core.ranks.local.RankContactsView`): the joints and candidate pairs of the
 elements that rank holds, in local indices; its actions count the joints the rank reports,
-``create_joints`` gives the new joints the numbers one rank gives them, and ``floe_labels``
-labels the whole run's floes (``docs/howto/processes.md``).
+``create_joints`` creates them in the rank's engine (the engine numbers them in the run's
+joint table as one rank does), and ``floe_labels`` labels the whole run's floes
+(``docs/howto/processes.md``).
 """
 from __future__ import annotations
 

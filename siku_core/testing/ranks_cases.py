@@ -21,7 +21,11 @@ every rank with one line), ``floating`` (a bonded floe of 24 elements under the 
 process in a wave with two loads, its joints beams that break in flexure),
 ``floating_migrate`` (the same, every element changing rank every 40 steps),
 ``floating_plain`` (the floe floating without beams), ``wave_breaking`` (the floe under the
-``waves`` forcing's flexural breaking).
+``waves`` forcing's flexural breaking), ``weld`` (a pack without joints pressed together under
+``refreeze`` with ``weld = true``: pairs in contact weld into new joints, across the ranks'
+boundary too, which break and refreeze), ``weld4`` (on four ranks, the same with welded pairs
+leaving the candidate list, ``jointed = "exclude"``, every element moving to the next rank
+every 60 steps).
 """
 from __future__ import annotations
 
@@ -222,6 +226,8 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "floating_plain": (floating_text(60, bending=False), {}),
     "wave_breaking": (wave_breaking_text(), {}),
     "weld": (weld_text(), {"every": 25}),
+    "weld4": (weld_text().replace("[contact]", '[contact]\njointed = "exclude"'),
+              {"owner": _cycling, "every": 30}),
 }
 
 
@@ -299,9 +305,10 @@ def _shared_pairs(run) -> int:
     count = 0
     for proc in run.sim.processes:
         layout = proc.rank_history or {}
+        hist = proc.history() or {}
         for name, kind in layout.items():
-            if kind == "pair_keys":
-                keys = np.asarray(proc.history()[name])
+            if kind == "pair_keys" and name in hist:  # (a configuration may keep none)
+                keys = np.asarray(hist[name])
                 keys = keys[keys >= 0]
                 count += int(np.count_nonzero(own[keys // n] != own[keys % n]))
     return count

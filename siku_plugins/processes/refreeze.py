@@ -25,6 +25,11 @@ strength growth as a refrozen joint. A pair that parts forgets its time. The run
 ``weld_capacity`` new joints per element at set-up (none without ``weld``); a run that needs
 more stops in one line naming ``weld_capacity``, and one with more than ``weld_pairs`` touching
 pairs per element followed at once names ``weld_pairs``.
+
+On MPI ranks each rank decides for the joints and touching pairs of the elements it holds,
+from their two elements alone, and the engine numbers the joints it welds in the run's joint
+table as one rank does (``docs/explanation/scaling_out.md``): the same bits on any number of
+ranks.
 """
 from __future__ import annotations
 
