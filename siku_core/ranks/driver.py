@@ -601,7 +601,6 @@ class RankRun:
         new = gc.create_joints(pairs[order], np.concatenate([c["ends_i"] for c in got])[order])
         for k in JOINT_STATE:  # (the state its reporter's engine gave it, not the run's)
             getattr(gc, k)[new] = np.concatenate([c[k] for c in got])[order]
-        gc.refresh_joint_constants()
         number = np.empty(len(order), np.int64)
         number[order] = new
         self._created = {(int(b), int(k)): int(j) for b, k, j in zip(batch, key, number)}
