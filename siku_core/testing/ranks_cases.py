@@ -101,9 +101,10 @@ params = { gap = 2.0, freeze_time = 5.0, strength = 2e3, strength_time = 100.0 }
 def weld_text(steps: int = 200) -> str:
     """The collision pack without joints under ``distributed_spring``, its right edge pushed
     in at 0.15 m/s, with ``refreeze``'s weld (pairs in contact for 2 s freeze into a new
-    joint; broken ones within 2 m for 3 s refreeze, at 2 kPa growing over 100 s): within 200
-    steps about twenty joints are welded, across the ranks' boundary too, then break and
-    refreeze, and new pairs weld."""
+    joint; broken ones within 2 m for 3 s refreeze, at 2 kPa growing over 100 s): within 50
+    steps about twenty joints are welded (across the ranks' boundary too), from step 50 on
+    some break and refreeze, and new pairs weld (at 120 steps: 20 welded, 3 broken in
+    tension, 3 refrozen)."""
     pack = square_pack(30.0, 72.0, 5, 3, 2000.0, jitter=0.3, seed=3, left="static",
                        right="steady", right_velocity=[-0.15, 0.0])
     return contact_scene_text("distributed_spring", {"tensile_strain": 2e-4}, packs=[pack],
@@ -225,7 +226,7 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "floating_migrate": (floating_text(), {"owner": _swapping_floe, "every": 20}),
     "floating_plain": (floating_text(60, bending=False), {}),
     "wave_breaking": (wave_breaking_text(), {}),
-    "weld": (weld_text(), {"every": 25}),
+    "weld": (weld_text(120), {"every": 25}),
     "weld4": (weld_text().replace("[contact]", '[contact]\njointed = "exclude"'),
               {"owner": _cycling, "every": 30}),
 }
