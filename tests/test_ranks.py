@@ -8,7 +8,9 @@ joints break with the ranks' boundary across the breaking joints, the pack with
 --ranks 2`` writes the same output file byte for byte, and a restart from it runs on one rank;
 a rank raising ends the run with one line; a different scene on one rank is refused; the
 pack pulled apart under ``thermodynamics``, ``ridging`` and ``refreeze`` (joints across the
-boundary break and refreeze, pairs across it ridge, elements change rank and back).
+boundary break and refreeze, pairs across it ridge, elements change rank and back); a pack
+pressed together under ``refreeze`` with ``weld = true`` (pairs across the boundary weld into
+new joints, numbered as one rank numbers them, which break and refreeze).
 """
 from __future__ import annotations
 
