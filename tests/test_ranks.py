@@ -8,7 +8,9 @@ joints break with the ranks' boundary across the breaking joints, the pack with
 --ranks 2`` writes the same output file byte for byte, and a restart from it runs on one rank;
 a rank raising ends the run with one line; a different scene on one rank is refused; the
 pack pulled apart under ``thermodynamics``, ``ridging`` and ``refreeze`` (joints across the
-boundary break and refreeze, pairs across it ridge, elements change rank and back).
+boundary break and refreeze, pairs across it ridge, elements change rank and back); a pack
+pressed together under ``refreeze`` with ``weld = true`` (pairs across the boundary weld into
+new joints, numbered as one rank numbers them, which break and refreeze).
 """
 from __future__ import annotations
 
@@ -226,7 +228,7 @@ RIDGE_FREEZE = ("ridge_freeze", "ridge_freeze_split", "ridge_freeze_migrate")
 def ridge_freeze_ranks(tmp_path_factory):
     if not HAVE_MPI:
         pytest.skip("mpi4py and mpiexec not installed (pip install 'siku[mpi]')")
-    return run_cases(2, tmp_path_factory.mktemp("ridge_freeze"), RIDGE_FREEZE)
+    return run_cases(2, tmp_path_factory.mktemp("ridge_freeze"), (*RIDGE_FREEZE, "weld"))
 
 
 @needs_mpi
@@ -253,6 +255,32 @@ def test_ridging_and_refreeze_on_two_ranks_same_bits(ridge_freeze_ranks, name):
         assert int(many["ranks_shared_pairs"]) >= 1
     if name == "ridge_freeze_migrate":  # each element changed rank at steps 60 ... 480
         assert int(many["ranks_migrated"]) >= 8 * 10
+
+
+def assert_welds_across(one: dict, many, ranks: int) -> None:
+    """The weld case does what it is for: pairs weld (some between elements that different
+    ranks own), welded joints break under their growing strength, broken ones refreeze."""
+    assert int(one["diag_welded_joints"]) >= 10
+    assert int(many["ranks_welded_across"]) >= 1, ranks
+    assert int(one["diag_joints_broken_tension"]) >= 1
+    assert int(one["diag_refrozen_joints"]) >= 1
+    # every joint of the scene was welded: the joint table is the welds', in the run's order
+    assert len(one["joint_ji"]) == int(one["diag_welded_joints"])
+
+
+@needs_mpi
+def test_weld_on_two_ranks_same_bits(ridge_freeze_ranks):
+    """``refreeze`` with ``weld = true`` on two ranks (split by bisection, redistributed every
+    25 steps): pairs in contact weld into new joints, numbered in the run's joint table as one
+    rank numbers them, across the ranks' boundary too; they break and refreeze. The joint
+    table (elements, lines, rest state, breaks), the process's history (its clocks per joint,
+    the pairs it follows and its counts), the state and the diagnostics and fields at every
+    diagnostics step equal one rank's bit for bit."""
+    many = np.load(ridge_freeze_ranks / "weld.npz")
+    one = one_rank("weld")
+    assert_same_bits(one, many, "weld")
+    assert bool(many["ranks_joints_agree"])
+    assert_welds_across(one, many, 2)
 
 
 @needs_mpi
@@ -294,6 +322,47 @@ def test_ridging_and_refreeze_write_the_same_file_on_two_ranks_and_restart(tmp_p
                                       b["diagnostics/refrozen_joints"][-1]), name
 
 
+@needs_mpi
+@pytest.mark.slow
+def test_weld_writes_the_same_file_on_two_ranks_and_restarts_on_one_and_three(tmp_path):
+    """``refreeze`` with ``weld = true``: ``siku run --ranks 2`` writes the one-rank file
+    byte for byte (the created joints, their lines and rest state, the pairs followed); a
+    restart written halfway on two ranks continues on one, one written on one rank continues
+    on three, and both end where the uninterrupted run does."""
+    import h5py
+
+    from siku_core.testing.ranks_cases import weld_text
+
+    (tmp_path / "scene.toml").write_text(weld_text(200).replace(
+        "[run]", '[output]\nevery = 2.0\ndiagnostics_every = 1.0\n\n[run]'),
+        encoding="utf-8")
+    base = [sys.executable, "-m", "siku_core.run.cli", "run", "scene.toml", "--no-progress",
+            "--no-plots", "--out"]
+
+    def run(*args):
+        p = subprocess.run([*base, *args], cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    run("one.h5")
+    run("two.h5", "--ranks", "2")
+    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+    half = ["--set", "time.duration=10s"]
+    run("part2.h5", "--ranks", "2", *half)
+    run("part1.h5", *half)
+    run("more1.h5", "--restart", "part2.h5", *half, "--extend", "10s")
+    run("more3.h5", "--restart", "part1.h5", *half, "--extend", "10s", "--ranks", "3")
+    with h5py.File(tmp_path / "one.h5", "r") as a:
+        assert a["diagnostics/welded_joints"][-1] >= 10
+        for name in ("more1.h5", "more3.h5"):
+            with h5py.File(tmp_path / name, "r") as b:
+                assert int(b["states/step"][-1]) == int(a["states/step"][-1])
+                for f in ("q", "V", "w"):
+                    assert np.array_equal(a[f"states/{f}"][-1], b[f"states/{f}"][-1]), (name, f)
+                for d in ("welded_joints", "refrozen_joints", "joints_intact"):
+                    assert np.array_equal(a[f"diagnostics/{d}"][-1],
+                                          b[f"diagnostics/{d}"][-1]), (name, d)
+
+
 # ---------------------------------------------------------------------- faults, refusals
 @needs_mpi
 def test_a_rank_raising_ends_the_run_with_one_line(tmp_path):
@@ -324,23 +393,35 @@ def test_ranks_given_different_scenes_or_a_process_are_refused(tmp_path):
     lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
     assert len(lines) == 1 and "rank 1 was given a different scene" in lines[0], p.stderr
     assert not (tmp_path / "x.h5").exists()
-    # a process that cannot run on ranks: refused in one line naming it and the ranks
-    (tmp_path / "c.toml").write_text(spring_text(50) + '\n[[process]]\nname = '
-                                     '"refreeze"\nparams = { weld = true }\n',
-                                     encoding="utf-8")
+    # a component that cannot run on ranks: refused in one line naming it and the ranks
+    (tmp_path / "c.toml").write_text(spring_text(50) + EXCHANGE, encoding="utf-8")
     p = subprocess.run([*run, "y.h5", "c.toml", "--ranks", "2"], cwd=tmp_path, env=_env(),
                        capture_output=True, text=True, timeout=120)
     lines = [ln for ln in p.stderr.splitlines() if ln.startswith("siku: error:")]
     assert p.returncode == 2 and len(lines) == 1, p.stderr
-    assert "process 'refreeze' cannot run on 2 ranks" in lines[0]
+    assert "forcing 'exchange' cannot run on 2 ranks" in lines[0], lines[0]
     assert not (tmp_path / "y.h5").exists()
 
 
+#: the coupling's exchange forcing over the spring pack (its coupled model exchanges fields
+#: with one process: it cannot run on ranks)
+EXCHANGE = """
+[[forcing]]
+source = "exchange"
+
+[coupling.grid]
+kind = "lonlat"
+lon = [29.8, 30.5]
+lat = [71.9, 72.2]
+resolution = 0.05
+"""
+
+
 def test_components_that_cannot_run_on_ranks_are_named():
-    """A scene with a process that cannot run on ranks (refreeze creating joints, a process
-    keeping history without saying how ranks split it) is refused on ranks in one line naming
-    it and the ranks; forcing, integrator, contact law, thermodynamics, ridging and
-    refreezing are not."""
+    """A scene with a component that cannot run on ranks (the coupling's exchange forcing, a
+    process keeping history without saying how ranks split it) is refused on ranks in one
+    line naming it and the ranks; forcing, integrator, contact law, thermodynamics, ridging,
+    refreezing and welding are not."""
     from siku_core.ranks.driver import refusals
     from siku_core.scene.scene_file import scene_from_text
     from siku_core.run.simulation import Simulation
@@ -355,9 +436,11 @@ def test_components_that_cannot_run_on_ranks_are_named():
     both = Simulation(scene_from_text(ridge_freeze_text(10), "<r>"), out=False)
     assert refusals(both, 3) == []
     weld = spring_text(10) + '\n[[process]]\nname = "refreeze"\nparams = { weld = true }\n'
-    got = refusals(Simulation(scene_from_text(weld, "<w>"), out=False), 3)
-    assert len(got) == 1 and "process 'refreeze' cannot run on 3 ranks" in got[0], got
-    assert "creates joints" in got[0]
+    assert refusals(Simulation(scene_from_text(weld, "<w>"), out=False), 3) == []
+    coupled = Simulation(scene_from_text(spring_text(10) + EXCHANGE, "<x>"), out=False)
+    got = refusals(coupled, 3)
+    assert len(got) == 1 and "forcing 'exchange' cannot run on 3 ranks" in got[0], got
+    assert "exchanges fields with one process" in got[0]
     # a history without its layout: each rank's copy would keep its own part
     proc = both.processes[1]
     layout = type(proc).rank_history
@@ -416,10 +499,11 @@ def test_three_ranks_same_bits(tmp_path):
     with the breaking joints between ranks 1 and 2, beyond rank 0's ghosts (a later force
     evaluation of the step needs the ghosts' stage states and damper bounds), and the pack
     under thermodynamics, ridging and refreezing split by bisection."""
-    names = ("spring", "collision", "rk4", "ridge_freeze_split")
+    names = ("spring", "collision", "rk4", "ridge_freeze_split", "weld")
     run_cases(3, tmp_path, names)
     for name in names:
         assert_same_bits(one_rank(name), np.load(tmp_path / f"{name}.npz"), name)
+    assert_welds_across(one_rank("weld"), np.load(tmp_path / "weld.npz"), 3)
 
 
 @needs_mpi
@@ -429,10 +513,12 @@ def test_four_ranks_same_bits(tmp_path):
     pack to its joints' breaks, every element moving to the next rank every 60 steps (the
     breaking joints always across two ranks); and the pack under thermodynamics, ridging
     and refreezing split by bisection (a ridging pair's giver a ghost whose other pairs reach
-    beyond the first layer of ghosts); and six elements in a ``spectral`` sea the ice damps
-    (its cells' ice gathered from four ranks). The final state, joints and the diagnostics
-    and fields at every diagnostics step equal one rank's bit for bit."""
-    names = ("collision", "cycle4", "ridge_freeze_split", "spectral")
+    beyond the first layer of ghosts); six elements in a ``spectral`` sea the ice damps (its
+    cells' ice gathered from four ranks); and a pack pressed together whose touching pairs
+    weld into new joints across the ranks (``weld``, and ``weld4`` with every element moving
+    to the next rank). The final state, joints and the diagnostics and fields at every
+    diagnostics step equal one rank's bit for bit."""
+    names = ("collision", "cycle4", "ridge_freeze_split", "spectral", "weld", "weld4")
     run_cases(4, tmp_path, names)
     for name in names:
         many = np.load(tmp_path / f"{name}.npz")
@@ -441,6 +527,9 @@ def test_four_ranks_same_bits(tmp_path):
     cycle = np.load(tmp_path / "cycle4.npz")
     assert int(cycle["ranks_migrated"]) >= 27 * 10  # each element moved at 60, 120, ... 1680
     assert int(cycle["n_broken_total"]) >= 2
+    for name in ("weld", "weld4"):
+        assert_welds_across(one_rank(name), np.load(tmp_path / f"{name}.npz"), 4)
+    assert int(np.load(tmp_path / "weld4.npz")["ranks_migrated"]) >= 3 * 15
 
 
 @needs_mpi

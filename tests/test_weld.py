@@ -303,3 +303,16 @@ def test_bending_beams_and_welds_are_refused_together_in_one_line():
         '[[process]]\nname = "refreeze"'))
     with pytest.raises(SceneError, match="bending = true .* one or the other"):
         build(text)
+
+
+def test_weld_runs_on_ranks_and_passes_the_ranks_conformance_check():
+    """``refreeze`` with ``weld = true`` is not refused on ranks, and the conformance check of
+    a process on ranks (a rank holding a third of the pack and its ghosts, stepped beside the
+    whole run) passes it bit for bit."""
+    from siku_core.ranks.driver import refusal_reason
+    from siku_core.testing.process_checks import check_process_on_ranks
+    from siku_plugins.processes.refreeze import Refreeze
+
+    sim = build(wall_text())
+    assert refusal_reason(sim.processes[0]) == ""
+    check_process_on_ranks(Refreeze, {"weld": True, "weld_time": 0.0, "freeze_time": 2.0})

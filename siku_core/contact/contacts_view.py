@@ -21,8 +21,9 @@ law and materials   ``law_name``, ``law_params``, ``law_uses_joints``; per eleme
 reads               ``joint_lines(q)``, ``joint_midpoints(k)``, ``joint_gaps(k)``,
                     ``joint_tension(k)``, ``floe_labels()``, ``contact_lines(ks)``
 actions             ``break_joints(k, mode, t)``, ``refreeze_joints(k, t)``,
-                    ``create_joints(pairs, ends_i)`` (processes), ``keep_caps()``
-                    (the law's cap flags, for ``pair_capped``), ``take_breaks()`` (writers)
+                    ``create_joints(pairs, ends_i)`` and ``n_reported(k)`` (processes),
+                    ``keep_caps()`` (the law's cap flags, for ``pair_capped``),
+                    ``take_breaks()`` (writers)
 ==================  =====================================================================
 
 Every array is a view of the engine's current one, made read-only (``arr.flags.writeable`` is
@@ -33,8 +34,10 @@ for now, with a :class:`DeprecationWarning` naming the member to use.
 
 On MPI ranks a component sees the view of its rank's engine
 (:class:`siku_core.ranks.local.RankContactsView`): the joints and candidate pairs of the
-elements that rank holds, in local indices; its actions count the joints the rank reports, and
-``create_joints`` and ``floe_labels`` raise there (``docs/howto/processes.md``).
+elements that rank holds, in local indices; its actions count the joints the rank reports,
+``create_joints`` creates them in the rank's engine (the engine numbers them in the run's
+joint table as one rank does), and ``floe_labels`` labels the whole run's floes
+(``docs/howto/processes.md``).
 """
 from __future__ import annotations
 
@@ -304,6 +307,13 @@ class ContactsView:
         rest where the elements are now, in the slots a process reserved
         (``joints_to_create``). Returns their indices."""
         return self._model.create_joints(pairs, ends_i)
+
+    def n_reported(self, k: np.ndarray) -> int:
+        """How many of joints ``k`` (distinct indices) this view reports: every one on one
+        rank; on MPI ranks those whose first element the rank owns, so that a count summed
+        over the ranks counts each joint once (what a process adds to a count it keeps for
+        the joints it creates)."""
+        return int(np.asarray(k).size)
 
     def keep_caps(self) -> None:
         """From now on keep, per candidate pair, whether the law capped its normal force

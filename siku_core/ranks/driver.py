@@ -128,6 +128,8 @@ class RankRun:
         self._recheck = ""
         self.reports: list[dict[str, float]] | None = None
         self.stepping = 0.0
+        #: the joints the ranks created in this step: ``(batch, pair key) -> run's index``
+        self._created: dict[tuple[int, int], int] = {}
         with compile_time(sim):  # (the engine's first build may compile: left out of rates)
             self._redistribute(resplit=True)
 
@@ -408,9 +410,12 @@ class RankRun:
         ex0 = self.exchange_time
         failed = None
         ran = []
-        for proc, every in zip(loc.processes, loc._process_every):
+        lc = loc.contacts
+        for k, (proc, every) in enumerate(zip(loc.processes, loc._process_every)):
             if loc.step_index % every:
                 continue
+            if lc is not None:  # the joints it creates are numbered after the earlier ones'
+                lc.create_batch = k
             if failed is None:  # (after an error: the exchanges only, as on every rank)
                 try:
                     before = loc.ice.before_process()
@@ -526,21 +531,111 @@ class RankRun:
                     ) -> dict[str, Any] | None:
         """What this rank reports of the step's joint changes: the joints that broke in the
         step's force evaluations, then those that broke in its processes (global indices,
-        with the pass of a check in which each broke), and the new state of every joint that
-        broke or refroze (of those it reports)."""
+        with the pass of a check in which each broke), the new state of every joint that
+        broke or refroze (of those it reports), and the joints its processes created (of those
+        it reports: their elements' global indices, batch, line and state; a break of one is
+        named by its place among them)."""
         lc = self.loc.contacts
-        rep = self.j_mine
+        rep = lc.reports
+        old = len(self.jg)
         b1, p1, c1 = stepped
         b2, p2, c2 = processed
         changed = np.union1d(c1, c2)
-        changed = changed[rep[changed]]
-        if not len(changed):
+        changed = changed[rep[changed] & (changed < old)]
+        fresh = np.arange(old, lc.n_joints)
+        fresh = fresh[rep[fresh]]
+        if not len(changed) and not len(fresh):
             return None
-        news: dict[str, Any] = {"broke": (self.jg[b1[rep[b1]]], self.jg[b2[rep[b2]]]),
-                                "passes": (p1[rep[b1]], p2[rep[b2]]), "jg": self.jg[changed]}
+        broke, passes, broke_new, passes_new = [], [], [], []
+        for b, pb in ((b1, p1), (b2, p2)):
+            keep = rep[b]
+            b, pb = b[keep], pb[keep]
+            was = b < old
+            broke.append(self.jg[b[was]])
+            passes.append(pb[was])
+            broke_new.append(np.searchsorted(fresh, b[~was]))
+            passes_new.append(pb[~was])
+        news: dict[str, Any] = {"broke": tuple(broke), "passes": tuple(passes),
+                                "broke_new": tuple(broke_new), "passes_new": tuple(passes_new),
+                                "jg": self.jg[changed]}
         for k in JOINT_STATE:
             news[k] = getattr(lc, k)[changed]
+        if len(fresh):
+            first = lc.n_joints - len(lc.created_batch)  # (the first joint created here)
+            news["created"] = {
+                "batch": lc.created_batch[fresh - first],
+                "pairs": np.stack([self.ids[lc.ji[fresh]], self.ids[lc.jj[fresh]]], axis=1),
+                "ends_i": lc.ends_i[fresh], **{k: getattr(lc, k)[fresh] for k in JOINT_STATE}}
         return news
+
+    def _take_created(self, parts: list[dict[str, Any]]) -> list[np.ndarray]:
+        """Append the joints the ranks' processes created to the run's joint table, numbered as
+        one rank numbers them (batch after batch, by pair key within one), in the state their
+        reporters give; every rank alike. Returns, per part, the run's indices of its created
+        joints (in its order), and keeps the step's ``(batch, key) -> index`` for
+        :meth:`_number_created`."""
+        gc = self.sim.contacts
+        n = self.sim.state.n
+        made = [p.get("created") for p in parts]
+        self._created = {}
+        if not any(c is not None for c in made):
+            return [np.zeros(0, np.int64) for _ in parts]
+        got = [c for c in made if c is not None]
+        batch = np.concatenate([c["batch"] for c in got])
+        pairs = np.concatenate([c["pairs"] for c in got])
+        key = pairs.min(axis=1) * n + pairs.max(axis=1)
+        order = np.lexsort((key, batch))
+        free = gc.joint_slots - gc.n_joints
+        if len(order) > free:
+            proc = self.sim.processes[int(batch[order[free]])]
+            where = self.sim.scene.where(proc.table) if proc.table else "process"
+            raise SceneError(f"{where}: process '{proc.name}' needs more than the {free} "
+                             "joint slots the run has left for new joints (of the "
+                             f"{proc.joints_to_create(n)} it reserves); raise its capacity "
+                             "for new joints")
+        new = gc.create_joints(pairs[order], np.concatenate([c["ends_i"] for c in got])[order])
+        for k in JOINT_STATE:  # (the state its reporter's engine gave it, not the run's)
+            getattr(gc, k)[new] = np.concatenate([c[k] for c in got])[order]
+        number = np.empty(len(order), np.int64)
+        number[order] = new
+        self._created = {(int(b), int(k)): int(j) for b, k, j in zip(batch, key, number)}
+        out, at = [], 0
+        for c in made:
+            m = 0 if c is None else len(c["batch"])
+            out.append(number[at:at + m])
+            at += m
+        return out
+
+    def _number_created(self) -> None:
+        """The run's indices of the joints this rank's engine created in the step
+        (:meth:`_take_created`): its joint table then maps to the run's again. Every rank
+        holding both elements of a created joint created it, deciding from the same inputs;
+        a rank that did not (or made one the run has not) is an error of the process."""
+        lc = self.loc.contacts
+        if lc is None:
+            return
+        made = self._created
+        old, m = len(self.jg), lc.n_joints
+        if m == old and not made:
+            return
+        n = self.sim.state.n
+        x = np.arange(old, m)
+        a, b = self.ids[lc.ji[x]], self.ids[lc.jj[x]]
+        key = np.minimum(a, b) * n + np.maximum(a, b)
+        batch = lc.created_batch[x - (m - len(lc.created_batch))]
+        number = np.array([made.get((int(c), int(k)), -1) for c, k in zip(batch, key)],
+                          dtype=np.int64)
+        gc = self.sim.contacts
+        held = np.zeros(n, dtype=bool)
+        held[self.ids] = True
+        expect = sum(1 for j in made.values() if held[gc.ji[j]] and held[gc.jj[j]])
+        if (number < 0).any() or expect != len(x) or (np.diff(number) <= 0).any():
+            raise SikuError(f"rank {self.rank}: the joints its processes created are not those "
+                            "the ranks created (a process creating joints must decide each "
+                            "from the pair's two elements alone, in ascending pair order)")
+        self.jg = np.concatenate([self.jg, number])
+        self.link.jg = self.jg
+        self.j_mine = lc.reports
 
     def _take_joints(self, parts: list[dict[str, Any]]) -> None:
         """Apply the ranks' reported joint changes to the run's joint table: the new state of
@@ -548,25 +643,34 @@ class RankRun:
         (those of the force evaluations, then those of the processes, each by the pass of a
         check in which they broke, then in joint order)."""
         gc = self.sim.contacts
-        if not parts or gc is None:
+        self._created = {}
+        if gc is None:
+            return
+        numbers = self._take_created(parts)  # (before any break names one of them)
+        self._number_created()  # (before the rank's joints are gathered again)
+        if not parts:
             return
         j = np.concatenate([p["jg"] for p in parts])
-        refroze = False
         for k in JOINT_STATE:
             getattr(gc, k)[j] = np.concatenate([p[k] for p in parts])
         for phase in (0, 1):
-            b = np.concatenate([p["broke"][phase] for p in parts])
-            b = b[np.lexsort((b, np.concatenate([p["passes"][phase] for p in parts])))]
+            b = np.concatenate([p["broke"][phase] for p in parts]
+                               + [num[p["broke_new"][phase]] for p, num in zip(parts, numbers)])
+            passes = np.concatenate([p["passes"][phase] for p in parts]
+                                    + [p["passes_new"][phase] for p in parts])
+            b = b[np.lexsort((b, passes))]
             gc.n_broken_total += len(b)
             if self.root:
                 gc._pending.extend(b.tolist())
-        refroze = bool(gc.intact[j].any())
+        made = bool(self._created)
+        refroze = bool(gc.intact[j].any()) or made
         if refroze:  # their rest state changed: the run's joint constants follow
             gc.refresh_joint_constants()
         nw = self.sim.guard.network
         if nw.cm is not None:  # the joints' guard rechecks the step on the run's state
             old = nw._checked
-            changed = int(np.count_nonzero(gc.intact[:len(old)] != old))
+            changed = int(np.count_nonzero(gc.intact[:len(old)] != old)
+                          + np.count_nonzero(gc.intact[len(old):]))
             if changed > RECHECK_JOINTS * max(nw._n_checked, 1):
                 self._sync_all()
                 if refroze:

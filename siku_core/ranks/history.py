@@ -18,6 +18,9 @@ in global ones. Layouts (:data:`LAYOUTS`):
     At most one such array per process.
 ``"pair_rows"``
     rows aligned with the ``"pair_keys"`` array (its companions), 0 after the last.
+``"pair_times"``
+    rows aligned with the ``"pair_keys"`` array that hold a time or another float with no
+    value after the last (NaN there).
 ``"pair_elements"``
     rows aligned with the ``"pair_keys"`` array that name one element of their pair (an index
     of the copy's elements, ``-1``: none), ``-1`` after the last: translated between local and
@@ -30,7 +33,11 @@ in global ones. Layouts (:data:`LAYOUTS`):
 ``"total"``
     a count over the whole run of what the process did (a scalar): the run's value is the sum
     of the ranks' values. A process keeps it exact by adding what the contacts view's actions
-    return: on ranks they count only the joints the rank reports, so each is counted once.
+    return (and, for the joints it creates, ``n_reported``): on ranks they count only the
+    joints the rank reports, so each is counted once.
+
+A layout may name arrays that a process's configuration does not keep (``refreeze`` keeps its
+followed pairs only with ``weld = true``): those are left out.
 
 :func:`to_global` takes a rank's part of a process's history, :func:`merge` joins the ranks'
 parts into the run's history, :func:`to_local` gives a rank's copy its part of the run's.
@@ -43,8 +50,8 @@ import numpy as np
 
 from ..errors import SceneError
 
-LAYOUTS = ("element", "joint", "pair_keys", "pair_rows", "pair_elements", "pair_count",
-           "same", "total")
+LAYOUTS = ("element", "joint", "pair_keys", "pair_rows", "pair_times", "pair_elements",
+           "pair_count", "same", "total")
 
 
 def unfit(comp) -> str:
@@ -67,15 +74,25 @@ def unfit(comp) -> str:
     return ""
 
 
+def _kept(layout: dict[str, str], hist: dict[str, Any]) -> dict[str, str]:
+    """The entries of ``layout`` whose arrays ``hist`` holds."""
+    return {k: v for k, v in layout.items() if k in hist}
+
+
 def _pair_names(layout: dict[str, str]) -> tuple[str | None, list[str], str | None]:
     keys = next((k for k, v in layout.items() if v == "pair_keys"), None)
-    rows = [k for k, v in layout.items() if v in ("pair_rows", "pair_elements")]
+    rows = [k for k, v in layout.items() if v in ("pair_rows", "pair_times", "pair_elements")]
     count = next((k for k, v in layout.items() if v == "pair_count"), None)
     return keys, rows, count
 
 
 def _elements_of(layout: dict[str, str]) -> set[str]:
     return {k for k, v in layout.items() if v == "pair_elements"}
+
+
+def _fill(layout: dict[str, str], name: str) -> float:
+    """The value of a pair array ``name`` after the last pair."""
+    return {"pair_elements": -1, "pair_times": np.nan}.get(layout[name], 0)
 
 
 def _translate(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
@@ -95,6 +112,7 @@ def to_global(layout: dict[str, str], hist: dict[str, np.ndarray], ids: np.ndarr
     (global keys over ``n`` elements), its totals."""
     part: dict[str, Any] = {}
     nl = len(ids)
+    layout = _kept(layout, hist)
     kname, rnames, _ = _pair_names(layout)
     for name, kind in layout.items():
         a = np.asarray(hist[name])
@@ -122,6 +140,7 @@ def merge(layout: dict[str, str], run_hist: dict[str, np.ndarray],
     """The run's history from its current one ``run_hist`` (for the shapes) and every rank's
     ``(owned element ids, reported joint ids, part)``."""
     out = {k: np.array(v, copy=True) for k, v in run_hist.items()}
+    layout = _kept(layout, run_hist)
     kname, rnames, cname = _pair_names(layout)
     for name, kind in layout.items():
         if kind == "element":
@@ -148,7 +167,7 @@ def merge(layout: dict[str, str], run_hist: dict[str, np.ndarray],
         out[kname][:m] = keys[order]
         for r in rnames:
             rows = np.concatenate([p[r] for _, _, p in parts])
-            out[r][...] = -1 if r in _elements_of(layout) else 0
+            out[r][...] = _fill(layout, r)
             out[r][:m] = rows[order]
         if cname is not None:
             out[cname] = np.asarray(m, dtype=out[cname].dtype)
@@ -163,6 +182,7 @@ def to_local(layout: dict[str, str], run_hist: dict[str, np.ndarray],
     of two of its elements (in local keys), the totals on the first rank only."""
     out = {k: np.array(v, copy=True) for k, v in fresh.items()}
     nl = len(ids)
+    layout = _kept(layout, fresh)
     kname, rnames, cname = _pair_names(layout)
     for name, kind in layout.items():
         if kind == "element":
@@ -193,9 +213,7 @@ def to_local(layout: dict[str, str], run_hist: dict[str, np.ndarray],
             if r in _elements_of(layout):  # global -> local: the pair's elements are held
                 local = np.minimum(np.searchsorted(ids, np.maximum(rows, 0)), max(nl - 1, 0))
                 rows = np.where(rows >= 0, local, -1)
-                out[r][...] = -1
-            else:
-                out[r][...] = 0
+            out[r][...] = _fill(layout, r)
             out[r][:m] = rows
         if cname is not None:
             out[cname] = np.asarray(m, dtype=np.asarray(fresh[cname]).dtype)

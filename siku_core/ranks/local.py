@@ -87,6 +87,11 @@ class RankContacts(ContactModel):
         #: order they did (:meth:`take_changes`), the breaks with their pass
         self._broke: list[tuple[int, np.ndarray]] = []
         self._refroze: list[np.ndarray] = []
+        #: the batch of the joints created now (the driver sets the index of the process it
+        #: applies): one rank numbers created joints batch after batch, by pair key within one
+        self.create_batch = 0
+        #: per local joint created since the rank's engine was built: its batch
+        self.created_batch = np.zeros(0, np.int64)
 
     def _record_breaks(self, t: float) -> None:
         new = np.flatnonzero(~self.intact & np.isnan(self.break_time))
@@ -102,6 +107,19 @@ class RankContacts(ContactModel):
         if len(done):
             self._refroze.append(done)
         return n
+
+    def create_joints(self, pairs: np.ndarray, ends_i: np.ndarray) -> np.ndarray:
+        """New joints as on one rank (:meth:`JointBook.create_joints`), at the end of the
+        rank's joint table; this rank reports those whose first element it owns, and notes
+        their batch (:attr:`create_batch`) for the driver to number them in the run's."""
+        new = super().create_joints(pairs, ends_i)
+        if len(new):
+            own = np.ones(self.state.n, dtype=bool)
+            own[self.ghost_rows] = False
+            self.reports = np.concatenate([self.reports, own[self.ji[new]]])
+            self.created_batch = np.concatenate(
+                [self.created_batch, np.full(len(new), self.create_batch, np.int64)])
+        return new
 
     def take_changes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The local joints that broke since the last call (each once, ascending), the pass
@@ -123,6 +141,7 @@ class RankContacts(ContactModel):
         self._set_joints(g["pairs"], g["ends_i"], g["ends_j"], nh)
         for name in JOINT_STATE:
             getattr(self, name)[...] = g[name]
+        self.jedge[...] = g["jedge"]  # (a created joint's is -1, not found from its ends)
 
     def damping_mobility(self) -> np.ndarray:
         d = super().damping_mobility()
@@ -148,8 +167,14 @@ class RankContactsView(ContactsView):
     from the same inputs), and the engine applies them once to the run's joint table, in
     joint order. ``break_joints`` and ``refreeze_joints`` return how many of the joints they
     acted on this rank *reports* (those whose first element it owns): summed over the ranks,
-    each joint is counted once. Floe labels are the whole run's (:meth:`floe_labels`);
-    creating joints does not run on ranks."""
+    each joint is counted once (:meth:`n_reported` counts the joints a process created).
+    Floe labels are the whole run's (:meth:`floe_labels`). :meth:`create_joints` creates the
+    joints in the rank's engine, as every rank holding both elements of a pair does alike
+    (deciding from the same inputs), and the driver numbers them in the run's joint table as
+    one rank numbers them: after the joints there, batch by batch (the processes in their
+    order), by pair key within a batch; a process that creates joints on ranks gives them in
+    ascending pair key (``min(i, j) n + max(i, j)``, the order of the candidate pairs) in one
+    call per step."""
 
     __slots__ = ()
 
@@ -169,9 +194,9 @@ class RankContactsView(ContactsView):
         self._model.refreeze_joints(k, t)
         return self._reported(k, before, self._model.intact[k])
 
-    def create_joints(self, pairs: np.ndarray, ends_i: np.ndarray) -> np.ndarray:
-        raise PluginError("creating joints does not run on MPI ranks; run the scene on one "
-                          "rank")
+    def n_reported(self, k: np.ndarray) -> int:
+        k = np.unique(np.asarray(k, dtype=np.int64).reshape(-1))
+        return int(np.count_nonzero(self._model.reports[k]))
 
     def floe_labels(self) -> tuple[int, np.ndarray]:
         """The floes of the whole run (:class:`WholeJoints`: the run's joint table, with the
@@ -345,7 +370,7 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray,
         held[ids] = True
         jg = np.flatnonzero(held[gc.ji] & held[gc.jj])
         at = np.searchsorted(ids, np.stack([gc.ji[jg], gc.jj[jg]], axis=1))
-        joints = {"pairs": at.astype(np.int64), "ends_i": gc.ends_i[jg],
+        joints = {"pairs": at.astype(np.int64), "ends_i": gc.ends_i[jg], "jedge": gc.jedge[jg],
                   **{k: getattr(gc, k)[jg] for k in JOINT_STATE}}
         scene = glob.scene
         loc.contacts = RankContacts(
@@ -354,6 +379,8 @@ def local_engine(glob, ids: np.ndarray, ghost_rows: np.ndarray,
             where=scene.where("contact"), label=scene.label, timings=glob.timings,
             joints=joints, skin=gc.skin, nmax=gc.nmax, ghost_rows=ghost_rows)
         loc.contacts.n_broken_total = 0
+        # room for the joints processes may create, as many as the run has left
+        loc.contacts.reserve_joints(gc.joint_slots - gc.n_joints)
         gone = loc.state.flags == MELTED
         if gone.any():  # melted elements touch nothing (as ``ContactModel.ice_changed``)
             loc.contacts.gone = gone

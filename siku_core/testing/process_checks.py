@@ -282,6 +282,7 @@ def _check_contacts_on_ranks(cls: type, sim: Any) -> None:
         if layout and lp.history() is not None:
             lp.set_history(rh.to_local(layout, rp.history(), lp.history(), ids, jg, 0, n, ""))
     t = sim.time
+    made = gc.n_joints if gc is not None else 0  # (the joints the processes create follow)
     for run in (sim, loc):  # one step of the integrator, the ghosts then the run's
         run._commit = True
         run._force_time = 0.0
@@ -307,6 +308,8 @@ def _check_contacts_on_ranks(cls: type, sim: Any) -> None:
     for run in (sim, loc):
         run.ice.after_processes(" and ".join(ran))
     what = f"process '{cls.name}' on a rank holding a third of the elements and its ghosts"
+    if lc is not None and (lc.n_joints > len(jg) or gc.n_joints > made):
+        jg, reports = _created_on_rank(what, sim, lc, ids, jg, made), lc.reports
     a, b = _ice(sim), _ice(loc)
     for k in b:
         bad = ~(np.asarray(a[k])[ids[own]] == b[k][own]).reshape(len(own), -1).all(axis=1)
@@ -331,10 +334,32 @@ def _check_contacts_on_ranks(cls: type, sim: Any) -> None:
                              owner[gc.ji] == 0 if gc is not None else np.zeros(0, bool),
                              owner, 0, n)
         for name, kind in layout.items():
-            if kind in ("total", "pair_count"):
-                continue  # (a share of the run's, and the count of the keys compared)
+            if kind in ("total", "pair_count") or name not in whole:
+                continue  # (a share of the run's, the count of the keys compared, or an
+                # array this configuration of the process does not keep)
             assert np.asarray(part[name]).tobytes() == np.asarray(whole[name]).tobytes(), (
                 f"{what}: its history '{name}' ({kind}) differs from the run's")
+
+
+def _created_on_rank(what: str, sim: Any, lc: Any, ids: np.ndarray, jg: np.ndarray,
+                     made: int) -> np.ndarray:
+    """The run's indices of the rank's joints (``jg`` and those its processes created, which
+    must be the run's new joints between two elements it holds, in the run's order)."""
+    n, gc = sim.state.n, sim.contacts
+    x = np.arange(len(jg), lc.n_joints)
+    a, b = ids[lc.ji[x]], ids[lc.jj[x]]
+    local = np.minimum(a, b) * n + np.maximum(a, b)
+    new = np.arange(made, gc.n_joints)
+    held = np.zeros(n, dtype=bool)
+    held[ids] = True
+    new = new[held[gc.ji[new]] & held[gc.jj[new]]]
+    run = np.minimum(gc.ji[new], gc.jj[new]) * n + np.maximum(gc.ji[new], gc.jj[new])
+    assert local.tolist() == run.tolist(), (
+        f"{what}: it created joints between elements {list(zip(a.tolist(), b.tolist()))}, "
+        f"among all between {list(zip(gc.ji[new].tolist(), gc.jj[new].tolist()))}: a process "
+        "that creates joints on ranks must decide each from its pair's two elements, in "
+        "ascending pair order")
+    return np.concatenate([jg, new])
 
 
 def check_process(cls: type, params: Mapping[str, Any] | None = None,

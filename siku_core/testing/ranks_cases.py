@@ -24,7 +24,11 @@ process in a wave with two loads, its joints beams that break in flexure),
 ``waves`` forcing's flexural breaking), ``spectral`` (six elements in a flume under the
 ``waves`` forcing of a ``spectral`` field whose spectrum the ice damps, a grid cell holding
 elements of both ranks), ``spectral_floating`` (ten floes floating in a ``spectral`` field,
-dragged by it: their drag and radiated power set its response attenuation).
+dragged by it: their drag and radiated power set its response attenuation), ``weld`` (a pack
+without joints pressed together under ``refreeze`` with ``weld = true``: pairs in contact weld
+into new joints, across the ranks' boundary too, which break and refreeze), ``weld4`` (on four
+ranks, the same with welded pairs leaving the candidate list, ``jointed = "exclude"``, every
+element moving to the next rank every 60 steps).
 
 The record of a run holds the history of the forcing's fields (``history_<k>_<name>``: a
 ``spectral`` field's spectrum and clock), as rank 0 writes them to a restart.
@@ -99,6 +103,32 @@ name = "ridging"
 [[process]]
 name = "refreeze"
 params = { gap = 2.0, freeze_time = 5.0, strength = 2e3, strength_time = 100.0 }
+"""
+
+
+def weld_text(steps: int = 200) -> str:
+    """The collision pack without joints under ``distributed_spring``, its right edge pushed
+    in at 0.15 m/s, with ``refreeze``'s weld (pairs in contact for 2 s freeze into a new
+    joint; broken ones within 2 m for 3 s refreeze, at 2 kPa growing over 100 s): within 50
+    steps about twenty joints are welded (across the ranks' boundary too), from step 50 on
+    some break and refreeze, and new pairs weld (at 120 steps: 20 welded, 3 broken in
+    tension, 3 refrozen)."""
+    pack = square_pack(30.0, 72.0, 5, 3, 2000.0, jitter=0.3, seed=3, left="static",
+                       right="steady", right_velocity=[-0.15, 0.0])
+    return contact_scene_text("distributed_spring", {"tensile_strain": 2e-4}, packs=[pack],
+                              joints="none", dt=0.1, steps=steps,
+                              run={"progress": False}) + """
+[[process]]
+name = "refreeze"
+
+[process.params]
+weld = true
+weld_time = 2.0
+weld_capacity = 3.0
+gap = 2.0
+freeze_time = 3.0
+strength = 2e3
+strength_time = 100.0
 """
 
 
@@ -243,6 +273,9 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "wave_breaking": (wave_breaking_text(), {}),
     "spectral": (spectral_text(), {}),
     "spectral_floating": (spectral_floating_text(), {}),
+    "weld": (weld_text(120), {"every": 25}),
+    "weld4": (weld_text().replace("[contact]", '[contact]\njointed = "exclude"'),
+              {"owner": _cycling, "every": 30}),
 }
 
 
@@ -280,6 +313,7 @@ def run_case(name: str, ranks: bool) -> dict[str, np.ndarray] | None:
     out["ranks_migrated"] = np.array(run.migrated)
     out["ranks_shared_pairs"] = np.array(_shared_pairs(run))
     out["ranks_owner"] = np.array(run.owner)
+    out["ranks_welded_across"] = np.array(_created_across(run))
     return out
 
 
@@ -320,12 +354,25 @@ def _shared_pairs(run) -> int:
     count = 0
     for proc in run.sim.processes:
         layout = proc.rank_history or {}
+        hist = proc.history() or {}
         for name, kind in layout.items():
-            if kind == "pair_keys":
-                keys = np.asarray(proc.history()[name])
+            if kind == "pair_keys" and name in hist:  # (a configuration may keep none)
+                keys = np.asarray(hist[name])
                 keys = keys[keys >= 0]
                 count += int(np.count_nonzero(own[keys // n] != own[keys % n]))
     return count
+
+
+def _created_across(run) -> int:
+    """How many joints created during the run join two elements that different ranks own at
+    its end."""
+    cm = run.sim.contacts
+    if cm is None:
+        return 0
+    built = cm.n_joints - int(run.sim.diagnostics().get("welded_joints", 0))
+    own = run.owner
+    new = np.arange(built, cm.n_joints)
+    return int(np.count_nonzero(own[cm.ji[new]] != own[cm.jj[new]]))
 
 
 def _shared(run) -> int:
@@ -343,9 +390,13 @@ def record(sim) -> dict[str, np.ndarray]:
     out = {k: np.array(getattr(st, k)) for k in ("q", "V", "w", "F", "T")}
     cm = sim.contacts
     if cm is not None:
-        for k in ("intact", "hist", "break_mode", "break_time"):
+        for k in ("ji", "jj", "ends_i", "ends_j", "L0", "width", "intact", "hist",
+                  "break_mode", "break_time"):
             out[f"joint_{k}"] = np.array(getattr(cm, k))
         out["n_broken_total"] = np.array(cm.n_broken_total)
+    for k, proc in enumerate(sim.processes):  # (on ranks: gathered by global identities)
+        for name, v in (proc.history() or {}).items():
+            out[f"history_{k}_{name}"] = np.asarray(v)
     for k, v in sim.diagnostics().items():
         out[f"diag_{k}"] = np.asarray(v)
     for k, v in sim.element_fields().items():

@@ -25,6 +25,11 @@ strength growth as a refrozen joint. A pair that parts forgets its time. The run
 ``weld_capacity`` new joints per element at set-up (none without ``weld``); a run that needs
 more stops in one line naming ``weld_capacity``, and one with more than ``weld_pairs`` touching
 pairs per element followed at once names ``weld_pairs``.
+
+On MPI ranks each rank decides for the joints and touching pairs of the elements it holds,
+from their two elements alone, and the engine numbers the joints it welds in the run's joint
+table as one rank does (``docs/explanation/scaling_out.md``): the same bits on any number of
+ranks.
 """
 from __future__ import annotations
 
@@ -53,12 +58,17 @@ class Refreeze(Process):
     as the square root of the time frozen (module docstring)."""
 
     name = "refreeze"
-    #: on ranks: each rank decides for the joints it holds, from their two elements alone;
-    #: the count adds what ``refreeze_joints`` returns (on ranks: the joints a rank reports)
+    #: on ranks: each rank decides for the joints and pairs it holds, from their two elements
+    #: alone, and numbers the joints it welds as the engine does (``create_joints``); the
+    #: counts add what ``refreeze_joints`` returns and what ``n_reported`` counts of the new
+    #: joints (on ranks: the joints a rank reports); the pairs followed (with ``weld``) go
+    #: between the ranks by their elements' identities
     runs_on_ranks = True
     reads_contacts = True
     rank_history: ClassVar[dict[str, str]] = {"closed_since": "joint", "refrozen_at": "joint",
-                                              "refrozen_total": "total"}
+                                              "refrozen_total": "total", "keys": "pair_keys",
+                                              "since": "pair_times", "count": "pair_count",
+                                              "welded_total": "total"}
     params: ClassVar[dict[str, Param]] = {
         "gap": Param(1.0, "m", "largest distance between the two sides of a broken joint that "
                      "counts as closed", min=0.0),
@@ -87,9 +97,6 @@ class Refreeze(Process):
     def setup(self, ctx) -> None:
         self.ctx = ctx
         cm = ctx.contacts
-        if self.p["weld"]:  # (new joints would need numbers agreed between the ranks)
-            self.runs_on_ranks = False
-            self.ranks_refusal = "with weld = true it creates joints, which ranks do not number"
         if self.p["weld"] and (cm is None or not cm.law_uses_joints):
             raise SceneError(f"{ctx.where(self.table)}: process 'refreeze' with weld = true "
                              "needs a contact law with joints (distributed_spring, "
@@ -171,7 +178,7 @@ class Refreeze(Process):
                     + most_count(BYTES_PER_JOINT, n))
             new = cm.create_joints(cm.pairs[kd], cm.contact_lines(kd))
             self.refrozen_at[new] = t
-            self.welded_total += len(new)
+            self.welded_total += cm.n_reported(new)
         keep = ~due
         m = int(keep.sum())
         if m > len(self.keys):
