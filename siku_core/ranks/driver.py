@@ -257,9 +257,10 @@ class RankRun:
                 rec[k] = getattr(lc, k)[jm]
             if fields:
                 rec["fields"] = {k: v[own] for k, v in lc.element_fields().items()}
-                ok = lc.pair_active == 1 if len(lc.pair_active) == len(lc.pairs) else None
-                if ok is not None and len(lc.pairs):
-                    first = self.ids[np.minimum(lc.pairs[:, 0], lc.pairs[:, 1])]
+                pairs, active = lc.committed_pairs()  # (one rank counts the committing's)
+                ok = active == 1 if len(active) == len(pairs) else None
+                if ok is not None and len(pairs):
+                    first = self.ids[np.minimum(pairs[:, 0], pairs[:, 1])]
                     rec["overlap"] = int(np.count_nonzero(ok & (self.owner[first] == self.rank)))
                 else:
                     rec["overlap"] = 0

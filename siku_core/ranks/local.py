@@ -86,12 +86,30 @@ class RankContacts(ContactModel):
         #: the local joints that broke or refroze since the driver last took them, in the
         #: order they did (:meth:`take_changes`), the breaks with their pass
         self._broke: list[tuple[int, np.ndarray]] = []
+        #: the pairs and their flags of the step's committing evaluation, kept once a later
+        #: evaluation of the same step begins (:meth:`add`); ``None``: those of now
+        self._committed_pairs: tuple[np.ndarray, np.ndarray] | None = None
         self._refroze: list[np.ndarray] = []
         #: the batch of the joints created now (the driver sets the index of the process it
         #: applies): one rank numbers created joints batch after batch, by pair key within one
         self.create_batch = 0
         #: per local joint created since the rank's engine was built: its batch
         self.created_batch = np.zeros(0, np.int64)
+
+    def add(self, t, q, V, w, F, T, commit: bool) -> None:
+        # a later evaluation of the step (a multi-stage integrator) rewrites the pairs' contact
+        # flags: the committing evaluation's are kept first, the ones one rank counts in its
+        # diagnostics (``ContactModel.n_overlap``)
+        if commit:
+            self._committed_pairs = None
+        elif self._committed_pairs is None:
+            self._committed_pairs = (self.pairs, self.pair_active.copy())
+        super().add(t, q, V, w, F, T, commit)
+
+    def committed_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """The candidate pairs and their contact flags (``pair_active``) as the step's
+        committing evaluation left them."""
+        return self._committed_pairs or (self.pairs, self.pair_active)
 
     def _record_breaks(self, t: float) -> None:
         new = np.flatnonzero(~self.intact & np.isnan(self.break_time))
