@@ -49,6 +49,25 @@ def _env() -> dict[str, str]:
     return env
 
 
+def cli_scene(folder: Path, text: str, output: str, name: str = "scene.toml"):
+    """Write the scene ``text`` with the ``[output]`` keys ``output`` into ``folder``, run it
+    once and on two ranks (``siku run --ranks 2``), assert that the two write the same bytes,
+    and return ``run(OUT, *ARGS)``, which runs it again in ``folder`` (a hang fails)."""
+    (folder / name).write_text(text.replace("[run]", f"[output]\n{output}\n\n[run]"),
+                               encoding="utf-8")
+    base = [sys.executable, "-m", "siku_core.run.cli", "run", name, "--no-progress",
+            "--no-plots", "--out"]
+
+    def run(*args):
+        p = subprocess.run([*base, *args], cwd=folder, env=_env(), capture_output=True,
+                           text=True, timeout=TIMEOUT)
+        assert p.returncode == 0, p.stderr
+    run("one.h5")
+    run("two.h5", "--ranks", "2")
+    assert (folder / "one.h5").read_bytes() == (folder / "two.h5").read_bytes()
+    return run
+
+
 def mpirun(n: int, args: list[str], cwd: Path, timeout: int = TIMEOUT):
     """``mpiexec -n n python ARGS`` in ``cwd``: (exit status, stderr); a hang fails."""
     cmd = [mpiexec(), "-n", str(n), sys.executable, *args]
@@ -294,19 +313,7 @@ def test_ridging_and_refreeze_write_the_same_file_on_two_ranks_and_restart(tmp_p
 
     from siku_core.testing.ranks_cases import ridge_freeze_text
 
-    (tmp_path / "scene.toml").write_text(ridge_freeze_text(500).replace(
-        "[run]", '[output]\nevery = 10.0\ndiagnostics_every = 3.0\n\n[run]'),
-        encoding="utf-8")
-    base = [sys.executable, "-m", "siku_core.run.cli", "run", "scene.toml", "--no-progress",
-            "--no-plots", "--out"]
-
-    def run(*args):
-        p = subprocess.run([*base, *args], cwd=tmp_path, env=_env(), capture_output=True,
-                           text=True, timeout=TIMEOUT)
-        assert p.returncode == 0, p.stderr
-    run("one.h5")
-    run("two.h5", "--ranks", "2")
-    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+    run = cli_scene(tmp_path, ridge_freeze_text(500), "every = 10.0\ndiagnostics_every = 3.0")
     half = ["--set", "time.duration=30s"]
     run("part2.h5", "--ranks", "2", *half)
     run("part1.h5", *half)
@@ -333,19 +340,7 @@ def test_weld_writes_the_same_file_on_two_ranks_and_restarts_on_one_and_three(tm
 
     from siku_core.testing.ranks_cases import weld_text
 
-    (tmp_path / "scene.toml").write_text(weld_text(200).replace(
-        "[run]", '[output]\nevery = 2.0\ndiagnostics_every = 1.0\n\n[run]'),
-        encoding="utf-8")
-    base = [sys.executable, "-m", "siku_core.run.cli", "run", "scene.toml", "--no-progress",
-            "--no-plots", "--out"]
-
-    def run(*args):
-        p = subprocess.run([*base, *args], cwd=tmp_path, env=_env(), capture_output=True,
-                           text=True, timeout=TIMEOUT)
-        assert p.returncode == 0, p.stderr
-    run("one.h5")
-    run("two.h5", "--ranks", "2")
-    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+    run = cli_scene(tmp_path, weld_text(200), "every = 2.0\ndiagnostics_every = 1.0")
     half = ["--set", "time.duration=10s"]
     run("part2.h5", "--ranks", "2", *half)
     run("part1.h5", *half)

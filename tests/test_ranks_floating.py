@@ -216,26 +216,13 @@ def test_spectral_sea_writes_the_same_file_on_two_ranks_and_restarts_on_one(tmp_
     file byte for byte (states, the wave fields of every element, heave, diagnostics, the
     spectrum in the restart record); a restart from its mid-run snapshot on one rank
     continues the spectrum and the floes as the one-rank run does, bit for bit."""
-    import subprocess
-    import sys
-
     import h5py
 
     from siku_core.testing.ranks_cases import spectral_floating_text
-    from test_ranks import _env
+    from test_ranks import cli_scene
 
-    (tmp_path / "sea.toml").write_text(spectral_floating_text().replace(
-        "[run]", "[output]\nevery = 2.5\ndiagnostics_every = 1.0\n\n[run]"), encoding="utf-8")
-    base = [sys.executable, "-m", "siku_core.run.cli", "run", "sea.toml", "--no-progress",
-            "--no-plots", "--out"]
-
-    def run(*args):
-        p = subprocess.run([*base, *args], cwd=tmp_path, env=_env(), capture_output=True,
-                           text=True, timeout=TIMEOUT)
-        assert p.returncode == 0, p.stderr
-    run("one.h5")
-    run("two.h5", "--ranks", "2")
-    assert (tmp_path / "one.h5").read_bytes() == (tmp_path / "two.h5").read_bytes()
+    run = cli_scene(tmp_path, spectral_floating_text(), "every = 2.5\ndiagnostics_every = 1.0",
+                    name="sea.toml")
     run("part.h5", "--ranks", "2", "--set", "time.duration=5s")
     run("more.h5", "--restart", "part.h5", "--set", "time.duration=5s", "--extend", "5s")
     with h5py.File(tmp_path / "one.h5", "r") as a, h5py.File(tmp_path / "more.h5", "r") as b:
